@@ -1,0 +1,1 @@
+//! Film output (placeholder; being written).

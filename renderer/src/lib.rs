@@ -1,0 +1,8 @@
+//! candela's rendering engine: scene loading, Vulkan compute, BVH, integrators, film.
+//!
+//! Data flow (see DESIGN.md): `scene::load` → `compile` (camera-relative f32 buffers, feature set)
+//! → `accel` (BVH) → `gpu` (device, pipelines) → `integrators` (passes) → `film` (EXR/PNG).
+
+pub mod film;
+pub mod metrics;
+pub mod scene;

@@ -1,0 +1,3 @@
+//! Scene loading (placeholder; being written).
+pub mod types;
+pub use types::*;

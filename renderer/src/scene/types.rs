@@ -1,0 +1,187 @@
+//! The loaded scene: what `scene::load` produces from a validated scene document (SCENE_FORMAT.md).
+//!
+//! Everything here is resolved: material names are indices, files are read, transforms are applied
+//! in f64 (world space), textures are decoded to linear RGBA f32. The GPU compile step
+//! (`crate::compile`) turns this into camera-relative f32 buffers; nothing here knows about Vulkan.
+
+use glam::{DVec3, Vec2, Vec3};
+
+/// A fully loaded scene, in world space, f64 where precision matters.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    pub camera: Camera,
+    pub film: Film,
+    /// Materials by index; `material_names[i]` is the name of `materials[i]`.
+    pub materials: Vec<Material>,
+    pub material_names: Vec<String>,
+    pub textures: Vec<Texture>,
+    pub meshes: Vec<TriangleMesh>,
+    pub spheres: Vec<Sphere>,
+    pub lights: Vec<Light>,
+    pub environment: Option<Environment>,
+    /// The optional `render` section (defaults a job may override).
+    pub render: RenderDefaults,
+}
+
+#[derive(Debug, Clone)]
+pub struct Camera {
+    pub position: DVec3,
+    pub look_at: DVec3,
+    pub up: DVec3,
+    /// Vertical field of view in degrees.
+    pub fov_y: f64,
+    pub aperture_radius: f64,
+    pub focus_distance: f64,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Filter {
+    Box,
+    Gaussian { stddev: f32 },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Tonemap {
+    Clamp,
+    Reinhard,
+    Aces,
+}
+
+#[derive(Debug, Clone)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    pub filter: Filter,
+    pub exposure: f32,
+    pub tonemap: Tonemap,
+}
+
+/// A colour parameter: constant linear RGB or a texture (index into `Scene::textures`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ColorParam {
+    Const(Vec3),
+    Texture(u32),
+}
+
+/// A scalar parameter: constant or a texture whose red channel is used.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ScalarParam {
+    Const(f32),
+    Texture(u32),
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum MaterialKind {
+    Diffuse {
+        reflectance: ColorParam,
+    },
+    /// `eta_k: None` means Fresnel = 1 (Mitsuba `material: "none"`).
+    Conductor {
+        reflectance: ColorParam,
+        roughness: ScalarParam,
+        anisotropy: ScalarParam,
+        eta_k: Option<(Vec3, Vec3)>,
+    },
+    Dielectric {
+        ior: f32,
+        roughness: ScalarParam,
+        transmittance: ColorParam,
+        reflectance: ColorParam,
+    },
+    Principled {
+        base_color: ColorParam,
+        metallic: ScalarParam,
+        roughness: ScalarParam,
+        specular: ScalarParam,
+        spec_tint: ScalarParam,
+        anisotropic: ScalarParam,
+        sheen: ScalarParam,
+        sheen_tint: ScalarParam,
+        spec_trans: ScalarParam,
+        ior: f32,
+        subsurface: ScalarParam,
+        clearcoat: ScalarParam,
+        clearcoat_gloss: ScalarParam,
+    },
+    Phong {
+        diffuse: ColorParam,
+        specular: ColorParam,
+        exponent: f32,
+    },
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    pub kind: MaterialKind,
+    /// Front-face emitted radiance (zero: not an emitter).
+    pub emission: Vec3,
+    /// Cut-out mask texture (cut where the mask's red channel < 0.5).
+    pub alpha_mask: Option<u32>,
+    pub two_sided: bool,
+}
+
+/// A decoded texture: linear RGBA f32, row 0 at the top (v = 1 at the top, OBJ convention:
+/// texel row = (1 - v) * height).
+#[derive(Debug, Clone)]
+pub struct Texture {
+    /// Where it came from, for error messages and the cache key.
+    pub source: String,
+    pub width: u32,
+    pub height: u32,
+    pub texels: Vec<[f32; 4]>,
+    /// UV scale from the scene's `scale` field.
+    pub scale: Vec2,
+}
+
+/// Triangles in world space. Quads, boxes, inline triangles and mesh files all end up here.
+#[derive(Debug, Clone)]
+pub struct TriangleMesh {
+    /// Where it came from (`objects[3]` or `objects[3] (bunny.ply)`), for messages.
+    pub name: String,
+    pub positions: Vec<DVec3>,
+    /// Per-vertex shading normals (world space, normalised), if smooth shading applies.
+    pub normals: Option<Vec<Vec3>>,
+    pub uvs: Option<Vec<Vec2>>,
+    pub indices: Vec<[u32; 3]>,
+    /// Material per triangle (same length as `indices`); OBJ `usemtl` can vary it.
+    pub materials: Vec<u32>,
+}
+
+#[derive(Debug, Clone)]
+pub struct Sphere {
+    pub center: DVec3,
+    pub radius: f64,
+    pub flip_normals: bool,
+    pub material: u32,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum Light {
+    /// Intensity in W/sr.
+    Point { position: DVec3, intensity: Vec3 },
+    /// `direction` is normalised (position → look_at); angles in degrees.
+    Spot {
+        position: DVec3,
+        direction: DVec3,
+        intensity: Vec3,
+        cutoff_angle: f32,
+        beam_width: f32,
+    },
+    /// `direction` is normalised: the way light travels.
+    Directional { direction: DVec3, irradiance: Vec3 },
+}
+
+#[derive(Debug, Clone)]
+pub enum Environment {
+    Constant { radiance: Vec3 },
+    /// Equirectangular radiance map (index into `Scene::textures`), +Y up, centre column looking
+    /// down −Z; `rotate_y` in degrees.
+    Map { texture: u32, scale: f32, rotate_y: f32 },
+}
+
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RenderDefaults {
+    pub integrator: Option<String>,
+    pub max_depth: Option<i32>,
+    pub spp: Option<u32>,
+}
