@@ -3,6 +3,11 @@
 //! Data flow (see DESIGN.md): `scene::load` → `compile` (camera-relative f32 buffers, feature set)
 //! → `accel` (BVH) → `gpu` (device, pipelines) → `integrators` (passes) → `film` (EXR/PNG).
 
+pub mod accel;
+pub mod compile;
 pub mod film;
+pub mod gpu;
+pub mod integrators;
+pub mod render;
 pub mod metrics;
 pub mod scene;

@@ -1,0 +1,35 @@
+//! Embeds every file under `shaders/` into the binary (a table of path → source), so kernels are
+//! compiled in-process from the sources the binary was built with and no files are needed at run
+//! time.
+
+use std::fmt::Write;
+use std::path::Path;
+
+fn walk(dir: &Path, root: &Path, out: &mut Vec<(String, String)>) {
+    let Ok(rd) = std::fs::read_dir(dir) else { return };
+    let mut entries: Vec<_> = rd.flatten().map(|e| e.path()).collect();
+    entries.sort();
+    for p in entries {
+        if p.is_dir() {
+            walk(&p, root, out);
+        } else if matches!(p.extension().and_then(|e| e.to_str()), Some("glsl" | "comp")) {
+            let rel = p.strip_prefix(root).unwrap().to_string_lossy().replace('\\', "/");
+            out.push((rel, p.canonicalize().unwrap().to_string_lossy().into_owned()));
+        }
+    }
+}
+
+fn main() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shaders");
+    println!("cargo:rerun-if-changed={}", root.display());
+    let mut files = Vec::new();
+    walk(&root, &root, &mut files);
+    let mut src = String::from("/// Every shader source under shaders/, by path relative to it.\npub static SHADERS: &[(&str, &str)] = &[\n");
+    for (rel, abs) in &files {
+        println!("cargo:rerun-if-changed={abs}");
+        writeln!(src, "    ({rel:?}, include_str!({abs:?})),").unwrap();
+    }
+    src.push_str("];\n");
+    let out = Path::new(&std::env::var("OUT_DIR").unwrap()).join("shaders.rs");
+    std::fs::write(out, src).unwrap();
+}

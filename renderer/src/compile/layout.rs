@@ -1,0 +1,216 @@
+//! The GPU-side scene layout: `#[repr(C)]` bytemuck structs, mirrored field for field in
+//! `shaders/common/types.glsl` (scalar block layout). This file and that one are the single
+//! source of truth; `tests` below and the GPU layout test check sizes and offsets.
+//!
+//! Positions are camera-relative f32 (the host composes transforms in f64 and subtracts the
+//! camera position before rounding), so a scene far from the origin renders like one at it.
+
+use bytemuck::{Pod, Zeroable};
+
+/// Descriptor binding indices (set 0), mirrored as `B_*` in types.glsl.
+pub mod binding {
+    pub const GLOBALS: u32 = 0;
+    pub const BVH_NODES: u32 = 1;
+    pub const PRIMS: u32 = 2;
+    pub const TRI_SHADING: u32 = 3;
+    pub const MATERIALS: u32 = 4;
+    pub const TEXTURES: u32 = 5;
+    pub const TEXELS: u32 = 6;
+    pub const LIGHTS: u32 = 7;
+    pub const LIGHT_ALIAS: u32 = 8;
+    pub const ENV_DIST: u32 = 9;
+    pub const ACCUM: u32 = 10;
+    pub const STATS: u32 = 11;
+}
+
+/// Marks "none" in u32 index fields.
+pub const NONE: u32 = u32::MAX;
+
+/// `GpuPrim::a[3]` bits: material index in the low 24 bits, flags above.
+pub const PRIM_MATERIAL_MASK: u32 = 0x00ff_ffff;
+pub const PRIM_SPHERE: u32 = 1 << 31;
+pub const PRIM_FLIP_NORMALS: u32 = 1 << 30;
+pub const PRIM_ALPHA: u32 = 1 << 29;
+
+/// One primitive in BVH order (48 bytes).
+/// Triangle: a = v0 | flags+material, b = v1 | light index, c = v2 | shading index (or NONE).
+/// Sphere:   a = centre | flags+material, b = (radius, 0, 0) | light index, c unused.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuPrim {
+    pub a: [f32; 4],
+    pub b: [f32; 4],
+    pub c: [f32; 4],
+}
+
+/// Per-triangle shading data, indexed by `GpuPrim::c[3]`: vertex normals (n.w = u of that vertex)
+/// and the three v coordinates (uv_v.w: 1 when normals are present, 0 otherwise).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuTriShading {
+    pub n0: [f32; 4],
+    pub n1: [f32; 4],
+    pub n2: [f32; 4],
+    pub uv_v: [f32; 4],
+}
+
+/// A BVH2 node holding both children's boxes (Aila & Laine 2009 layout, 64 bytes): one node
+/// fetch tests two boxes. A child with count 0 is an inner node index; count > 0 is a leaf of
+/// `count` primitives starting at `GpuPrim` index `child`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuBvhNode {
+    pub l_min: [f32; 3],
+    pub left: u32,
+    pub l_max: [f32; 3],
+    pub right: u32,
+    pub r_min: [f32; 3],
+    pub l_count: u32,
+    pub r_max: [f32; 3],
+    pub r_count: u32,
+}
+
+/// Material type ids (mirrored as MAT_* in shaders/common/bsdf/bsdf.glsl).
+pub mod mat {
+    pub const DIFFUSE: u32 = 0;
+    pub const CONDUCTOR: u32 = 1;
+    pub const DIELECTRIC: u32 = 2;
+    pub const PRINCIPLED: u32 = 3;
+    pub const PHONG: u32 = 4;
+    pub const F_TWO_SIDED: u32 = 1;
+    pub const F_HAS_ETA_K: u32 = 2;
+}
+
+/// A material (176 bytes). `header` = (type, flags, alpha mask texture or NONE, 0).
+/// `colors[i]` = rgb and, in w, the texture index as u32 bits (NONE: constant). The slot
+/// meanings per type are those of `SurfaceParams` in shaders/common/bsdf/bsdf.glsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuMaterial {
+    pub header: [u32; 4],
+    pub emission: [f32; 4],
+    pub colors: [[f32; 4]; 3],
+    pub scalars: [f32; 12],
+    pub scalar_tex: [u32; 12],
+}
+
+/// A texture's place in the texel buffer (32 bytes). Texels are linear RGBA f32, row 0 at top.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuTexture {
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    pub flags: u32,
+    pub scale: [f32; 2],
+    pub pad: [f32; 2],
+}
+
+/// Light kinds (mirrored as LIGHT_* in types.glsl).
+pub mod light {
+    pub const TRIANGLE: u32 = 0;
+    pub const SPHERE: u32 = 1;
+    pub const POINT: u32 = 2;
+    pub const SPOT: u32 = 3;
+    pub const DIRECTIONAL: u32 = 4;
+    pub const ENV_CONSTANT: u32 = 5;
+    pub const ENV_MAP: u32 = 6;
+}
+
+/// A light (80 bytes). Triangle: p0..p2 vertices, p0.w area. Sphere: p0 centre, p0.w radius.
+/// Point: p0 position. Spot: p0 position, p1 direction, p2 = (cos cutoff, cos beam, cutoff rad,
+/// beam rad). Directional: p0 = travel direction. Environments: radiance (constant) or scale.
+/// `prim` is the emitting primitive (area lights) and `pick_pdf` the probability of choosing
+/// this light (proportional to power).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuLight {
+    pub kind: u32,
+    pub prim: u32,
+    pub pick_pdf: f32,
+    pub pad: u32,
+    pub p0: [f32; 4],
+    pub p1: [f32; 4],
+    pub p2: [f32; 4],
+    pub radiance: [f32; 4],
+}
+
+/// One entry of the light-selection alias table (Walker/Vose): keep `index` with probability
+/// `prob`, else take `alias`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuAlias {
+    pub prob: f32,
+    pub alias: u32,
+}
+
+/// Scene-wide values and the camera (binding GLOBALS).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuGlobals {
+    /// Camera basis, camera-relative world space: w = unused.
+    pub cam_forward: [f32; 4],
+    pub cam_right: [f32; 4],
+    pub cam_up: [f32; 4],
+    /// (tan(fov_y/2), aspect = width/height, aperture radius, focus distance)
+    pub lens: [f32; 4],
+    /// (width, height, filter kind 0 box / 1 gaussian, number of lights)
+    pub film: [u32; 4],
+    /// (gaussian stddev, filter radius, 0, 0)
+    pub filter: [f32; 4],
+    /// Scene bounding sphere, camera-relative (centre, radius).
+    pub scene_sphere: [f32; 4],
+    /// (environment light index or NONE, env map texture or NONE, env map width, env map height)
+    pub env: [u32; 4],
+    /// (env scale, cos rotate_y, sin rotate_y, 0)
+    pub env_params: [f32; 4],
+    /// (number of primitives, number of BVH nodes, 0, 0)
+    pub counts: [u32; 4],
+}
+
+/// Per-dispatch constants (push constants, 32 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq, Default)]
+pub struct GpuPush {
+    pub seed_lo: u32,
+    pub seed_hi: u32,
+    /// Index of the first sample of this pass (the RNG key, so passes can be split freely).
+    pub sample_base: u32,
+    pub spp: u32,
+    /// Mitsuba's max_depth (−1: unbounded).
+    pub max_depth: i32,
+    pub rr_depth: i32,
+    pub flags: u32,
+    pub pad: u32,
+}
+
+/// Counters the kernels bump (binding STATS).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq, Default)]
+pub struct GpuStats {
+    pub dropped_samples: u32,
+    /// Rays traced, as a 64-bit count in two words (the kernel carries into `rays_hi`).
+    pub rays_lo: u32,
+    pub rays_hi: u32,
+    pub pad: u32,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::size_of;
+
+    #[test]
+    fn sizes_match_the_glsl_mirror() {
+        assert_eq!(size_of::<GpuPrim>(), 48);
+        assert_eq!(size_of::<GpuTriShading>(), 64);
+        assert_eq!(size_of::<GpuBvhNode>(), 64);
+        assert_eq!(size_of::<GpuMaterial>(), 176);
+        assert_eq!(size_of::<GpuTexture>(), 32);
+        assert_eq!(size_of::<GpuLight>(), 80);
+        assert_eq!(size_of::<GpuAlias>(), 8);
+        assert_eq!(size_of::<GpuGlobals>(), 160);
+        assert_eq!(size_of::<GpuPush>(), 32);
+        assert_eq!(size_of::<GpuStats>(), 16);
+    }
+}

@@ -1,0 +1,328 @@
+//! The Vulkan instance, the chosen physical device, its logical device, compute queue and memory
+//! allocator. The Khronos validation layer is enabled on request (tests enable it whenever it is
+//! installed); every message it emits is collected and turned into an error by `check_validation`.
+
+use std::ffi::{c_void, CStr, CString};
+use std::sync::{Arc, Mutex};
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+
+use super::{GpuError, GpuResult};
+
+/// How to create a context.
+#[derive(Debug, Clone, Default)]
+pub struct GpuOptions {
+    /// Pick the first device whose name contains this text (case-insensitive); `None`: prefer a
+    /// discrete GPU, then integrated, then anything (lavapipe).
+    pub device: Option<String>,
+    /// Enable the Khronos validation layer if installed; its messages become errors.
+    pub validation: bool,
+}
+
+/// What a device is, for logs, stats and `--device` matching.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct DeviceInfo {
+    pub name: String,
+    pub kind: String,
+    pub api_version: String,
+    pub driver: String,
+}
+
+/// Messages collected from the validation layer.
+type MessageSink = Arc<Mutex<Vec<String>>>;
+
+/// Owns the Vulkan objects; dropped in the right order.
+pub struct GpuContext {
+    pub(crate) entry: ash::Entry,
+    pub(crate) instance: ash::Instance,
+    #[allow(dead_code)] // kept for feature queries by later stages
+    pub(crate) physical: vk::PhysicalDevice,
+    pub(crate) device: ash::Device,
+    pub(crate) queue: vk::Queue,
+    pub(crate) queue_family: u32,
+    pub(crate) allocator: Mutex<Option<Allocator>>,
+    pub(crate) debug_utils: Option<ash::ext::debug_utils::Device>,
+    debug_messenger: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    messages: Option<MessageSink>,
+    _sink_box: Option<Box<MessageSink>>,
+    pub(crate) timestamp_period_ns: f64,
+    pub(crate) timestamps_supported: bool,
+    pub info: DeviceInfo,
+    pub validation_enabled: bool,
+}
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+fn load_entry() -> GpuResult<ash::Entry> {
+    // SAFETY: loading the system Vulkan loader library; the returned entry keeps it alive.
+    unsafe { ash::Entry::load() }.map_err(|e| GpuError::Loader(e.to_string()))
+}
+
+fn device_kind(t: vk::PhysicalDeviceType) -> &'static str {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => "discrete",
+        vk::PhysicalDeviceType::INTEGRATED_GPU => "integrated",
+        vk::PhysicalDeviceType::VIRTUAL_GPU => "virtual",
+        vk::PhysicalDeviceType::CPU => "cpu",
+        _ => "other",
+    }
+}
+
+fn describe(instance: &ash::Instance, pd: vk::PhysicalDevice) -> (DeviceInfo, vk::PhysicalDeviceProperties) {
+    // SAFETY: `pd` was enumerated from this instance.
+    let props = unsafe { instance.get_physical_device_properties(pd) };
+    let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
+    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
+    // SAFETY: as above; the chain holds a valid driver-properties struct.
+    unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+    let name = props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let driver = format!(
+        "{} {}",
+        driver_props.driver_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
+        driver_props.driver_info_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+    );
+    let v = props.api_version;
+    let info = DeviceInfo {
+        name,
+        kind: device_kind(props.device_type).to_string(),
+        api_version: format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v)),
+        driver: driver.trim().to_string(),
+    };
+    (info, props)
+}
+
+/// Lists the Vulkan 1.2+ devices with a compute queue (for `--device` and error messages).
+pub fn list_devices() -> GpuResult<Vec<DeviceInfo>> {
+    let entry = load_entry()?;
+    let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_2);
+    let ci = vk::InstanceCreateInfo::default().application_info(&app);
+    // SAFETY: valid create info; the instance is destroyed below.
+    let instance = unsafe { entry.create_instance(&ci, None) }.map_err(GpuError::vk("create instance"))?;
+    let out = candidates(&instance).map(|c| c.into_iter().map(|(_, _, info, _)| info).collect());
+    // SAFETY: no child objects were created.
+    unsafe { instance.destroy_instance(None) };
+    out
+}
+
+type Candidate = (vk::PhysicalDevice, u32, DeviceInfo, vk::PhysicalDeviceProperties);
+
+fn candidates(instance: &ash::Instance) -> GpuResult<Vec<Candidate>> {
+    // SAFETY: valid instance.
+    let pds = unsafe { instance.enumerate_physical_devices() }.map_err(GpuError::vk("enumerate devices"))?;
+    let mut out = Vec::new();
+    for pd in pds {
+        let (info, props) = describe(instance, pd);
+        if props.api_version < vk::API_VERSION_1_2 {
+            continue;
+        }
+        // SAFETY: valid physical device.
+        let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+        if let Some(q) = families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE)) {
+            out.push((pd, q as u32, info, props));
+        }
+    }
+    Ok(out)
+}
+
+unsafe extern "system" fn debug_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user: *mut c_void,
+) -> vk::Bool32 {
+    if data.is_null() || user.is_null() {
+        return vk::FALSE;
+    }
+    // SAFETY: the layer passes a valid callback-data pointer; `user` is the boxed sink we
+    // registered, alive as long as the messenger.
+    let (msg, sink) = unsafe {
+        let d = &*data;
+        let msg = d.message_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        (msg, &*(user as *const MessageSink))
+    };
+    if severity.intersects(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
+        if let Ok(mut v) = sink.lock() {
+            v.push(msg);
+        }
+    }
+    vk::FALSE
+}
+
+impl GpuContext {
+    /// Creates the instance and device. Fails with a clear message when no loader or device exists.
+    pub fn new(opts: &GpuOptions) -> GpuResult<GpuContext> {
+        let entry = load_entry()?;
+        // Step 1: instance, with validation and debug utils when available.
+        // SAFETY: plain enumeration calls on a loaded entry.
+        let layers = unsafe { entry.enumerate_instance_layer_properties() }.unwrap_or_default();
+        let has_validation = layers.iter().any(|l| l.layer_name_as_c_str().map(|n| n == VALIDATION_LAYER).unwrap_or(false));
+        // SAFETY: as above.
+        let exts = unsafe { entry.enumerate_instance_extension_properties(None) }.unwrap_or_default();
+        let has_debug_utils =
+            exts.iter().any(|e| e.extension_name_as_c_str().map(|n| n == ash::ext::debug_utils::NAME).unwrap_or(false));
+        let validation = opts.validation && has_validation && has_debug_utils;
+        let app_name = CString::new("candela").unwrap_or_default();
+        let app = vk::ApplicationInfo::default()
+            .application_name(&app_name)
+            .engine_name(&app_name)
+            .api_version(vk::API_VERSION_1_2);
+        let layer_ptrs: Vec<*const i8> = if validation { vec![VALIDATION_LAYER.as_ptr()] } else { vec![] };
+        let ext_ptrs: Vec<*const i8> = if has_debug_utils { vec![ash::ext::debug_utils::NAME.as_ptr()] } else { vec![] };
+        let ci = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_layer_names(&layer_ptrs)
+            .enabled_extension_names(&ext_ptrs);
+        // SAFETY: all pointers in `ci` outlive the call.
+        let instance = unsafe { entry.create_instance(&ci, None) }.map_err(GpuError::vk("create instance"))?;
+
+        let (messages, sink_box, debug_messenger) = if validation {
+            let sink: MessageSink = Arc::new(Mutex::new(Vec::new()));
+            let boxed = Box::new(sink.clone());
+            let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            let mci = vk::DebugUtilsMessengerCreateInfoEXT::default()
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+                )
+                .message_type(
+                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                        | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+                )
+                .pfn_user_callback(Some(debug_callback))
+                .user_data(&*boxed as *const MessageSink as *mut c_void);
+            // SAFETY: the boxed sink lives in the context as long as the messenger.
+            let m = unsafe { loader.create_debug_utils_messenger(&mci, None) }.map_err(GpuError::vk("create debug messenger"))?;
+            (Some(sink), Some(boxed), Some((loader, m)))
+        } else {
+            (None, None, None)
+        };
+
+        // Step 2: pick the physical device.
+        let cands = candidates(&instance)?;
+        let pick = match &opts.device {
+            Some(want) => {
+                let w = want.to_lowercase();
+                cands.iter().position(|c| c.2.name.to_lowercase().contains(&w)).ok_or_else(|| {
+                    let names: Vec<_> = cands.iter().map(|c| c.2.name.clone()).collect();
+                    GpuError::NoDevice(format!(" matching \"{want}\" (available: {})", names.join(", ")))
+                })?
+            }
+            None => {
+                let rank = |c: &Candidate| match c.3.device_type {
+                    vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+                    vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+                    vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+                    _ => 3,
+                };
+                (0..cands.len()).min_by_key(|&i| rank(&cands[i])).ok_or_else(|| {
+                    GpuError::NoDevice(" (install a Vulkan driver, e.g. apt-get install mesa-vulkan-drivers libvulkan1)".into())
+                })?
+            }
+        };
+        let (physical, queue_family, info, props) = cands[pick].clone();
+
+        // Step 3: logical device with the features the kernels use.
+        let prio = [1.0f32];
+        let qci = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&prio)];
+        let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
+        let base_features = {
+            let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12);
+            // SAFETY: valid physical device and feature chain.
+            unsafe { instance.get_physical_device_features2(physical, &mut f2) };
+            f2.features
+        };
+        let scalar_layout = f12.scalar_block_layout == vk::TRUE;
+        let host_query_reset = f12.host_query_reset == vk::TRUE;
+        if !scalar_layout {
+            return Err(GpuError::NoDevice(format!(": {} lacks scalarBlockLayout", info.name)));
+        }
+        let mut en12 = vk::PhysicalDeviceVulkan12Features::default()
+            .scalar_block_layout(true)
+            .host_query_reset(host_query_reset);
+        let base = vk::PhysicalDeviceFeatures::default().shader_int64(base_features.shader_int64 == vk::TRUE);
+        let dci = vk::DeviceCreateInfo::default().queue_create_infos(&qci).enabled_features(&base).push_next(&mut en12);
+        // SAFETY: valid create info referencing live locals.
+        let device = unsafe { instance.create_device(physical, &dci, None) }.map_err(GpuError::vk("create device"))?;
+        // SAFETY: queue 0 of the family we requested.
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device: physical,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        })
+        .map_err(|e| GpuError::Alloc { name: "allocator".into(), message: e.to_string() })?;
+        let debug_utils = has_debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
+        // SAFETY: valid physical device.
+        let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+        let timestamps_supported =
+            families[queue_family as usize].timestamp_valid_bits > 0 && props.limits.timestamp_compute_and_graphics == vk::TRUE;
+        tracing::info!(device = %info.name, driver = %info.driver, validation, "Vulkan device ready");
+        Ok(GpuContext {
+            entry,
+            instance,
+            physical,
+            device,
+            queue,
+            queue_family,
+            allocator: Mutex::new(Some(allocator)),
+            debug_utils,
+            debug_messenger,
+            messages,
+            _sink_box: sink_box,
+            timestamp_period_ns: props.limits.timestamp_period as f64,
+            timestamps_supported,
+            info,
+            validation_enabled: validation,
+        })
+    }
+
+    /// Returns an error carrying every validation message seen since the last call.
+    pub fn check_validation(&self) -> GpuResult<()> {
+        let Some(sink) = &self.messages else { return Ok(()) };
+        let mut v = sink.lock().map_err(|_| GpuError::Other("validation sink poisoned".into()))?;
+        if v.is_empty() {
+            return Ok(());
+        }
+        let all = v.join("\n");
+        v.clear();
+        Err(GpuError::Validation(all))
+    }
+
+    /// Blocks until the device is idle.
+    pub fn wait_idle(&self) -> GpuResult<()> {
+        // SAFETY: valid device.
+        unsafe { self.device.device_wait_idle() }.map_err(GpuError::vk("wait idle"))
+    }
+
+    /// Names a Vulkan object for debuggers and validation messages.
+    pub(crate) fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
+        if let (Some(du), Ok(cname)) = (&self.debug_utils, CString::new(name)) {
+            let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&cname);
+            // SAFETY: the handle belongs to this device.
+            let _ = unsafe { du.set_debug_utils_object_name(&info) };
+        }
+    }
+}
+
+impl Drop for GpuContext {
+    fn drop(&mut self) {
+        // SAFETY: teardown in reverse creation order after the device is idle; every child
+        // object (buffers, pipelines) holds an Arc to the context and is gone by now.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            if let Ok(mut a) = self.allocator.lock() {
+                a.take();
+            }
+            self.device.destroy_device(None);
+            if let Some((loader, m)) = self.debug_messenger.take() {
+                loader.destroy_debug_utils_messenger(m, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+        let _ = &self.entry;
+    }
+}

@@ -1,0 +1,44 @@
+//! The integrator shared by `pt` and `nee`: both run the path-tracing megakernel
+//! (shaders/common/path.glsl), compiled with or without next-event estimation.
+
+use super::{Integrator, PathOptions};
+use crate::compile::layout::GpuPush;
+use crate::gpu::{ComputePipeline, GpuResult, Recorder};
+
+pub struct PathIntegrator {
+    name: &'static str,
+    kernel: &'static str,
+    label: &'static str,
+    max_depth: i32,
+    rr_depth: i32,
+}
+
+impl PathIntegrator {
+    /// `max_depth` and `rr_depth` take their defaults here: the scene's max_depth, else 6; 5.
+    pub(super) fn new(name: &'static str, kernel: &'static str, label: &'static str, o: &PathOptions, scene_max_depth: Option<i32>) -> Self {
+        PathIntegrator {
+            name,
+            kernel,
+            label,
+            max_depth: o.max_depth.or(scene_max_depth).unwrap_or(6),
+            rr_depth: o.rr_depth.unwrap_or(5),
+        }
+    }
+}
+
+impl Integrator for PathIntegrator {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+    fn kernel(&self) -> &'static str {
+        self.kernel
+    }
+    fn max_depth(&self) -> i32 {
+        self.max_depth
+    }
+    fn record_pass(&self, rec: &mut Recorder<'_>, pipeline: &ComputePipeline, mut push: GpuPush, groups: [u32; 3]) -> GpuResult<()> {
+        push.max_depth = self.max_depth;
+        push.rr_depth = self.rr_depth;
+        rec.dispatch(pipeline, bytemuck::bytes_of(&push), groups, self.label)
+    }
+}

@@ -1,1 +1,0 @@
-//! Image metrics (placeholder; being written).

@@ -1,0 +1,114 @@
+//! Progressive rendering: a `RenderSession` owns the uploaded scene, the accumulation buffer and
+//! the integrator's pipeline, and runs passes of N samples per pixel. Sample indices are the RNG
+//! key, so the image depends only on (seed, total spp), never on the pass split.
+//! `render` drives a session to an spp or wall-time budget.
+
+mod session;
+
+pub use session::{PassStats, RenderSession};
+
+use std::time::Duration;
+
+use serde::Serialize;
+
+use crate::compile::CompileError;
+use crate::film::Image;
+use crate::gpu::{DeviceInfo, GpuError};
+use crate::integrators::IntegratorOptions;
+
+/// What to render and for how long.
+#[derive(Debug, Clone)]
+pub struct RenderSettings {
+    pub integrator: IntegratorOptions,
+    pub budget: Budget,
+    pub seed: u64,
+    /// Film size override (None: the scene's film).
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+}
+
+/// When a render stops.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Budget {
+    Spp(u32),
+    /// Wall-clock seconds; at least one pass runs.
+    Time(f64),
+}
+
+/// What a render did.
+#[derive(Debug, Clone, Serialize)]
+pub struct RenderStats {
+    pub device: DeviceInfo,
+    pub integrator: String,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub passes: u32,
+    pub max_depth: i32,
+    pub seed: u64,
+    /// Wall time of the passes (excluding scene load and kernel compilation).
+    pub time_s: f64,
+    /// GPU time of the passes from timestamp queries.
+    pub gpu_time_s: f64,
+    pub msamples_per_s: f64,
+    pub rays_per_s: f64,
+    pub rays: u64,
+    pub dropped_samples: u64,
+    pub triangles: usize,
+    pub primitives: usize,
+    pub lights: usize,
+    pub bvh_nodes: usize,
+    pub bvh_depth: usize,
+    pub bvh_build_s: f64,
+    pub setup_s: f64,
+    pub features: crate::compile::FeatureSet,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error(transparent)]
+    Compile(#[from] CompileError),
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// Renders to the budget and returns the image (radiance per pixel) and what happened.
+pub fn render(session: &mut RenderSession, budget: Budget) -> Result<(Image, RenderStats), RenderError> {
+    match budget {
+        Budget::Spp(total) => {
+            // Passes sized to about a quarter second each after the first, so long renders
+            // report progress and the device is never held for long by one dispatch.
+            let mut per_pass = 1u32;
+            while session.spp() < total {
+                let n = per_pass.min(total - session.spp());
+                let s = session.run_pass(n)?;
+                per_pass = next_pass_size(n, s.wall, Duration::from_millis(250));
+            }
+        }
+        Budget::Time(seconds) => {
+            let limit = Duration::from_secs_f64(seconds.max(0.0));
+            let mut per_pass = 1u32;
+            loop {
+                let s = session.run_pass(per_pass)?;
+                let left = limit.saturating_sub(session.elapsed());
+                if left.is_zero() {
+                    break;
+                }
+                per_pass = next_pass_size(per_pass, s.wall, Duration::from_millis(250).min(left));
+            }
+        }
+    }
+    let image = session.image()?;
+    Ok((image, session.stats()))
+}
+
+/// Samples per pixel for the next pass so that it takes about `target`.
+pub fn next_pass_size(last_spp: u32, last_wall: Duration, target: Duration) -> u32 {
+    let per_sample = last_wall.as_secs_f64() / last_spp.max(1) as f64;
+    if per_sample <= 0.0 {
+        return (last_spp * 2).clamp(1, 1024);
+    }
+    ((target.as_secs_f64() / per_sample) as u32).clamp(1, (last_spp * 4).max(1)).min(1024)
+}

@@ -1,0 +1,193 @@
+//! One render in progress: uploaded scene buffers, accumulation buffer, pipeline and counters.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use super::{RenderError, RenderStats};
+use crate::compile::layout::{binding, GpuPush, GpuStats};
+use crate::compile::CompiledScene;
+use crate::film::Image;
+use crate::gpu::{compile_glsl, Binding, Buffer, BufferUsage, ComputePipeline, GpuContext};
+use crate::integrators::{Integrator, IntegratorOptions};
+
+/// Timing of one pass.
+#[derive(Debug, Clone, Copy)]
+pub struct PassStats {
+    pub spp: u32,
+    pub wall: Duration,
+    pub gpu: Duration,
+}
+
+/// A progressive render on one device.
+pub struct RenderSession {
+    ctx: Arc<GpuContext>,
+    integrator: Box<dyn Integrator>,
+    pipeline: ComputePipeline,
+    // Scene buffers are kept alive for the pipeline's descriptor set.
+    _scene: Vec<Buffer>,
+    accum: Buffer,
+    stats_buf: Buffer,
+    width: u32,
+    height: u32,
+    seed: u64,
+    spp: u32,
+    passes: u32,
+    rays: u64,
+    dropped: u64,
+    elapsed: Duration,
+    gpu_time: Duration,
+    setup: Duration,
+    info: SceneInfo,
+}
+
+struct SceneInfo {
+    triangles: usize,
+    primitives: usize,
+    lights: usize,
+    bvh_nodes: usize,
+    bvh_depth: usize,
+    bvh_build: Duration,
+    features: crate::compile::FeatureSet,
+}
+
+impl RenderSession {
+    /// Uploads the compiled scene and builds the integrator's kernel for its feature set.
+    pub fn new(ctx: &Arc<GpuContext>, scene: &CompiledScene, options: &IntegratorOptions, scene_max_depth: Option<i32>, seed: u64) -> Result<Self, RenderError> {
+        let start = Instant::now();
+        let integrator = options.build(scene_max_depth);
+        let (w, h) = (scene.width, scene.height);
+        let pixels = w as u64 * h as u64;
+        // Step 1: scene buffers, each at its named binding.
+        let up = |name: &str, bytes: &[u8]| Buffer::from_slice(ctx, name, bytes);
+        let scene_buffers = vec![
+            (binding::GLOBALS, up("globals", bytemuck::bytes_of(&scene.globals))?),
+            (binding::BVH_NODES, up("bvh nodes", bytemuck::cast_slice(&scene.nodes))?),
+            (binding::PRIMS, up("prims", bytemuck::cast_slice(&scene.prims))?),
+            (binding::TRI_SHADING, up("tri shading", bytemuck::cast_slice(&scene.tri_shading))?),
+            (binding::MATERIALS, up("materials", bytemuck::cast_slice(&scene.materials))?),
+            (binding::TEXTURES, up("textures", bytemuck::cast_slice(&scene.textures))?),
+            (binding::TEXELS, up("texels", bytemuck::cast_slice(&scene.texels))?),
+            (binding::LIGHTS, up("lights", bytemuck::cast_slice(&scene.lights))?),
+            (binding::LIGHT_ALIAS, up("light alias", bytemuck::cast_slice(&scene.alias))?),
+            (binding::ENV_DIST, up("env distribution", bytemuck::cast_slice(&scene.env_dist))?),
+        ];
+        // Step 2: accumulation (rgb sum, sample count per pixel) and counters, zeroed.
+        let accum = Buffer::new(ctx, "accumulation", pixels * 16, BufferUsage::Storage)?;
+        ctx.fill_zero(&accum)?;
+        let stats_buf = Buffer::new(ctx, "stats", std::mem::size_of::<GpuStats>() as u64, BufferUsage::Storage)?;
+        ctx.fill_zero(&stats_buf)?;
+        // Step 3: the kernel, specialised for the scene's features.
+        let spirv = compile_glsl(integrator.kernel(), &scene.features.defines())?;
+        let mut bindings: Vec<Binding<'_>> = scene_buffers.iter().map(|(i, b)| Binding { index: *i, buffer: b }).collect();
+        bindings.push(Binding { index: binding::ACCUM, buffer: &accum });
+        bindings.push(Binding { index: binding::STATS, buffer: &stats_buf });
+        let pipeline = ComputePipeline::new(ctx, integrator.kernel(), &spirv, &bindings, std::mem::size_of::<GpuPush>() as u32)?;
+        drop(bindings);
+        ctx.check_validation()?;
+        Ok(RenderSession {
+            ctx: ctx.clone(),
+            integrator,
+            pipeline,
+            _scene: scene_buffers.into_iter().map(|(_, b)| b).collect(),
+            accum,
+            stats_buf,
+            width: w,
+            height: h,
+            seed,
+            spp: 0,
+            passes: 0,
+            rays: 0,
+            dropped: 0,
+            elapsed: Duration::ZERO,
+            gpu_time: Duration::ZERO,
+            setup: start.elapsed(),
+            info: SceneInfo {
+                triangles: scene.triangle_count,
+                primitives: scene.prims.len(),
+                lights: scene.lights.len(),
+                bvh_nodes: scene.nodes.len(),
+                bvh_depth: scene.bvh_depth,
+                bvh_build: scene.bvh_build_time,
+                features: scene.features,
+            },
+        })
+    }
+
+    /// Samples per pixel rendered so far.
+    pub fn spp(&self) -> u32 {
+        self.spp
+    }
+
+    /// Wall time spent in passes.
+    pub fn elapsed(&self) -> Duration {
+        self.elapsed
+    }
+
+    /// Renders `spp` more samples per pixel.
+    pub fn run_pass(&mut self, spp: u32) -> Result<PassStats, RenderError> {
+        if spp == 0 {
+            return Err(RenderError::Invalid("a pass needs at least one sample".into()));
+        }
+        let start = Instant::now();
+        let push = GpuPush {
+            seed_lo: self.seed as u32,
+            seed_hi: (self.seed >> 32) as u32,
+            sample_base: self.spp,
+            spp,
+            ..Default::default()
+        };
+        let groups = [self.width.div_ceil(8), self.height.div_ceil(8), 1];
+        let (integrator, pipeline) = (&self.integrator, &self.pipeline);
+        let timings = self.ctx.record(1, |rec| integrator.record_pass(rec, pipeline, push, groups))?;
+        // Counters: read and reset (u32 on the GPU, u64 here).
+        let s: Vec<GpuStats> = self.ctx.download_vec(&self.stats_buf, 1)?;
+        self.ctx.fill_zero(&self.stats_buf)?;
+        self.ctx.check_validation()?;
+        let gpu = Duration::from_secs_f64(timings.iter().map(|t| t.gpu_ms).sum::<f64>() * 1e-3);
+        let wall = start.elapsed();
+        self.rays += ((s[0].rays_hi as u64) << 32) | s[0].rays_lo as u64;
+        self.dropped += s[0].dropped_samples as u64;
+        self.spp += spp;
+        self.passes += 1;
+        self.elapsed += wall;
+        self.gpu_time += gpu;
+        Ok(PassStats { spp, wall, gpu })
+    }
+
+    /// The current estimate: accumulated radiance divided by the samples kept per pixel.
+    pub fn image(&self) -> Result<Image, RenderError> {
+        let n = (self.width * self.height) as usize;
+        let acc: Vec<[f32; 4]> = self.ctx.download_vec(&self.accum, n)?;
+        let pixels = acc.iter().map(|a| if a[3] > 0.0 { [a[0] / a[3], a[1] / a[3], a[2] / a[3]] } else { [0.0; 3] }).collect();
+        Ok(Image { width: self.width, height: self.height, pixels })
+    }
+
+    pub fn stats(&self) -> RenderStats {
+        let t = self.elapsed.as_secs_f64();
+        let samples = self.spp as f64 * self.width as f64 * self.height as f64;
+        RenderStats {
+            device: self.ctx.info.clone(),
+            integrator: self.integrator.name().to_string(),
+            width: self.width,
+            height: self.height,
+            spp: self.spp,
+            passes: self.passes,
+            max_depth: self.integrator.max_depth(),
+            seed: self.seed,
+            time_s: t,
+            gpu_time_s: self.gpu_time.as_secs_f64(),
+            msamples_per_s: if t > 0.0 { samples / t * 1e-6 } else { 0.0 },
+            rays_per_s: if t > 0.0 { self.rays as f64 / t } else { 0.0 },
+            rays: self.rays,
+            dropped_samples: self.dropped,
+            triangles: self.info.triangles,
+            primitives: self.info.primitives,
+            lights: self.info.lights,
+            bvh_nodes: self.info.bvh_nodes,
+            bvh_depth: self.info.bvh_depth,
+            bvh_build_s: self.info.bvh_build.as_secs_f64(),
+            setup_s: self.setup.as_secs_f64(),
+            features: self.info.features,
+        }
+    }
+}

@@ -1,0 +1,19 @@
+// The scene's storage buffers at their named bindings (types.glsl). Included once per kernel.
+#ifndef COMMON_BINDINGS_GLSL
+#define COMMON_BINDINGS_GLSL
+#include "common/types.glsl"
+
+layout(set = 0, binding = B_GLOBALS, scalar) readonly buffer Globals { GpuGlobals g; };
+layout(set = 0, binding = B_BVH_NODES, scalar) readonly buffer BvhNodes { GpuBvhNode nodes[]; };
+layout(set = 0, binding = B_PRIMS, scalar) readonly buffer Prims { GpuPrim prims[]; };
+layout(set = 0, binding = B_TRI_SHADING, scalar) readonly buffer TriShading { GpuTriShading tri_shading[]; };
+layout(set = 0, binding = B_MATERIALS, scalar) readonly buffer Materials { GpuMaterial materials[]; };
+layout(set = 0, binding = B_TEXTURES, scalar) readonly buffer Textures { GpuTexture textures[]; };
+layout(set = 0, binding = B_TEXELS, scalar) readonly buffer Texels { vec4 texels[]; };
+layout(set = 0, binding = B_LIGHTS, scalar) readonly buffer Lights { GpuLight lights[]; };
+layout(set = 0, binding = B_LIGHT_ALIAS, scalar) readonly buffer LightAlias { GpuAlias light_alias[]; };
+layout(set = 0, binding = B_ENV_DIST, scalar) readonly buffer EnvDist { float env_dist[]; };
+layout(set = 0, binding = B_ACCUM, scalar) buffer Accum { vec4 accum[]; };
+layout(set = 0, binding = B_STATS, scalar) buffer Stats { GpuStats stats; };
+
+#endif

@@ -1,0 +1,102 @@
+// Ray/primitive tests. Triangles: the watertight test of Woop, Benthin & Wald 2013 (JCGT 2(1)),
+// so rays never slip between triangles sharing an edge. Spheres: the numerically careful
+// quadratic of Haines et al., "Precision Improvements for Ray/Sphere Intersection" (Ray Tracing
+// Gems ch. 7). Boxes: slab test with a direction whose tiny components are clamped before the
+// reciprocal, so no NaN can arise (SPIR-V FMin/FMax are undefined on NaN), and a far distance
+// enlarged by 1 + 2γ3 (Ize 2013) so a box is never missed by rounding.
+#ifndef COMMON_INTERSECT_GLSL
+#define COMMON_INTERSECT_GLSL
+
+struct Ray {
+    vec3 o;
+    vec3 d;     // unit length
+    float tmin;
+    float tmax;
+};
+
+// Per-ray constants of the watertight triangle test and the slab test.
+struct RayPre {
+    ivec3 k;    // kx, ky, kz: kz the dominant axis of d
+    vec3 s;     // shear constants Sx, Sy, Sz
+    vec3 inv_d; // clamped reciprocal direction
+};
+
+const float GAMMA3_BOX = 1.0 + 2.0 * (3.0 * 5.96046448e-8) / (1.0 - 3.0 * 5.96046448e-8);
+
+RayPre ray_precompute(vec3 d) {
+    RayPre pre;
+    vec3 ad = abs(d);
+    int kz = (ad.x > ad.y) ? ((ad.x > ad.z) ? 0 : 2) : ((ad.y > ad.z) ? 1 : 2);
+    int kx = (kz + 1) % 3;
+    int ky = (kx + 1) % 3;
+    // Swap kx and ky to preserve the winding when the dominant component is negative.
+    if (d[kz] < 0.0) { int t = kx; kx = ky; ky = t; }
+    pre.k = ivec3(kx, ky, kz);
+    pre.s = vec3(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+    const float tiny = 1e-30;
+    vec3 dc = mix(d, mix(vec3(tiny), vec3(-tiny), lessThan(d, vec3(0.0))), lessThan(ad, vec3(tiny)));
+    pre.inv_d = 1.0 / dc;
+    return pre;
+}
+
+// Returns the entry distance or +inf when the box [bmin, bmax] is missed within (tmin, tmax).
+float intersect_box(vec3 o, RayPre pre, vec3 bmin, vec3 bmax, float tmin, float tmax) {
+    vec3 t0 = (bmin - o) * pre.inv_d;
+    vec3 t1 = (bmax - o) * pre.inv_d;
+    vec3 tn = min(t0, t1);
+    vec3 tf = max(t0, t1) * GAMMA3_BOX;
+    float enter = max(max(tn.x, tn.y), max(tn.z, tmin));
+    float leave = min(min(tf.x, tf.y), min(tf.z, tmax));
+    return enter <= leave ? enter : uintBitsToFloat(0x7f800000u);
+}
+
+// Watertight ray/triangle test. On a hit within (tmin, tmax) returns true with t and the
+// barycentrics (b1, b2) of v1 and v2.
+bool intersect_triangle(Ray r, RayPre pre, vec3 p0, vec3 p1, vec3 p2, out float t, out vec2 b12) {
+    t = 0.0; b12 = vec2(0.0);
+    // Step 1: translate to the ray origin, permute so z is dominant, shear.
+    vec3 a = p0 - r.o, b = p1 - r.o, c = p2 - r.o;
+    float ax = a[pre.k.x] - pre.s.x * a[pre.k.z];
+    float ay = a[pre.k.y] - pre.s.y * a[pre.k.z];
+    float bx = b[pre.k.x] - pre.s.x * b[pre.k.z];
+    float by = b[pre.k.y] - pre.s.y * b[pre.k.z];
+    float cx = c[pre.k.x] - pre.s.x * c[pre.k.z];
+    float cy = c[pre.k.y] - pre.s.y * c[pre.k.z];
+    // Step 2: scaled barycentrics (edge functions).
+    float u = cx * by - cy * bx;
+    float v = ax * cy - ay * cx;
+    float w = bx * ay - by * ax;
+    if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) return false;
+    float det = u + v + w;
+    if (det == 0.0) return false;
+    // Step 3: scaled distance, compared without dividing.
+    float az = pre.s.z * a[pre.k.z];
+    float bz = pre.s.z * b[pre.k.z];
+    float cz = pre.s.z * c[pre.k.z];
+    float ts = u * az + v * bz + w * cz;
+    float inv_det = 1.0 / det;
+    t = ts * inv_det;
+    if (!(t > r.tmin && t < r.tmax)) return false;
+    b12 = vec2(v, w) * inv_det;
+    return true;
+}
+
+// Ray/sphere test; returns the nearest root within (tmin, tmax).
+bool intersect_sphere(Ray r, vec3 center, float radius, out float t) {
+    t = 0.0;
+    vec3 f = r.o - center;
+    float bq = -dot(f, r.d);
+    vec3 l = f + bq * r.d;             // f minus its projection on d: accurate perpendicular
+    float disc = radius * radius - dot(l, l);
+    if (disc < 0.0) return false;
+    float cq = dot(f, f) - radius * radius;
+    float q = bq + (bq >= 0.0 ? 1.0 : -1.0) * sqrt(disc);
+    float t0 = (q != 0.0) ? cq / q : 0.0;
+    float t1 = q;
+    float tn = min(t0, t1), tf = max(t0, t1);
+    if (tn > r.tmin && tn < r.tmax) { t = tn; return true; }
+    if (tf > r.tmin && tf < r.tmax) { t = tf; return true; }
+    return false;
+}
+
+#endif

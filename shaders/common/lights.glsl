@@ -1,0 +1,193 @@
+// Light sampling for next-event estimation: pick a light with probability proportional to its
+// power (alias table, Walker 1977 / Vose 1991), then sample it: triangles uniformly by area,
+// spheres by the solid angle they subtend (pbrt-v4's cone sampling, with its small-angle series
+// so tiny distant spheres stay accurate), point/spot/directional lights as delta lights, and the
+// environment by its map distribution (or uniformly for a constant one). All pdfs are solid
+// angle at the reference point and include the pick probability, so the MIS weights of NEE and
+// BSDF sampling use the same pdf for the same path.
+#ifndef COMMON_LIGHTS_GLSL
+#define COMMON_LIGHTS_GLSL
+#include "common/bindings.glsl"
+#include "common/sampling.glsl"
+#include "common/env.glsl"
+
+struct LightSample {
+    vec3 wi;      // direction from the reference point towards the light
+    float dist;   // distance to the sampled point (+inf for directional/environment)
+    vec3 p;       // sampled point (for the shadow ray), when dist is finite
+    vec3 L;       // radiance (area/env) or intensity / dist² (point/spot) or irradiance (directional)
+    float pdf;    // solid-angle pdf × pick probability; the pick probability alone for delta lights
+    bool delta;
+};
+
+uint pick_light(float u) {
+    uint n = g.film.w;
+    float x = u * float(n);
+    uint i = min(uint(x), n - 1u);
+    GpuAlias a = light_alias[i];
+    return (x - float(i)) < a.prob ? i : a.alias;
+}
+
+// Spot falloff, Mitsuba 3's: 1 inside the beam, linear in angle to 0 at the cutoff.
+float spot_falloff(GpuLight l, float cos_theta) {
+    if (cos_theta <= l.p2.x) return 0.0;
+    if (cos_theta >= l.p2.y) return 1.0;
+    return clamp((l.p2.z - safe_acos(cos_theta)) / (l.p2.z - l.p2.w), 0.0, 1.0);
+}
+
+// Solid-angle pdf of sampling point `pl` (normal nl) on sphere light l from p_ref.
+float sphere_light_pdf(GpuLight l, vec3 p_ref, vec3 pl, vec3 nl) {
+    vec3 c = l.p0.xyz;
+    float r = l.p0.w;
+    vec3 dc = c - p_ref;
+    float d2 = dot(dc, dc);
+    if (d2 <= r * r) {
+        // Inside: uniform area sampling converted to solid angle.
+        vec3 w = pl - p_ref;
+        float dist2 = dot(w, w);
+        float cosl = abs(dot(nl, normalize(w)));
+        return cosl > 0.0 ? dist2 / (cosl * 4.0 * PI * r * r) : 0.0;
+    }
+    float sin2_max = r * r / d2;
+    float cos_max = safe_sqrt(1.0 - sin2_max);
+    float one_minus_cos = sin2_max < 0.00068523 ? 0.5 * sin2_max : 1.0 - cos_max;
+    return 1.0 / (2.0 * PI * one_minus_cos);
+}
+
+// Solid-angle pdf (× pick probability) that NEE at p_ref would have chosen the point hit on
+// light `li` at position pl with front normal nl.
+float light_pdf_hit(uint li, vec3 p_ref, vec3 pl, vec3 nl) {
+    GpuLight l = lights[li];
+    if (l.kind == LIGHT_TRIANGLE) {
+        vec3 w = pl - p_ref;
+        float dist2 = dot(w, w);
+        float cosl = abs(dot(nl, w)) * inversesqrt(max(dist2, 1e-38));
+        return cosl > 0.0 ? l.pick_pdf * dist2 / (cosl * l.p0.w) : 0.0;
+    }
+    if (l.kind == LIGHT_SPHERE) return l.pick_pdf * sphere_light_pdf(l, p_ref, pl, nl);
+    return 0.0;
+}
+
+// pdf (× pick probability) of the environment sampling direction d.
+float env_pdf(vec3 d) {
+    uint li = g.env.x;
+    if (li == NONE) return 0.0;
+    GpuLight l = lights[li];
+#ifdef HAS_ENV_MAP
+    if (l.kind == LIGHT_ENV_MAP) return l.pick_pdf * env_map_pdf(d);
+#endif
+    return l.pick_pdf * INV_4PI;
+}
+
+bool sample_light(vec3 p_ref, vec3 u, out LightSample ls) {
+    ls.wi = vec3(0.0, 0.0, 1.0); ls.dist = 0.0; ls.p = vec3(0.0); ls.L = vec3(0.0); ls.pdf = 0.0; ls.delta = false;
+    if (g.film.w == 0u) return false;
+    uint li = pick_light(u.x);
+    GpuLight l = lights[li];
+    float pick = l.pick_pdf;
+    vec2 u2 = u.yz;
+    if (l.kind == LIGHT_TRIANGLE) {
+        // Uniform point on the triangle; emission on its front side only.
+        vec2 b = sample_uniform_triangle(u2);
+        vec3 p0 = l.p0.xyz, p1 = l.p1.xyz, p2 = l.p2.xyz;
+        vec3 pl = (1.0 - b.x - b.y) * p0 + b.x * p1 + b.y * p2;
+        vec3 nl = normalize(cross(p1 - p0, p2 - p0));
+        vec3 w = pl - p_ref;
+        float dist2 = dot(w, w);
+        if (!(dist2 > 0.0)) return false;
+        ls.dist = sqrt(dist2);
+        ls.wi = w / ls.dist;
+        float cosl = -dot(nl, ls.wi);
+        if (cosl <= 0.0) return false;
+        ls.p = pl;
+        ls.L = l.radiance.rgb;
+        ls.pdf = pick * dist2 / (cosl * l.p0.w);
+        return ls.pdf > 0.0 && !isinf(ls.pdf);
+    }
+    if (l.kind == LIGHT_SPHERE) {
+        vec3 c = l.p0.xyz;
+        float r = l.p0.w;
+        vec3 dc = c - p_ref;
+        float d2 = dot(dc, dc);
+        vec3 pl, nl;
+        if (d2 <= r * r) {
+            // Inside the sphere: uniform area sampling.
+            nl = sample_uniform_sphere(u2);
+            pl = c + r * nl;
+        } else {
+            // Cone of directions subtended by the sphere (pbrt-v4 SampleSphere).
+            float dcl = sqrt(d2);
+            float sin_max = r / dcl, sin2_max = sin_max * sin_max;
+            float cos_max = safe_sqrt(1.0 - sin2_max);
+            float cos_t = (cos_max - 1.0) * u2.x + 1.0;
+            float sin2_t = 1.0 - cos_t * cos_t;
+            if (sin2_max < 0.00068523) {
+                // Small cones: series expansion avoids 1 − cos cancellation.
+                sin2_t = sin2_max * u2.x;
+                cos_t = sqrt(1.0 - sin2_t);
+            }
+            float cos_a = sin2_t / sin_max + cos_t * safe_sqrt(1.0 - sin2_t / sin2_max);
+            float sin_a = safe_sqrt(1.0 - cos_a * cos_a);
+            float phi = 2.0 * PI * u2.y;
+            vec3 wc = dc / dcl;
+            vec3 t, bt;
+            make_frame(-wc, t, bt);
+            nl = from_local(vec3(sin_a * cos(phi), sin_a * sin(phi), cos_a), t, bt, -wc);
+            pl = c + r * nl;
+        }
+        vec3 w = pl - p_ref;
+        float dist2 = dot(w, w);
+        if (!(dist2 > 0.0)) return false;
+        ls.dist = sqrt(dist2);
+        ls.wi = w / ls.dist;
+        // Front side: outward normal unless the sphere's normals are flipped (p1.x = 1).
+        vec3 front = l.p1.x > 0.5 ? -nl : nl;
+        if (dot(front, ls.wi) >= 0.0) return false;
+        ls.p = pl;
+        ls.L = l.radiance.rgb;
+        ls.pdf = pick * sphere_light_pdf(l, p_ref, pl, nl);
+        return ls.pdf > 0.0 && !isinf(ls.pdf);
+    }
+#ifdef HAS_DELTA_LIGHTS
+    if (l.kind == LIGHT_POINT || l.kind == LIGHT_SPOT) {
+        vec3 w = l.p0.xyz - p_ref;
+        float dist2 = dot(w, w);
+        if (!(dist2 > 0.0)) return false;
+        ls.dist = sqrt(dist2);
+        ls.wi = w / ls.dist;
+        ls.p = l.p0.xyz;
+        float falloff = l.kind == LIGHT_SPOT ? spot_falloff(l, -dot(ls.wi, l.p1.xyz)) : 1.0;
+        ls.L = l.radiance.rgb * falloff / dist2;
+        ls.pdf = pick;
+        ls.delta = true;
+        return falloff > 0.0;
+    }
+    if (l.kind == LIGHT_DIRECTIONAL) {
+        ls.wi = -l.p0.xyz;
+        ls.dist = uintBitsToFloat(0x7f800000u);
+        ls.L = l.radiance.rgb;
+        ls.pdf = pick;
+        ls.delta = true;
+        return true;
+    }
+#endif
+    if (l.kind == LIGHT_ENV_CONSTANT || l.kind == LIGHT_ENV_MAP) {
+        float pdf_dir;
+#ifdef HAS_ENV_MAP
+        if (l.kind == LIGHT_ENV_MAP) {
+            ls.wi = env_map_sample(u2, pdf_dir);
+        } else
+#endif
+        {
+            ls.wi = sample_uniform_sphere(u2);
+            pdf_dir = INV_4PI;
+        }
+        ls.dist = uintBitsToFloat(0x7f800000u);
+        ls.L = env_eval(ls.wi);
+        ls.pdf = pick * pdf_dir;
+        return ls.pdf > 0.0;
+    }
+    return false;
+}
+
+#endif

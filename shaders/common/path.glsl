@@ -1,0 +1,134 @@
+// The path-tracing megakernel shared by `pt` (INTEGRATOR_NEE 0: BSDF sampling only) and `nee`
+// (INTEGRATOR_NEE 1: next-event estimation with multiple importance sampling, power heuristic).
+// One thread per pixel traces `pc.spp` samples, adding each straight into the running sum in the
+// accumulation buffer, so the floating-point sum is the same whatever the pass split.
+// max_depth has Mitsuba 3's meaning (1: directly visible emitters only; 2: + direct light; −1:
+// unbounded), and Russian roulette starts at rr_depth as in Mitsuba's `path` integrator.
+//
+// Why a megakernel: for the scenes candela targets, shading is light next to traversal (a few
+// hundred instructions per BSDF), so keeping path state in registers beats writing it to memory
+// between wavefront stages (Laine et al. 2013 find wavefront wins only with heavy, divergent
+// shading). It also keeps the pass to one dispatch, which matters on lavapipe. Revisit with
+// measurements once the principled BSDF and textures dominate.
+#ifndef COMMON_PATH_GLSL
+#define COMMON_PATH_GLSL
+#include "common/bindings.glsl"
+#include "common/math.glsl"
+#include "common/rng.glsl"
+#include "common/camera.glsl"
+#include "common/traverse.glsl"
+#include "common/surface.glsl"
+#include "common/material.glsl"
+#include "common/lights.glsl"
+
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+bool is_finite(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
+
+vec3 trace_path(uvec2 px, inout Rng rng, inout uint rays) {
+    // Step 1: the camera ray.
+    Ray ray = camera_ray(px, rng);
+    vec3 L = vec3(0.0), beta = vec3(1.0);
+    float eta_scale = 1.0;
+    float prev_pdf = 1.0;     // BSDF pdf of the direction that led here
+    bool prev_delta = true;   // ... and whether it was a delta lobe
+    vec3 prev_p = ray.o;      // where that direction started (for light pdfs)
+    for (int depth = 0;; ++depth) {
+        // Step 2: find the next vertex; escaping rays see the environment.
+        Hit hit;
+        rays += 1u;
+        if (!trace_closest(ray, hit)) {
+            vec3 le = env_eval(ray.d);
+            if (any(greaterThan(le, vec3(0.0)))) {
+                float w = 1.0;
+#if INTEGRATOR_NEE
+                if (!prev_delta) w = power_heuristic(prev_pdf, env_pdf(ray.d));
+#endif
+                L += beta * w * le;
+            }
+            break;
+        }
+        Surface s = surface_at(hit, ray);
+        vec3 wo_world = -ray.d;
+
+        // Step 3: emission of the surface hit (front side, as Mitsuba's area emitter).
+        GpuMaterial gm = materials[s.material];
+        if (s.light != NONE && dot(wo_world, s.ns) > 0.0) {
+            float w = 1.0;
+#if INTEGRATOR_NEE
+            if (!prev_delta) w = power_heuristic(prev_pdf, light_pdf_hit(s.light, prev_p, s.p, s.ng));
+#endif
+            L += beta * w * gm.emission.rgb;
+        }
+        // Step 4: stop where max_depth says no further vertex may contribute.
+        if (pc.max_depth >= 0 && depth + 1 >= pc.max_depth) break;
+
+        // Step 5: the BSDF in the local shading frame (z = ns, x = tangent).
+        SurfaceParams m = resolve_material(s.material, s.uv);
+        vec3 bt = cross(s.ns, s.tangent);
+        vec3 wo = to_local(wo_world, s.tangent, bt, s.ns);
+
+#if INTEGRATOR_NEE
+        // Step 6: next-event estimation, MIS-weighted against BSDF sampling.
+        vec3 ul = rng_next3(rng);
+        if (!bsdf_is_delta(m)) {
+            LightSample ls;
+            if (sample_light(s.p, ul, ls) && any(greaterThan(ls.L, vec3(0.0)))) {
+                vec3 wi = to_local(ls.wi, s.tangent, bt, s.ns);
+                vec3 f = bsdf_eval(m, wo, wi, TRANSPORT_RADIANCE);
+                if (any(greaterThan(f, vec3(0.0)))) {
+                    Ray shadow = isinf(ls.dist) ? spawn_ray(s, ls.wi) : spawn_ray_to(s, ls.p);
+                    rays += 1u;
+                    if (!trace_any(shadow)) {
+                        float w = ls.delta ? 1.0 : power_heuristic(ls.pdf, bsdf_pdf(m, wo, wi));
+                        L += beta * f * ls.L * (w / ls.pdf);
+                    }
+                }
+            }
+        }
+#endif
+        // Step 7: continue the path by sampling the BSDF.
+        BsdfSample bs;
+        if (!bsdf_sample(m, wo, rng_next3(rng), TRANSPORT_RADIANCE, bs)) break;
+        beta *= bs.weight;
+        if (!any(greaterThan(beta, vec3(0.0)))) break;
+        prev_pdf = bs.pdf;
+        prev_delta = (bs.flags & BSDF_DELTA) != 0u;
+        prev_p = s.p;
+        if ((bs.flags & BSDF_TRANSMISSION) != 0u) eta_scale *= sqr(bs.eta);
+        ray = spawn_ray(s, from_local(bs.wi, s.tangent, bt, s.ns));
+
+        // Step 8: Russian roulette from rr_depth on (Mitsuba: q = min(max(β)·η², 0.95)).
+        if (depth + 1 >= pc.rr_depth) {
+            float q = min(max_comp(beta) * eta_scale, 0.95);
+            if (rng_next1(rng) >= q) break;
+            beta /= q;
+        }
+    }
+    return L;
+}
+
+void main() {
+    uvec2 px = gl_GlobalInvocationID.xy;
+    if (px.x >= g.film.x || px.y >= g.film.y) return;
+    uint pixel = px.y * g.film.x + px.x;
+    vec4 acc = accum[pixel];
+    uint rays = 0u, dropped = 0u;
+    for (uint i = 0u; i < pc.spp; ++i) {
+        Rng rng = rng_init(pixel, pc.sample_base + i, pc.seed_lo, pc.seed_hi);
+        vec3 L = trace_path(px, rng, rays);
+        // NaN/Inf samples never reach the film: dropped and counted.
+        if (is_finite(L)) {
+            acc += vec4(L, 1.0);
+        } else {
+            dropped += 1u;
+        }
+    }
+    accum[pixel] = acc;
+    if (dropped > 0u) atomicAdd(stats.dropped_samples, dropped);
+    // 64-bit ray count: carry into the high word when the low word wraps.
+    uint before = atomicAdd(stats.rays_lo, rays);
+    if (before + rays < before) atomicAdd(stats.rays_hi, 1u);
+}
+
+#endif

@@ -1,0 +1,127 @@
+// The surface at a ray hit: position with its rounding-error bound, geometric and shading
+// normals, uv, tangent frame, material and light. Spawned rays leave the surface through the
+// error bound (pbrt-v4's OffsetRayOrigin: offset along the normal by the bound, then one ulp
+// away), which is scale-invariant, so tiny and huge scenes are equally robust.
+#ifndef COMMON_SURFACE_GLSL
+#define COMMON_SURFACE_GLSL
+#include "common/bindings.glsl"
+#include "common/math.glsl"
+#include "common/traverse.glsl"
+
+struct Surface {
+    vec3 p;
+    vec3 p_err;    // absolute error bound of p, per component
+    vec3 ng;       // geometric normal (front side)
+    vec3 ns;       // shading normal (front side)
+    vec3 tangent;  // unit, orthogonal to ns: anisotropy stretches along it
+    vec2 uv;
+    uint material;
+    uint light;    // index into lights, NONE when not emissive
+};
+
+float gamma_n(float n) { const float e = 5.96046448e-8; return (n * e) / (1.0 - n * e); }
+
+Surface surface_at(Hit hit, Ray ray) {
+    Surface s;
+    GpuPrim p = prims[hit.prim];
+    uint bits = floatBitsToUint(p.a.w);
+    s.material = bits & PRIM_MATERIAL_MASK;
+    s.light = floatBitsToUint(p.b.w);
+    vec3 dpdu = vec3(0.0);
+#ifdef HAS_SPHERES
+    if ((bits & PRIM_SPHERE) != 0u) {
+        vec3 c = p.a.xyz;
+        float radius = p.b.x;
+        // Re-project the hit onto the sphere; its error is then a few ulps of |p|.
+        vec3 pw = ray.o + hit.t * ray.d;
+        vec3 local = pw - c;
+        float len = length(local);
+        local = len > 0.0 ? local * (radius / len) : vec3(0.0, 0.0, radius);
+        s.p = c + local;
+        s.p_err = gamma_n(5.0) * (abs(c) + abs(local));
+        s.ng = normalize(local);
+        if ((bits & PRIM_FLIP_NORMALS) != 0u) s.ng = -s.ng;
+        s.ns = s.ng;
+        // Mitsuba's sphere parameterisation: u = longitude around +z / 2π, v = colatitude / π.
+        float phi = atan(local.y, local.x);
+        if (phi < 0.0) phi += 2.0 * PI;
+        s.uv = vec2(phi * INV_2PI, safe_acos(local.z / radius) * INV_PI);
+        dpdu = vec3(-local.y, local.x, 0.0);
+    } else
+#endif
+    {
+        vec3 p0 = p.a.xyz, p1 = p.b.xyz, p2 = p.c.xyz;
+        float b1 = hit.b12.x, b2 = hit.b12.y, b0 = 1.0 - b1 - b2;
+        s.p = b0 * p0 + b1 * p1 + b2 * p2;
+        s.p_err = gamma_n(7.0) * (abs(b0 * p0) + abs(b1 * p1) + abs(b2 * p2));
+        s.ng = normalize(cross(p1 - p0, p2 - p0));
+        s.ns = s.ng;
+        s.uv = vec2(b1, b2);
+        uint si = floatBitsToUint(p.c.w);
+#ifdef HAS_TRI_SHADING
+        if (si != NONE) {
+            GpuTriShading sh = tri_shading[si];
+            vec2 uv0 = vec2(sh.n0.w, sh.uv_v.x), uv1 = vec2(sh.n1.w, sh.uv_v.y), uv2 = vec2(sh.n2.w, sh.uv_v.z);
+            s.uv = b0 * uv0 + b1 * uv1 + b2 * uv2;
+            if (sh.uv_v.w > 0.5) {
+                vec3 n = b0 * sh.n0.xyz + b1 * sh.n1.xyz + b2 * sh.n2.xyz;
+                float l = length(n);
+                if (l > 1e-20) s.ns = n / l;
+            }
+            // dp/du from the uv parameterisation (pbrt's triangle derivatives).
+            vec2 duv02 = uv0 - uv2, duv12 = uv1 - uv2;
+            float det = duv02.x * duv12.y - duv02.y * duv12.x;
+            if (abs(det) > 1e-12) dpdu = (duv12.y * (p0 - p2) - duv02.y * (p1 - p2)) / det;
+        }
+#endif
+    }
+    // Tangent: dp/du made orthogonal to the shading normal, or any frame when degenerate.
+    vec3 t = dpdu - s.ns * dot(s.ns, dpdu);
+    float tl = dot(t, t);
+    if (tl > 1e-24 && !isinf(tl)) {
+        s.tangent = t * inversesqrt(tl);
+    } else {
+        vec3 b;
+        make_frame(s.ns, s.tangent, b);
+    }
+    return s;
+}
+
+// Pushes p off the surface towards the side of w.
+vec3 offset_origin(vec3 p, vec3 p_err, vec3 ng, vec3 w) {
+    float d = dot(abs(ng), p_err);
+    vec3 offset = d * ng;
+    if (dot(w, ng) < 0.0) offset = -offset;
+    vec3 po = p + offset;
+    // Round away from p by one ulp in each component.
+    for (int i = 0; i < 3; ++i) {
+        if (offset[i] > 0.0) po[i] = uintBitsToFloat(floatBitsToUint(po[i]) + (po[i] >= 0.0 ? 1u : 0xffffffffu));
+        else if (offset[i] < 0.0) po[i] = uintBitsToFloat(floatBitsToUint(po[i]) + (po[i] > 0.0 ? 0xffffffffu : 1u));
+    }
+    return po;
+}
+
+// A ray leaving surface s in direction w.
+Ray spawn_ray(Surface s, vec3 w) {
+    Ray r;
+    r.o = offset_origin(s.p, s.p_err, s.ng, w);
+    r.d = w;
+    r.tmin = 0.0;
+    r.tmax = FLT_MAX_C;
+    return r;
+}
+
+// A shadow ray from surface s to the point `to` (itself already on its surface); stops just short.
+Ray spawn_ray_to(Surface s, vec3 to) {
+    vec3 dir = to - s.p;
+    Ray r;
+    r.o = offset_origin(s.p, s.p_err, s.ng, dir);
+    vec3 d = to - r.o;
+    float len = length(d);
+    r.d = d / len;
+    r.tmin = 0.0;
+    r.tmax = len * (1.0 - 1e-4);
+    return r;
+}
+
+#endif
