@@ -6,15 +6,27 @@ use std::fmt::Write;
 use std::path::Path;
 
 fn walk(dir: &Path, root: &Path, out: &mut Vec<(String, String)>) {
-    let Ok(rd) = std::fs::read_dir(dir) else { return };
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return;
+    };
     let mut entries: Vec<_> = rd.flatten().map(|e| e.path()).collect();
     entries.sort();
     for p in entries {
         if p.is_dir() {
             walk(&p, root, out);
-        } else if matches!(p.extension().and_then(|e| e.to_str()), Some("glsl" | "comp")) {
-            let rel = p.strip_prefix(root).unwrap().to_string_lossy().replace('\\', "/");
-            out.push((rel, p.canonicalize().unwrap().to_string_lossy().into_owned()));
+        } else if matches!(
+            p.extension().and_then(|e| e.to_str()),
+            Some("glsl" | "comp")
+        ) {
+            let rel = p
+                .strip_prefix(root)
+                .unwrap()
+                .to_string_lossy()
+                .replace('\\', "/");
+            out.push((
+                rel,
+                p.canonicalize().unwrap().to_string_lossy().into_owned(),
+            ));
         }
     }
 }

@@ -8,6 +8,6 @@ pub mod compile;
 pub mod film;
 pub mod gpu;
 pub mod integrators;
-pub mod render;
 pub mod metrics;
+pub mod render;
 pub mod scene;

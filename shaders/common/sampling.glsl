@@ -39,10 +39,13 @@ vec3 sample_uniform_sphere(vec2 u) {
     return vec3(r * cos(phi), r * sin(phi), z);
 }
 
-/// Uniform direction in the cone {w : w.z >= cos_max} around +z.
+/// Uniform direction in the cone {w : w.z >= cos_max} around +z: 1 − cos θ = u.x (1 − cos_max).
+/// sin θ is formed from 1 − cos θ, not from cos θ: for a narrow cone (cos_max near 1) cos θ has
+/// only a few representable values and sqrt(1 − cos²θ) would put every sample on a few rings.
 vec3 sample_uniform_cone(vec2 u, float cos_max) {
-    float cos_theta = mix(1.0, cos_max, u.x);
-    float sin_theta = safe_sqrt(1.0 - cos_theta * cos_theta);
+    float one_minus_cos = u.x * (1.0 - cos_max);
+    float cos_theta = 1.0 - one_minus_cos;
+    float sin_theta = safe_sqrt(one_minus_cos * (2.0 - one_minus_cos));
     float phi = 2.0 * PI * u.y;
     return vec3(sin_theta * cos(phi), sin_theta * sin(phi), cos_theta);
 }

@@ -1,1 +1,155 @@
-//! test helpers
+//! Shared helpers of the end-to-end tests: locating (and building) the `candela` binary, the
+//! repository's scenes, rendering through the library on one shared GPU context with the
+//! validation layer on, and Mitsuba 3 reference renders via tests/mitsuba/render_reference.py.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::{Arc, OnceLock};
+
+use renderer::compile::compile;
+use renderer::film::Image;
+use renderer::gpu::{GpuContext, GpuOptions};
+use renderer::integrators::IntegratorOptions;
+use renderer::render::{render, Budget, RenderSession, RenderStats};
+
+/// The repository root.
+pub fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("repo root")
+        .to_path_buf()
+}
+
+/// A scene of the repository's `scenes/` folder.
+pub fn scene_path(name: &str) -> PathBuf {
+    repo_root().join("scenes").join(name)
+}
+
+/// A scratch folder for one test, emptied first.
+pub fn scratch(name: &str) -> PathBuf {
+    let dir = repo_root().join("target").join("test-scratch").join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch dir");
+    dir
+}
+
+/// The `candela` binary, built once per test process with the same profile as the tests.
+pub fn candela() -> PathBuf {
+    static BIN: OnceLock<PathBuf> = OnceLock::new();
+    BIN.get_or_init(|| {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let status = Command::new(cargo)
+            .args(["build", "-q", "-p", "candela-server", "--bin", "candela"])
+            .current_dir(repo_root())
+            .status()
+            .expect("run cargo build");
+        assert!(status.success(), "building candela failed");
+        let target = std::env::var("CARGO_TARGET_DIR")
+            .map(PathBuf::from)
+            .unwrap_or_else(|_| repo_root().join("target"));
+        target.join("debug").join("candela")
+    })
+    .clone()
+}
+
+/// One GPU context per test process (validation layer on when installed).
+pub fn gpu() -> Arc<GpuContext> {
+    static CTX: OnceLock<Arc<GpuContext>> = OnceLock::new();
+    CTX.get_or_init(|| {
+        Arc::new(
+            GpuContext::new(&GpuOptions {
+                device: None,
+                validation: true,
+            })
+            .expect("a Vulkan device (install mesa-vulkan-drivers)"),
+        )
+    })
+    .clone()
+}
+
+/// Renders a scene file with the library at `w`×`h`.
+pub fn render_scene(
+    path: &Path,
+    integrator: &str,
+    spp: u32,
+    w: u32,
+    h: u32,
+    seed: u64,
+    max_depth: Option<i32>,
+) -> (Image, RenderStats) {
+    let scene =
+        renderer::scene::load_file(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    render_loaded(&scene, integrator, spp, w, h, seed, max_depth)
+}
+
+/// Renders an already loaded scene.
+pub fn render_loaded(
+    scene: &renderer::scene::Scene,
+    integrator: &str,
+    spp: u32,
+    w: u32,
+    h: u32,
+    seed: u64,
+    max_depth: Option<i32>,
+) -> (Image, RenderStats) {
+    let ctx = gpu();
+    let compiled = compile(scene, w, h).expect("compile");
+    let mut options = IntegratorOptions::from_name(integrator).expect("integrator");
+    if let Some(d) = max_depth {
+        options.set_max_depth(d);
+    }
+    let mut session = RenderSession::new(&ctx, &compiled, &options, scene.render.max_depth, seed)
+        .expect("session");
+    let out = render(&mut session, Budget::Spp(spp)).expect("render");
+    ctx.check_validation().expect("validation layer messages");
+    out
+}
+
+/// Whether Mitsuba 3 can be imported.
+pub fn mitsuba_available() -> bool {
+    Command::new("python3")
+        .args(["-c", "import mitsuba"])
+        .output()
+        .map(|o| o.status.success())
+        .unwrap_or(false)
+}
+
+/// Renders `scene` with Mitsuba 3 (scalar_rgb) into `out` and reads it back.
+pub fn render_mitsuba(
+    scene: &Path,
+    out: &Path,
+    spp: u32,
+    w: u32,
+    h: u32,
+    seed: u64,
+    max_depth: Option<i32>,
+) -> anyhow::Result<Image> {
+    let script = repo_root().join("tests/mitsuba/render_reference.py");
+    let mut cmd = Command::new("python3");
+    cmd.arg(script).arg(scene).arg(out).args([
+        "--spp",
+        &spp.to_string(),
+        "--width",
+        &w.to_string(),
+        "--height",
+        &h.to_string(),
+        "--seed",
+        &seed.to_string(),
+    ]);
+    if let Some(d) = max_depth {
+        cmd.args(["--max-depth", &d.to_string()]);
+    }
+    let o = cmd.output()?;
+    anyhow::ensure!(
+        o.status.success(),
+        "mitsuba failed ({}): {}",
+        o.status,
+        String::from_utf8_lossy(&o.stderr)
+    );
+    Ok(renderer::film::read_exr(out)?)
+}
+
+/// Per-channel mean of an image.
+pub fn mean(img: &Image) -> [f64; 3] {
+    img.mean()
+}

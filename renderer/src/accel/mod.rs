@@ -50,8 +50,22 @@ pub enum AccelError {
 pub fn build(prims: &[PrimBounds]) -> Result<Bvh, AccelError> {
     let start = Instant::now();
     if prims.is_empty() {
-        let empty = GpuBvhNode { l_min: [0.0; 3], left: 0, l_max: [0.0; 3], right: 0, r_min: [0.0; 3], l_count: 0, r_max: [0.0; 3], r_count: 0 };
-        return Ok(Bvh { nodes: vec![empty], order: vec![], depth: 1, build_time: start.elapsed() });
+        let empty = GpuBvhNode {
+            l_min: [0.0; 3],
+            left: 0,
+            l_max: [0.0; 3],
+            right: 0,
+            r_min: [0.0; 3],
+            l_count: 0,
+            r_max: [0.0; 3],
+            r_count: 0,
+        };
+        return Ok(Bvh {
+            nodes: vec![empty],
+            order: vec![],
+            depth: 1,
+            build_time: start.elapsed(),
+        });
     }
     let mut params = BvhBuildParams::medium_build();
     params.max_prims_per_leaf = 4;
@@ -60,15 +74,34 @@ pub fn build(prims: &[PrimBounds]) -> Result<Bvh, AccelError> {
     let src = &bvh.nodes;
     let child = |i: usize| -> (u32, u32, [f32; 3], [f32; 3]) {
         let n = &src[i];
-        (n.first_index, n.prim_count, n.aabb.min.into(), n.aabb.max.into())
+        (
+            n.first_index,
+            n.prim_count,
+            n.aabb.min.into(),
+            n.aabb.max.into(),
+        )
     };
     let mut nodes: Vec<GpuBvhNode> = Vec::with_capacity(src.len() / 2 + 1);
     let root = &src[0];
     if root.prim_count > 0 {
         // A single leaf: both children are that leaf (the second test never wins a closer hit).
         let (first, count, mn, mx) = child(0);
-        nodes.push(GpuBvhNode { l_min: mn, left: first, l_max: mx, right: first, r_min: mn, l_count: count, r_max: mx, r_count: count });
-        return Ok(Bvh { nodes, order: bvh.primitive_indices.clone(), depth: 1, build_time: start.elapsed() });
+        nodes.push(GpuBvhNode {
+            l_min: mn,
+            left: first,
+            l_max: mx,
+            right: first,
+            r_min: mn,
+            l_count: count,
+            r_max: mx,
+            r_count: count,
+        });
+        return Ok(Bvh {
+            nodes,
+            order: bvh.primitive_indices.clone(),
+            depth: 1,
+            build_time: start.elapsed(),
+        });
     }
     // Depth-first flattening; `stack` holds (source inner node, GPU slot, depth).
     nodes.push(GpuBvhNode::zeroed_node());
@@ -103,7 +136,12 @@ pub fn build(prims: &[PrimBounds]) -> Result<Bvh, AccelError> {
     if depth > MAX_DEPTH {
         return Err(AccelError::TooDeep(depth));
     }
-    Ok(Bvh { nodes, order: bvh.primitive_indices.clone(), depth, build_time: start.elapsed() })
+    Ok(Bvh {
+        nodes,
+        order: bvh.primitive_indices.clone(),
+        depth,
+        build_time: start.elapsed(),
+    })
 }
 
 impl GpuBvhNode {
@@ -117,7 +155,12 @@ mod tests {
     use super::*;
 
     fn unit_boxes(n: usize) -> Vec<PrimBounds> {
-        (0..n).map(|i| PrimBounds { min: [i as f32, 0.0, 0.0], max: [i as f32 + 0.5, 1.0, 1.0] }).collect()
+        (0..n)
+            .map(|i| PrimBounds {
+                min: [i as f32, 0.0, 0.0],
+                max: [i as f32 + 0.5, 1.0, 1.0],
+            })
+            .collect()
     }
 
     /// Every primitive is reachable exactly once and every child box contains its primitives.
@@ -131,7 +174,10 @@ mod tests {
             let mut visited_single_leaf = false;
             while let Some(i) = stack.pop() {
                 let node = bvh.nodes[i];
-                let children = [(node.left, node.l_count, node.l_min, node.l_max), (node.right, node.r_count, node.r_min, node.r_max)];
+                let children = [
+                    (node.left, node.l_count, node.l_min, node.l_max),
+                    (node.right, node.r_count, node.r_min, node.r_max),
+                ];
                 for (k, (c, count, mn, mx)) in children.into_iter().enumerate() {
                     if n == 1 && k == 1 {
                         visited_single_leaf = true;

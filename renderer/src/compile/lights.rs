@@ -31,7 +31,10 @@ fn c4(c: Vec3) -> [f32; 4] {
 
 impl LightBuilder {
     pub fn new() -> Self {
-        LightBuilder { lights: Vec::new(), power: Vec::new() }
+        LightBuilder {
+            lights: Vec::new(),
+            power: Vec::new(),
+        }
     }
 
     fn push(&mut self, l: GpuLight, power: f64) -> u32 {
@@ -41,7 +44,16 @@ impl LightBuilder {
     }
 
     fn blank(kind: u32) -> GpuLight {
-        GpuLight { kind, prim: u32::MAX, pick_pdf: 0.0, pad: 0, p0: [0.0; 4], p1: [0.0; 4], p2: [0.0; 4], radiance: [0.0; 4] }
+        GpuLight {
+            kind,
+            prim: u32::MAX,
+            pick_pdf: 0.0,
+            pad: 0,
+            p0: [0.0; 4],
+            p1: [0.0; 4],
+            p2: [0.0; 4],
+            radiance: [0.0; 4],
+        }
     }
 
     /// An emissive triangle (camera-relative vertices) stored at prim slot `prim`.
@@ -57,7 +69,14 @@ impl LightBuilder {
     }
 
     /// An emissive sphere (camera-relative centre).
-    pub fn sphere(&mut self, prim: u32, center: DVec3, radius: f64, flip: bool, radiance: Vec3) -> u32 {
+    pub fn sphere(
+        &mut self,
+        prim: u32,
+        center: DVec3,
+        radius: f64,
+        flip: bool,
+        radiance: Vec3,
+    ) -> u32 {
         let mut l = Self::blank(light::SPHERE);
         l.prim = prim;
         l.p0 = v4(center, radius as f32);
@@ -74,13 +93,25 @@ impl LightBuilder {
     }
 
     /// Spot light; angles in degrees.
-    pub fn spot(&mut self, position: DVec3, direction: DVec3, intensity: Vec3, cutoff_deg: f32, beam_deg: f32) -> u32 {
+    pub fn spot(
+        &mut self,
+        position: DVec3,
+        direction: DVec3,
+        intensity: Vec3,
+        cutoff_deg: f32,
+        beam_deg: f32,
+    ) -> u32 {
         let cutoff = (cutoff_deg as f64).to_radians();
         let beam = (beam_deg as f64).to_radians().min(cutoff);
         let mut l = Self::blank(light::SPOT);
         l.p0 = v4(position, 0.0);
         l.p1 = v4(direction.normalize(), 0.0);
-        l.p2 = [cutoff.cos() as f32, beam.cos() as f32, cutoff as f32, beam as f32];
+        l.p2 = [
+            cutoff.cos() as f32,
+            beam.cos() as f32,
+            cutoff as f32,
+            beam as f32,
+        ];
         l.radiance = c4(intensity);
         // pbrt's estimate: the cone out to the middle of the falloff region.
         let power = 2.0 * PI * (1.0 - (0.5 * (cutoff + beam)).cos()) * luminance(intensity);
@@ -97,13 +128,19 @@ impl LightBuilder {
     pub fn env_constant(&mut self, radiance: Vec3, scene_radius: f64) -> u32 {
         let mut l = Self::blank(light::ENV_CONSTANT);
         l.radiance = c4(radiance);
-        self.push(l, 4.0 * PI * PI * scene_radius * scene_radius * luminance(radiance))
+        self.push(
+            l,
+            4.0 * PI * PI * scene_radius * scene_radius * luminance(radiance),
+        )
     }
 
     pub fn env_map(&mut self, scale: f32, mean_luminance: f64, scene_radius: f64) -> u32 {
         let mut l = Self::blank(light::ENV_MAP);
         l.radiance = [scale, scale, scale, 0.0];
-        self.push(l, 4.0 * PI * PI * scene_radius * scene_radius * mean_luminance * scale as f64)
+        self.push(
+            l,
+            4.0 * PI * PI * scene_radius * scene_radius * mean_luminance * scale as f64,
+        )
     }
 
     /// Sets pick probabilities ∝ power and builds the alias table. Lights of zero power are
@@ -136,10 +173,19 @@ impl Default for LightBuilder {
 pub fn alias_table(pmf: &[f64]) -> Vec<GpuAlias> {
     let n = pmf.len();
     let mut scaled: Vec<f64> = pmf.iter().map(|p| p * n as f64).collect();
-    let mut table = vec![GpuAlias { prob: 1.0, alias: 0 }; n];
+    let mut table = vec![
+        GpuAlias {
+            prob: 1.0,
+            alias: 0
+        };
+        n
+    ];
     let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| scaled[i] < 1.0);
     while let (Some(s), Some(&l)) = (small.pop(), large.last()) {
-        table[s] = GpuAlias { prob: scaled[s] as f32, alias: l as u32 };
+        table[s] = GpuAlias {
+            prob: scaled[s] as f32,
+            alias: l as u32,
+        };
         scaled[l] -= 1.0 - scaled[s];
         if scaled[l] < 1.0 {
             large.pop();
@@ -147,7 +193,10 @@ pub fn alias_table(pmf: &[f64]) -> Vec<GpuAlias> {
         }
     }
     for i in large.into_iter().chain(small) {
-        table[i] = GpuAlias { prob: 1.0, alias: i as u32 };
+        table[i] = GpuAlias {
+            prob: 1.0,
+            alias: i as u32,
+        };
     }
     table
 }
@@ -182,7 +231,11 @@ pub fn env_distribution(tex: &Texture) -> (Vec<f32>, f64) {
         row_sums[y] = acc;
         let mut run = 0.0;
         for x in 0..w {
-            out[base + x] = if acc > 0.0 { (run / acc) as f32 } else { x as f32 / w as f32 };
+            out[base + x] = if acc > 0.0 {
+                (run / acc) as f32
+            } else {
+                x as f32 / w as f32
+            };
             run += f[y * w + x];
         }
         out[base + w] = 1.0;
@@ -190,14 +243,22 @@ pub fn env_distribution(tex: &Texture) -> (Vec<f32>, f64) {
     let total: f64 = row_sums.iter().sum();
     let mut run = 0.0;
     for y in 0..h {
-        out[y] = if total > 0.0 { (run / total) as f32 } else { y as f32 / h as f32 };
+        out[y] = if total > 0.0 {
+            (run / total) as f32
+        } else {
+            y as f32 / h as f32
+        };
         run += row_sums[y];
     }
     out[h] = 1.0;
     // pdf over uv ∈ [0,1]²: f / (∫f du dv) with ∫ = total / (w h).
     let pdf_base = h + 1 + h * (w + 1);
     for i in 0..w * h {
-        out[pdf_base + i] = if total > 0.0 { (f[i] * (w * h) as f64 / total) as f32 } else { 1.0 };
+        out[pdf_base + i] = if total > 0.0 {
+            (f[i] * (w * h) as f64 / total) as f32
+        } else {
+            1.0
+        };
     }
     (out, mean_lum)
 }
@@ -224,8 +285,16 @@ mod tests {
     #[test]
     fn env_distribution_pdf_integrates_to_one() {
         let (w, h) = (8u32, 4u32);
-        let texels = (0..w * h).map(|i| [1.0 + (i % 5) as f32, 1.0, 0.5, 1.0]).collect();
-        let tex = Texture { source: "t".into(), width: w, height: h, texels, scale: glam::Vec2::ONE };
+        let texels = (0..w * h)
+            .map(|i| [1.0 + (i % 5) as f32, 1.0, 0.5, 1.0])
+            .collect();
+        let tex = Texture {
+            source: "t".into(),
+            width: w,
+            height: h,
+            texels,
+            scale: glam::Vec2::ONE,
+        };
         let (d, _) = env_distribution(&tex);
         let base = (h + 1 + h * (w + 1)) as usize;
         let integral: f64 = d[base..].iter().map(|&p| p as f64).sum::<f64>() / (w * h) as f64;

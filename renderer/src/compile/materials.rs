@@ -21,7 +21,12 @@ fn rgb(c: Vec3) -> [f32; 4] {
 /// Converts one material.
 pub fn gpu_material(m: &Material) -> GpuMaterial {
     let mut g = GpuMaterial {
-        header: [0, if m.two_sided { mat::F_TWO_SIDED } else { 0 }, m.alpha_mask.unwrap_or(NONE), 0],
+        header: [
+            0,
+            if m.two_sided { mat::F_TWO_SIDED } else { 0 },
+            m.alpha_mask.unwrap_or(NONE),
+            0,
+        ],
         emission: [m.emission.x, m.emission.y, m.emission.z, 0.0],
         colors: [rgb(Vec3::ZERO); 3],
         scalars: [0.0; 12],
@@ -36,7 +41,12 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
             g.header[0] = mat::DIFFUSE;
             g.colors[0] = color(reflectance);
         }
-        MaterialKind::Conductor { reflectance, roughness, anisotropy, eta_k } => {
+        MaterialKind::Conductor {
+            reflectance,
+            roughness,
+            anisotropy,
+            eta_k,
+        } => {
             g.header[0] = mat::CONDUCTOR;
             g.colors[0] = color(reflectance);
             if let Some((eta, k)) = eta_k {
@@ -47,7 +57,12 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
             set_scalar(&mut g, 0, roughness);
             set_scalar(&mut g, 1, anisotropy);
         }
-        MaterialKind::Dielectric { ior, roughness, transmittance, reflectance } => {
+        MaterialKind::Dielectric {
+            ior,
+            roughness,
+            transmittance,
+            reflectance,
+        } => {
             g.header[0] = mat::DIELECTRIC;
             g.colors[0] = color(reflectance);
             g.colors[1] = color(transmittance);
@@ -71,7 +86,16 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         } => {
             g.header[0] = mat::PRINCIPLED;
             g.colors[0] = color(base_color);
-            let scalars = [metallic, roughness, specular, spec_tint, anisotropic, sheen, sheen_tint, spec_trans];
+            let scalars = [
+                metallic,
+                roughness,
+                specular,
+                spec_tint,
+                anisotropic,
+                sheen,
+                sheen_tint,
+                spec_trans,
+            ];
             for (i, s) in scalars.into_iter().enumerate() {
                 set_scalar(&mut g, i, s);
             }
@@ -80,7 +104,11 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
             set_scalar(&mut g, 10, clearcoat);
             set_scalar(&mut g, 11, clearcoat_gloss);
         }
-        MaterialKind::Phong { diffuse, specular, exponent } => {
+        MaterialKind::Phong {
+            diffuse,
+            specular,
+            exponent,
+        } => {
             g.header[0] = mat::PHONG;
             g.colors[0] = color(diffuse);
             g.colors[1] = color(specular);
@@ -92,11 +120,16 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
 
 /// Whether the material reads any texture (colour, scalar or alpha mask).
 pub fn uses_textures(g: &GpuMaterial) -> bool {
-    g.header[2] != NONE || g.colors.iter().any(|c| c[3].to_bits() != NONE) || g.scalar_tex.iter().any(|&t| t != NONE)
+    g.header[2] != NONE
+        || g.colors.iter().any(|c| c[3].to_bits() != NONE)
+        || g.scalar_tex.iter().any(|&t| t != NONE)
 }
 
 /// Packs textures into (descriptors, texels). `clamp_rows[i]` marks environment maps.
-pub fn pack_textures(textures: &[Texture], clamp_rows: &[bool]) -> (Vec<GpuTexture>, Vec<[f32; 4]>) {
+pub fn pack_textures(
+    textures: &[Texture],
+    clamp_rows: &[bool],
+) -> (Vec<GpuTexture>, Vec<[f32; 4]>) {
     let mut descs = Vec::with_capacity(textures.len());
     let mut texels = Vec::with_capacity(textures.iter().map(|t| t.texels.len()).sum());
     for (i, t) in textures.iter().enumerate() {

@@ -90,9 +90,17 @@ pub fn compile(scene: &Scene, width: u32, height: u32) -> Result<CompiledScene, 
     let mut features = FeatureSet::default();
 
     // Step 1: materials and textures.
-    let materials: Vec<GpuMaterial> = scene.materials.iter().map(materials::gpu_material).collect();
+    let materials: Vec<GpuMaterial> = scene
+        .materials
+        .iter()
+        .map(materials::gpu_material)
+        .collect();
     features.textures = materials.iter().any(materials::uses_textures);
-    let alpha_material: Vec<bool> = scene.materials.iter().map(|m| m.alpha_mask.is_some()).collect();
+    let alpha_material: Vec<bool> = scene
+        .materials
+        .iter()
+        .map(|m| m.alpha_mask.is_some())
+        .collect();
     let emission: Vec<Vec3> = scene.materials.iter().map(|m| m.emission).collect();
 
     // Step 2: primitives in input order, with bounds, camera-relative.
@@ -112,13 +120,28 @@ pub fn compile(scene: &Scene, width: u32, height: u32) -> Result<CompiledScene, 
                 features.alpha = true;
             }
             let shading = if shaded {
-                let n = |k: usize| mesh.normals.as_ref().map(|ns| ns[idx[k] as usize]).unwrap_or(Vec3::ZERO);
-                let uv = |k: usize| mesh.uvs.as_ref().map(|u| u[idx[k] as usize]).unwrap_or(glam::Vec2::ZERO);
+                let n = |k: usize| {
+                    mesh.normals
+                        .as_ref()
+                        .map(|ns| ns[idx[k] as usize])
+                        .unwrap_or(Vec3::ZERO)
+                };
+                let uv = |k: usize| {
+                    mesh.uvs
+                        .as_ref()
+                        .map(|u| u[idx[k] as usize])
+                        .unwrap_or(glam::Vec2::ZERO)
+                };
                 tri_shading.push(GpuTriShading {
                     n0: [n(0).x, n(0).y, n(0).z, uv(0).x],
                     n1: [n(1).x, n(1).y, n(1).z, uv(1).x],
                     n2: [n(2).x, n(2).y, n(2).z, uv(2).x],
-                    uv_v: [uv(0).y, uv(1).y, uv(2).y, if mesh.normals.is_some() { 1.0 } else { 0.0 }],
+                    uv_v: [
+                        uv(0).y,
+                        uv(1).y,
+                        uv(2).y,
+                        if mesh.normals.is_some() { 1.0 } else { 0.0 },
+                    ],
                 });
                 (tri_shading.len() - 1) as u32
             } else {
@@ -132,7 +155,10 @@ pub fn compile(scene: &Scene, width: u32, height: u32) -> Result<CompiledScene, 
             });
             let mn = p[0].min(p[1]).min(p[2]);
             let mx = p[0].max(p[1]).max(p[2]);
-            bounds.push(PrimBounds { min: f3(mn), max: f3(mx) });
+            bounds.push(PrimBounds {
+                min: f3(mn),
+                max: f3(mx),
+            });
             world_tris.push(p);
             triangle_count += 1;
         }
@@ -154,7 +180,10 @@ pub fn compile(scene: &Scene, width: u32, height: u32) -> Result<CompiledScene, 
         // Bounds padded by a few ulps so rounding of centre and radius cannot clip the sphere.
         let r = DVec3::splat(s.radius * (1.0 + 1e-6));
         let pad = c.abs() * 1e-6;
-        bounds.push(PrimBounds { min: f3(c - r - pad), max: f3(c + r + pad) });
+        bounds.push(PrimBounds {
+            min: f3(c - r - pad),
+            max: f3(c + r + pad),
+        });
         world_tris.push([c, DVec3::splat(s.radius), DVec3::ZERO]);
     }
     if prims.len() > PRIM_MATERIAL_MASK as usize {
@@ -177,14 +206,21 @@ pub fn compile(scene: &Scene, width: u32, height: u32) -> Result<CompiledScene, 
             hi = hi.max(rel(*position));
         }
     }
-    let (center, radius) = if lo.x <= hi.x { (0.5 * (lo + hi), 0.5 * (hi - lo).length().max(1e-6)) } else { (DVec3::ZERO, 1.0) };
+    let (center, radius) = if lo.x <= hi.x {
+        (0.5 * (lo + hi), 0.5 * (hi - lo).length().max(1e-6))
+    } else {
+        (DVec3::ZERO, 1.0)
+    };
 
     // Step 5: lights: emissive primitives, then delta lights, then the environment.
     let mut lb = lights::LightBuilder::new();
     for (slot, &orig) in bvh.order.iter().enumerate() {
         let orig = orig as usize;
         let bits = sorted[slot].a[3].to_bits();
-        let e = emission.get((bits & PRIM_MATERIAL_MASK) as usize).copied().unwrap_or(Vec3::ZERO);
+        let e = emission
+            .get((bits & PRIM_MATERIAL_MASK) as usize)
+            .copied()
+            .unwrap_or(Vec3::ZERO);
         if e.max_element() <= 0.0 {
             continue;
         }
@@ -199,11 +235,27 @@ pub fn compile(scene: &Scene, width: u32, height: u32) -> Result<CompiledScene, 
     for l in &scene.lights {
         features.delta_lights = true;
         match l {
-            Light::Point { position, intensity } => lb.point(rel(*position), *intensity),
-            Light::Spot { position, direction, intensity, cutoff_angle, beam_width } => {
-                lb.spot(rel(*position), *direction, *intensity, *cutoff_angle, *beam_width)
-            }
-            Light::Directional { direction, irradiance } => lb.directional(*direction, *irradiance, radius),
+            Light::Point {
+                position,
+                intensity,
+            } => lb.point(rel(*position), *intensity),
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                cutoff_angle,
+                beam_width,
+            } => lb.spot(
+                rel(*position),
+                *direction,
+                *intensity,
+                *cutoff_angle,
+                *beam_width,
+            ),
+            Light::Directional {
+                direction,
+                irradiance,
+            } => lb.directional(*direction, *irradiance, radius),
         };
     }
     let mut env = [NONE, NONE, 0, 0];
@@ -214,7 +266,11 @@ pub fn compile(scene: &Scene, width: u32, height: u32) -> Result<CompiledScene, 
         Some(Environment::Constant { radiance }) if radiance.max_element() > 0.0 => {
             env[0] = lb.env_constant(*radiance, radius);
         }
-        Some(Environment::Map { texture, scale, rotate_y }) => {
+        Some(Environment::Map {
+            texture,
+            scale,
+            rotate_y,
+        }) => {
             if let Some(tex) = scene.textures.get(*texture as usize) {
                 let (dist, mean) = lights::env_distribution(tex);
                 env_dist = dist;
@@ -252,10 +308,20 @@ pub fn compile(scene: &Scene, width: u32, height: u32) -> Result<CompiledScene, 
         cam_forward: [forward.x as f32, forward.y as f32, forward.z as f32, 0.0],
         cam_right: [right.x as f32, right.y as f32, right.z as f32, 0.0],
         cam_up: [up.x as f32, up.y as f32, up.z as f32, 0.0],
-        lens: [tan_half as f32, width as f32 / height as f32, cam.aperture_radius as f32, cam.focus_distance as f32],
+        lens: [
+            tan_half as f32,
+            width as f32 / height as f32,
+            cam.aperture_radius as f32,
+            cam.focus_distance as f32,
+        ],
         film: [width, height, filter_kind, gpu_lights.len() as u32],
         filter: [stddev, 4.0 * stddev, 0.0, 0.0],
-        scene_sphere: [center.x as f32, center.y as f32, center.z as f32, radius as f32],
+        scene_sphere: [
+            center.x as f32,
+            center.y as f32,
+            center.z as f32,
+            radius as f32,
+        ],
         env,
         env_params,
         counts: [sorted.len() as u32, bvh.nodes.len() as u32, 0, 0],

@@ -33,24 +33,40 @@ pub struct Buffer {
 
 impl Buffer {
     /// Allocates an uninitialised buffer of `size` bytes (rounded up to at least 16).
-    pub fn new(ctx: &Arc<GpuContext>, name: &str, size: u64, usage: BufferUsage) -> GpuResult<Buffer> {
+    pub fn new(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        size: u64,
+        usage: BufferUsage,
+    ) -> GpuResult<Buffer> {
         let size = size.max(16).next_multiple_of(4);
         let (vk_usage, location) = match usage {
             BufferUsage::Storage => (
-                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::TRANSFER_SRC,
+                vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_DST
+                    | vk::BufferUsageFlags::TRANSFER_SRC,
                 MemoryLocation::GpuOnly,
             ),
             BufferUsage::Upload => (vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu),
             BufferUsage::Readback => (vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu),
         };
-        let info = vk::BufferCreateInfo::default().size(size).usage(vk_usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let info = vk::BufferCreateInfo::default()
+            .size(size)
+            .usage(vk_usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
         // SAFETY: valid device and create info.
-        let raw = unsafe { ctx.device.create_buffer(&info, None) }.map_err(GpuError::vk("create buffer"))?;
+        let raw = unsafe { ctx.device.create_buffer(&info, None) }
+            .map_err(GpuError::vk("create buffer"))?;
         // SAFETY: `raw` was just created on this device.
         let requirements = unsafe { ctx.device.get_buffer_memory_requirements(raw) };
         let alloc = {
-            let mut guard = ctx.allocator.lock().map_err(|_| GpuError::Other("allocator poisoned".into()))?;
-            let allocator = guard.as_mut().ok_or_else(|| GpuError::Other("allocator gone".into()))?;
+            let mut guard = ctx
+                .allocator
+                .lock()
+                .map_err(|_| GpuError::Other("allocator poisoned".into()))?;
+            let allocator = guard
+                .as_mut()
+                .ok_or_else(|| GpuError::Other("allocator gone".into()))?;
             allocator.allocate(&AllocationCreateDesc {
                 name,
                 requirements,
@@ -64,18 +80,34 @@ impl Buffer {
             Err(e) => {
                 // SAFETY: the buffer has no memory bound and is not in use.
                 unsafe { ctx.device.destroy_buffer(raw, None) };
-                return Err(GpuError::Alloc { name: name.to_string(), message: e.to_string() });
+                return Err(GpuError::Alloc {
+                    name: name.to_string(),
+                    message: e.to_string(),
+                });
             }
         };
         // SAFETY: memory comes from a compatible type, offset respects the requirements.
-        unsafe { ctx.device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }
-            .map_err(GpuError::vk("bind buffer memory"))?;
+        unsafe {
+            ctx.device
+                .bind_buffer_memory(raw, allocation.memory(), allocation.offset())
+        }
+        .map_err(GpuError::vk("bind buffer memory"))?;
         ctx.set_name(raw, name);
-        Ok(Buffer { ctx: ctx.clone(), raw, allocation: Some(allocation), size, name: name.to_string() })
+        Ok(Buffer {
+            ctx: ctx.clone(),
+            raw,
+            allocation: Some(allocation),
+            size,
+            name: name.to_string(),
+        })
     }
 
     /// Creates a device-local storage buffer holding `data` (or 16 zero bytes when empty).
-    pub fn from_slice<T: bytemuck::Pod>(ctx: &Arc<GpuContext>, name: &str, data: &[T]) -> GpuResult<Buffer> {
+    pub fn from_slice<T: bytemuck::Pod>(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        data: &[T],
+    ) -> GpuResult<Buffer> {
         let bytes: &[u8] = bytemuck::cast_slice(data);
         let buf = Buffer::new(ctx, name, bytes.len() as u64, BufferUsage::Storage)?;
         if bytes.is_empty() {
@@ -115,11 +147,22 @@ impl GpuContext {
         if bytes.is_empty() {
             return Ok(());
         }
-        let mut staging = Buffer::new(self, "staging upload", bytes.len() as u64, BufferUsage::Upload)?;
-        staging.mapped_mut().ok_or_else(|| GpuError::Other("upload buffer not mapped".into()))?[..bytes.len()]
+        let mut staging = Buffer::new(
+            self,
+            "staging upload",
+            bytes.len() as u64,
+            BufferUsage::Upload,
+        )?;
+        staging
+            .mapped_mut()
+            .ok_or_else(|| GpuError::Other("upload buffer not mapped".into()))?[..bytes.len()]
             .copy_from_slice(bytes);
         self.one_shot("upload", |dev, cmd| {
-            let region = [vk::BufferCopy { src_offset: 0, dst_offset: offset, size: bytes.len() as u64 }];
+            let region = [vk::BufferCopy {
+                src_offset: 0,
+                dst_offset: offset,
+                size: bytes.len() as u64,
+            }];
             // SAFETY: both buffers are alive until the one-shot submission completes.
             unsafe { dev.cmd_copy_buffer(cmd, staging.raw, dst.raw, &region) };
         })
@@ -140,16 +183,26 @@ impl GpuContext {
         }
         let staging = Buffer::new(self, "staging readback", len, BufferUsage::Readback)?;
         self.one_shot("download", |dev, cmd| {
-            let region = [vk::BufferCopy { src_offset: offset, dst_offset: 0, size: len }];
+            let region = [vk::BufferCopy {
+                src_offset: offset,
+                dst_offset: 0,
+                size: len,
+            }];
             // SAFETY: both buffers are alive until the one-shot submission completes.
             unsafe { dev.cmd_copy_buffer(cmd, src.raw, staging.raw, &region) };
         })?;
-        let m = staging.mapped().ok_or_else(|| GpuError::Other("readback buffer not mapped".into()))?;
+        let m = staging
+            .mapped()
+            .ok_or_else(|| GpuError::Other("readback buffer not mapped".into()))?;
         Ok(m[..len as usize].to_vec())
     }
 
     /// Reads a whole buffer back as a vector of `T`.
-    pub fn download_vec<T: bytemuck::Pod>(self: &Arc<Self>, src: &Buffer, count: usize) -> GpuResult<Vec<T>> {
+    pub fn download_vec<T: bytemuck::Pod>(
+        self: &Arc<Self>,
+        src: &Buffer,
+        count: usize,
+    ) -> GpuResult<Vec<T>> {
         let bytes = self.download(src, 0, (count * std::mem::size_of::<T>()) as u64)?;
         Ok(bytemuck::pod_collect_to_vec(&bytes))
     }

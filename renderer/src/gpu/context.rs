@@ -40,6 +40,8 @@ pub struct GpuContext {
     pub(crate) physical: vk::PhysicalDevice,
     pub(crate) device: ash::Device,
     pub(crate) queue: vk::Queue,
+    /// Vulkan requires external synchronisation of queue submission; held while submitting.
+    pub(crate) queue_lock: Mutex<()>,
     pub(crate) queue_family: u32,
     pub(crate) allocator: Mutex<Option<Allocator>>,
     pub(crate) debug_utils: Option<ash::ext::debug_utils::Device>,
@@ -69,24 +71,41 @@ fn device_kind(t: vk::PhysicalDeviceType) -> &'static str {
     }
 }
 
-fn describe(instance: &ash::Instance, pd: vk::PhysicalDevice) -> (DeviceInfo, vk::PhysicalDeviceProperties) {
+fn describe(
+    instance: &ash::Instance,
+    pd: vk::PhysicalDevice,
+) -> (DeviceInfo, vk::PhysicalDeviceProperties) {
     // SAFETY: `pd` was enumerated from this instance.
     let props = unsafe { instance.get_physical_device_properties(pd) };
     let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
     let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
     // SAFETY: as above; the chain holds a valid driver-properties struct.
     unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
-    let name = props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = props
+        .device_name_as_c_str()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
     let driver = format!(
         "{} {}",
-        driver_props.driver_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
-        driver_props.driver_info_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+        driver_props
+            .driver_name_as_c_str()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        driver_props
+            .driver_info_as_c_str()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default()
     );
     let v = props.api_version;
     let info = DeviceInfo {
         name,
         kind: device_kind(props.device_type).to_string(),
-        api_version: format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v)),
+        api_version: format!(
+            "{}.{}.{}",
+            vk::api_version_major(v),
+            vk::api_version_minor(v),
+            vk::api_version_patch(v)
+        ),
         driver: driver.trim().to_string(),
     };
     (info, props)
@@ -98,18 +117,25 @@ pub fn list_devices() -> GpuResult<Vec<DeviceInfo>> {
     let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_2);
     let ci = vk::InstanceCreateInfo::default().application_info(&app);
     // SAFETY: valid create info; the instance is destroyed below.
-    let instance = unsafe { entry.create_instance(&ci, None) }.map_err(GpuError::vk("create instance"))?;
+    let instance =
+        unsafe { entry.create_instance(&ci, None) }.map_err(GpuError::vk("create instance"))?;
     let out = candidates(&instance).map(|c| c.into_iter().map(|(_, _, info, _)| info).collect());
     // SAFETY: no child objects were created.
     unsafe { instance.destroy_instance(None) };
     out
 }
 
-type Candidate = (vk::PhysicalDevice, u32, DeviceInfo, vk::PhysicalDeviceProperties);
+type Candidate = (
+    vk::PhysicalDevice,
+    u32,
+    DeviceInfo,
+    vk::PhysicalDeviceProperties,
+);
 
 fn candidates(instance: &ash::Instance) -> GpuResult<Vec<Candidate>> {
     // SAFETY: valid instance.
-    let pds = unsafe { instance.enumerate_physical_devices() }.map_err(GpuError::vk("enumerate devices"))?;
+    let pds = unsafe { instance.enumerate_physical_devices() }
+        .map_err(GpuError::vk("enumerate devices"))?;
     let mut out = Vec::new();
     for pd in pds {
         let (info, props) = describe(instance, pd);
@@ -118,7 +144,10 @@ fn candidates(instance: &ash::Instance) -> GpuResult<Vec<Candidate>> {
         }
         // SAFETY: valid physical device.
         let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
-        if let Some(q) = families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE)) {
+        if let Some(q) = families
+            .iter()
+            .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
+        {
             out.push((pd, q as u32, info, props));
         }
     }
@@ -138,10 +167,16 @@ unsafe extern "system" fn debug_callback(
     // registered, alive as long as the messenger.
     let (msg, sink) = unsafe {
         let d = &*data;
-        let msg = d.message_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let msg = d
+            .message_as_c_str()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
         (msg, &*(user as *const MessageSink))
     };
-    if severity.intersects(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
+    if severity.intersects(
+        vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+            | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+    ) {
         if let Ok(mut v) = sink.lock() {
             v.push(msg);
         }
@@ -156,25 +191,42 @@ impl GpuContext {
         // Step 1: instance, with validation and debug utils when available.
         // SAFETY: plain enumeration calls on a loaded entry.
         let layers = unsafe { entry.enumerate_instance_layer_properties() }.unwrap_or_default();
-        let has_validation = layers.iter().any(|l| l.layer_name_as_c_str().map(|n| n == VALIDATION_LAYER).unwrap_or(false));
+        let has_validation = layers.iter().any(|l| {
+            l.layer_name_as_c_str()
+                .map(|n| n == VALIDATION_LAYER)
+                .unwrap_or(false)
+        });
         // SAFETY: as above.
-        let exts = unsafe { entry.enumerate_instance_extension_properties(None) }.unwrap_or_default();
-        let has_debug_utils =
-            exts.iter().any(|e| e.extension_name_as_c_str().map(|n| n == ash::ext::debug_utils::NAME).unwrap_or(false));
+        let exts =
+            unsafe { entry.enumerate_instance_extension_properties(None) }.unwrap_or_default();
+        let has_debug_utils = exts.iter().any(|e| {
+            e.extension_name_as_c_str()
+                .map(|n| n == ash::ext::debug_utils::NAME)
+                .unwrap_or(false)
+        });
         let validation = opts.validation && has_validation && has_debug_utils;
         let app_name = CString::new("candela").unwrap_or_default();
         let app = vk::ApplicationInfo::default()
             .application_name(&app_name)
             .engine_name(&app_name)
             .api_version(vk::API_VERSION_1_2);
-        let layer_ptrs: Vec<*const i8> = if validation { vec![VALIDATION_LAYER.as_ptr()] } else { vec![] };
-        let ext_ptrs: Vec<*const i8> = if has_debug_utils { vec![ash::ext::debug_utils::NAME.as_ptr()] } else { vec![] };
+        let layer_ptrs: Vec<*const i8> = if validation {
+            vec![VALIDATION_LAYER.as_ptr()]
+        } else {
+            vec![]
+        };
+        let ext_ptrs: Vec<*const i8> = if has_debug_utils {
+            vec![ash::ext::debug_utils::NAME.as_ptr()]
+        } else {
+            vec![]
+        };
         let ci = vk::InstanceCreateInfo::default()
             .application_info(&app)
             .enabled_layer_names(&layer_ptrs)
             .enabled_extension_names(&ext_ptrs);
         // SAFETY: all pointers in `ci` outlive the call.
-        let instance = unsafe { entry.create_instance(&ci, None) }.map_err(GpuError::vk("create instance"))?;
+        let instance =
+            unsafe { entry.create_instance(&ci, None) }.map_err(GpuError::vk("create instance"))?;
 
         let (messages, sink_box, debug_messenger) = if validation {
             let sink: MessageSink = Arc::new(Mutex::new(Vec::new()));
@@ -182,7 +234,8 @@ impl GpuContext {
             let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
             let mci = vk::DebugUtilsMessengerCreateInfoEXT::default()
                 .message_severity(
-                    vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+                    vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                        | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
                 )
                 .message_type(
                     vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
@@ -192,7 +245,8 @@ impl GpuContext {
                 .pfn_user_callback(Some(debug_callback))
                 .user_data(&*boxed as *const MessageSink as *mut c_void);
             // SAFETY: the boxed sink lives in the context as long as the messenger.
-            let m = unsafe { loader.create_debug_utils_messenger(&mci, None) }.map_err(GpuError::vk("create debug messenger"))?;
+            let m = unsafe { loader.create_debug_utils_messenger(&mci, None) }
+                .map_err(GpuError::vk("create debug messenger"))?;
             (Some(sink), Some(boxed), Some((loader, m)))
         } else {
             (None, None, None)
@@ -203,10 +257,16 @@ impl GpuContext {
         let pick = match &opts.device {
             Some(want) => {
                 let w = want.to_lowercase();
-                cands.iter().position(|c| c.2.name.to_lowercase().contains(&w)).ok_or_else(|| {
-                    let names: Vec<_> = cands.iter().map(|c| c.2.name.clone()).collect();
-                    GpuError::NoDevice(format!(" matching \"{want}\" (available: {})", names.join(", ")))
-                })?
+                cands
+                    .iter()
+                    .position(|c| c.2.name.to_lowercase().contains(&w))
+                    .ok_or_else(|| {
+                        let names: Vec<_> = cands.iter().map(|c| c.2.name.clone()).collect();
+                        GpuError::NoDevice(format!(
+                            " matching \"{want}\" (available: {})",
+                            names.join(", ")
+                        ))
+                    })?
             }
             None => {
                 let rank = |c: &Candidate| match c.3.device_type {
@@ -224,7 +284,9 @@ impl GpuContext {
 
         // Step 3: logical device with the features the kernels use.
         let prio = [1.0f32];
-        let qci = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&prio)];
+        let qci = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&prio)];
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
         let base_features = {
             let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12);
@@ -235,15 +297,23 @@ impl GpuContext {
         let scalar_layout = f12.scalar_block_layout == vk::TRUE;
         let host_query_reset = f12.host_query_reset == vk::TRUE;
         if !scalar_layout {
-            return Err(GpuError::NoDevice(format!(": {} lacks scalarBlockLayout", info.name)));
+            return Err(GpuError::NoDevice(format!(
+                ": {} lacks scalarBlockLayout",
+                info.name
+            )));
         }
         let mut en12 = vk::PhysicalDeviceVulkan12Features::default()
             .scalar_block_layout(true)
             .host_query_reset(host_query_reset);
-        let base = vk::PhysicalDeviceFeatures::default().shader_int64(base_features.shader_int64 == vk::TRUE);
-        let dci = vk::DeviceCreateInfo::default().queue_create_infos(&qci).enabled_features(&base).push_next(&mut en12);
+        let base = vk::PhysicalDeviceFeatures::default()
+            .shader_int64(base_features.shader_int64 == vk::TRUE);
+        let dci = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&qci)
+            .enabled_features(&base)
+            .push_next(&mut en12);
         // SAFETY: valid create info referencing live locals.
-        let device = unsafe { instance.create_device(physical, &dci, None) }.map_err(GpuError::vk("create device"))?;
+        let device = unsafe { instance.create_device(physical, &dci, None) }
+            .map_err(GpuError::vk("create device"))?;
         // SAFETY: queue 0 of the family we requested.
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let allocator = Allocator::new(&AllocatorCreateDesc {
@@ -254,12 +324,16 @@ impl GpuContext {
             buffer_device_address: false,
             allocation_sizes: Default::default(),
         })
-        .map_err(|e| GpuError::Alloc { name: "allocator".into(), message: e.to_string() })?;
-        let debug_utils = has_debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
+        .map_err(|e| GpuError::Alloc {
+            name: "allocator".into(),
+            message: e.to_string(),
+        })?;
+        let debug_utils =
+            has_debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
         // SAFETY: valid physical device.
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
-        let timestamps_supported =
-            families[queue_family as usize].timestamp_valid_bits > 0 && props.limits.timestamp_compute_and_graphics == vk::TRUE;
+        let timestamps_supported = families[queue_family as usize].timestamp_valid_bits > 0
+            && props.limits.timestamp_compute_and_graphics == vk::TRUE;
         tracing::info!(device = %info.name, driver = %info.driver, validation, "Vulkan device ready");
         Ok(GpuContext {
             entry,
@@ -267,6 +341,7 @@ impl GpuContext {
             physical,
             device,
             queue,
+            queue_lock: Mutex::new(()),
             queue_family,
             allocator: Mutex::new(Some(allocator)),
             debug_utils,
@@ -282,8 +357,12 @@ impl GpuContext {
 
     /// Returns an error carrying every validation message seen since the last call.
     pub fn check_validation(&self) -> GpuResult<()> {
-        let Some(sink) = &self.messages else { return Ok(()) };
-        let mut v = sink.lock().map_err(|_| GpuError::Other("validation sink poisoned".into()))?;
+        let Some(sink) = &self.messages else {
+            return Ok(());
+        };
+        let mut v = sink
+            .lock()
+            .map_err(|_| GpuError::Other("validation sink poisoned".into()))?;
         if v.is_empty() {
             return Ok(());
         }
@@ -301,7 +380,9 @@ impl GpuContext {
     /// Names a Vulkan object for debuggers and validation messages.
     pub(crate) fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
         if let (Some(du), Ok(cname)) = (&self.debug_utils, CString::new(name)) {
-            let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&cname);
+            let info = vk::DebugUtilsObjectNameInfoEXT::default()
+                .object_handle(handle)
+                .object_name(&cname);
             // SAFETY: the handle belongs to this device.
             let _ = unsafe { du.set_debug_utils_object_name(&info) };
         }

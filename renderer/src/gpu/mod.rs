@@ -27,7 +27,10 @@ pub enum GpuError {
     #[error("no Vulkan 1.2 device found{0}")]
     NoDevice(String),
     #[error("{stage}: {result}")]
-    Vk { stage: &'static str, result: ash::vk::Result },
+    Vk {
+        stage: &'static str,
+        result: ash::vk::Result,
+    },
     #[error("GPU memory allocation for {name} failed: {message}")]
     Alloc { name: String, message: String },
     #[error("shader {name} failed to compile: {log}")]

@@ -27,7 +27,13 @@ pub struct ComputePipeline {
 
 impl ComputePipeline {
     /// Creates the pipeline from SPIR-V and binds `bindings` to its descriptor set.
-    pub fn new(ctx: &Arc<GpuContext>, name: &str, spirv: &[u32], bindings: &[Binding<'_>], push_size: u32) -> GpuResult<Self> {
+    pub fn new(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        spirv: &[u32],
+        bindings: &[Binding<'_>],
+        push_size: u32,
+    ) -> GpuResult<Self> {
         let dev = &ctx.device;
         let mut p = ComputePipeline {
             ctx: ctx.clone(),
@@ -53,15 +59,23 @@ impl ComputePipeline {
         // are ignored by the destroy calls).
         unsafe {
             p.set_layout = dev
-                .create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&dsl), None)
+                .create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&dsl),
+                    None,
+                )
                 .map_err(GpuError::vk("create descriptor set layout"))?;
-            let ranges = [vk::PushConstantRange::default().stage_flags(vk::ShaderStageFlags::COMPUTE).offset(0).size(push_size)];
+            let ranges = [vk::PushConstantRange::default()
+                .stage_flags(vk::ShaderStageFlags::COMPUTE)
+                .offset(0)
+                .size(push_size)];
             let layouts = [p.set_layout];
             let mut lci = vk::PipelineLayoutCreateInfo::default().set_layouts(&layouts);
             if push_size > 0 {
                 lci = lci.push_constant_ranges(&ranges);
             }
-            p.layout = dev.create_pipeline_layout(&lci, None).map_err(GpuError::vk("create pipeline layout"))?;
+            p.layout = dev
+                .create_pipeline_layout(&lci, None)
+                .map_err(GpuError::vk("create pipeline layout"))?;
 
             // Step 2: the pipeline.
             let module = dev
@@ -71,24 +85,47 @@ impl ComputePipeline {
                 .stage(vk::ShaderStageFlags::COMPUTE)
                 .module(module)
                 .name(c"main");
-            let ci = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(p.layout)];
+            let ci = [vk::ComputePipelineCreateInfo::default()
+                .stage(stage)
+                .layout(p.layout)];
             let r = dev.create_compute_pipelines(vk::PipelineCache::null(), &ci, None);
             dev.destroy_shader_module(module, None);
-            p.pipeline = r.map_err(|(_, e)| GpuError::Vk { stage: "create compute pipeline", result: e })?[0];
+            p.pipeline = r.map_err(|(_, e)| GpuError::Vk {
+                stage: "create compute pipeline",
+                result: e,
+            })?[0];
             ctx.set_name(p.pipeline, name);
 
             // Step 3: descriptor pool and set, written once.
             let count = bindings.len().max(1) as u32;
-            let sizes = [vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: count }];
+            let sizes = [vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::STORAGE_BUFFER,
+                descriptor_count: count,
+            }];
             p.pool = dev
-                .create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None)
+                .create_descriptor_pool(
+                    &vk::DescriptorPoolCreateInfo::default()
+                        .max_sets(1)
+                        .pool_sizes(&sizes),
+                    None,
+                )
                 .map_err(GpuError::vk("create descriptor pool"))?;
             p.set = dev
-                .allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(p.pool).set_layouts(&layouts))
+                .allocate_descriptor_sets(
+                    &vk::DescriptorSetAllocateInfo::default()
+                        .descriptor_pool(p.pool)
+                        .set_layouts(&layouts),
+                )
                 .map_err(GpuError::vk("allocate descriptor set"))?[0];
             let infos: Vec<[vk::DescriptorBufferInfo; 1]> = bindings
                 .iter()
-                .map(|b| [vk::DescriptorBufferInfo { buffer: b.buffer.raw, offset: 0, range: vk::WHOLE_SIZE }])
+                .map(|b| {
+                    [vk::DescriptorBufferInfo {
+                        buffer: b.buffer.raw,
+                        offset: 0,
+                        range: vk::WHOLE_SIZE,
+                    }]
+                })
                 .collect();
             let writes: Vec<_> = bindings
                 .iter()

@@ -7,7 +7,10 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use glslang::include::{IncludeHandler, IncludeResult, IncludeType};
-use glslang::{CompilerOptions, ShaderInput, ShaderSource, ShaderStage, SourceLanguage, SpirvVersion, Target, VulkanVersion};
+use glslang::{
+    CompilerOptions, ShaderInput, ShaderSource, ShaderStage, SourceLanguage, SpirvVersion, Target,
+    VulkanVersion,
+};
 
 use super::{GpuError, GpuResult};
 
@@ -20,19 +23,33 @@ pub type ShaderDefines = Vec<(String, String)>;
 
 /// Returns the embedded source of `path` (relative to shaders/).
 pub fn shader_source(path: &str) -> Option<&'static str> {
-    embedded::SHADERS.iter().find(|(p, _)| *p == path).map(|(_, s)| *s)
+    embedded::SHADERS
+        .iter()
+        .find(|(p, _)| *p == path)
+        .map(|(_, s)| *s)
 }
 
 struct EmbeddedIncludes;
 
 impl IncludeHandler for EmbeddedIncludes {
-    fn include(&mut self, _ty: IncludeType, header: &str, includer: &str, _depth: usize) -> Option<IncludeResult> {
+    fn include(
+        &mut self,
+        _ty: IncludeType,
+        header: &str,
+        includer: &str,
+        _depth: usize,
+    ) -> Option<IncludeResult> {
         // Root-relative first, then relative to the including file's folder.
-        let rel = includer.rsplit_once('/').map(|(dir, _)| format!("{dir}/{header}"));
+        let rel = includer
+            .rsplit_once('/')
+            .map(|(dir, _)| format!("{dir}/{header}"));
         let (name, data) = std::iter::once(header.to_string())
             .chain(rel)
             .find_map(|p| shader_source(&p).map(|s| (p, s)))?;
-        Some(IncludeResult { name, data: data.to_string() })
+        Some(IncludeResult {
+            name,
+            data: data.to_string(),
+        })
     }
 }
 
@@ -49,21 +66,39 @@ pub fn compile_glsl(path: &str, defines: &ShaderDefines) -> GpuResult<Arc<Vec<u3
     if let Some(hit) = cache().lock().ok().and_then(|c| c.get(&key).cloned()) {
         return Ok(hit);
     }
-    let err = |log: String| GpuError::Shader { name: path.to_string(), log };
+    let err = |log: String| GpuError::Shader {
+        name: path.to_string(),
+        log,
+    };
     let text = shader_source(path).ok_or_else(|| err("no such embedded shader".into()))?;
-    let compiler = glslang::Compiler::acquire().ok_or_else(|| err("glslang failed to initialise".into()))?;
+    let compiler =
+        glslang::Compiler::acquire().ok_or_else(|| err("glslang failed to initialise".into()))?;
     let source = ShaderSource::try_from(text.to_string()).map_err(|e| err(e.to_string()))?;
     let options = CompilerOptions {
         source_language: SourceLanguage::GLSL,
-        target: Target::Vulkan { version: VulkanVersion::Vulkan1_2, spirv_version: SpirvVersion::SPIRV1_5 },
+        target: Target::Vulkan {
+            version: VulkanVersion::Vulkan1_2,
+            spirv_version: SpirvVersion::SPIRV1_5,
+        },
         version_profile: None,
         messages: glslang::ShaderMessage::DEFAULT,
     };
-    let defs: Vec<(&str, Option<&str>)> = defines.iter().map(|(k, v)| (k.as_str(), Some(v.as_str()))).collect();
+    let defs: Vec<(&str, Option<&str>)> = defines
+        .iter()
+        .map(|(k, v)| (k.as_str(), Some(v.as_str())))
+        .collect();
     let mut includes = EmbeddedIncludes;
-    let input = ShaderInput::new(&source, ShaderStage::Compute, &options, Some(&defs[..]), Some(&mut includes))
+    let input = ShaderInput::new(
+        &source,
+        ShaderStage::Compute,
+        &options,
+        Some(&defs[..]),
+        Some(&mut includes),
+    )
+    .map_err(|e| err(e.to_string()))?;
+    let shader = glslang::Shader::new(compiler, input)
+        .parse()
         .map_err(|e| err(e.to_string()))?;
-    let shader = glslang::Shader::new(compiler, input).parse().map_err(|e| err(e.to_string()))?;
     let spirv = shader.compile().map_err(|e| err(e.to_string()))?;
     let spirv = Arc::new(spirv);
     if let Ok(mut c) = cache().lock() {

@@ -83,7 +83,13 @@ pub trait Integrator: Send {
     /// The effective max_depth.
     fn max_depth(&self) -> i32;
     /// Records one pass: `spp` samples per pixel starting at sample index `sample_base`.
-    fn record_pass(&self, rec: &mut Recorder<'_>, pipeline: &ComputePipeline, push: GpuPush, groups: [u32; 3]) -> GpuResult<()>;
+    fn record_pass(
+        &self,
+        rec: &mut Recorder<'_>,
+        pipeline: &ComputePipeline,
+        push: GpuPush,
+        groups: [u32; 3],
+    ) -> GpuResult<()>;
 }
 
 #[cfg(test)]
@@ -93,8 +99,15 @@ mod tests {
     #[test]
     fn options_parse_and_reject_unknown_fields() {
         let o: IntegratorOptions = serde_json::from_str(r#"{"type":"nee","max_depth":3}"#).unwrap();
-        assert_eq!(o, IntegratorOptions::Nee(PathOptions { max_depth: Some(3), rr_depth: None }));
-        let e = serde_json::from_str::<IntegratorOptions>(r#"{"type":"pt","max_dpeth":3}"#).unwrap_err();
+        assert_eq!(
+            o,
+            IntegratorOptions::Nee(PathOptions {
+                max_depth: Some(3),
+                rr_depth: None
+            })
+        );
+        let e = serde_json::from_str::<IntegratorOptions>(r#"{"type":"pt","max_dpeth":3}"#)
+            .unwrap_err();
         assert!(e.to_string().contains("max_dpeth"), "{e}");
         assert!(serde_json::from_str::<IntegratorOptions>(r#"{"type":"xyz"}"#).is_err());
     }

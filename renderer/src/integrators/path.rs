@@ -15,7 +15,13 @@ pub struct PathIntegrator {
 
 impl PathIntegrator {
     /// `max_depth` and `rr_depth` take their defaults here: the scene's max_depth, else 6; 5.
-    pub(super) fn new(name: &'static str, kernel: &'static str, label: &'static str, o: &PathOptions, scene_max_depth: Option<i32>) -> Self {
+    pub(super) fn new(
+        name: &'static str,
+        kernel: &'static str,
+        label: &'static str,
+        o: &PathOptions,
+        scene_max_depth: Option<i32>,
+    ) -> Self {
         PathIntegrator {
             name,
             kernel,
@@ -36,7 +42,13 @@ impl Integrator for PathIntegrator {
     fn max_depth(&self) -> i32 {
         self.max_depth
     }
-    fn record_pass(&self, rec: &mut Recorder<'_>, pipeline: &ComputePipeline, mut push: GpuPush, groups: [u32; 3]) -> GpuResult<()> {
+    fn record_pass(
+        &self,
+        rec: &mut Recorder<'_>,
+        pipeline: &ComputePipeline,
+        mut push: GpuPush,
+        groups: [u32; 3],
+    ) -> GpuResult<()> {
         push.max_depth = self.max_depth;
         push.rr_depth = self.rr_depth;
         rec.dispatch(pipeline, bytemuck::bytes_of(&push), groups, self.label)

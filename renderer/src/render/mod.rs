@@ -75,7 +75,10 @@ pub enum RenderError {
 }
 
 /// Renders to the budget and returns the image (radiance per pixel) and what happened.
-pub fn render(session: &mut RenderSession, budget: Budget) -> Result<(Image, RenderStats), RenderError> {
+pub fn render(
+    session: &mut RenderSession,
+    budget: Budget,
+) -> Result<(Image, RenderStats), RenderError> {
     match budget {
         Budget::Spp(total) => {
             // Passes sized to about a quarter second each after the first, so long renders
@@ -110,5 +113,7 @@ pub fn next_pass_size(last_spp: u32, last_wall: Duration, target: Duration) -> u
     if per_sample <= 0.0 {
         return (last_spp * 2).clamp(1, 1024);
     }
-    ((target.as_secs_f64() / per_sample) as u32).clamp(1, (last_spp * 4).max(1)).min(1024)
+    ((target.as_secs_f64() / per_sample) as u32)
+        .clamp(1, (last_spp * 4).max(1))
+        .min(1024)
 }

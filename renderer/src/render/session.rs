@@ -52,7 +52,13 @@ struct SceneInfo {
 
 impl RenderSession {
     /// Uploads the compiled scene and builds the integrator's kernel for its feature set.
-    pub fn new(ctx: &Arc<GpuContext>, scene: &CompiledScene, options: &IntegratorOptions, scene_max_depth: Option<i32>, seed: u64) -> Result<Self, RenderError> {
+    pub fn new(
+        ctx: &Arc<GpuContext>,
+        scene: &CompiledScene,
+        options: &IntegratorOptions,
+        scene_max_depth: Option<i32>,
+        seed: u64,
+    ) -> Result<Self, RenderError> {
         let start = Instant::now();
         let integrator = options.build(scene_max_depth);
         let (w, h) = (scene.width, scene.height);
@@ -60,28 +66,81 @@ impl RenderSession {
         // Step 1: scene buffers, each at its named binding.
         let up = |name: &str, bytes: &[u8]| Buffer::from_slice(ctx, name, bytes);
         let scene_buffers = vec![
-            (binding::GLOBALS, up("globals", bytemuck::bytes_of(&scene.globals))?),
-            (binding::BVH_NODES, up("bvh nodes", bytemuck::cast_slice(&scene.nodes))?),
-            (binding::PRIMS, up("prims", bytemuck::cast_slice(&scene.prims))?),
-            (binding::TRI_SHADING, up("tri shading", bytemuck::cast_slice(&scene.tri_shading))?),
-            (binding::MATERIALS, up("materials", bytemuck::cast_slice(&scene.materials))?),
-            (binding::TEXTURES, up("textures", bytemuck::cast_slice(&scene.textures))?),
-            (binding::TEXELS, up("texels", bytemuck::cast_slice(&scene.texels))?),
-            (binding::LIGHTS, up("lights", bytemuck::cast_slice(&scene.lights))?),
-            (binding::LIGHT_ALIAS, up("light alias", bytemuck::cast_slice(&scene.alias))?),
-            (binding::ENV_DIST, up("env distribution", bytemuck::cast_slice(&scene.env_dist))?),
+            (
+                binding::GLOBALS,
+                up("globals", bytemuck::bytes_of(&scene.globals))?,
+            ),
+            (
+                binding::BVH_NODES,
+                up("bvh nodes", bytemuck::cast_slice(&scene.nodes))?,
+            ),
+            (
+                binding::PRIMS,
+                up("prims", bytemuck::cast_slice(&scene.prims))?,
+            ),
+            (
+                binding::TRI_SHADING,
+                up("tri shading", bytemuck::cast_slice(&scene.tri_shading))?,
+            ),
+            (
+                binding::MATERIALS,
+                up("materials", bytemuck::cast_slice(&scene.materials))?,
+            ),
+            (
+                binding::TEXTURES,
+                up("textures", bytemuck::cast_slice(&scene.textures))?,
+            ),
+            (
+                binding::TEXELS,
+                up("texels", bytemuck::cast_slice(&scene.texels))?,
+            ),
+            (
+                binding::LIGHTS,
+                up("lights", bytemuck::cast_slice(&scene.lights))?,
+            ),
+            (
+                binding::LIGHT_ALIAS,
+                up("light alias", bytemuck::cast_slice(&scene.alias))?,
+            ),
+            (
+                binding::ENV_DIST,
+                up("env distribution", bytemuck::cast_slice(&scene.env_dist))?,
+            ),
         ];
         // Step 2: accumulation (rgb sum, sample count per pixel) and counters, zeroed.
         let accum = Buffer::new(ctx, "accumulation", pixels * 16, BufferUsage::Storage)?;
         ctx.fill_zero(&accum)?;
-        let stats_buf = Buffer::new(ctx, "stats", std::mem::size_of::<GpuStats>() as u64, BufferUsage::Storage)?;
+        let stats_buf = Buffer::new(
+            ctx,
+            "stats",
+            std::mem::size_of::<GpuStats>() as u64,
+            BufferUsage::Storage,
+        )?;
         ctx.fill_zero(&stats_buf)?;
         // Step 3: the kernel, specialised for the scene's features.
         let spirv = compile_glsl(integrator.kernel(), &scene.features.defines())?;
-        let mut bindings: Vec<Binding<'_>> = scene_buffers.iter().map(|(i, b)| Binding { index: *i, buffer: b }).collect();
-        bindings.push(Binding { index: binding::ACCUM, buffer: &accum });
-        bindings.push(Binding { index: binding::STATS, buffer: &stats_buf });
-        let pipeline = ComputePipeline::new(ctx, integrator.kernel(), &spirv, &bindings, std::mem::size_of::<GpuPush>() as u32)?;
+        let mut bindings: Vec<Binding<'_>> = scene_buffers
+            .iter()
+            .map(|(i, b)| Binding {
+                index: *i,
+                buffer: b,
+            })
+            .collect();
+        bindings.push(Binding {
+            index: binding::ACCUM,
+            buffer: &accum,
+        });
+        bindings.push(Binding {
+            index: binding::STATS,
+            buffer: &stats_buf,
+        });
+        let pipeline = ComputePipeline::new(
+            ctx,
+            integrator.kernel(),
+            &spirv,
+            &bindings,
+            std::mem::size_of::<GpuPush>() as u32,
+        )?;
         drop(bindings);
         ctx.check_validation()?;
         Ok(RenderSession {
@@ -126,7 +185,9 @@ impl RenderSession {
     /// Renders `spp` more samples per pixel.
     pub fn run_pass(&mut self, spp: u32) -> Result<PassStats, RenderError> {
         if spp == 0 {
-            return Err(RenderError::Invalid("a pass needs at least one sample".into()));
+            return Err(RenderError::Invalid(
+                "a pass needs at least one sample".into(),
+            ));
         }
         let start = Instant::now();
         let push = GpuPush {
@@ -138,7 +199,9 @@ impl RenderSession {
         };
         let groups = [self.width.div_ceil(8), self.height.div_ceil(8), 1];
         let (integrator, pipeline) = (&self.integrator, &self.pipeline);
-        let timings = self.ctx.record(1, |rec| integrator.record_pass(rec, pipeline, push, groups))?;
+        let timings = self
+            .ctx
+            .record(1, |rec| integrator.record_pass(rec, pipeline, push, groups))?;
         // Counters: read and reset (u32 on the GPU, u64 here).
         let s: Vec<GpuStats> = self.ctx.download_vec(&self.stats_buf, 1)?;
         self.ctx.fill_zero(&self.stats_buf)?;
@@ -158,8 +221,21 @@ impl RenderSession {
     pub fn image(&self) -> Result<Image, RenderError> {
         let n = (self.width * self.height) as usize;
         let acc: Vec<[f32; 4]> = self.ctx.download_vec(&self.accum, n)?;
-        let pixels = acc.iter().map(|a| if a[3] > 0.0 { [a[0] / a[3], a[1] / a[3], a[2] / a[3]] } else { [0.0; 3] }).collect();
-        Ok(Image { width: self.width, height: self.height, pixels })
+        let pixels = acc
+            .iter()
+            .map(|a| {
+                if a[3] > 0.0 {
+                    [a[0] / a[3], a[1] / a[3], a[2] / a[3]]
+                } else {
+                    [0.0; 3]
+                }
+            })
+            .collect();
+        Ok(Image {
+            width: self.width,
+            height: self.height,
+            pixels,
+        })
     }
 
     pub fn stats(&self) -> RenderStats {

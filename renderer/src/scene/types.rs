@@ -173,10 +173,16 @@ pub enum Light {
 
 #[derive(Debug, Clone)]
 pub enum Environment {
-    Constant { radiance: Vec3 },
+    Constant {
+        radiance: Vec3,
+    },
     /// Equirectangular radiance map (index into `Scene::textures`), +Y up, centre column looking
     /// down −Z; `rotate_y` in degrees.
-    Map { texture: u32, scale: f32, rotate_y: f32 },
+    Map {
+        texture: u32,
+        scale: f32,
+        rotate_y: f32,
+    },
 }
 
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -11,8 +11,9 @@
 //! finite (0) at grazing angles instead of inf/inf.
 //! The half vector, D and G1 use `precise` locals: without it the compiler may fuse multiply-adds
 //! differently where bsdf_sample and bsdf_pdf inline them, so a sampled direction's pdf and
-//! bsdf_pdf of the same direction could disagree (measured on lavapipe: up to 100% at grazing
-//! angles and for very sharp lobes; exactly equal with `precise`).
+//! bsdf_pdf of the same direction could disagree (measured on lavapipe: for grazing wo and very
+//! sharp lobes some sampled directions got bsdf_pdf = 0 or pdfs tens of percent apart; with
+//! `precise` they agree to rounding).
 #ifndef COMMON_BSDF_MICROFACET_GLSL
 #define COMMON_BSDF_MICROFACET_GLSL
 

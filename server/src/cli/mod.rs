@@ -1,0 +1,71 @@
+//! Command-line interface: argument definitions and dispatch to the subcommands.
+
+mod render;
+
+use clap::{Parser, Subcommand};
+
+/// A failure with its exit code: 2 for bad input, 1 for everything else.
+#[derive(Debug)]
+pub struct CliError {
+    pub code: u8,
+    pub message: String,
+}
+
+impl CliError {
+    pub fn input(message: impl Into<String>) -> Self {
+        CliError {
+            code: 2,
+            message: message.into(),
+        }
+    }
+    pub fn failure(message: impl Into<String>) -> Self {
+        CliError {
+            code: 1,
+            message: message.into(),
+        }
+    }
+}
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "candela",
+    version,
+    about = "GPU render server: path tracing, NEE, BDPT, VCT, Whitted, deferred"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Render a scene file to an EXR or PNG image.
+    Render(render::RenderArgs),
+    /// List the Vulkan devices candela can use.
+    Devices {
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+pub fn run(cli: Cli) -> Result<(), CliError> {
+    match cli.command {
+        Command::Render(a) => render::run(a),
+        Command::Devices { json } => {
+            let devices =
+                renderer::gpu::list_devices().map_err(|e| CliError::failure(e.to_string()))?;
+            if json {
+                println!("{}", serde_json::to_string(&devices).unwrap_or_default());
+            } else {
+                for d in devices {
+                    println!(
+                        "{} ({}, Vulkan {}, {})",
+                        d.name, d.kind, d.api_version, d.driver
+                    );
+                }
+            }
+            Ok(())
+        }
+    }
+}

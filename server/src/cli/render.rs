@@ -1,0 +1,191 @@
+//! `candela render SCENE.json -o OUT.{exr,png}`: load, compile, render to an spp or time budget,
+//! write the image, report what happened (human-readable, or one JSON object with --json).
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use clap::Args;
+use renderer::compile::compile;
+use renderer::gpu::{GpuContext, GpuOptions};
+use renderer::integrators::{IntegratorOptions, NAMES};
+use renderer::render::{render, Budget, RenderSession};
+
+use super::CliError;
+
+/// Largest film side and pixel count the CLI accepts.
+const MAX_SIDE: u32 = 16384;
+const MAX_PIXELS: u64 = 64 * 1024 * 1024;
+
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    /// Scene file (JSON, see SCENE_FORMAT.md).
+    pub scene: PathBuf,
+    /// Output image: .exr (linear float RGB) or .png (exposure, tonemap, sRGB).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Integrator: pt or nee (default: the scene's render.integrator, else nee).
+    #[arg(long)]
+    pub integrator: Option<String>,
+    /// Samples per pixel (default: the scene's render.spp, else 256).
+    #[arg(long, conflicts_with = "time")]
+    pub spp: Option<u32>,
+    /// Render for this many seconds instead of a sample count.
+    #[arg(long)]
+    pub time: Option<f64>,
+    /// Random seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Mitsuba's max_depth: 1 = emitters only, 2 = direct light, -1 = unbounded.
+    #[arg(long, allow_hyphen_values = true)]
+    pub max_depth: Option<i32>,
+    /// Override the film width (pixels).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Override the film height (pixels).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Use the first Vulkan device whose name contains this text.
+    #[arg(long)]
+    pub device: Option<String>,
+    /// Print the report as one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn check_args(a: &RenderArgs) -> Result<(), CliError> {
+    if a.spp == Some(0) {
+        return Err(CliError::input("--spp: must be at least 1"));
+    }
+    if let Some(t) = a.time {
+        if !(t.is_finite() && t > 0.0 && t <= 7.0 * 86400.0) {
+            return Err(CliError::input(format!(
+                "--time: must be a number of seconds in (0, 604800], got {t}"
+            )));
+        }
+    }
+    if let Some(d) = a.max_depth {
+        if d == 0 || d < -1 {
+            return Err(CliError::input(format!(
+                "--max-depth: must be -1 or at least 1, got {d}"
+            )));
+        }
+    }
+    for (flag, v) in [("--width", a.width), ("--height", a.height)] {
+        if let Some(v) = v {
+            if v == 0 || v > MAX_SIDE {
+                return Err(CliError::input(format!(
+                    "{flag}: must be in 1..={MAX_SIDE}, got {v}"
+                )));
+            }
+        }
+    }
+    let ext = a
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    if !matches!(ext.as_deref(), Some("exr" | "png")) {
+        return Err(CliError::input(format!(
+            "-o {}: the output must end in .exr or .png",
+            a.output.display()
+        )));
+    }
+    Ok(())
+}
+
+pub fn run(a: RenderArgs) -> Result<(), CliError> {
+    check_args(&a)?;
+    // Step 1: the scene.
+    let scene = renderer::scene::load_file(&a.scene)
+        .map_err(|e| CliError::input(format!("{}: {e}", a.scene.display())))?;
+    let name = a
+        .integrator
+        .clone()
+        .or_else(|| scene.render.integrator.clone())
+        .unwrap_or_else(|| "nee".into());
+    let mut options = IntegratorOptions::from_name(&name).ok_or_else(|| {
+        CliError::input(format!(
+            "--integrator: unknown or not yet available \"{name}\" (available: {})",
+            NAMES.join(", ")
+        ))
+    })?;
+    if let Some(d) = a.max_depth {
+        options.set_max_depth(d);
+    }
+    let width = a.width.unwrap_or(scene.film.width);
+    let height = a.height.unwrap_or(scene.film.height);
+    if width as u64 * height as u64 > MAX_PIXELS {
+        return Err(CliError::input(format!(
+            "film: {width}x{height} is more than {MAX_PIXELS} pixels"
+        )));
+    }
+    let budget = match (a.spp, a.time) {
+        (_, Some(t)) => Budget::Time(t),
+        (Some(n), None) => Budget::Spp(n),
+        (None, None) => Budget::Spp(scene.render.spp.unwrap_or(256)),
+    };
+    // Step 2: device, compile, render.
+    let ctx = GpuContext::new(&GpuOptions {
+        device: a.device.clone(),
+        validation: false,
+    })
+    .map_err(|e| match e {
+        renderer::gpu::GpuError::NoDevice(_) if a.device.is_some() => {
+            CliError::input(format!("--device: {e}"))
+        }
+        e => CliError::failure(e.to_string()),
+    })?;
+    let ctx = Arc::new(ctx);
+    let compiled = compile(&scene, width, height)
+        .map_err(|e| CliError::input(format!("{}: {e}", a.scene.display())))?;
+    let mut session = RenderSession::new(&ctx, &compiled, &options, scene.render.max_depth, a.seed)
+        .map_err(|e| CliError::failure(e.to_string()))?;
+    let (image, stats) =
+        render(&mut session, budget).map_err(|e| CliError::failure(e.to_string()))?;
+    // Step 3: the image and the report.
+    renderer::film::write_image(&a.output, &image, scene.film.exposure, scene.film.tonemap)
+        .map_err(|e| CliError::failure(e.to_string()))?;
+    if a.json {
+        let mut v = serde_json::to_value(&stats).unwrap_or_default();
+        if let Some(o) = v.as_object_mut() {
+            o.insert(
+                "output".into(),
+                serde_json::Value::String(a.output.display().to_string()),
+            );
+            o.insert(
+                "scene".into(),
+                serde_json::Value::String(a.scene.display().to_string()),
+            );
+        }
+        println!("{v}");
+    } else {
+        println!(
+            "device      {} ({})",
+            stats.device.name, stats.device.driver
+        );
+        println!(
+            "integrator  {} (max_depth {})",
+            stats.integrator, stats.max_depth
+        );
+        println!(
+            "image       {}x{}, {} spp in {} passes, seed {}",
+            stats.width, stats.height, stats.spp, stats.passes, stats.seed
+        );
+        println!(
+            "time        {:.3} s (GPU {:.3} s), setup {:.3} s",
+            stats.time_s, stats.gpu_time_s, stats.setup_s
+        );
+        println!(
+            "throughput  {:.2} Msamples/s, {:.2} Mrays/s",
+            stats.msamples_per_s,
+            stats.rays_per_s * 1e-6
+        );
+        println!(
+            "scene       {} triangles, {} primitives, {} lights, BVH {} nodes (depth {})",
+            stats.triangles, stats.primitives, stats.lights, stats.bvh_nodes, stats.bvh_depth
+        );
+        println!("dropped     {} NaN/Inf samples", stats.dropped_samples);
+        println!("wrote       {}", a.output.display());
+    }
+    Ok(())
+}
