@@ -1,35 +1,42 @@
 //! GPU unit tests of the BSDFs (`shaders/common/bsdf/*.glsl`), driven through
-//! `shaders/tests/bsdf_check.comp` (see its header for the method and buffer layout) on the
-//! default device (lavapipe in CI) with the validation layer on (any message fails the test).
+//! `shaders/tests/bsdf_check.comp` (its header gives the method and buffer layout) on the default
+//! device (lavapipe in CI) with the validation layer on (any validation message fails the test).
+//! Method after pbrt-v4's BSDF tests and Mitsuba 3's BSDF tests, reduced to moments.
 //!
-//! Every material of the table below is run for every wo of `WOS` (normal, 45°, grazing
-//! z = 1e-3, 45° below the horizon, exactly grazing z = 0), in R = 8 replicas with independent
-//! random shifts of N = 64 · SPT stratified samples each; σ is the standard error of the replica
-//! mean. Asserted for each (material, wo):
+//! Each material of the table (one test per family: diffuse + conductor, dielectric,
+//! principled, phong) runs at every wo of `wos()`: normal, 45°, grazing z = 1e-3, 45° below the
+//! horizon (the mirror image of the 45° wo) and exactly grazing z = 0, in R = 16 replicas of
+//! N = 64 · 128 = 8192 stratified samples with independent random shifts; σ is the standard error
+//! of the replica mean. Asserted for every (material, wo):
 //! - no NaN/Inf in any output (sample, eval, pdf, albedo hint);
-//! - sample weight == bsdf_eval / bsdf_pdf at the sampled direction within 1e-3 relative, and
-//!   sample pdf == bsdf_pdf within 1e-3 relative (the maximum mismatch over all non-delta samples);
-//! - energy: albedo (Σ weight / N) <= 1 + 3σ (+1e-5) for every energy-conserving material, in
-//!   importance mode for transmissive ones (radiance-mode transmission is scaled by 1/η² and may
-//!   legitimately exceed 1 from inside). Mitsuba 3's principled BSDF is not energy conserving
-//!   (diffuse, retro-reflection, sheen and clearcoat are added on top of the specular lobe without
-//!   compensation); its albedos are printed and compared with values computed by Mitsuba 3.9.1
-//!   scalar_rgb for the same parameters (`MITSUBA_PRINCIPLED`: agreement within 4σ + 1e-2);
-//!   see `principled_energy` for which cases exceed 1;
-//! - analytic albedos: diffuse = reflectance exactly (the white furnace: reflectance 1 gives 1
-//!   within 1%, in fact within 1e-5); a smooth conductor = reflectance · F_conductor(cos θo)
-//!   (exactly 1 with reflectance 1 and no eta/k; with eta/k against a complex-IOR Fresnel computed
-//!   on the host, within 1e-4); a smooth dielectric = R·F + T·(1 − F)·s with s = 1 (importance)
-//!   or 1/η² along the path (radiance), within 1e-3 (reflectance = transmittance = 1 in
-//!   importance mode: 1 within 1%, from both sides);
-//! - ∫ pdf dω (uniform-sphere estimate) == 1 − delta fraction − failed fraction within
-//!   0.02 + 4σ, for materials whose lobes are not too sharp for a uniform-sphere estimate
-//!   (excluded: phong n = 1000, principled with roughness < 0.2 and clearcoat gloss > 0.5;
-//!   delta materials pass trivially with 0 = 0);
-//! - twosided: a reflection-only material below the horizon is black and fails every sample
-//!   when one-sided, and for two-sided ones its albedo matches that of the mirrored wo (45° above)
-//!   within 4σ + 1e-4; at exactly grazing wo (z = 0) every material fails every sample.
-//! A table of the measured values is printed per material family.
+//! - sample weight == bsdf_eval / bsdf_pdf at the sampled direction, and sample pdf == bsdf_pdf,
+//!   both within 1e-3 relative as the maximum mismatch over all non-delta samples;
+//! - energy conservation: albedo (Σ weight / N, max channel) <= 1 + 3σ + 1e-5, in importance mode
+//!   for transmissive materials (radiance-mode transmission is scaled by 1/η² and legitimately
+//!   exceeds 1 from inside: 1.20 for roughness 0.3, ior 1.5 at 45° below; such cases are only
+//!   checked for consistency, the smooth one analytically). Mitsuba 3's principled BSDF is not energy conserving (diffuse,
+//!   retro-reflection, sheen and clearcoat are added to the specular lobe without compensation):
+//!   of the principled cases here, sheen 1 (at grazing wo: 1.078) and white base colour with
+//!   specular 1 and roughness 0.2 (1.068 normal, 1.079 at 45°, 1.260 grazing) exceed 1, as in
+//!   Mitsuba; every principled albedo must match Mitsuba 3.9.1 scalar_rgb's for the same
+//!   parameters (`MITSUBA_PRINCIPLED`) within 4σ + 1e-3, and the other principled cases must not
+//!   exceed 1;
+//! - analytic albedos: diffuse = reflectance within 1e-5 (white furnace: reflectance 1 gives 1);
+//!   a smooth conductor = reflectance · F(cos θo): exactly 1 with reflectance 1 and no eta/k, and
+//!   with gold's eta/k within 1e-4 of the complex Fresnel equations evaluated on the host; a smooth
+//!   dielectric = R·F + T·(1 − F)·s within 1e-3, s = 1 in importance mode (so reflectance =
+//!   transmittance = 1 gives exactly 1 from both sides: the energy-conserving furnace) and
+//!   s = 1/η² along the path in radiance mode;
+//! - ∫pdf dω (uniform-sphere estimate) == 1 − delta fraction − failed fraction within
+//!   0.01 + 4σ; the uniform-sphere estimate is useless for sharp lobes, so the check is skipped for
+//!   cases marked sharp (rough dielectrics with roughness 0.3 or ior 1.0001 whose transmitted lobe
+//!   is nearly a delta, principled spec_trans roughness 0.1, phong n = 1000) or sharp at grazing
+//!   (microfacet reflectors with roughness <= 0.4 at z = 1e-3), and it fails if a checked
+//!   estimate has σ > 0.02, so it is never vacuous;
+//! - sidedness: a reflection-only material below the horizon is black (every sample fails, pdf 0)
+//!   when one-sided, and for two-sided ones its albedo equals that of the mirrored wo within
+//!   4σ + 1e-4; at exactly grazing wo (z = 0) every material is black.
+//! The measured values are printed as one table per family.
 
 use std::sync::Arc;
 
@@ -245,13 +252,22 @@ fn mean_sigma(v: &[f64]) -> (f64, f64) {
 }
 
 fn context() -> Arc<GpuContext> {
-    Arc::new(
-        GpuContext::new(&GpuOptions {
-            device: None,
-            validation: true,
-        })
-        .expect("device"),
-    )
+    let ctx = GpuContext::new(&GpuOptions {
+        device: None,
+        validation: true,
+    })
+    .expect("device");
+    println!(
+        "device: {} ({}), validation layer {}",
+        ctx.info.name,
+        ctx.info.driver,
+        if ctx.validation_enabled {
+            "on"
+        } else {
+            "not installed"
+        }
+    );
+    Arc::new(ctx)
 }
 
 /// Runs bsdf_check.comp over cases × WOS × REPLICAS and aggregates per (case, wo).
@@ -492,7 +508,12 @@ fn analytic_albedo(c: &Case, wo: [f64; 3]) -> Option<(f64, f64)> {
                 };
                 c.c0[i] as f64 * fr
             };
-            Some((maxc([f(0), f(1), f(2)]), 1e-4))
+            let tol = if c.flags & MATF_HAS_ETA_K != 0 {
+                1e-4
+            } else {
+                0.0
+            };
+            Some((maxc([f(0), f(1), f(2)]), tol))
         }
         MAT_DIELECTRIC if c.is_delta() => {
             let eta = (c.s[1] as f64).max(1e-3);
@@ -505,10 +526,39 @@ fn analytic_albedo(c: &Case, wo: [f64; 3]) -> Option<(f64, f64)> {
     }
 }
 
-/// Albedos (max channel) of Mitsuba 3.9.1 scalar_rgb's `principled` for the cases of
-/// `principled_family` at the first three wos, by BSDF sampling with 2^22 samples each
-/// (standard errors ≤ 1e-3); computed with scripts/... offline (see the report), not at test time.
-const MITSUBA_PRINCIPLED: &[(&str, [f64; 3])] = &[];
+/// Albedos (max channel) of Mitsuba 3.9.1 scalar_rgb's `principled` BSDF, by BSDF sampling:
+/// (name, albedo at WOS[0..4], standard error), 8 × 2^16 independent samples per value.
+/// Mitsuba's principled has no twosided wrapper, so its "below 45°" values belong with the
+/// one-sided case; two-sided reflectors below the horizon are checked against their mirror image
+/// instead (NaN: no reference). Computed offline (not at test time) with:
+/// ```python
+/// import math, random, mitsuba as mi
+/// mi.set_variant('scalar_rgb')
+/// rgb = lambda v: {'type': 'rgb', 'value': v}
+/// bsdf = mi.load_dict({'type': 'principled', 'base_color': rgb([0.5] * 3), 'roughness': 0.5,
+///                      'specular': 0.5})  # plus the case's parameters ('eta' replaces 'specular')
+/// si = mi.SurfaceInteraction3f(); si.wi = mi.Vector3f(wo); si.sh_frame = mi.Frame3f([0, 0, 1])
+/// ctx = mi.BSDFContext(mi.TransportMode.Radiance)  # Importance for the spec_trans cases
+/// rng = random.Random(seed); acc = [0.0] * 3
+/// for _ in range(1 << 16):
+///     _, w = bsdf.sample(ctx, si, rng.random(), mi.Point2f(rng.random(), rng.random()))
+///     acc = [a + (float(w[k]) if math.isfinite(float(w[k])) else 0.0) for k, a in enumerate(acc)]
+/// albedo = max(acc) / (1 << 16)   # mean and standard error over seeds 1234..1241
+/// ```
+#[rustfmt::skip]
+const MITSUBA_PRINCIPLED: &[(&str, [f64; 4], [f64; 4])] = &[
+    ("principled default",              [0.5399, 0.5480, 0.6872, f64::NAN], [1.8e-4, 2.6e-4, 3.1e-4, 0.0]),
+    ("principled default one-sided",    [0.5399, 0.5480, 0.6872, 0.0],      [1.8e-4, 2.6e-4, 3.1e-4, 0.0]),
+    ("principled metallic r0.3",        [0.8916, 0.8871, 0.8736, f64::NAN], [1.3e-4, 1.4e-4, 1.6e-4, 0.0]),
+    ("principled clearcoat",            [0.8703, 0.8663, 0.9889, f64::NAN], [3.4e-4, 5.8e-4, 5.6e-4, 0.0]),
+    ("principled sheen",                [0.8418, 0.8545, 1.0766, f64::NAN], [3.0e-4, 4.3e-4, 4.2e-4, 0.0]),
+    ("principled spec_trans r0.5",      [0.9924, 0.9799, 0.8382, 0.8634],   [8.8e-5, 1.2e-4, 1.7e-4, 3.5e-4]),
+    ("principled spec_trans r0.1",      [1.0000, 1.0000, 0.9290, 0.9998],   [2.5e-6, 5.4e-6, 2.2e-4, 1.1e-5]),
+    ("principled aniso0.8 met0.5 r0.4", [0.7910, 0.7835, 0.8265, f64::NAN], [2.7e-4, 3.3e-4, 2.2e-4, 0.0]),
+    ("principled white r0.2 spec1",     [1.0674, 1.0782, 1.2605, f64::NAN], [1.0e-3, 8.5e-4, 3.3e-4, 0.0]),
+];
+/// Agreement with Mitsuba: |ours − Mitsuba| <= 4 · sqrt(σ_ours² + σ_Mitsuba²) + this.
+const MITSUBA_TOL: f64 = 1e-3;
 
 // ---- assertions -------------------------------------------------------------------------------
 
@@ -751,34 +801,43 @@ fn phong() {
     run_family("phong", &cases, 4);
 }
 
-/// Prints which principled cases exceed 1 and compares them with Mitsuba's albedos.
+/// Prints the principled albedos next to Mitsuba's, marks those above 1, and asserts agreement.
 fn principled_energy(cases: &[Case], stats: &[Vec<Stat>]) {
     let mut failures = Vec::new();
+    println!(
+        "\n{:<32} {:<9} {:>8} {:>8} {:>8} {:>8}",
+        "principled vs Mitsuba", "wo", "albedo", "σ", "Mitsuba", "σ"
+    );
     for (c, row) in cases.iter().zip(stats) {
-        for (wi, st) in row.iter().enumerate().take(3) {
+        let reference = MITSUBA_PRINCIPLED.iter().find(|(n, _, _)| *n == c.name);
+        assert!(reference.is_some(), "{}: no Mitsuba reference", c.name);
+        let (_, values, sigmas) = reference.unwrap();
+        for (wi, st) in row.iter().enumerate().take(4) {
+            let (r, rs) = (values[wi], sigmas[wi]);
+            if r.is_nan() {
+                continue;
+            }
             let exceeds = st.albedo > 1.0 + 3.0 * st.albedo_sigma;
-            let reference = MITSUBA_PRINCIPLED
-                .iter()
-                .find(|(n, _)| *n == c.name)
-                .map(|(_, v)| v[wi]);
             println!(
-                "{:<34} {:<7} albedo {:.4} ± {:.1e}{}{}",
+                "{:<32} {:<9} {:>8.4} {:>8.1e} {r:>8.4} {rs:>8.1e}{}",
                 c.name,
                 WO_NAMES[wi],
                 st.albedo,
                 st.albedo_sigma,
-                reference
-                    .map(|r| format!(", Mitsuba {r:.4}"))
-                    .unwrap_or_default(),
-                if exceeds { "  (exceeds 1)" } else { "" }
+                if exceeds { "  > 1" } else { "" }
             );
-            if let Some(r) = reference {
-                if (st.albedo - r).abs() > 4.0 * st.albedo_sigma + 1e-2 {
-                    failures.push(format!(
-                        "{} @ {}: albedo {:.4} vs Mitsuba {r:.4}",
-                        c.name, WO_NAMES[wi], st.albedo
-                    ));
-                }
+            let tol = 4.0 * (st.albedo_sigma.powi(2) + rs * rs).sqrt() + MITSUBA_TOL;
+            if (st.albedo - r).abs() > tol {
+                failures.push(format!(
+                    "{} @ {}: albedo {:.4} vs Mitsuba {r:.4} (tolerance {tol:.1e})",
+                    c.name, WO_NAMES[wi], st.albedo
+                ));
+            }
+            if exceeds && c.energy != Energy::ExceedsLikeMitsuba {
+                failures.push(format!(
+                    "{} @ {}: albedo {:.4} > 1",
+                    c.name, WO_NAMES[wi], st.albedo
+                ));
             }
         }
     }

@@ -69,13 +69,22 @@ struct Push {
 }
 
 fn context() -> Arc<GpuContext> {
-    Arc::new(
-        GpuContext::new(&GpuOptions {
-            device: None,
-            validation: true,
-        })
-        .expect("device"),
-    )
+    let ctx = GpuContext::new(&GpuOptions {
+        device: None,
+        validation: true,
+    })
+    .expect("device");
+    println!(
+        "device: {} ({}), validation layer {}",
+        ctx.info.name,
+        ctx.info.driver,
+        if ctx.validation_enabled {
+            "on"
+        } else {
+            "not installed"
+        }
+    );
+    Arc::new(ctx)
 }
 
 /// Runs one mode of sampling_check.comp over `inputs` (or `count` RNG keys) and reads back

@@ -80,3 +80,8 @@ fn textured_mesh_matches_mitsuba() {
 fn furnace_matches_mitsuba() {
     compare("furnace");
 }
+
+#[test]
+fn environment_map_matches_mitsuba() {
+    compare("envmap");
+}

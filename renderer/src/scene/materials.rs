@@ -1,10 +1,10 @@
 //! Materials: defaults from SCENE_FORMAT.md applied, ranges checked, textures loaded (through the
 //! shared `TextureCache`), names kept in document order.
 //!
-//! Ranges: colours finite and >= 0; roughness-like scalars (roughness, anisotropy, metallic,
-//! specular, tints, sheen, transmission, subsurface, clearcoat) in [0, 1]; ior > 0; Phong exponent
-//! >= 0; conductor eta > 0 and k >= 0, both or neither. Texture-valued parameters are not
-//! range-checked per texel.
+//! Ranges: colours finite and non-negative; roughness-like scalars (roughness, anisotropy,
+//! metallic, specular, tints, sheen, transmission, subsurface, clearcoat) in [0, 1]; ior > 0;
+//! Phong exponent non-negative; conductor eta > 0 and k non-negative, both or neither.
+//! Texture-valued parameters are not range-checked per texel.
 
 use glam::Vec3;
 

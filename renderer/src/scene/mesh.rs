@@ -106,7 +106,13 @@ pub(crate) fn to_world(
     materials: Materials,
     path: &str,
 ) -> Result<TriangleMesh, SceneError> {
-    debug_assert!(raw.is_consistent());
+    if !raw.is_consistent() {
+        // The readers guarantee this; an error beats an out-of-bounds index later.
+        return Err(SceneError::invalid(
+            path,
+            "inconsistent mesh (attribute counts or indices)",
+        ));
+    }
     // Step 1: positions through the full transform, in f64; they must stay finite.
     let positions: Vec<DVec3> = raw.positions.iter().map(|&p| transform.point(p)).collect();
     if !positions.iter().all(|p| p.is_finite()) {
@@ -134,7 +140,7 @@ pub(crate) fn to_world(
                     None => {
                         let c = computed
                             .get_or_insert_with(|| area_weighted_normals(&positions, &indices));
-                        c[i]
+                        c.get(i).copied().unwrap_or(DVec3::Y)
                     }
                 };
                 out.push(n.as_vec3());

@@ -28,6 +28,8 @@ mod transform;
 mod validate;
 
 #[cfg(test)]
+mod tests_errors;
+#[cfg(test)]
 mod tests_files;
 #[cfg(test)]
 mod tests_scene;

@@ -235,6 +235,9 @@ pub(crate) fn parse(data: &[u8], max_triangles: usize) -> Result<ObjMesh, FileEr
     if !out.raw.positions.iter().all(|p| p.is_finite()) {
         return Err(FileError::whole("a vertex position is not finite"));
     }
+    if !uvs.iter().all(|t| t.is_finite()) {
+        return Err(FileError::whole("a texture coordinate is not finite"));
+    }
     out.raw.normals = any_normals.then_some(normals);
     out.raw.uvs = any_uvs.then_some(uvs);
     Ok(out)

@@ -57,7 +57,7 @@ pub(crate) fn cube(d: &BoxDesc, path: &str) -> Result<RawMesh, SceneError> {
     let min = DVec3::from_array(d.min);
     let max = DVec3::from_array(d.max);
     for axis in 0..3 {
-        if !(min[axis] < max[axis]) {
+        if min[axis] >= max[axis] {
             return Err(SceneError::invalid(
                 join_path(path, "max"),
                 format!(
@@ -97,7 +97,7 @@ fn tuples(list: &NumList, arity: usize, path: &str, what: &str) -> Result<usize,
             path,
             format!("expected {what} ({arity} numbers each), got arrays of {n}"),
         )),
-        None if list.values.len() % arity != 0 => Err(SceneError::invalid(
+        None if !list.values.len().is_multiple_of(arity) => Err(SceneError::invalid(
             path,
             format!(
                 "expected a multiple of {arity} numbers ({what}), got {}",
@@ -173,7 +173,7 @@ pub(crate) fn triangles(
                 .chunks_exact(3)
                 .map(|c| DVec3::new(c[0], c[1], c[2]))
                 .collect();
-            if let Some(i) = v.iter().position(|n| !(n.length() > 0.0)) {
+            if let Some(i) = v.iter().position(|n| n.length() == 0.0) {
                 return Err(SceneError::invalid(
                     element_path(&np, list, i, 0),
                     "normals must be non-zero",
@@ -193,12 +193,21 @@ pub(crate) fn triangles(
                     format!("expected {n} uvs (one per position), got {m}"),
                 ));
             }
-            Some(
-                list.values
-                    .chunks_exact(2)
-                    .map(|c| Vec2::new(c[0] as f32, c[1] as f32))
-                    .collect(),
-            )
+            let v: Vec<Vec2> = list
+                .values
+                .chunks_exact(2)
+                .map(|c| Vec2::new(c[0] as f32, c[1] as f32))
+                .collect();
+            if let Some(i) = v.iter().position(|t| !t.is_finite()) {
+                return Err(SceneError::invalid(
+                    match list.nested {
+                        Some(_) => format!("{up}[{i}]"),
+                        None => format!("{up}[{}]", 2 * i),
+                    },
+                    "texture coordinates must fit in a 32-bit float",
+                ));
+            }
+            Some(v)
         }
     };
     Ok(RawMesh {

@@ -300,3 +300,61 @@ fn obj_errors_have_line_numbers() {
     let e = obj::parse(b"v 0 0 0\n\xff\n", 1).unwrap_err();
     assert_eq!(e.line, Some(2));
 }
+
+/// A small xorshift generator, so the mutation test is deterministic.
+pub(super) fn xorshift(state: &mut u64) -> u64 {
+    *state ^= *state << 13;
+    *state ^= *state >> 7;
+    *state ^= *state << 17;
+    *state
+}
+
+/// Mutates `data` a few times: overwrite, truncate, insert or remove bytes.
+pub(super) fn mutate(data: &mut Vec<u8>, state: &mut u64) {
+    const BYTES: &[u8] = b"0123456789 -./\ne\xff";
+    for _ in 0..1 + xorshift(state) % 4 {
+        if data.is_empty() {
+            return;
+        }
+        let r = xorshift(state);
+        let i = r as usize % data.len();
+        let b = BYTES[(r >> 40) as usize % BYTES.len()];
+        match (r >> 32) % 5 {
+            0 => data[i] = (r >> 48) as u8,
+            1 => data[i] = b,
+            2 => data.truncate(i),
+            3 => data.insert(i, b),
+            _ => {
+                data.remove(i);
+            }
+        }
+    }
+}
+
+#[test]
+fn readers_never_panic_on_mutated_input() {
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let inputs = [
+        ply_bytes("ascii"),
+        ply_bytes("binary_little_endian"),
+        ply_bytes("binary_big_endian"),
+        OBJ.as_bytes().to_vec(),
+    ];
+    for base in &inputs {
+        for _ in 0..3000 {
+            let mut d = base.clone();
+            mutate(&mut d, &mut state);
+            if let Ok(m) = ply::parse(&d, 1000) {
+                assert!(m.is_consistent());
+            }
+            match obj::parse(&d, 1000) {
+                Ok(m) => {
+                    assert!(m.raw.is_consistent());
+                    assert_eq!(m.triangle_names.len(), m.raw.indices.len());
+                }
+                // The scan must catch everything tobj would panic on.
+                Err(e) => assert_ne!(e.msg, "the OBJ reader failed on this file"),
+            }
+        }
+    }
+}

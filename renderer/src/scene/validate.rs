@@ -191,7 +191,7 @@ pub(crate) fn light(d: &LightDesc, index: usize) -> Result<Light, SceneError> {
         LightDesc::Spot(s) => {
             let position = DVec3::from_array(s.position);
             let to = DVec3::from_array(s.look_at) - position;
-            if !(to.length() > 0.0) {
+            if to.length() == 0.0 {
                 return Err(SceneError::invalid(
                     at("look_at"),
                     "must differ from position",
