@@ -96,17 +96,21 @@ fn scene_far_from_origin_renders_the_same() {
 }
 
 /// pt and nee converge to the same Cornell box: compared after 4×4 block averaging, where noise
-/// is small and bias is not, against the noise level of two nee renders with different seeds.
+/// is small and bias is not. The expected relMSE between two independent estimates is the sum of
+/// their noise levels, each measured as half the relMSE between two seeds of the same integrator;
+/// the test allows 3× that.
 #[test]
 fn pt_and_nee_agree_on_the_cornell_box() {
     let path = scene_path("cornell.json");
     let (pt, _) = render_scene(&path, "pt", 512, 32, 32, 1, None);
+    let (pt2, _) = render_scene(&path, "pt", 512, 32, 32, 4, None);
     let (nee, _) = render_scene(&path, "nee", 256, 32, 32, 2, None);
     let (nee2, _) = render_scene(&path, "nee", 256, 32, 32, 3, None);
     let d = |a, b| rel_mse(&downsample_box(a, 4), &downsample_box(b, 4)).unwrap();
-    let (e, noise) = (d(&pt, &nee), d(&nee2, &nee));
+    let e = d(&pt, &nee);
+    let noise = d(&pt, &pt2) / 2.0 + d(&nee, &nee2) / 2.0;
     let (mp, mn) = (pt.mean(), nee.mean());
-    println!("cornell 32x32: relMSE(pt 512spp, nee 256spp) {e:.2e} (4x4 blocks), nee seed-to-seed {noise:.2e}; means pt {mp:?} nee {mn:?}");
+    println!("cornell 32x32: relMSE(pt 512 spp, nee 256 spp) {e:.2e} on 4x4 blocks, expected noise {noise:.2e}; means pt {mp:.4?} nee {mn:.4?}");
     for c in 0..3 {
         assert!(
             (mp[c] / mn[c] - 1.0).abs() < 0.03,
@@ -114,7 +118,7 @@ fn pt_and_nee_agree_on_the_cornell_box() {
         );
     }
     assert!(
-        e < 4.0 * noise + 1e-4,
-        "pt vs nee {e:.2e} vs noise {noise:.2e}"
+        e < 3.0 * noise + 1e-4,
+        "pt vs nee {e:.2e} vs expected noise {noise:.2e}"
     );
 }
