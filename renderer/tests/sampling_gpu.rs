@@ -346,7 +346,7 @@ fn phi01(x: f64, y: f64) -> f64 {
 /// One row of the printed table, and the assertions shared by all warps.
 fn report(name: &str, c: &Chi2, off: u64, n: u64) {
     println!(
-        "{name:<30} N {n:>7}  bins {:>3}  dof {:>3}  chi2 {:>8.2}  p {:>9.3e}  off-domain {off}",
+        "{name:<36} N {n:>7}  bins {:>3}  dof {:>3}  chi2 {:>8.2}  p {:>9.3e}  off-domain {off}",
         BINS * BINS,
         c.dof,
         c.chi2,
@@ -495,6 +495,7 @@ fn uniform_sphere_is_uniform() {
 fn uniform_cone_is_uniform_and_normalised() {
     let ctx = context();
     for (k, &cos_max) in [-1.0f32, 0.0, 0.5, 0.9, 0.99, 0.9999999].iter().enumerate() {
+        // binned in ((1 − cos θ) / (1 − cos_max), φ)
         let name = format!("uniform cone cos_max {cos_max}");
         let out = run_mode(&ctx, MODE_UNIFORM_CONE, cos_max, &uniforms(10 + k as u64));
         check_unit(&name, &out);
@@ -525,9 +526,9 @@ fn uniform_cone_is_uniform_and_normalised() {
         let (counts, n, off) = bin2(t);
         let prob = vec![1.0 / (BINS * BINS) as f64; BINS * BINS];
         let c = chi_square(&counts, &prob, n - off);
-        report(&format!("{name} ((1−cosθ)/(1−cos_max), φ)"), &c, off, n);
+        report(&name, &c, off, n);
         println!(
-            "    pdf {pdf:.6e}, pdf · 2π(1 − cos_max) − 1 = {:.2e}",
+            "{name:<36} pdf {pdf:.6e}, pdf · 2π(1 − cos_max) − 1 = {:.2e}",
             pdf * solid_angle - 1.0
         );
     }

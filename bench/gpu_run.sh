@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Runs the benchmark set on an NVIDIA GPU machine (see ../../shared/gpu/README.md): candela's
+# pt and nee on the Cornell box at 1280x720, max_depth 6, the other example scenes, a Cornell box
+# with a ~2M-triangle mesh, and Mitsuba 3 (cuda_ad_rgb) on its own Cornell box for comparison.
+# Expects .carry/candela (release build) and optionally .carry/mitsuba-cp312.tar.xz.
+# Writes JSON lines to ${OUT:-/tmp}/bench.jsonl and prints them.
+set -u
+cd "$(dirname "$0")/.."
+for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
+export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+out=${OUT:-/tmp}/bench.jsonl
+: > "$out"
+nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee "${OUT:-/tmp}/gpu.txt"
+bin=.carry/candela
+$bin devices
+run() { $bin render "$@" --json | tee -a "$out"; }
+for integ in nee pt; do
+  run scenes/cornell.json -o /tmp/cornell_$integ.exr --integrator $integ --width 1280 --height 720 --max-depth 6 --spp 1024
+done
+run scenes/cornell.json -o /tmp/cornell_time.exr --integrator nee --width 1280 --height 720 --max-depth 6 --time 5
+for s in mirror_glass lights textured_mesh envmap; do
+  run scenes/$s.json -o /tmp/$s.exr --integrator nee --width 1280 --height 720 --spp 256
+done
+python3 bench/make_big_scene.py /tmp/big --triangles 2000000
+run /tmp/big/big.json -o /tmp/big.exr --integrator nee --width 1280 --height 720 --max-depth 6 --spp 256
+if [ -f .carry/mitsuba-cp312.tar.xz ]; then
+  mkdir -p /tmp/mi && tar xJf .carry/mitsuba-cp312.tar.xz -C /tmp/mi
+  PYTHONPATH=/tmp/mi python3 bench/mitsuba_cornell.py --variant cuda_ad_rgb --width 1280 --height 720 --spp 256 --max-depth 6 | tee -a "$out"
+fi
