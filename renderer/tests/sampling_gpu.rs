@@ -770,87 +770,49 @@ fn rng_is_uniform_and_streams_are_uncorrelated() {
     assert!(c.p > MIN_P, "rng: chi-square p = {:.3e}", c.p);
     assert!((mean - 0.5).abs() < 4.0 * sigma_mean, "rng: mean {mean}");
 
-    // Correlations between streams whose keys differ in one component
-    let mut rows: Vec<(String, f64, usize)> = Vec::new();
-    let mut add = |name: &str, pairs: Vec<(f64, f64)>| {
-        let rho = correlation(&pairs);
-        rows.push((name.to_string(), rho, pairs.len()));
+    // Correlations between streams whose keys differ in one component: each value of `a` at
+    // (pixel, sample, dim) paired lane by lane with `b` at (pixel + dp, sample + ds, dim + dd)
+    let shifted = |a: &[[f32; 4]], b: &[[f32; 4]], (dp, ds, dd): (usize, usize, usize)| {
+        let mut pairs = Vec::new();
+        for s in 0..RNG_SAMPLES - ds {
+            for p in 0..RNG_PIXELS - dp {
+                for d in 0..RNG_DIMS - dd {
+                    let (x, y) = (rng_at(a, p, s, d), rng_at(b, p + dp, s + ds, d + dd));
+                    pairs.extend((0..4).map(|l| (x[l] as f64, y[l] as f64)));
+                }
+            }
+        }
+        pairs
     };
-    let lanes = |a: &[f32; 4], b: &[f32; 4]| -> [(f64, f64); 4] {
-        [0, 1, 2, 3].map(|l| (a[l] as f64, b[l] as f64))
-    };
-    let mut pairs = Vec::new();
-    for s in 0..RNG_SAMPLES {
-        for p in 0..RNG_PIXELS - 1 {
-            for d in 0..RNG_DIMS {
-                pairs.extend(lanes(rng_at(&v, p, s, d), rng_at(&v, p + 1, s, d)));
-            }
-        }
-    }
-    add("pixel p vs p + 1", std::mem::take(&mut pairs));
-    for s in 0..RNG_SAMPLES {
-        for p in 0..RNG_PIXELS - RNG_ROW {
-            for d in 0..RNG_DIMS {
-                pairs.extend(lanes(rng_at(&v, p, s, d), rng_at(&v, p + RNG_ROW, s, d)));
-            }
-        }
-    }
-    add("pixel p vs p + 64", std::mem::take(&mut pairs));
-    for s in 0..RNG_SAMPLES - 1 {
-        for p in 0..RNG_PIXELS {
-            for d in 0..RNG_DIMS {
-                pairs.extend(lanes(rng_at(&v, p, s, d), rng_at(&v, p, s + 1, d)));
-            }
-        }
-    }
-    add("sample s vs s + 1", std::mem::take(&mut pairs));
-    for s in 0..RNG_SAMPLES {
-        for p in 0..RNG_PIXELS {
-            for d in 0..RNG_DIMS - 1 {
-                pairs.extend(lanes(rng_at(&v, p, s, d), rng_at(&v, p, s, d + 1)));
-            }
-        }
-    }
-    add("dimension d vs d + 1", std::mem::take(&mut pairs));
-    for q in &v {
-        for l in 0..3 {
-            pairs.push((q[l] as f64, q[l + 1] as f64));
-        }
-    }
-    add(
-        "lane l vs l + 1 (one rng_next4)",
-        std::mem::take(&mut pairs),
-    );
-    // Next value of a stream vs the first lane of the same dimension in the next sample, i.e. a
-    // diagonal neighbour in key space
-    for s in 0..RNG_SAMPLES - 1 {
-        for p in 0..RNG_PIXELS - 1 {
-            for d in 0..RNG_DIMS {
-                pairs.extend(lanes(rng_at(&v, p, s, d), rng_at(&v, p + 1, s + 1, d)));
-            }
-        }
-    }
-    add("(p, s) vs (p + 1, s + 1)", std::mem::take(&mut pairs));
+    let lanes: Vec<(f64, f64)> = v
+        .iter()
+        .flat_map(|q| (0..3).map(move |l| (q[l] as f64, q[l + 1] as f64)))
+        .collect();
     let v_lo = rng_values(&ctx, seed_lo ^ 1, seed_hi);
     let v_hi = rng_values(&ctx, seed_lo, seed_hi ^ 1);
-    let flat_pairs = |other: &[[f32; 4]]| -> Vec<(f64, f64)> {
-        v.iter().zip(other).flat_map(|(a, b)| lanes(a, b)).collect()
-    };
-    add("seed_lo vs seed_lo ^ 1", flat_pairs(&v_lo));
-    add("seed_hi vs seed_hi ^ 1", flat_pairs(&v_hi));
-    // seed_lo + dim is part of the key: seed_lo + 1 at dim d vs seed_lo at dim d + 1
+    // seed_lo + dim is part of the key: compare seed_lo + 1 at dim d with seed_lo at dim d + 1
     let v_next = rng_values(&ctx, seed_lo.wrapping_add(1), seed_hi);
-    for s in 0..RNG_SAMPLES {
-        for p in 0..RNG_PIXELS {
-            for d in 0..RNG_DIMS - 1 {
-                pairs.extend(lanes(rng_at(&v_next, p, s, d), rng_at(&v, p, s, d + 1)));
-            }
-        }
-    }
-    add(
-        "(seed_lo + 1, d) vs (seed_lo, d + 1)",
-        std::mem::take(&mut pairs),
-    );
+    let rows: Vec<(&str, Vec<(f64, f64)>)> = vec![
+        ("pixel p vs p + 1", shifted(&v, &v, (1, 0, 0))),
+        (
+            "pixel p vs p + 64 (a row below)",
+            shifted(&v, &v, (RNG_ROW, 0, 0)),
+        ),
+        ("sample s vs s + 1", shifted(&v, &v, (0, 1, 0))),
+        ("dimension d vs d + 1", shifted(&v, &v, (0, 0, 1))),
+        ("lane l vs l + 1 (one rng_next4)", lanes),
+        ("(p, s) vs (p + 1, s + 1)", shifted(&v, &v, (1, 1, 0))),
+        ("seed_lo vs seed_lo ^ 1", shifted(&v, &v_lo, (0, 0, 0))),
+        ("seed_hi vs seed_hi ^ 1", shifted(&v, &v_hi, (0, 0, 0))),
+        (
+            "(seed_lo + 1, d) vs (seed_lo, d + 1)",
+            shifted(&v_next, &v, (0, 0, 1)),
+        ),
+    ];
+    let rows: Vec<(&str, f64, usize)> = rows
+        .into_iter()
+        .map(|(name, pairs)| (name, correlation(&pairs), pairs.len()))
+        .collect();
 
     println!(
         "{:<40} {:>8} {:>10}",
