@@ -117,6 +117,8 @@ void main() {
     for (uint i = 0u; i < pc.spp; ++i) {
         Rng rng = rng_init(pixel, pc.sample_base + i, pc.seed_lo, pc.seed_hi);
         vec3 L = trace_path(px, rng, rays);
+        // Test hook (PUSH_FLAG_INJECT_NAN): poison every 7th sample.
+        if ((pc.flags & 1u) != 0u && (pc.sample_base + i) % 7u == 3u) L = vec3(uintBitsToFloat(0x7fc00000u));
         // NaN/Inf samples never reach the film: dropped and counted.
         if (is_finite(L)) {
             acc += vec4(L, 1.0);

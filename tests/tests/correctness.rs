@@ -122,3 +122,44 @@ fn pt_and_nee_agree_on_the_cornell_box() {
         "pt vs nee {e:.2e} vs expected noise {noise:.2e}"
     );
 }
+
+/// NaN samples never reach the film: with every 7th sample poisoned (a kernel test hook), the
+/// image stays finite, still averages to the furnace's exact 1 over the samples kept, and the
+/// dropped count is exact.
+#[test]
+fn nan_samples_are_dropped_and_counted() {
+    let scene = renderer::scene::load_file(&scene_path("furnace.json")).unwrap();
+    let compiled = compile(&scene, 8, 8).unwrap();
+    let opts = IntegratorOptions::from_name("nee").unwrap();
+    let ctx = gpu();
+    let mut s = RenderSession::new(&ctx, &compiled, &opts, None, 9).unwrap();
+    s.set_debug_flags(renderer::compile::layout::PUSH_FLAG_INJECT_NAN);
+    s.run_pass(10).unwrap();
+    s.run_pass(4).unwrap();
+    let img = s.image().unwrap();
+    let stats = s.stats();
+    // Sample indices 0..14 include 3 and 10: two poisoned samples per pixel.
+    assert_eq!(stats.dropped_samples, 2 * 64, "dropped count");
+    assert!(img.pixels.iter().flatten().all(|v| v.is_finite()));
+    assert!(
+        (img.mean()[0] - 1.0).abs() < 0.02,
+        "furnace mean {:?}",
+        img.mean()
+    );
+}
+
+/// The validation layer is on in tests whenever it is installed, so "no messages" means something.
+#[test]
+fn validation_layer_is_enabled_when_installed() {
+    let installed =
+        std::path::Path::new("/usr/share/vulkan/explicit_layer.d/VkLayer_khronos_validation.json")
+            .exists();
+    let ctx = gpu();
+    println!(
+        "validation layer installed: {installed}, enabled: {}",
+        ctx.validation_enabled
+    );
+    if installed {
+        assert!(ctx.validation_enabled);
+    }
+}

@@ -184,6 +184,10 @@ pub struct GpuPush {
     pub pad: u32,
 }
 
+/// `GpuPush::flags` bit: poison every 7th sample (sample index % 7 == 3) with NaN, so tests can
+/// check that such samples are dropped and counted (mirrored in shaders/common/path.glsl).
+pub const PUSH_FLAG_INJECT_NAN: u32 = 1;
+
 /// Counters the kernels bump (binding STATS).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq, Default)]

@@ -38,6 +38,7 @@ pub struct RenderSession {
     gpu_time: Duration,
     setup: Duration,
     info: SceneInfo,
+    flags: u32,
 }
 
 struct SceneInfo {
@@ -160,6 +161,7 @@ impl RenderSession {
             elapsed: Duration::ZERO,
             gpu_time: Duration::ZERO,
             setup: start.elapsed(),
+            flags: 0,
             info: SceneInfo {
                 triangles: scene.triangle_count,
                 primitives: scene.prims.len(),
@@ -170,6 +172,11 @@ impl RenderSession {
                 features: scene.features,
             },
         })
+    }
+
+    /// Sets `GpuPush::flags` (testing aids such as `PUSH_FLAG_INJECT_NAN`).
+    pub fn set_debug_flags(&mut self, flags: u32) {
+        self.flags = flags;
     }
 
     /// Samples per pixel rendered so far.
@@ -195,6 +202,7 @@ impl RenderSession {
             seed_hi: (self.seed >> 32) as u32,
             sample_base: self.spp,
             spp,
+            flags: self.flags,
             ..Default::default()
         };
         let groups = [self.width.div_ceil(8), self.height.div_ceil(8), 1];
