@@ -5,7 +5,7 @@
 
 mod session;
 
-pub use session::{PassStats, RenderSession};
+pub use session::{PassStats, Progress, RenderSession};
 
 use std::time::Duration;
 

@@ -18,6 +18,19 @@ pub struct PassStats {
     pub gpu: Duration,
 }
 
+/// The counters of a render, saved with a checkpoint so a resumed render reports the same
+/// statistics as an uninterrupted one.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+pub struct Progress {
+    pub spp: u32,
+    pub passes: u32,
+    pub rays: u64,
+    pub dropped_samples: u64,
+    /// Wall and GPU time spent in passes so far, seconds.
+    pub time_s: f64,
+    pub gpu_time_s: f64,
+}
+
 /// A progressive render on one device.
 pub struct RenderSession {
     ctx: Arc<GpuContext>,
@@ -223,6 +236,51 @@ impl RenderSession {
         self.elapsed += wall;
         self.gpu_time += gpu;
         Ok(PassStats { spp, wall, gpu })
+    }
+
+    /// The counters so far (to store with a checkpoint).
+    pub fn progress(&self) -> Progress {
+        Progress {
+            spp: self.spp,
+            passes: self.passes,
+            rays: self.rays,
+            dropped_samples: self.dropped,
+            time_s: self.elapsed.as_secs_f64(),
+            gpu_time_s: self.gpu_time.as_secs_f64(),
+        }
+    }
+
+    /// The raw accumulation buffer: per pixel (Σr, Σg, Σb, samples kept), row 0 at the top.
+    pub fn accumulation(&self) -> Result<Vec<[f32; 4]>, RenderError> {
+        Ok(self
+            .ctx
+            .download_vec(&self.accum, (self.width * self.height) as usize)?)
+    }
+
+    /// Resumes from a checkpoint: the accumulation and counters of an earlier session of the same
+    /// scene, integrator and seed. Because samples are keyed by index, the render then continues
+    /// exactly as if it had never stopped.
+    pub fn restore(
+        &mut self,
+        accumulation: &[[f32; 4]],
+        progress: Progress,
+    ) -> Result<(), RenderError> {
+        let n = (self.width * self.height) as usize;
+        if accumulation.len() != n {
+            return Err(RenderError::Invalid(format!(
+                "checkpoint has {} pixels, the film {n}",
+                accumulation.len()
+            )));
+        }
+        self.ctx
+            .upload(&self.accum, 0, bytemuck::cast_slice(accumulation))?;
+        self.spp = progress.spp;
+        self.passes = progress.passes;
+        self.rays = progress.rays;
+        self.dropped = progress.dropped_samples;
+        self.elapsed = Duration::from_secs_f64(progress.time_s.max(0.0));
+        self.gpu_time = Duration::from_secs_f64(progress.gpu_time_s.max(0.0));
+        Ok(())
     }
 
     /// The current estimate: accumulated radiance divided by the samples kept per pixel.
