@@ -1,6 +1,9 @@
 //! Command-line interface: argument definitions and dispatch to the subcommands.
 
+mod bench;
+mod compare;
 mod render;
+mod serve;
 
 use clap::{Parser, Subcommand};
 
@@ -41,6 +44,12 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene file to an EXR or PNG image.
     Render(render::RenderArgs),
+    /// Serve the HTTP API and web viewer, rendering queued jobs on the GPU.
+    Serve(serve::ServeArgs),
+    /// Measure error against a reference over time for several integrators.
+    Bench(bench::BenchArgs),
+    /// Compare two images (EXR) with MSE, relMSE, PSNR, SSIM and FLIP.
+    Compare(compare::CompareArgs),
     /// List the Vulkan devices candela can use.
     Devices {
         /// Print JSON.
@@ -52,6 +61,9 @@ pub enum Command {
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Render(a) => render::run(a),
+        Command::Serve(a) => serve::run(a),
+        Command::Bench(a) => bench::run(a),
+        Command::Compare(a) => compare::run(a),
         Command::Devices { json } => {
             let devices =
                 renderer::gpu::list_devices().map_err(|e| CliError::failure(e.to_string()))?;
