@@ -38,9 +38,10 @@ function el(tag, attrs = {}, ...children) {
 
 function fmtDuration(s) {
   if (s == null || !Number.isFinite(s) || s < 0) return '—';
-  if (s < 60) return `${s.toFixed(s < 10 ? 1 : 0)} s`;
-  const m = Math.floor(s / 60);
-  if (m < 60) return `${m} min ${String(Math.round(s - m * 60)).padStart(2, '0')} s`;
+  if (s < 59.5) return `${s.toFixed(s < 9.95 ? 1 : 0)} s`;
+  const total = Math.round(s);
+  const m = Math.floor(total / 60);
+  if (m < 60) return `${m} min ${String(total - m * 60).padStart(2, '0')} s`;
   const h = Math.floor(m / 60);
   return `${h} h ${String(m - h * 60).padStart(2, '0')} min`;
 }
@@ -924,7 +925,28 @@ function selectJob(id, { force = false } = {}) {
 function openStream(job) {
   const id = jobId(job);
   const current = () => state.jobs.get(id) || job;
-  const mine = () => state.selected === id;
+  const mine = () => state.selected === id && state.stream === stream;
+  let finishTimer = 0;
+
+  // The job ended well: final statistics and the final image, then the stream is closed.
+  const finish = (d) => {
+    clearTimeout(finishTimer);
+    const j = { ...current(), state: 'done' };
+    if (d && typeof d === 'object' && d.progress) j.progress = d.progress;
+    upsertJob(j);
+    renderViewHeader(j);
+    const final = { ...jobProgress(j), ...(state.live || {}), ...(d && typeof d === 'object' ? d.progress || d.stats || d : {}) };
+    state.live = final;
+    renderStats(j, final);
+    renderJobs();
+    viewSlot.load(pngUrl(j), { spp: final.spp ?? jobSpp(j), job: id, final: 'true' });
+    closeStream(id);
+  };
+
+  const finishSoon = () => {
+    if (!finishTimer) finishTimer = setTimeout(() => mine() && finish(null), 2000);
+  };
+
   const stream = new EventStream(jobLinks(job).events, {
     state: (d) => {
       if (!mine()) return;
@@ -935,7 +957,10 @@ function openStream(job) {
       renderViewHeader(j);
       renderJobs();
       if (st === 'running' && !$('view-image').getAttribute('src')) $('stage-placeholder').textContent = 'Waiting for the first snapshot…';
-      if (TERMINAL.has(st)) finishStream(id);
+      if (st === 'queued' && !$('view-image').getAttribute('src')) $('stage-placeholder').textContent = 'Queued: waiting for the GPU…';
+      // "done" is followed by a done event with the final numbers; wait a little for it.
+      if (st === 'done') finishSoon();
+      else if (TERMINAL.has(st)) closeStream(id);
     },
     progress: (d) => {
       if (!mine()) return;
@@ -949,15 +974,7 @@ function openStream(job) {
       viewSlot.load(pngUrl(current(), d.url), { spp: d.spp ?? '', job: id });
     },
     done: (d) => {
-      if (!mine()) return;
-      const j = { ...current(), state: 'done' };
-      if (d && typeof d === 'object' && d.progress) j.progress = d.progress;
-      upsertJob(j);
-      renderViewHeader(j);
-      renderStats(j, { ...jobProgress(j), ...(state.live || {}), ...(d && d.stats ? d.stats : {}) });
-      // The final image, whatever snapshots were missed.
-      viewSlot.load(pngUrl(j), { spp: (d && d.spp) ?? state.live?.spp ?? jobSpp(j), job: id, final: 'true' });
-      finishStream(id);
+      if (mine()) finish(d);
     },
     error: (d) => {
       if (!mine()) return;
@@ -967,15 +984,16 @@ function openStream(job) {
       renderViewHeader(j);
       renderJobs();
       $('view-message').textContent = `Render failed: ${message}`;
-      finishStream(id);
+      closeStream(id);
     },
   }, (status) => {
     if (mine()) $('view-message').textContent = status;
   });
+  stream.finishSoon = finishSoon;
   state.stream = stream;
 }
 
-function finishStream(id) {
+function closeStream(id) {
   if (state.selected === id && state.stream) {
     state.stream.close();
     state.stream = null;
@@ -991,6 +1009,8 @@ function syncSelectedFromList() {
   renderViewHeader(job);
   if (!state.live) renderStats(job, jobProgress(job));
   if (!state.stream && !TERMINAL.has(job.state)) openStream(job);
+  else if (state.stream && job.state === 'done') state.stream.finishSoon();
+  else if (state.stream && TERMINAL.has(job.state)) closeStream(id);
 }
 
 function renderViewHeader(job) {

@@ -79,6 +79,13 @@ pub enum CompileError {
     TooManyPrims(usize),
 }
 
+/// A primitive's exact (f64, camera-relative) geometry.
+#[derive(Clone, Copy)]
+enum Shape {
+    Triangle([DVec3; 3]),
+    Sphere { center: DVec3, radius: f64 },
+}
+
 fn f3(v: DVec3) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
 }
@@ -107,7 +114,8 @@ pub fn compile(scene: &Scene, width: u32, height: u32) -> Result<CompiledScene, 
     let mut prims: Vec<GpuPrim> = Vec::new();
     let mut bounds: Vec<PrimBounds> = Vec::new();
     let mut tri_shading: Vec<GpuTriShading> = Vec::new();
-    let mut world_tris: Vec<[DVec3; 3]> = Vec::new(); // camera-relative f64, for light areas
+    // Camera-relative f64 geometry of each primitive, for exact light areas and centres.
+    let mut shapes: Vec<Shape> = Vec::new();
     let mut triangle_count = 0usize;
     for mesh in &scene.meshes {
         let shaded = mesh.normals.is_some() || mesh.uvs.is_some();
@@ -159,7 +167,7 @@ pub fn compile(scene: &Scene, width: u32, height: u32) -> Result<CompiledScene, 
                 min: f3(mn),
                 max: f3(mx),
             });
-            world_tris.push(p);
+            shapes.push(Shape::Triangle(p));
             triangle_count += 1;
         }
     }
@@ -184,7 +192,10 @@ pub fn compile(scene: &Scene, width: u32, height: u32) -> Result<CompiledScene, 
             min: f3(c - r - pad),
             max: f3(c + r + pad),
         });
-        world_tris.push([c, DVec3::splat(s.radius), DVec3::ZERO]);
+        shapes.push(Shape::Sphere {
+            center: c,
+            radius: s.radius,
+        });
     }
     if prims.len() > PRIM_MATERIAL_MASK as usize {
         return Err(CompileError::TooManyPrims(prims.len()));
@@ -224,11 +235,15 @@ pub fn compile(scene: &Scene, width: u32, height: u32) -> Result<CompiledScene, 
         if e.max_element() <= 0.0 {
             continue;
         }
-        let li = if bits & PRIM_SPHERE != 0 {
-            let [c, r, _] = world_tris[orig];
-            lb.sphere(slot as u32, c, r.x, bits & PRIM_FLIP_NORMALS != 0, e)
-        } else {
-            lb.triangle(slot as u32, world_tris[orig], e)
+        let li = match shapes[orig] {
+            Shape::Sphere { center, radius } => lb.sphere(
+                slot as u32,
+                center,
+                radius,
+                bits & PRIM_FLIP_NORMALS != 0,
+                e,
+            ),
+            Shape::Triangle(p) => lb.triangle(slot as u32, p, e),
         };
         sorted[slot].b[3] = f32::from_bits(li);
     }

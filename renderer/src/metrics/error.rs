@@ -35,4 +35,22 @@ pub enum MetricError {
         /// Image height.
         height: u32,
     },
+    /// The images are smaller than a metric's window.
+    #[error("{metric} needs images of at least {min_side}x{min_side}, these are {width}x{height}")]
+    TooSmall {
+        /// The metric ("SSIM").
+        metric: &'static str,
+        /// Image width.
+        width: u32,
+        /// Image height.
+        height: u32,
+        /// The smallest side the metric accepts.
+        min_side: u32,
+    },
+    /// An error map could not be encoded as PNG.
+    #[error("cannot encode the error map: {message}")]
+    Encode {
+        /// What the encoder said, one line.
+        message: String,
+    },
 }

@@ -22,6 +22,16 @@ pub fn flip(
     exposure_ev: f32,
     tonemap: Tonemap,
 ) -> Result<f64, MetricError> {
+    Ok(flip_map(img, reference, exposure_ev, tonemap)?.mean())
+}
+
+/// The per-pixel LDR-FLIP error map of `img` against `reference` (see [`flip`]).
+pub fn flip_map(
+    img: &Image,
+    reference: &Image,
+    exposure_ev: f32,
+    tonemap: Tonemap,
+) -> Result<FlipMap, MetricError> {
     check_pair(img, reference)?;
     let (width, height) = (img.width, img.height);
     if width == 0 || height == 0 {
@@ -39,10 +49,56 @@ pub fn flip(
         to_flip(img),
         nv_flip::DEFAULT_PIXELS_PER_DEGREE,
     );
-    // The plain mean of the error map, summed in f64 (FlipPool's mean is f32 and histogram based).
-    let errors = error_map.to_vec();
-    let sum: f64 = errors.iter().map(|&e| f64::from(e)).sum();
-    Ok(sum / errors.len() as f64)
+    Ok(FlipMap {
+        width,
+        height,
+        errors: error_map.to_vec(),
+    })
+}
+
+/// A FLIP error map: one error in [0, 1] per pixel, row-major, row 0 at the top.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlipMap {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Per-pixel FLIP error, `errors[y * width + x]`.
+    pub errors: Vec<f32>,
+}
+
+impl FlipMap {
+    /// The plain mean of the map, summed in f64 (nv-flip's FlipPool mean is f32 and histogram
+    /// based).
+    pub fn mean(&self) -> f64 {
+        let sum: f64 = self.errors.iter().map(|&e| f64::from(e)).sum();
+        sum / self.errors.len().max(1) as f64
+    }
+
+    /// The map through FLIP's magma colour map (0 black-purple, 1 pale yellow), tightly packed
+    /// RGB8, row 0 first.
+    pub fn magma_rgb8(&self) -> Vec<u8> {
+        let map = nv_flip::FlipImageFloat::with_data(self.width, self.height, &self.errors);
+        map.apply_color_lut(&nv_flip::magma_lut()).to_vec()
+    }
+
+    /// The magma-coloured map encoded as an 8-bit RGB PNG in memory.
+    pub fn encode_png(&self) -> Result<Vec<u8>, MetricError> {
+        use image::codecs::png::PngEncoder;
+        use image::{ExtendedColorType, ImageEncoder};
+        let mut bytes = Vec::new();
+        PngEncoder::new(&mut bytes)
+            .write_image(
+                &self.magma_rgb8(),
+                self.width,
+                self.height,
+                ExtendedColorType::Rgb8,
+            )
+            .map_err(|e| MetricError::Encode {
+                message: e.to_string().replace('\n', " "),
+            })?;
+        Ok(bytes)
+    }
 }
 
 #[cfg(test)]
@@ -90,6 +146,28 @@ mod tests {
             0.0 < small && small < large && large < 1.0,
             "{small} {large}"
         );
+    }
+
+    #[test]
+    fn map_mean_heatmap() {
+        let reference = gradient(16, 8);
+        let mut img = reference.clone();
+        img.set(3, 2, [5.0, 5.0, 5.0]);
+        let map = flip_map(&img, &reference, 0.0, Tonemap::Clamp).unwrap();
+        assert_eq!((map.width, map.height, map.errors.len()), (16, 8, 128));
+        assert_eq!(
+            map.mean(),
+            flip(&img, &reference, 0.0, Tonemap::Clamp).unwrap()
+        );
+        // The changed pixel carries the largest error.
+        let max = map.errors.iter().cloned().fold(0.0f32, f32::max);
+        assert_eq!(map.errors[2 * 16 + 3], max);
+        let rgb = map.magma_rgb8();
+        assert_eq!(rgb.len(), 16 * 8 * 3);
+        let png = map.encode_png().unwrap();
+        let back = image::load_from_memory(&png).unwrap().to_rgb8();
+        assert_eq!(back.dimensions(), (16, 8));
+        assert_eq!(back.into_raw(), rgb);
     }
 
     #[test]

@@ -1,20 +1,35 @@
-//! Image metrics for measured correctness: MSE, relative MSE, FLIP, the fraction of non-finite
-//! pixels, and box downsampling (compare noisy renders at a lower resolution).
+//! Image metrics for measured correctness and the speed/accuracy trade: MSE, RMSE, relative MSE
+//! on linear radiance; PSNR, SSIM (Wang et al. 2004) and FLIP on display images ([`Display`]:
+//! exposure, tone curve, sRGB8, as the PNG output); the fraction of non-finite pixels; all at once
+//! in [`Metrics`] with their definitions in [`METRIC_NOTES`]; and box downsampling (compare noisy
+//! renders at a lower resolution).
 //!
 //! Non-finite pixels: [`mse`] and [`rel_mse`] skip every pixel where either image has a NaN or
 //! ±Inf channel (the whole pixel, all three channels) and average over the rest; report
 //! [`nan_fraction`] beside them so skipped pixels are never silent. [`flip`] sees them as black,
 //! as the PNG encoder does.
 
+mod all;
+mod display;
 mod downsample;
 mod error;
 mod flip;
 mod pixelwise;
+mod psnr;
+mod ssim;
 
+pub use all::{MetricNotes, Metrics, METRIC_NOTES, NAN_NOTE};
+pub use display::{tonemap_from_name, tonemap_name, Display, DisplaySettings, LUMA_WEIGHTS};
 pub use downsample::downsample_box;
 pub use error::MetricError;
-pub use flip::{flip, FLIP_NOTE};
-pub use pixelwise::{mse, nan_fraction, rel_mse, REL_MSE_FORMULA};
+pub use flip::{flip, flip_map, FlipMap, FLIP_NOTE};
+pub use pixelwise::{
+    mse, nan_fraction, rel_mse, rmse, MSE_FORMULA, REL_MSE_FORMULA, RMSE_FORMULA,
+};
+pub use psnr::{psnr, PSNR_NOTE};
+pub use ssim::{
+    ssim, ssim_gray, SSIM_K1, SSIM_K2, SSIM_MIN_SIDE, SSIM_NOTE, SSIM_RADIUS, SSIM_SIGMA,
+};
 
 use crate::film::Image;
 

@@ -7,6 +7,13 @@
 use super::{check_pair, finite, MetricError};
 use crate::film::Image;
 
+/// How [`mse`] is computed, for reports and result tables.
+pub const MSE_FORMULA: &str =
+    "mean over pixels and RGB channels of (x-r)^2, linear radiance, pixels finite in both";
+
+/// How [`rmse`] is computed, for reports and result tables.
+pub const RMSE_FORMULA: &str = "sqrt(MSE), linear radiance";
+
 /// How [`rel_mse`] is computed, for reports and result tables.
 pub const REL_MSE_FORMULA: &str = "mean over pixels and RGB channels of (x-r)^2/(r^2+0.01)";
 
@@ -17,6 +24,11 @@ const REL_MSE_EPSILON: f64 = 0.01;
 /// non-finite (see the [module docs](crate::metrics)).
 pub fn mse(img: &Image, reference: &Image) -> Result<f64, MetricError> {
     mean_error(img, reference, |x, r| (x - r) * (x - r))
+}
+
+/// Root mean squared error: `sqrt(`[`mse`]`)`.
+pub fn rmse(img: &Image, reference: &Image) -> Result<f64, MetricError> {
+    Ok(mse(img, reference)?.sqrt())
 }
 
 /// Relative MSE: the mean over pixels and RGB channels of `(x−r)² / (r² + 0.01)`
@@ -84,6 +96,7 @@ mod tests {
         let c = 0.25f32; // exact in binary, so x − r is exactly c
         let img = Image::from_fn(5, 4, |x, y| reference.get(x, y).map(|v| v + c));
         assert!(close(mse(&img, &reference).unwrap(), 0.0625));
+        assert!(close(rmse(&img, &reference).unwrap(), 0.25));
     }
 
     #[test]

@@ -8,5 +8,7 @@ use super::CliError;
 pub struct BenchArgs {}
 
 pub fn run(_a: BenchArgs) -> Result<(), CliError> {
-    Err(CliError::failure("candela bench is not available in this build yet"))
+    Err(CliError::failure(
+        "candela bench is not available in this build yet",
+    ))
 }

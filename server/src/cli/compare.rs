@@ -8,5 +8,7 @@ use super::CliError;
 pub struct CompareArgs {}
 
 pub fn run(_a: CompareArgs) -> Result<(), CliError> {
-    Err(CliError::failure("candela compare is not available in this build yet"))
+    Err(CliError::failure(
+        "candela compare is not available in this build yet",
+    ))
 }

@@ -8,5 +8,7 @@ use super::CliError;
 pub struct ServeArgs {}
 
 pub fn run(_a: ServeArgs) -> Result<(), CliError> {
-    Err(CliError::failure("candela serve is not available in this build yet"))
+    Err(CliError::failure(
+        "candela serve is not available in this build yet",
+    ))
 }
