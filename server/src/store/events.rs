@@ -1,0 +1,101 @@
+//! The event log: every event a job emits (`state`, `progress`, `snapshot`, `done`, `error`) is
+//! written to the `events` table with a per-job sequence number, which is the SSE event id, and
+//! then broadcast to live subscribers. A client that reconnects with `Last-Event-ID: N` is sent
+//! the stored events after N, then the live ones, deduplicated by id.
+
+use rusqlite::{params, Connection, OptionalExtension};
+use serde_json::Value;
+
+use super::{Store, StoreError};
+use crate::jobs::model::{now_s, JobId};
+
+/// One event of one job.
+#[derive(Debug, Clone)]
+pub struct StoredEvent {
+    pub job_id: JobId,
+    /// Per-job sequence number, from 1; the SSE `id`.
+    pub seq: i64,
+    /// The SSE `event` name.
+    pub kind: String,
+    /// The SSE `data` (JSON).
+    pub data: Value,
+}
+
+impl StoredEvent {
+    /// Whether the stream of this job ends after this event.
+    pub fn is_final(&self) -> bool {
+        match self.kind.as_str() {
+            "done" | "error" => true,
+            "state" => self.data.get("state").and_then(Value::as_str) == Some("canceled"),
+            _ => false,
+        }
+    }
+}
+
+/// Appends an event inside the caller's transaction (or connection) and returns it.
+pub(super) fn append_in(
+    conn: &Connection,
+    job_id: JobId,
+    kind: &str,
+    data: &Value,
+) -> Result<StoredEvent, StoreError> {
+    let seq: Option<i64> = conn
+        .query_row(
+            "UPDATE jobs SET event_seq = event_seq + 1 WHERE id = ?1 RETURNING event_seq",
+            params![job_id],
+            |r| r.get(0),
+        )
+        .optional()?;
+    let seq = seq.ok_or(StoreError::NotFound(job_id))?;
+    conn.execute(
+        "INSERT INTO events (job_id, seq, kind, data, at) VALUES (?1, ?2, ?3, ?4, ?5)",
+        params![job_id, seq, kind, data.to_string(), now_s()],
+    )?;
+    Ok(StoredEvent {
+        job_id,
+        seq,
+        kind: kind.to_string(),
+        data: data.clone(),
+    })
+}
+
+impl Store {
+    /// Appends one event to job `job_id`'s log and broadcasts it.
+    pub fn append_event(
+        &self,
+        job_id: JobId,
+        kind: &str,
+        data: Value,
+    ) -> Result<StoredEvent, StoreError> {
+        let conn = self.conn();
+        let event = append_in(&conn, job_id, kind, &data)?;
+        // Sent while the lock is held, so subscribers see events in id order.
+        let _ = self.events.send(event.clone());
+        Ok(event)
+    }
+
+    /// Broadcasts events already committed (called with the connection lock held).
+    pub(super) fn broadcast(&self, events: Vec<StoredEvent>) {
+        for e in events {
+            let _ = self.events.send(e);
+        }
+    }
+
+    /// The stored events of a job with a sequence number above `after`, in order.
+    pub fn events_after(&self, job_id: JobId, after: i64) -> Result<Vec<StoredEvent>, StoreError> {
+        let conn = self.conn();
+        let mut stmt = conn.prepare_cached(
+            "SELECT seq, kind, data FROM events WHERE job_id = ?1 AND seq > ?2 ORDER BY seq",
+        )?;
+        let rows = stmt.query_map(params![job_id, after], |r| {
+            let data: String = r.get(2)?;
+            Ok(StoredEvent {
+                job_id,
+                seq: r.get(0)?,
+                kind: r.get(1)?,
+                data: serde_json::from_str(&data).unwrap_or(Value::Null),
+            })
+        })?;
+        Ok(rows.collect::<Result<Vec<_>, _>>()?)
+    }
+}

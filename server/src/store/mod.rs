@@ -1,0 +1,164 @@
+//! The job store: one SQLite database (bundled, WAL journal) holding the jobs (settings, scene,
+//! state, progress, timestamps) and their event log, so that everything a client was told
+//! survives a restart or a crash. Files (checkpoints, images, uploaded assets) live beside it
+//! under the data directory; see [`JobPaths`].
+//!
+//! One connection behind a mutex: statements are short, and holding the lock across "write the
+//! event, then broadcast it" makes the broadcast order equal the event id order (events.rs).
+
+mod events;
+mod jobs;
+
+pub use events::StoredEvent;
+pub use jobs::NewJob;
+
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard};
+
+use rusqlite::Connection;
+use tokio::sync::broadcast;
+
+use crate::jobs::model::JobId;
+
+/// The schema; `user_version` 1.
+const SCHEMA: &str = "
+CREATE TABLE IF NOT EXISTS jobs (
+    id          INTEGER PRIMARY KEY AUTOINCREMENT,
+    name        TEXT NOT NULL,
+    state       TEXT NOT NULL,
+    priority    INTEGER NOT NULL,
+    settings    TEXT NOT NULL,
+    scene       TEXT NOT NULL,
+    scene_name  TEXT,
+    source      TEXT NOT NULL,
+    progress    TEXT,
+    stats       TEXT,
+    error       TEXT,
+    created_at  REAL NOT NULL,
+    started_at  REAL,
+    finished_at REAL,
+    updated_at  REAL NOT NULL,
+    event_seq   INTEGER NOT NULL DEFAULT 0
+);
+CREATE INDEX IF NOT EXISTS jobs_by_state ON jobs(state);
+CREATE TABLE IF NOT EXISTS events (
+    job_id INTEGER NOT NULL,
+    seq    INTEGER NOT NULL,
+    kind   TEXT NOT NULL,
+    data   TEXT NOT NULL,
+    at     REAL NOT NULL,
+    PRIMARY KEY (job_id, seq)
+) WITHOUT ROWID;
+PRAGMA user_version = 1;
+";
+
+/// The database plus the broadcast channel of new events.
+pub struct Store {
+    conn: Mutex<Connection>,
+    events: broadcast::Sender<StoredEvent>,
+}
+
+/// Why a store operation failed.
+#[derive(Debug)]
+pub enum StoreError {
+    /// No job with this id.
+    NotFound(JobId),
+    /// The job's state does not allow the transition.
+    Conflict {
+        state: crate::jobs::model::JobState,
+        message: String,
+    },
+    /// SQLite (or file system) trouble.
+    Db(String),
+}
+
+impl std::fmt::Display for StoreError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StoreError::NotFound(id) => write!(f, "no job {id}"),
+            StoreError::Conflict { message, .. } => f.write_str(message),
+            StoreError::Db(m) => write!(f, "store: {m}"),
+        }
+    }
+}
+
+impl From<rusqlite::Error> for StoreError {
+    fn from(e: rusqlite::Error) -> Self {
+        StoreError::Db(e.to_string())
+    }
+}
+
+impl From<StoreError> for crate::api_error::ApiError {
+    fn from(e: StoreError) -> Self {
+        use crate::api_error::ApiError;
+        match e {
+            StoreError::NotFound(id) => ApiError::NotFound(format!("no job {id}")),
+            StoreError::Conflict { message, .. } => ApiError::Conflict(message),
+            StoreError::Db(m) => ApiError::internal(format!("store: {m}")),
+        }
+    }
+}
+
+impl Store {
+    /// Opens (creating if needed) the database at `path`.
+    pub fn open(path: &Path) -> Result<Store, StoreError> {
+        let conn = Connection::open(path)?;
+        // WAL: readers never block the writer; NORMAL sync: a commit survives a process crash
+        // (kill -9) — only a power loss may drop the last transactions.
+        conn.pragma_update(None, "journal_mode", "WAL")?;
+        conn.pragma_update(None, "synchronous", "NORMAL")?;
+        conn.pragma_update(None, "foreign_keys", "ON")?;
+        conn.busy_timeout(std::time::Duration::from_secs(5))?;
+        let version: i64 = conn.pragma_query_value(None, "user_version", |r| r.get(0))?;
+        if version > 1 {
+            return Err(StoreError::Db(format!(
+                "{} was written by a newer candela (schema {version})",
+                path.display()
+            )));
+        }
+        conn.execute_batch(SCHEMA)?;
+        let (events, _) = broadcast::channel(1024);
+        Ok(Store {
+            conn: Mutex::new(conn),
+            events,
+        })
+    }
+
+    /// The connection (a poisoned lock is recovered: SQLite keeps itself consistent).
+    fn conn(&self) -> MutexGuard<'_, Connection> {
+        self.conn.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Receives every event appended from now on (all jobs).
+    pub fn subscribe(&self) -> broadcast::Receiver<StoredEvent> {
+        self.events.subscribe()
+    }
+}
+
+/// Where a job's files live under the data directory.
+#[derive(Debug, Clone)]
+pub struct JobPaths {
+    /// `<data>/jobs/<id>`.
+    pub dir: PathBuf,
+}
+
+impl JobPaths {
+    /// The paths of job `id` under `data_dir`.
+    pub fn new(data_dir: &Path, id: JobId) -> JobPaths {
+        JobPaths {
+            dir: data_dir.join("jobs").join(id.to_string()),
+        }
+    }
+    /// Uploaded assets (the scene's base folder for uploaded scenes).
+    pub fn assets(&self) -> PathBuf {
+        self.dir.join("assets")
+    }
+    /// The accumulation checkpoint.
+    pub fn checkpoint(&self) -> PathBuf {
+        self.dir.join("checkpoint.bin")
+    }
+    /// The latest image written to disk (at checkpoints, pause, cancel and the end).
+    pub fn image(&self) -> PathBuf {
+        self.dir.join("image.exr")
+    }
+}
