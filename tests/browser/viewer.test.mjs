@@ -216,7 +216,9 @@ await step('open the viewer', async () => {
   await page.waitForSelector('body[data-ready="true"]');
   check((await page.title()) === 'candela', `unexpected title "${await page.title()}"`);
   if (token) {
-    await page.locator('#token-box summary').click();
+    // Without the token the API answers 401 and the page opens the token box by itself.
+    await page.waitForFunction(() => document.querySelector('#token-box').open, null, { timeout: 10_000 })
+      .catch(() => { throw new Failure('the API refused the page, but the token box did not open'); });
     await page.getByLabel('Bearer token').fill(token);
     await page.getByRole('button', { name: 'Save' }).click();
     check((await page.locator('#token-state').textContent()) === '(set)', 'the token was not stored');

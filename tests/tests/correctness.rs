@@ -192,3 +192,69 @@ fn checkpoint_resume_is_exact() {
         (b.spp, b.passes, b.rays, b.dropped_samples)
     );
 }
+
+/// Tiny and huge scenes: the mirror-and-glass box scaled by 1e-4 and by 1e4 (camera included)
+/// renders the same picture as at scale 1. Ray offsets come from rounding-error bounds, not a
+/// fixed epsilon, so nothing in the renderer depends on the scene's unit.
+#[test]
+fn tiny_and_huge_scales_render_the_same() {
+    let scene = renderer::scene::load_file(&scene_path("mirror_glass.json")).unwrap();
+    let (reference, _) = render_loaded(&scene, "nee", 16, 32, 32, 5, None);
+    for s in [1e-4, 1e4] {
+        let mut scaled = scene.clone();
+        scaled.camera.position *= s;
+        scaled.camera.look_at *= s;
+        scaled.camera.focus_distance *= s;
+        for m in &mut scaled.meshes {
+            for p in &mut m.positions {
+                *p *= s;
+            }
+        }
+        for sp in &mut scaled.spheres {
+            sp.center *= s;
+            sp.radius *= s;
+        }
+        let (img, stats) = render_loaded(&scaled, "nee", 16, 32, 32, 5, None);
+        let e = rel_mse(&img, &reference).unwrap();
+        println!(
+            "scale {s:e}: relMSE {e:.3e} against scale 1, {} dropped samples",
+            stats.dropped_samples
+        );
+        assert!(e < 1e-6, "scale {s}: relMSE {e}");
+        assert_eq!(stats.dropped_samples, 0);
+    }
+}
+
+/// Tiny bright lights: a sphere light of radius 1e-3 with radiance L lights a floor exactly like
+/// a point light of intensity I = L·πr² (its projected area), so nee's solid-angle sampling of
+/// the sphere must match the point light within 1% — without fireflies or NaNs.
+#[test]
+fn tiny_sphere_light_matches_its_point_light() {
+    let r = 1e-3f64;
+    let radiance = 5.0f32 / (std::f32::consts::PI * (r * r) as f32);
+    let base = r#"{"version": 1, "camera": {"position": [0, 2, 3], "look_at": [0, 0, 0]},
+      "film": {"width": 24, "height": 24},
+      "materials": {"floor": {"type": "diffuse", "reflectance": 0.7},
+                    "bulb": {"type": "diffuse", "reflectance": 0, "emission": [RAD, RAD, RAD]}},
+      "objects": [{"type": "quad", "origin": [-2, 0, 2], "edge_u": [4, 0, 0], "edge_v": [0, 0, -4], "material": "floor"}
+                  SPHERE],
+      "lights": [LIGHT]}"#;
+    let sphere_scene = base
+        .replace("RAD", &radiance.to_string())
+        .replace("SPHERE", &format!(r#", {{"type": "sphere", "center": [0.3, 1, 0], "radius": {r}, "material": "bulb"}}"#))
+        .replace("LIGHT", "");
+    let point_scene = base.replace("RAD", "0").replace("SPHERE", "").replace(
+        "LIGHT",
+        r#"{"type": "point", "position": [0.3, 1, 0], "intensity": [5, 5, 5]}"#,
+    );
+    let sphere = renderer::scene::load_str(&sphere_scene, None).unwrap();
+    let point = renderer::scene::load_str(&point_scene, None).unwrap();
+    let (a, sa) = render_loaded(&sphere, "nee", 64, 24, 24, 1, Some(2));
+    let (b, _) = render_loaded(&point, "nee", 64, 24, 24, 1, Some(2));
+    let (ma, mb) = (a.mean(), b.mean());
+    let e = rel_mse(&a, &b).unwrap();
+    println!("tiny sphere light r={r}: mean {ma:.5?} vs point light {mb:.5?}, relMSE {e:.2e}");
+    assert!((ma[0] / mb[0] - 1.0).abs() < 0.01, "{ma:?} vs {mb:?}");
+    assert!(e < 1e-3, "relMSE {e}");
+    assert_eq!(sa.dropped_samples, 0);
+}

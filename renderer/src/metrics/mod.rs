@@ -23,9 +23,7 @@ pub use display::{tonemap_from_name, tonemap_name, Display, DisplaySettings, LUM
 pub use downsample::downsample_box;
 pub use error::MetricError;
 pub use flip::{flip, flip_map, FlipMap, FLIP_NOTE};
-pub use pixelwise::{
-    mse, nan_fraction, rel_mse, rmse, MSE_FORMULA, REL_MSE_FORMULA, RMSE_FORMULA,
-};
+pub use pixelwise::{mse, nan_fraction, rel_mse, rmse, MSE_FORMULA, REL_MSE_FORMULA, RMSE_FORMULA};
 pub use psnr::{psnr, PSNR_NOTE};
 pub use ssim::{
     ssim, ssim_gray, SSIM_K1, SSIM_K2, SSIM_MIN_SIDE, SSIM_NOTE, SSIM_RADIUS, SSIM_SIGMA,

@@ -159,7 +159,9 @@ mod tests {
 
     #[test]
     fn identical_is_one() {
-        let x: Vec<f64> = (0..16 * 12).map(|i| ((i * 37) % 23) as f64 / 22.0).collect();
+        let x: Vec<f64> = (0..16 * 12)
+            .map(|i| ((i * 37) % 23) as f64 / 22.0)
+            .collect();
         assert_eq!(ssim_gray(&x, &x, 16, 12).unwrap(), 1.0);
     }
 

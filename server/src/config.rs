@@ -1,0 +1,107 @@
+//! The server's configuration (from `candela serve`'s flags): where data lives, the token, the
+//! intervals of snapshots and checkpoints, scheduling targets, and the limits on what a client
+//! may ask for.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// Limits on requests; each is reported as a 4xx JSON error when exceeded.
+#[derive(Debug, Clone)]
+pub struct RequestLimits {
+    /// Largest request body in bytes (413).
+    pub max_body_bytes: usize,
+    /// Largest total size of the files extracted from an upload (413).
+    pub max_upload_bytes: u64,
+    /// Most files in an upload (413).
+    pub max_upload_files: usize,
+    /// Largest film side and pixel count (422).
+    pub max_side: u32,
+    pub max_pixels: u64,
+    /// Largest spp and time budget (422).
+    pub max_spp: u32,
+    pub max_time_s: f64,
+    /// Most triangles in a scene (422).
+    pub max_triangles: usize,
+    /// Most unfinished (queued, running, paused) jobs; more is 429.
+    pub max_unfinished_jobs: u64,
+}
+
+impl Default for RequestLimits {
+    fn default() -> Self {
+        RequestLimits {
+            max_body_bytes: 256 << 20,
+            max_upload_bytes: 1 << 30,
+            max_upload_files: 10_000,
+            max_side: 16384,
+            max_pixels: 64 << 20,
+            max_spp: 1 << 20,
+            max_time_s: 7.0 * 86400.0,
+            max_triangles: 20_000_000,
+            max_unfinished_jobs: 100,
+        }
+    }
+}
+
+impl RequestLimits {
+    /// The scene loader's limits derived from these.
+    pub fn scene_limits(&self) -> renderer::scene::Limits {
+        renderer::scene::Limits {
+            max_width: self.max_side,
+            max_height: self.max_side,
+            max_triangles: self.max_triangles,
+            ..Default::default()
+        }
+    }
+}
+
+/// Everything the server needs to know at startup.
+#[derive(Debug, Clone)]
+pub struct ServerConfig {
+    /// The data directory (database, job files, built-in assets).
+    pub data_dir: PathBuf,
+    /// Bearer token; `None`: no authentication (loopback only).
+    pub token: Option<String>,
+    /// Vulkan device name filter.
+    pub device: Option<String>,
+    /// Enable the Vulkan validation layer (tests).
+    pub validation: bool,
+    /// How often a running job publishes a snapshot (and a progress event).
+    pub snapshot_interval: Duration,
+    /// How often a running job writes a checkpoint.
+    pub checkpoint_interval: Duration,
+    /// Target wall time of one pass.
+    pub pass_target: Duration,
+    /// Most render sessions kept on the GPU at once.
+    pub max_active: usize,
+    /// SSE keep-alive comment interval.
+    pub sse_keepalive: Duration,
+    pub limits: RequestLimits,
+}
+
+impl ServerConfig {
+    /// A configuration with defaults under `data_dir`.
+    pub fn new(data_dir: PathBuf) -> Self {
+        ServerConfig {
+            data_dir,
+            token: None,
+            device: None,
+            validation: false,
+            snapshot_interval: Duration::from_secs(1),
+            checkpoint_interval: Duration::from_secs(10),
+            pass_target: Duration::from_millis(150),
+            max_active: 4,
+            sse_keepalive: Duration::from_secs(15),
+            limits: RequestLimits::default(),
+        }
+    }
+
+    /// `<data>/builtin`: the built-in scenes' assets.
+    pub fn builtin_dir(&self) -> PathBuf {
+        self.data_dir.join("builtin")
+    }
+
+    /// `<data>/tmp`: uploads being unpacked.
+    pub fn tmp_dir(&self) -> PathBuf {
+        self.data_dir.join("tmp")
+    }
+}

@@ -1,0 +1,410 @@
+//! A job request (`POST /api/jobs` body, or the `job` part of an upload) parsed and checked:
+//! unknown fields, ranges and the limits are 4xx errors naming the JSON path; the scene is
+//! loaded once here so scene errors come back at submission (422 with the scene's JSON path)
+//! rather than as a failed job.
+//!
+//! Defaults: integrator, spp and max_depth from the scene's `render` section (else `nee`, 256
+//! spp), film size, exposure and tonemap from its `film` section, seed 0, priority 10.
+
+use std::path::{Path, PathBuf};
+
+use renderer::integrators::{IntegratorOptions, NAMES};
+use renderer::scene::{SceneError, Tonemap};
+use serde::Deserialize;
+use serde_json::Value;
+
+use super::model::{JobSettings, SceneSource, DEFAULT_PRIORITY, MAX_PRIORITY};
+use crate::api_error::ApiError;
+use crate::builtin_scenes;
+use crate::config::RequestLimits;
+use crate::store::NewJob;
+
+/// The fields a client may send.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JobRequest {
+    /// An inline scene document.
+    pub scene: Option<Value>,
+    /// A built-in scene (`GET /api/scenes`).
+    pub scene_name: Option<String>,
+    /// `"nee"` or `{"type": "nee", "max_depth": 4}`.
+    pub integrator: Option<Value>,
+    pub spp: Option<u32>,
+    pub time_s: Option<f64>,
+    pub seed: Option<u64>,
+    pub priority: Option<u32>,
+    pub name: Option<String>,
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    pub exposure: Option<f32>,
+    pub tonemap: Option<String>,
+}
+
+/// Where the scene comes from besides the request's own fields.
+#[derive(Debug)]
+pub enum SceneInput {
+    /// `scene` or `scene_name` in the request.
+    InRequest,
+    /// An uploaded scene file whose assets were unpacked into `dir`.
+    Uploaded { json: String, dir: PathBuf },
+}
+
+/// Parses a request body; JSON syntax errors are 400, everything else 422 naming the field.
+pub fn parse_request(body: &[u8]) -> Result<JobRequest, ApiError> {
+    let de = &mut serde_json::Deserializer::from_slice(body);
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner();
+        let msg = inner.to_string();
+        use serde_json::error::Category;
+        match inner.classify() {
+            Category::Syntax | Category::Eof | Category::Io => ApiError::BadRequest {
+                code: "invalid_json",
+                message: format!("the body is not valid JSON: {msg}"),
+            },
+            Category::Data => {
+                // Unknown fields are reported at their parent; name the field itself.
+                let field = msg
+                    .strip_prefix("unknown field `")
+                    .and_then(|rest| rest.split('`').next());
+                let path = match (field, path.as_str()) {
+                    (Some(f), ".") => f.to_string(),
+                    (Some(f), p) => format!("{p}.{f}"),
+                    (None, ".") => String::new(),
+                    (None, p) => p.to_string(),
+                };
+                if path.is_empty() {
+                    ApiError::BadRequest {
+                        code: "invalid_json",
+                        message: format!("the body must be a JSON object: {msg}"),
+                    }
+                } else {
+                    ApiError::invalid(path.clone(), format!("{path}: {}", tidy(&msg)))
+                }
+            }
+        }
+    })
+}
+
+/// serde's backticks as double quotes, location suffix dropped.
+fn tidy(msg: &str) -> String {
+    let msg = msg.split(" at line ").next().unwrap_or(msg);
+    msg.replace('`', "\"")
+}
+
+/// A scene error as a 422 whose path is relative to the request body (`prefix` is `scene` for
+/// an inline scene, empty for a scene file).
+pub fn scene_error(e: &SceneError, prefix: &str) -> ApiError {
+    let path = match (e.path(), prefix) {
+        (Some(p), "") => Some(p.to_string()),
+        (Some(p), pre) if p.starts_with('[') => Some(format!("{pre}{p}")),
+        (Some(p), pre) => Some(format!("{pre}.{p}")),
+        (None, "") => None,
+        (None, pre) => Some(pre.to_string()),
+    };
+    ApiError::Unprocessable {
+        code: "invalid_scene",
+        message: e.to_string(),
+        path,
+    }
+}
+
+fn tonemap_name(t: Tonemap) -> &'static str {
+    match t {
+        Tonemap::Clamp => "clamp",
+        Tonemap::Reinhard => "reinhard",
+        Tonemap::Aces => "aces",
+    }
+}
+
+/// Parses a tonemap name.
+pub fn parse_tonemap(s: &str) -> Option<Tonemap> {
+    match s {
+        "clamp" => Some(Tonemap::Clamp),
+        "reinhard" => Some(Tonemap::Reinhard),
+        "aces" => Some(Tonemap::Aces),
+        _ => None,
+    }
+}
+
+fn integrator_options(v: Option<&Value>, default: &str) -> Result<IntegratorOptions, ApiError> {
+    let unknown = |name: &str| {
+        ApiError::invalid(
+            "integrator",
+            format!(
+                "integrator: unknown or not yet available \"{name}\" (available: {})",
+                NAMES.join(", ")
+            ),
+        )
+    };
+    let options = match v {
+        None | Some(Value::Null) => {
+            IntegratorOptions::from_name(default).ok_or_else(|| unknown(default))?
+        }
+        Some(Value::String(name)) => {
+            IntegratorOptions::from_name(name).ok_or_else(|| unknown(name))?
+        }
+        Some(v @ Value::Object(map)) => {
+            match map.get("type").and_then(Value::as_str) {
+                Some(name) if IntegratorOptions::from_name(name).is_none() => {
+                    return Err(unknown(name))
+                }
+                None => {
+                    return Err(ApiError::invalid(
+                        "integrator.type",
+                        "integrator.type: missing (e.g. {\"type\": \"nee\"})",
+                    ))
+                }
+                _ => {}
+            }
+            serde_json::from_value(v.clone())
+                .map_err(|e| ApiError::invalid("integrator", format!("integrator: {}", tidy(&e.to_string()))))?
+        }
+        Some(_) => {
+            return Err(ApiError::invalid(
+                "integrator",
+                "integrator: expected a name (\"nee\") or an object ({\"type\": \"nee\", ...})",
+            ))
+        }
+    };
+    if let Some(d) = options.max_depth() {
+        if d == 0 || d < -1 {
+            return Err(ApiError::invalid(
+                "integrator.max_depth",
+                format!("integrator.max_depth: must be -1 or at least 1, got {d}"),
+            ));
+        }
+    }
+    Ok(options)
+}
+
+/// Checks a request and loads its scene; returns the job to insert. Blocking (reads assets).
+pub fn prepare(
+    req: JobRequest,
+    input: SceneInput,
+    limits: &RequestLimits,
+    builtin_dir: &Path,
+) -> Result<NewJob, ApiError> {
+    // Step 1: the scene text, its base folder, and the prefix of its paths in errors.
+    let (text, base, source, prefix) = match input {
+        SceneInput::Uploaded { json, dir } => {
+            if req.scene.is_some() || req.scene_name.is_some() {
+                return Err(ApiError::invalid(
+                    "scene",
+                    "scene: the scene comes from the upload; do not also give scene or scene_name",
+                ));
+            }
+            (json, Some(dir), SceneSource::Upload, "")
+        }
+        SceneInput::InRequest => match (&req.scene, &req.scene_name) {
+            (Some(_), Some(_)) => {
+                return Err(ApiError::invalid(
+                    "scene_name",
+                    "scene_name: give either scene or scene_name, not both",
+                ))
+            }
+            (Some(v), None) => {
+                if !v.is_object() {
+                    return Err(ApiError::invalid(
+                        "scene",
+                        "scene: expected a scene object (SCENE_FORMAT.md)",
+                    ));
+                }
+                (v.to_string(), None, SceneSource::Inline, "scene")
+            }
+            (None, Some(name)) => {
+                let text = builtin_scenes::scene_json(name).ok_or_else(|| {
+                    ApiError::invalid(
+                        "scene_name",
+                        format!(
+                            "scene_name: no built-in scene \"{name}\" (available: {})",
+                            builtin_scenes::names()
+                        ),
+                    )
+                })?;
+                (
+                    text.to_string(),
+                    Some(builtin_dir.to_path_buf()),
+                    SceneSource::Builtin,
+                    "",
+                )
+            }
+            (None, None) => {
+                return Err(ApiError::invalid(
+                    "scene",
+                    format!(
+                        "scene: missing: give \"scene\" (a scene object) or \"scene_name\" (one of: {})",
+                        builtin_scenes::names()
+                    ),
+                ))
+            }
+        },
+    };
+    let scene =
+        renderer::scene::load_str_with_limits(&text, base.as_deref(), &limits.scene_limits())
+            .map_err(|e| scene_error(&e, prefix))?;
+
+    // Step 2: integrator and budget.
+    let default_integrator = scene.render.integrator.as_deref().unwrap_or("nee");
+    let integrator = integrator_options(req.integrator.as_ref(), default_integrator)?;
+    let (spp, time_s) = match (req.spp, req.time_s) {
+        (Some(_), Some(_)) => {
+            return Err(ApiError::invalid(
+                "time_s",
+                "time_s: give either spp or time_s, not both",
+            ))
+        }
+        (_, Some(t)) => {
+            if !(t > 0.0 && t <= limits.max_time_s) {
+                return Err(ApiError::invalid(
+                    "time_s",
+                    format!(
+                        "time_s: must be in (0, {}] seconds, got {t}",
+                        limits.max_time_s
+                    ),
+                ));
+            }
+            (None, Some(t))
+        }
+        (n, None) => {
+            let n = n.or(scene.render.spp).unwrap_or(256);
+            if n == 0 || n > limits.max_spp {
+                return Err(ApiError::invalid(
+                    "spp",
+                    format!("spp: must be in 1..={}, got {n}", limits.max_spp),
+                ));
+            }
+            (Some(n), None)
+        }
+    };
+
+    // Step 3: film, display defaults, scheduling.
+    let width = req.width.unwrap_or(scene.film.width);
+    let height = req.height.unwrap_or(scene.film.height);
+    for (field, v) in [("width", width), ("height", height)] {
+        if v == 0 || v > limits.max_side {
+            return Err(ApiError::invalid(
+                field,
+                format!("{field}: must be in 1..={}, got {v}", limits.max_side),
+            ));
+        }
+    }
+    if width as u64 * height as u64 > limits.max_pixels {
+        return Err(ApiError::invalid(
+            "width",
+            format!(
+                "width: {width}x{height} is more than the {} pixels this server accepts",
+                limits.max_pixels
+            ),
+        ));
+    }
+    let exposure = req.exposure.unwrap_or(scene.film.exposure);
+    if !(exposure.is_finite() && exposure.abs() <= 64.0) {
+        return Err(ApiError::invalid(
+            "exposure",
+            "exposure: must be in [-64, 64] EV",
+        ));
+    }
+    let tonemap = match &req.tonemap {
+        Some(t) => {
+            parse_tonemap(t).ok_or_else(|| {
+                ApiError::invalid(
+                    "tonemap",
+                    format!("tonemap: unknown \"{t}\" (clamp, reinhard or aces)"),
+                )
+            })?;
+            t.clone()
+        }
+        None => tonemap_name(scene.film.tonemap).to_string(),
+    };
+    let priority = req.priority.unwrap_or(DEFAULT_PRIORITY);
+    if !(1..=MAX_PRIORITY).contains(&priority) {
+        return Err(ApiError::invalid(
+            "priority",
+            format!("priority: must be in 1..={MAX_PRIORITY}, got {priority}"),
+        ));
+    }
+    let name = match req.name {
+        Some(n) => check_name(&n)?,
+        None => req
+            .scene_name
+            .clone()
+            .unwrap_or_else(|| match source {
+                SceneSource::Upload => "uploaded scene".into(),
+                _ => "scene".into(),
+            }),
+    };
+    Ok(NewJob {
+        name,
+        priority,
+        settings: JobSettings {
+            integrator,
+            spp,
+            time_s,
+            seed: req.seed.unwrap_or(0),
+            width,
+            height,
+            scene_max_depth: scene.render.max_depth,
+            exposure,
+            tonemap,
+        },
+        scene: text,
+        scene_name: req.scene_name,
+        source,
+    })
+}
+
+/// Checks a job's name: 1..=200 characters, no control characters.
+pub fn check_name(n: &str) -> Result<String, ApiError> {
+    let n = n.trim();
+    if n.is_empty() || n.chars().count() > 200 || n.chars().any(char::is_control) {
+        return Err(ApiError::invalid(
+            "name",
+            "name: must be 1 to 200 characters without control characters",
+        ));
+    }
+    Ok(n.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unknown_fields_are_named() {
+        let e = parse_request(br#"{"scene_name": "cornell", "spp": 4, "colour": 1}"#).unwrap_err();
+        match e {
+            ApiError::Unprocessable { path, message, .. } => {
+                assert_eq!(path.as_deref(), Some("colour"));
+                assert!(message.contains("unknown field \"colour\""), "{message}");
+            }
+            e => panic!("{e}"),
+        }
+        let e = parse_request(br#"{"spp": "many"}"#).unwrap_err();
+        assert!(matches!(e, ApiError::Unprocessable { path: Some(ref p), .. } if p == "spp"), "{e}");
+        let e = parse_request(b"{\"spp\": 4").unwrap_err();
+        assert!(matches!(e, ApiError::BadRequest { .. }), "{e}");
+        let e = parse_request(b"[1]").unwrap_err();
+        assert!(matches!(e, ApiError::BadRequest { .. }), "{e}");
+    }
+
+    #[test]
+    fn defaults_and_limits() {
+        let dir = std::env::temp_dir();
+        let limits = RequestLimits::default();
+        let req = parse_request(br#"{"scene_name": "furnace"}"#).unwrap();
+        let job = prepare(req, SceneInput::InRequest, &limits, &dir).unwrap();
+        assert_eq!(job.settings.spp, Some(64));
+        assert_eq!((job.settings.width, job.settings.height), (64, 64));
+        assert_eq!(job.priority, DEFAULT_PRIORITY);
+        let req = parse_request(br#"{"scene_name": "furnace", "spp": 0}"#).unwrap();
+        let e = prepare(req, SceneInput::InRequest, &limits, &dir).unwrap_err();
+        assert!(matches!(e, ApiError::Unprocessable { path: Some(ref p), .. } if p == "spp"));
+        let req = parse_request(br#"{"scene": {"version": 1}}"#).unwrap();
+        let e = prepare(req, SceneInput::InRequest, &limits, &dir).unwrap_err();
+        assert!(
+            matches!(e, ApiError::Unprocessable { code: "invalid_scene", path: Some(ref p), .. } if p.starts_with("scene")),
+            "{e}"
+        );
+    }
+}

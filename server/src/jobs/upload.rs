@@ -1,0 +1,387 @@
+//! Scene uploads (`multipart/form-data` on `POST /api/jobs`): a `job` part (the JSON settings,
+//! as the JSON body but without `scene`/`scene_name`), then either a `scene` part (the scene
+//! JSON) plus one part per asset file, named by its path relative to the scene (`-F
+//! assets/wood.png=@wood.png`), or an `archive` part: a .tar, .tar.gz or .zip of the scene
+//! folder with `scene.json` at its root (or inside its single top-level folder).
+//!
+//! Everything is unpacked into a fresh folder under `<data>/tmp`, with every path checked (no
+//! absolute paths, no `..`, no links) and the total size and file count limited, before the
+//! scene is loaded; the folder is removed on any failure.
+
+use std::io::{Read, Write};
+use std::path::{Component, Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use axum::extract::multipart::{Field, MultipartError};
+use axum::extract::Multipart;
+use tokio::io::AsyncWriteExt;
+
+use super::request::{parse_request, JobRequest};
+use crate::api_error::ApiError;
+use crate::config::RequestLimits;
+
+/// A folder removed when dropped (unless it was moved away).
+#[derive(Debug)]
+pub struct TempDir(pub PathBuf);
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// What an upload carried.
+#[derive(Debug)]
+pub struct Upload {
+    /// The `job` part (defaults when absent).
+    pub job: JobRequest,
+    /// The scene JSON text.
+    pub scene_json: String,
+    /// The scene's base folder (inside `_root`).
+    pub base: PathBuf,
+    /// The temporary folder holding everything; removed on drop.
+    pub _root: TempDir,
+}
+
+fn multipart_error(e: MultipartError) -> ApiError {
+    if e.status() == axum::http::StatusCode::PAYLOAD_TOO_LARGE {
+        ApiError::PayloadTooLarge(format!("upload: {}", e.body_text()))
+    } else {
+        ApiError::BadRequest {
+            code: "invalid_multipart",
+            message: format!("upload: {}", e.body_text()),
+        }
+    }
+}
+
+fn too_large(limits: &RequestLimits) -> ApiError {
+    ApiError::PayloadTooLarge(format!(
+        "upload: the files add up to more than {} bytes or {} files",
+        limits.max_upload_bytes, limits.max_upload_files
+    ))
+}
+
+/// A path inside the upload: relative, only plain components, at most 32 deep.
+pub fn safe_relative(name: &str) -> Option<PathBuf> {
+    if name.is_empty() || name.len() > 1024 || name.contains('\0') || name.contains('\\') {
+        return None;
+    }
+    let mut out = PathBuf::new();
+    for c in Path::new(name).components() {
+        match c {
+            Component::Normal(p) => out.push(p),
+            Component::CurDir => {}
+            _ => return None,
+        }
+    }
+    (out.components().count() > 0 && out.components().count() <= 32).then_some(out)
+}
+
+/// Counts the files and bytes written so far against the limits.
+struct Budget<'a> {
+    limits: &'a RequestLimits,
+    files: usize,
+    bytes: u64,
+}
+
+impl Budget<'_> {
+    fn add_file(&mut self) -> Result<(), ApiError> {
+        self.files += 1;
+        if self.files > self.limits.max_upload_files {
+            return Err(too_large(self.limits));
+        }
+        Ok(())
+    }
+    fn add_bytes(&mut self, n: u64) -> Result<(), ApiError> {
+        self.bytes += n;
+        if self.bytes > self.limits.max_upload_bytes {
+            return Err(too_large(self.limits));
+        }
+        Ok(())
+    }
+}
+
+/// Streams a part into `path`.
+async fn save_field(field: &mut Field<'_>, path: &Path, budget: &mut Budget<'_>) -> Result<(), ApiError> {
+    if let Some(parent) = path.parent() {
+        tokio::fs::create_dir_all(parent).await.map_err(ApiError::internal)?;
+    }
+    let mut file = tokio::fs::File::create(path).await.map_err(ApiError::internal)?;
+    while let Some(chunk) = field.chunk().await.map_err(multipart_error)? {
+        budget.add_bytes(chunk.len() as u64)?;
+        file.write_all(&chunk).await.map_err(ApiError::internal)?;
+    }
+    file.flush().await.map_err(ApiError::internal)?;
+    Ok(())
+}
+
+/// Reads a multipart upload into a fresh folder under `tmp_root`.
+pub async fn read_multipart(
+    mut mp: Multipart,
+    limits: &RequestLimits,
+    tmp_root: &Path,
+) -> Result<Upload, ApiError> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let root = tmp_root.join(format!(
+        "upload-{}-{}",
+        std::process::id(),
+        COUNTER.fetch_add(1, Ordering::Relaxed)
+    ));
+    let _ = std::fs::remove_dir_all(&root);
+    let files = root.join("files");
+    std::fs::create_dir_all(&files).map_err(ApiError::internal)?;
+    let root = TempDir(root);
+    let archive = root.0.join("archive.bin");
+    let mut budget = Budget {
+        limits,
+        files: 0,
+        bytes: 0,
+    };
+    let (mut job, mut scene, mut has_archive) = (None, None, false);
+    // Step 1: the parts.
+    while let Some(mut field) = mp.next_field().await.map_err(multipart_error)? {
+        let name = field.name().unwrap_or_default().to_string();
+        match name.as_str() {
+            "job" => {
+                let bytes = field.bytes().await.map_err(multipart_error)?;
+                job = Some(parse_request(&bytes)?);
+            }
+            "scene" => {
+                let bytes = field.bytes().await.map_err(multipart_error)?;
+                let text = String::from_utf8(bytes.to_vec()).map_err(|_| {
+                    ApiError::invalid("scene", "scene: the scene part is not UTF-8 text")
+                })?;
+                scene = Some(text);
+            }
+            "archive" => {
+                if has_archive {
+                    return Err(ApiError::bad_request("upload: more than one archive part"));
+                }
+                has_archive = true;
+                save_field(&mut field, &archive, &mut budget).await?;
+            }
+            "" => return Err(ApiError::bad_request("upload: a part has no name")),
+            other => {
+                let rel = safe_relative(other).ok_or_else(|| {
+                    ApiError::invalid(
+                        other,
+                        format!("upload: part \"{other}\": an asset's part name must be a relative path inside the scene folder"),
+                    )
+                })?;
+                budget.add_file()?;
+                save_field(&mut field, &files.join(rel), &mut budget).await?;
+            }
+        }
+    }
+    // Step 2: the archive, unpacked off the async threads.
+    let mut base = files.clone();
+    if has_archive {
+        if scene.is_some() {
+            return Err(ApiError::invalid(
+                "scene",
+                "upload: give the scene inside the archive (scene.json) or as a scene part, not both",
+            ));
+        }
+        let (limits, files2, budget_used) = (limits.clone(), files.clone(), (budget.files, budget.bytes));
+        let (json, dir) = tokio::task::spawn_blocking(move || {
+            let mut b = Budget {
+                limits: &limits,
+                files: budget_used.0,
+                bytes: budget_used.1,
+            };
+            extract(&archive, &files2, &mut b)?;
+            find_scene(&files2)
+        })
+        .await
+        .map_err(ApiError::internal)??;
+        scene = Some(json);
+        base = dir;
+    }
+    let scene_json = scene.ok_or_else(|| {
+        ApiError::invalid(
+            "scene",
+            "scene: missing: an upload needs a scene part or an archive part with scene.json",
+        )
+    })?;
+    Ok(Upload {
+        job: job.unwrap_or_default(),
+        scene_json,
+        base,
+        _root: root,
+    })
+}
+
+/// `scene.json` at the root of `dir`, or inside its only top-level folder.
+fn find_scene(dir: &Path) -> Result<(String, PathBuf), ApiError> {
+    let read = |d: &Path| std::fs::read(d.join("scene.json")).ok();
+    let mut base = dir.to_path_buf();
+    let mut bytes = read(dir);
+    if bytes.is_none() {
+        let entries: Vec<PathBuf> = std::fs::read_dir(dir)
+            .map_err(ApiError::internal)?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .collect();
+        if let [only] = entries.as_slice() {
+            if only.is_dir() {
+                bytes = read(only);
+                base = only.clone();
+            }
+        }
+    }
+    let bytes = bytes.ok_or_else(|| {
+        ApiError::invalid("archive", "archive: no scene.json at its root")
+    })?;
+    let text = String::from_utf8(bytes)
+        .map_err(|_| ApiError::invalid("archive", "archive: scene.json is not UTF-8 text"))?;
+    Ok((text, base))
+}
+
+fn bad_archive(msg: impl std::fmt::Display) -> ApiError {
+    ApiError::invalid("archive", format!("archive: {msg}"))
+}
+
+/// Unpacks a .zip, .tar or .tar.gz (recognised by content) into `dest`.
+fn extract(archive: &Path, dest: &Path, budget: &mut Budget<'_>) -> Result<(), ApiError> {
+    let mut head = [0u8; 512];
+    let n = {
+        let mut f = std::fs::File::open(archive).map_err(ApiError::internal)?;
+        read_up_to(&mut f, &mut head).map_err(ApiError::internal)?
+    };
+    let head = &head[..n];
+    let file = std::fs::File::open(archive).map_err(ApiError::internal)?;
+    if head.starts_with(b"PK\x03\x04") || head.starts_with(b"PK\x05\x06") {
+        extract_zip(file, dest, budget)
+    } else if head.starts_with(&[0x1f, 0x8b]) {
+        extract_tar(flate2::read::GzDecoder::new(file), dest, budget)
+    } else if head.len() >= 262 && &head[257..262] == b"ustar" {
+        extract_tar(file, dest, budget)
+    } else {
+        Err(bad_archive("not a .tar, .tar.gz or .zip file"))
+    }
+}
+
+fn read_up_to(r: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut n = 0;
+    while n < buf.len() {
+        match r.read(&mut buf[n..])? {
+            0 => break,
+            k => n += k,
+        }
+    }
+    Ok(n)
+}
+
+/// Copies one entry to `dest/rel`, counting its bytes (never more than the budget allows).
+fn write_entry(
+    mut r: impl Read,
+    dest: &Path,
+    rel: &Path,
+    budget: &mut Budget<'_>,
+) -> Result<(), ApiError> {
+    budget.add_file()?;
+    let path = dest.join(rel);
+    if let Some(parent) = path.parent() {
+        std::fs::create_dir_all(parent).map_err(ApiError::internal)?;
+    }
+    let mut out = std::fs::File::create(&path).map_err(ApiError::internal)?;
+    let left = budget.limits.max_upload_bytes.saturating_sub(budget.bytes);
+    let copied = std::io::copy(&mut (&mut r).take(left + 1), &mut out)
+        .map_err(|e| bad_archive(format!("{}: {e}", rel.display())))?;
+    budget.add_bytes(copied)?;
+    out.flush().map_err(ApiError::internal)?;
+    Ok(())
+}
+
+fn extract_tar(r: impl Read, dest: &Path, budget: &mut Budget<'_>) -> Result<(), ApiError> {
+    let mut archive = tar::Archive::new(r);
+    for entry in archive.entries().map_err(bad_archive)? {
+        let entry = entry.map_err(bad_archive)?;
+        let name = entry.path().map_err(bad_archive)?.to_string_lossy().into_owned();
+        let kind = entry.header().entry_type();
+        if kind.is_symlink() || kind.is_hard_link() {
+            return Err(bad_archive(format!("\"{name}\" is a link; only files and folders are allowed")));
+        }
+        if !(kind.is_file() || kind.is_dir()) {
+            continue; // pax headers and other metadata
+        }
+        let rel = safe_relative(&name).ok_or_else(|| {
+            bad_archive(format!("\"{name}\" is not a relative path inside the archive"))
+        })?;
+        if kind.is_dir() {
+            std::fs::create_dir_all(dest.join(rel)).map_err(ApiError::internal)?;
+        } else {
+            write_entry(entry, dest, &rel, budget)?;
+        }
+    }
+    Ok(())
+}
+
+fn extract_zip(file: std::fs::File, dest: &Path, budget: &mut Budget<'_>) -> Result<(), ApiError> {
+    let mut zip = zip::ZipArchive::new(file).map_err(bad_archive)?;
+    if zip.len() > budget.limits.max_upload_files {
+        return Err(too_large(budget.limits));
+    }
+    for i in 0..zip.len() {
+        let entry = zip.by_index(i).map_err(bad_archive)?;
+        let name = entry.name().to_string();
+        if entry.is_symlink() {
+            return Err(bad_archive(format!("\"{name}\" is a link; only files and folders are allowed")));
+        }
+        let rel = safe_relative(name.trim_end_matches('/'))
+            .filter(|_| entry.enclosed_name().is_some())
+            .ok_or_else(|| {
+                bad_archive(format!("\"{name}\" is not a relative path inside the archive"))
+            })?;
+        if entry.is_dir() {
+            std::fs::create_dir_all(dest.join(rel)).map_err(ApiError::internal)?;
+        } else {
+            if entry.size() > budget.limits.max_upload_bytes {
+                return Err(too_large(budget.limits));
+            }
+            write_entry(entry, dest, &rel, budget)?;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_plain_relative_paths() {
+        assert_eq!(safe_relative("a/b.png"), Some(PathBuf::from("a/b.png")));
+        assert_eq!(safe_relative("./a.obj"), Some(PathBuf::from("a.obj")));
+        for bad in ["", "/etc/passwd", "../x", "a/../../x", "a\\..\\x", ".", "a\0b"] {
+            assert_eq!(safe_relative(bad), None, "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn tar_with_escaping_path_is_refused() {
+        let dir = std::env::temp_dir().join(format!("candela-upload-test-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("out")).unwrap();
+        // A tar whose entry name climbs out of the folder (written by hand: tar::Builder refuses).
+        let mut header = tar::Header::new_gnu();
+        header.as_gnu_mut().unwrap().name[..9].copy_from_slice(b"../evil.t");
+        header.set_size(4);
+        header.set_entry_type(tar::EntryType::Regular);
+        header.set_cksum();
+        let mut builder = tar::Builder::new(Vec::new());
+        builder.append(&header, &b"evil"[..]).unwrap();
+        let bytes = builder.into_inner().unwrap();
+        let archive = dir.join("a.tar");
+        std::fs::write(&archive, bytes).unwrap();
+        let limits = RequestLimits::default();
+        let mut budget = Budget {
+            limits: &limits,
+            files: 0,
+            bytes: 0,
+        };
+        let e = extract(&archive, &dir.join("out"), &mut budget).unwrap_err();
+        assert!(e.message().contains("not a relative path"), "{e}");
+        assert!(!dir.join("evil.t").exists());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
