@@ -140,7 +140,11 @@ const jobId = (j) => String(j.id);
 const jobName = (j) => j.name || `job ${j.id}`;
 const jobSettings = (j) => j.settings || {};
 const jobProgress = (j) => j.progress || {};
+/** Progress merged with the final statistics of a finished job (msamples_per_s, rays_per_s). */
+const jobNumbers = (j) => ({ ...jobProgress(j), ...(j.stats || {}) });
 const jobSpp = (j) => jobProgress(j).spp ?? 0;
+/** Seconds rendered so far (SSE progress says elapsed_s, the job JSON time_s). */
+const elapsedOf = (p) => p.elapsed_s ?? p.time_s;
 
 function jobLinks(j) {
   const base = `/api/jobs/${encodeURIComponent(jobId(j))}`;
@@ -148,8 +152,8 @@ function jobLinks(j) {
   return {
     self: l.self || base,
     events: l.events || `${base}/events`,
-    png: l.png || `${base}/image.png`,
-    exr: l.exr || `${base}/image.exr`,
+    png: l['image.png'] || l.png || `${base}/image.png`,
+    exr: l['image.exr'] || l.exr || `${base}/image.exr`,
   };
 }
 
@@ -164,15 +168,15 @@ function jobFraction(j, progress = jobProgress(j)) {
   const s = jobSettings(j);
   const spp = progress.spp ?? 0;
   if (s.spp) return Math.min(1, spp / s.spp);
-  if (s.time_s) return Math.min(1, (progress.elapsed_s ?? 0) / s.time_s);
-  return null;
+  if (s.time_s) return Math.min(1, (elapsedOf(progress) ?? 0) / s.time_s);
+  return progress.fraction ?? null;
 }
 
 function jobBudgetText(j, progress = jobProgress(j)) {
   const s = jobSettings(j);
   const spp = progress.spp ?? 0;
   if (s.spp) return `${spp} / ${s.spp} spp`;
-  if (s.time_s) return `${spp} spp · ${fmtDuration(progress.elapsed_s ?? 0)} / ${fmtDuration(s.time_s)}`;
+  if (s.time_s) return `${spp} spp · ${fmtDuration(elapsedOf(progress) ?? 0)} / ${fmtDuration(s.time_s)}`;
   return `${spp} spp`;
 }
 
@@ -554,7 +558,8 @@ function readSettings() {
     settings.spp = readInt(budgetInput, 'Samples per pixel', { min: 1 });
   }
   settings.seed = readInt($('seed'), 'Seed', { min: 0, optional: true }) ?? 0;
-  settings.priority = readInt($('priority'), 'Priority', { optional: true }) ?? 0;
+  const priority = readInt($('priority'), 'Priority', { min: 1, optional: true });
+  if (priority !== undefined) settings.priority = priority;
   const w = readInt($('width'), 'Width', { min: 1, optional: true });
   const h = readInt($('height'), 'Height', { min: 1, optional: true });
   if ((w === undefined) !== (h === undefined)) {
@@ -573,6 +578,20 @@ function parseSceneText(text, what) {
   } catch (err) {
     throw { message: `${what} is not valid JSON: ${err.message}` };
   }
+}
+
+/** Every string in a scene that looks like a relative file path (mesh, texture, env map). */
+function sceneFileRefs(scene) {
+  const out = [];
+  const walk = (v) => {
+    if (typeof v === 'string') {
+      if (/\.[A-Za-z0-9]{2,4}$/.test(v) && !v.startsWith('/') && !v.includes('..')) out.push(v);
+    } else if (v && typeof v === 'object') {
+      for (const x of Object.values(v)) walk(x);
+    }
+  };
+  walk(scene);
+  return out;
 }
 
 /** Builds the POST /api/jobs request: JSON for named/pasted scenes, multipart for uploads. */
@@ -598,10 +617,12 @@ async function buildJobRequest() {
       parseSceneText(text, file.name); // fail early with a clear message
       const assets = [...$('asset-files').files];
       if (!assets.length) return { json: { scene: JSON.parse(text), ...settings } };
+      // One part per asset, named by the path the scene uses for it (multipart upload).
+      const refs = sceneFileRefs(JSON.parse(text));
       const form = new FormData();
-      form.append('settings', new Blob([JSON.stringify(settings)], { type: 'application/json' }), 'settings.json');
+      form.append('job', new Blob([JSON.stringify(settings)], { type: 'application/json' }), 'job.json');
       form.append('scene', new Blob([text], { type: 'application/json' }), file.name);
-      for (const a of assets) form.append('asset', a, a.name);
+      for (const a of assets) form.append(refs.find((r) => r === a.name || r.endsWith(`/${a.name}`)) || a.name, a, a.name);
       return { body: form };
     }
     case 'archive': {
@@ -609,7 +630,7 @@ async function buildJobRequest() {
       const file = input.files[0];
       if (!file) throw { field: input, message: 'Choose a .zip or .tar of the scene folder.' };
       const form = new FormData();
-      form.append('settings', new Blob([JSON.stringify(settings)], { type: 'application/json' }), 'settings.json');
+      form.append('job', new Blob([JSON.stringify(settings)], { type: 'application/json' }), 'job.json');
       form.append('archive', file, file.name);
       return { body: form };
     }
@@ -745,7 +766,7 @@ function buildJobRow(id) {
   const progress = el('progress', { class: 'job-progress', max: '1' });
   const budget = el('span', { class: 'job-budget' });
   const prioId = `prio-${id}`;
-  const prio = el('input', { id: prioId, class: 'job-priority', type: 'number', step: '1' });
+  const prio = el('input', { id: prioId, class: 'job-priority', type: 'number', min: '1', max: '100', step: '1' });
   prio.addEventListener('change', () => setPriority(id, prio));
   prio.addEventListener('keydown', (e) => {
     if (e.key === 'Enter') prio.blur();
@@ -794,7 +815,7 @@ function updateJobRow(li, job) {
   q('.job-budget').textContent = jobBudgetText(job, progress);
 
   const prio = q('.job-priority');
-  if (document.activeElement !== prio) prio.value = job.priority ?? 0;
+  if (document.activeElement !== prio) prio.value = job.priority ?? '';
   prio.setAttribute('aria-label', `Priority of ${name}`);
   prio.disabled = TERMINAL.has(st);
 
@@ -848,8 +869,8 @@ function cancelJob(id) {
 function setPriority(id, input) {
   const job = state.jobs.get(id);
   const p = Number(input.value);
-  if (!Number.isInteger(p)) {
-    input.value = job.priority ?? 0;
+  if (!Number.isInteger(p) || p < 1) {
+    input.value = job.priority ?? '';
     return;
   }
   return jobAction(id, () => api(jobLinks(job).self, { method: 'PATCH', json: { priority: p } }));
@@ -911,7 +932,7 @@ function selectJob(id, { force = false } = {}) {
       if (state.selected !== id) return;
       upsertJob(job);
       renderViewHeader(job);
-      renderStats(job, jobProgress(job));
+      renderStats(job, jobNumbers(job));
       if (jobSpp(job) > 0 || job.state === 'done') viewSlot.load(pngUrl(job), { spp: jobSpp(job), job: id });
       else $('stage-placeholder').textContent = job.state === 'queued' ? 'Queued: waiting for the GPU…' : 'Waiting for the first snapshot…';
       if (!TERMINAL.has(job.state)) openStream(job);
@@ -935,7 +956,7 @@ function openStream(job) {
     if (d && typeof d === 'object' && d.progress) j.progress = d.progress;
     upsertJob(j);
     renderViewHeader(j);
-    const final = { ...jobProgress(j), ...(state.live || {}), ...(d && typeof d === 'object' ? d.progress || d.stats || d : {}) };
+    const final = { ...jobNumbers(j), ...(state.live || {}), ...(d && typeof d === 'object' ? d.progress || d.stats || d : {}) };
     state.live = final;
     renderStats(j, final);
     renderJobs();
@@ -1007,7 +1028,7 @@ function syncSelectedFromList() {
   const job = id && state.jobs.get(id);
   if (!job) return;
   renderViewHeader(job);
-  if (!state.live) renderStats(job, jobProgress(job));
+  if (!state.live) renderStats(job, jobNumbers(job));
   if (!state.stream && !TERMINAL.has(job.state)) openStream(job);
   else if (state.stream && job.state === 'done') state.stream.finishSoon();
   else if (state.stream && TERMINAL.has(job.state)) closeStream(id);
@@ -1028,7 +1049,7 @@ function renderViewHeader(job) {
 function renderStats(job, p) {
   const s = jobSettings(job);
   $('stat-spp').textContent = s.spp ? `${p.spp ?? 0} / ${s.spp}` : `${p.spp ?? 0}`;
-  $('stat-elapsed').textContent = fmtDuration(p.elapsed_s);
+  $('stat-elapsed').textContent = fmtDuration(elapsedOf(p));
   $('stat-msps').textContent = fmtNum(p.msamples_per_s);
   $('stat-rays').textContent = fmtSi(p.rays_per_s);
   $('stat-eta').textContent = job.state === 'done' ? 'done' : fmtDuration(p.eta_s);

@@ -120,7 +120,7 @@ async function waitRowState(id, states, timeout = RENDER_TIMEOUT) {
 }
 
 /** Fills the form for a built-in scene and submits it; returns the new job's id. */
-async function submitExample({ name, integrator, spp, timeS, seed = 1, priority = 0, size = SIZE }) {
+async function submitExample({ name, integrator, spp, timeS, seed = 1, priority = 10, size = SIZE }) {
   await page.getByLabel('Example', { exact: true }).check();
   await page.getByLabel('Example scene').selectOption('cornell');
   await page.getByLabel('Name').fill(name);

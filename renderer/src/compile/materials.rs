@@ -99,7 +99,8 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
             for (i, s) in scalars.into_iter().enumerate() {
                 set_scalar(&mut g, i, s);
             }
-            g.scalars[8] = *ior;
+            // 0 tells the BSDF to derive η from `specular` (Mitsuba's rule when no ior is given).
+            g.scalars[8] = ior.unwrap_or(0.0);
             set_scalar(&mut g, 9, subsurface);
             set_scalar(&mut g, 10, clearcoat);
             set_scalar(&mut g, 11, clearcoat_gloss);

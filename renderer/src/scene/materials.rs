@@ -135,7 +135,7 @@ pub(crate) fn build(
             sheen: p.unit("sheen", &m.sheen, 0.0)?,
             sheen_tint: p.unit("sheen_tint", &m.sheen_tint, 0.5)?,
             spec_trans: p.unit("spec_trans", &m.spec_trans, 0.0)?,
-            ior: p.ior(m.ior)?,
+            ior: m.ior.map(|v| p.ior(Some(v))).transpose()?,
             subsurface: p.unit("subsurface", &m.subsurface, 0.0)?,
             clearcoat: p.unit("clearcoat", &m.clearcoat, 0.0)?,
             clearcoat_gloss: p.unit("clearcoat_gloss", &m.clearcoat_gloss, 1.0)?,
@@ -203,7 +203,7 @@ mod tests {
             (
                 ScalarParam::Const(0.5),
                 ScalarParam::Const(0.5),
-                1.5,
+                None,
                 ScalarParam::Const(1.0)
             )
         );

@@ -98,7 +98,9 @@ pub enum MaterialKind {
         sheen: ScalarParam,
         sheen_tint: ScalarParam,
         spec_trans: ScalarParam,
-        ior: f32,
+        /// Index of refraction; None: derived from `specular` as Mitsuba's principled does
+        /// (specular 0.5 ⇔ ior 1.5).
+        ior: Option<f32>,
         subsurface: ScalarParam,
         clearcoat: ScalarParam,
         clearcoat_gloss: ScalarParam,
