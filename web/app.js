@@ -359,6 +359,12 @@ class ImageSlot {
   }
 }
 
+/** Height an image may take: the window less room for the toolbar and statistics (not
+ *  dependent on the scroll position, so the layout is stable). */
+function availHeight() {
+  return Math.max(240, Math.min(window.innerHeight - 260, 1400));
+}
+
 /** Sizes an image box to fit `avail`: integer upscaling (crisp pixels) or smooth downscaling. */
 function fitBox(natW, natH, availW, availH) {
   if (!natW || !natH || availW <= 0 || availH <= 0) return { w: natW, h: natH, pixelated: false };
@@ -956,7 +962,13 @@ function openStream(job) {
     if (d && typeof d === 'object' && d.progress) j.progress = d.progress;
     upsertJob(j);
     renderViewHeader(j);
-    const final = { ...jobNumbers(j), ...(state.live || {}), ...(d && typeof d === 'object' ? d.progress || d.stats || d : {}) };
+    const final = { ...jobNumbers(j), ...(state.live || {}) };
+    if (d && typeof d === 'object') {
+      // done carries {spp, stats}: the final RenderStats (time_s is the whole render time).
+      Object.assign(final, d.progress || {}, d.stats || {});
+      if (d.stats && d.stats.time_s != null) final.elapsed_s = d.stats.time_s;
+      if (d.spp != null) final.spp = d.spp;
+    }
     state.live = final;
     renderStats(j, final);
     renderJobs();
@@ -1065,8 +1077,7 @@ function fitViewImage() {
   const img = $('view-image');
   const stage = $('stage');
   if (!img.naturalWidth) return;
-  const availH = Math.max(200, window.innerHeight - stage.getBoundingClientRect().top - 150);
-  const box = fitBox(img.naturalWidth, img.naturalHeight, stage.clientWidth - 2, Math.min(availH, 1400));
+  const box = fitBox(img.naturalWidth, img.naturalHeight, stage.clientWidth - 2, availHeight());
   img.style.width = `${box.w}px`;
   img.style.height = `${box.h}px`;
   img.classList.toggle('pixelated', box.pixelated);
@@ -1289,8 +1300,7 @@ function layoutAb() {
   const ref = a.naturalWidth ? a : b;
   if (!ref.naturalWidth) return;
   const stage = $('ab-stage');
-  const availH = Math.max(200, window.innerHeight - stage.getBoundingClientRect().top - 120);
-  const box = fitBox(ref.naturalWidth, ref.naturalHeight, stage.clientWidth - 2, Math.min(availH, 1400));
+  const box = fitBox(ref.naturalWidth, ref.naturalHeight, stage.clientWidth - 2, availHeight());
   const frame = $('ab-frame');
   frame.style.width = `${box.w}px`;
   frame.style.height = `${box.h}px`;

@@ -56,7 +56,11 @@ fn constant_linear_offset() {
         }
     }
     let expected = sum / (reference.pixels.len() * 3) as f64;
-    assert!(close(m.rel_mse, expected, 1e-12), "{} vs {expected}", m.rel_mse);
+    assert!(
+        close(m.rel_mse, expected, 1e-12),
+        "{} vs {expected}",
+        m.rel_mse
+    );
     let ssim = m.ssim.unwrap();
     assert!(ssim > 0.5 && ssim < 1.0, "{ssim}");
     assert!(m.flip > 0.0 && m.flip < 1.0);
@@ -74,7 +78,11 @@ fn constant_display_offset() {
     // Constant images: zero variance, so SSIM = (2ab + C1) / (a² + b² + C1), C1 = 1e-4.
     let (a, b) = (118.0 / 255.0, 188.0 / 255.0);
     let ssim = (2.0 * a * b + 1e-4) / (a * a + b * b + 1e-4);
-    assert!(close(m.ssim.unwrap(), ssim, 1e-12), "{:?} vs {ssim}", m.ssim);
+    assert!(
+        close(m.ssim.unwrap(), ssim, 1e-12),
+        "{:?} vs {ssim}",
+        m.ssim
+    );
     let d = f64::from(0.5f32) - f64::from(0.18f32);
     assert!(close(m.mse, d * d, 1e-13));
     let r = f64::from(0.5f32);

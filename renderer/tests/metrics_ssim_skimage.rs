@@ -33,12 +33,7 @@ fn stripes(i: u64, j: u64) -> f64 {
 }
 
 /// Builds `x` and `y` (h rows, w columns) and returns ssim_gray(x, y).
-fn ssim_of(
-    h: u64,
-    w: u64,
-    fx: impl Fn(u64, u64) -> f64,
-    fy: impl Fn(u64, u64, f64) -> f64,
-) -> f64 {
+fn ssim_of(h: u64, w: u64, fx: impl Fn(u64, u64) -> f64, fy: impl Fn(u64, u64, f64) -> f64) -> f64 {
     let mut x = Vec::new();
     let mut y = Vec::new();
     for i in 0..h {

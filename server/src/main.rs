@@ -1,25 +1,44 @@
 //! `candela`: the render server's single binary. Subcommands: `render` (one image from a scene
-//! file), `devices` (list Vulkan devices). The HTTP server (`serve`), `bench` and `compare`
-//! arrive with their issues.
+//! file), `serve` (the HTTP render server and web viewer), `bench`, `compare`, `devices`.
 //!
 //! Exit codes: 0 success, 2 bad input (a one-line error naming what and where), 1 any other
 //! failure. No input may make it panic.
+//!
+//! The server's modules: `app` (router, auth), `routes/` (handlers), `jobs/` (model, requests,
+//! uploads), `store/` (SQLite jobs and event log), `worker/` (GPU thread, scheduler,
+//! checkpoints), `shared` (snapshots, metrics), `builtin_scenes`, `config`, `api_error`.
 
+mod api_error;
+mod app;
+mod benchmark;
+mod builtin_scenes;
 mod cli;
+mod config;
+mod jobs;
+mod routes;
+mod shared;
+mod store;
+mod worker;
 
 use std::process::ExitCode;
 
 use clap::Parser;
 
 fn main() -> ExitCode {
+    let args = cli::Cli::parse();
+    // The server logs what it does (info); the one-shot commands only warnings.
+    let default_filter = match args.command {
+        cli::Command::Serve(_) => "warn,candela=info",
+        _ => "warn",
+    };
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_env("CANDELA_LOG")
-                .unwrap_or_else(|_| "warn".into()),
+                .unwrap_or_else(|_| default_filter.into()),
         )
         .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
-    let args = cli::Cli::parse();
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

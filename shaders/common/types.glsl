@@ -17,6 +17,7 @@
 #define B_ENV_DIST 9
 #define B_ACCUM 10
 #define B_STATS 11
+#define B_SPLAT 12   // bdpt: light-tracing splat buffer (shaders/bdpt/splat.glsl)
 
 #define NONE 0xffffffffu
 #define PRIM_MATERIAL_MASK 0x00ffffffu

@@ -5,13 +5,14 @@
 //
 // It opens the viewer, submits the Cornell box at 32×32, checks the image refines live (at least
 // two snapshots with increasing spp) and the job reaches "done" in the list, exercises exposure
-// and tonemap, the EXR download, pause/resume/priority/cancel, the A/B view with two jobs and the
-// error display, and saves screenshots into OUT_DIR (viewer.png is the main one). Exits 0 on
+// and tonemap, the EXR download, the A/B view with two jobs, pause/resume/priority/cancel, the
+// other scene sources (pasted JSON, a scene file with assets, a .tar folder) and the error display, and saves screenshots into OUT_DIR (viewer.png is the main one). Exits 0 on
 // success, 1 with a "FAIL: <step>: <why>" line (and OUT_DIR/failure.png) otherwise.
 
-import { mkdtempSync, mkdirSync, rmSync, writeFileSync } from 'node:fs';
+import { mkdtempSync, mkdirSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join, resolve } from 'node:path';
+import { fileURLToPath } from 'node:url';
 import { chromium } from 'playwright-core';
 
 // ---- arguments -------------------------------------------------------------------------------
@@ -120,9 +121,15 @@ async function waitRowState(id, states, timeout = RENDER_TIMEOUT) {
 }
 
 /** Fills the form for a built-in scene and submits it; returns the new job's id. */
-async function submitExample({ name, integrator, spp, timeS, seed = 1, priority = 10, size = SIZE }) {
+async function submitExample(settings) {
   await page.getByLabel('Example', { exact: true }).check();
   await page.getByLabel('Example scene').selectOption('cornell');
+  return submitForm(settings);
+}
+
+/** Fills the job settings (the scene source is already chosen), submits from the keyboard and
+ *  returns the new job's id. */
+async function submitForm({ name, integrator, spp, timeS, seed = 1, priority = 10, size = SIZE }) {
   await page.getByLabel('Name').fill(name);
   await page.getByLabel('Integrator').selectOption(integrator);
   if (timeS != null) {
@@ -147,6 +154,31 @@ async function submitExample({ name, integrator, spp, timeS, seed = 1, priority 
   const id = await page.evaluate(() => decodeURIComponent(location.hash.slice(5)));
   await jobRow(id).waitFor({ timeout: 10_000 });
   return id;
+}
+
+/** A POSIX ustar archive of `files` ([{name, data}]), enough for a scene folder upload. */
+function tar(files) {
+  const blocks = [];
+  const octal = (n, width) => `${n.toString(8).padStart(width - 1, '0')}\0`;
+  for (const f of files) {
+    const h = Buffer.alloc(512);
+    h.write(f.name, 0, 100);
+    h.write(octal(0o644, 8), 100);
+    h.write(octal(0, 8), 108);
+    h.write(octal(0, 8), 116);
+    h.write(octal(f.data.length, 12), 124);
+    h.write(octal(Math.floor(Date.now() / 1000), 12), 136);
+    h.write('        ', 148); // checksum field counts as spaces
+    h.write('0', 156);
+    h.write('ustar\0', 257);
+    h.write('00', 263);
+    let sum = 0;
+    for (const b of h) sum += b;
+    h.write(`${sum.toString(8).padStart(6, '0')}\0 `, 148);
+    blocks.push(h, f.data, Buffer.alloc((512 - (f.data.length % 512)) % 512));
+  }
+  blocks.push(Buffer.alloc(1024));
+  return Buffer.concat(blocks);
 }
 
 /** Mean of R+G+B (0..765) over an <img> currently shown, read back through a canvas. */
@@ -329,7 +361,7 @@ await step('exposure and tonemap re-request the PNG', async () => {
 
 let jobB;
 await step('a second job (pt) for the A/B view', async () => {
-  jobB = await submitExample({ name: 'browser-cornell-pt', integrator: 'pt', spp: 16, seed: 2 });
+  jobB = await submitExample({ name: 'browser-cornell-pt', integrator: 'pt', spp: 64, seed: 2 });
   console.log(`     job ${jobB}`);
   await waitRowState(jobB, 'done');
 });
@@ -380,7 +412,8 @@ await step('A/B view swipes between the two jobs', async () => {
   await page.getByRole('button', { name: 'Swap A and B' }).click();
   check((await page.getByLabel('A (left)').inputValue()) === jobB, 'swap did not swap');
   await page.getByRole('button', { name: 'Swap A and B' }).click();
-  await page.mouse.click(frame.x + frame.width * 0.6, y);
+  const frame2 = await page.locator('#ab-frame').boundingBox();
+  await page.mouse.click(frame2.x + frame2.width * 0.6, frame2.y + frame2.height / 2);
   check(Math.abs((await value()) - 60) <= 2, `clicking at 60% left the divider at ${await value()}`);
   await page.waitForTimeout(300);
   await shot('03-ab.png');
@@ -415,6 +448,42 @@ await step('pause, resume, priority and cancel from the job list', async () => {
   await row.getByRole('button', { name: /^Cancel / }).click();
   await waitRowState(jobC, 'canceled', 30_000);
   check(await row.getByRole('button', { name: /^Cancel / }).isDisabled(), 'cancel stays enabled on a canceled job');
+});
+
+await step('other scene sources: pasted JSON, a scene file with its assets, a .tar folder', async () => {
+  const scenes = fileURLToPath(new URL('../../scenes/', import.meta.url));
+  const quick = { integrator: 'nee', spp: 4, size: 16 };
+  // Paste: start from a built-in scene's JSON (GET /api/scenes/{name}) and submit it inline.
+  await page.getByLabel('Example', { exact: true }).check();
+  await page.getByLabel('Example scene').selectOption('furnace');
+  await page.getByLabel('Paste JSON').check();
+  await page.getByRole('button', { name: 'Start from the selected example' }).click();
+  await page.waitForFunction(() => document.querySelector('#scene-json').value.includes('"camera"'), null, { timeout: 10_000 })
+    .catch(() => { throw new Failure('"Start from the selected example" did not load the scene JSON'); });
+  const pasted = await submitForm({ ...quick, name: 'browser-pasted' });
+  // Upload: the scene file plus the files it references (sent under the paths it uses).
+  await page.getByLabel('Upload', { exact: true }).check();
+  await page.getByLabel('Scene file (.json)').setInputFiles(join(scenes, 'textured_mesh.json'));
+  await page.getByLabel(/^Files it references/).setInputFiles([join(scenes, 'assets/checker.png'), join(scenes, 'assets/uv_sphere.obj')]);
+  const uploaded = await submitForm({ ...quick, name: 'browser-uploaded' });
+  // Folder: the same scene as a .tar with scene.json at its root.
+  const archive = join(outDir, 'textured_mesh.tar');
+  writeFileSync(archive, tar([
+    { name: 'scene.json', data: readFileSync(join(scenes, 'textured_mesh.json')) },
+    { name: 'assets/checker.png', data: readFileSync(join(scenes, 'assets/checker.png')) },
+    { name: 'assets/uv_sphere.obj', data: readFileSync(join(scenes, 'assets/uv_sphere.obj')) },
+  ]));
+  await page.getByLabel('Folder (.zip/.tar)').check();
+  await page.getByLabel('Scene folder as .zip or .tar').setInputFiles(archive);
+  const folder = await submitForm({ ...quick, name: 'browser-tar' });
+  console.log(`     jobs ${pasted} (pasted), ${uploaded} (uploaded), ${folder} (.tar)`);
+  for (const id of [pasted, uploaded, folder]) await waitRowState(id, 'done');
+  await page.waitForFunction((id) => {
+    const img = document.querySelector('#view-image');
+    return img.dataset.job === id && img.naturalWidth === 16;
+  }, folder, { timeout: 20_000 }).catch(() => { throw new Failure('the uploaded scene\'s image did not show'); });
+  await shot('05-uploads.png');
+  await page.getByLabel('Example', { exact: true }).check();
 });
 
 await step('the state filter lists only done jobs', async () => {

@@ -2,6 +2,8 @@
 //! repository's scenes, rendering through the library on one shared GPU context with the
 //! validation layer on, and Mitsuba 3 reference renders via tests/mitsuba/render_reference.py.
 
+pub mod server;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::{Arc, OnceLock};

@@ -21,6 +21,8 @@ pub mod binding {
     pub const ENV_DIST: u32 = 9;
     pub const ACCUM: u32 = 10;
     pub const STATS: u32 = 11;
+    /// bdpt: light-tracing splats (t = 1), per pixel; see shaders/bdpt/splat.glsl.
+    pub const SPLAT: u32 = 12;
 }
 
 /// Marks "none" in u32 index fields.

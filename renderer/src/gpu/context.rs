@@ -52,6 +52,10 @@ pub struct GpuContext {
     pub(crate) timestamps_supported: bool,
     pub info: DeviceInfo,
     pub validation_enabled: bool,
+    /// `shaderBufferFloat32AtomicAdd` (VK_EXT_shader_atomic_float) is enabled: kernels may
+    /// `atomicAdd` floats in storage buffers (bdpt's light-tracing splats; without it they use
+    /// an integer fixed-point fallback).
+    pub float_atomics: bool,
 }
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
@@ -288,8 +292,21 @@ impl GpuContext {
             .queue_family_index(queue_family)
             .queue_priorities(&prio)];
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
+        // Float atomics (optional): the extension must be present and the feature reported.
+        // SAFETY: valid physical device.
+        let device_exts = unsafe { instance.enumerate_device_extension_properties(physical) }
+            .unwrap_or_default();
+        let has_atomic_float_ext = device_exts.iter().any(|e| {
+            e.extension_name_as_c_str()
+                .map(|n| n == ash::ext::shader_atomic_float::NAME)
+                .unwrap_or(false)
+        });
+        let mut atomic_float = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default();
         let base_features = {
             let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12);
+            if has_atomic_float_ext {
+                f2 = f2.push_next(&mut atomic_float);
+            }
             // SAFETY: valid physical device and feature chain.
             unsafe { instance.get_physical_device_features2(physical, &mut f2) };
             f2.features
@@ -307,10 +324,23 @@ impl GpuContext {
             .host_query_reset(host_query_reset);
         let base = vk::PhysicalDeviceFeatures::default()
             .shader_int64(base_features.shader_int64 == vk::TRUE);
-        let dci = vk::DeviceCreateInfo::default()
+        let float_atomics =
+            has_atomic_float_ext && atomic_float.shader_buffer_float32_atomic_add == vk::TRUE;
+        let mut en_atomic_float = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default()
+            .shader_buffer_float32_atomic_add(true);
+        let device_ext_ptrs: Vec<*const i8> = if float_atomics {
+            vec![ash::ext::shader_atomic_float::NAME.as_ptr()]
+        } else {
+            vec![]
+        };
+        let mut dci = vk::DeviceCreateInfo::default()
             .queue_create_infos(&qci)
             .enabled_features(&base)
+            .enabled_extension_names(&device_ext_ptrs)
             .push_next(&mut en12);
+        if float_atomics {
+            dci = dci.push_next(&mut en_atomic_float);
+        }
         // SAFETY: valid create info referencing live locals.
         let device = unsafe { instance.create_device(physical, &dci, None) }
             .map_err(GpuError::vk("create device"))?;
@@ -334,7 +364,7 @@ impl GpuContext {
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
         let timestamps_supported = families[queue_family as usize].timestamp_valid_bits > 0
             && props.limits.timestamp_compute_and_graphics == vk::TRUE;
-        tracing::info!(device = %info.name, driver = %info.driver, validation, "Vulkan device ready");
+        tracing::info!(device = %info.name, driver = %info.driver, validation, float_atomics, "Vulkan device ready");
         Ok(GpuContext {
             entry,
             instance,
@@ -352,6 +382,7 @@ impl GpuContext {
             timestamps_supported,
             info,
             validation_enabled: validation,
+            float_atomics,
         })
     }
 

@@ -3,6 +3,7 @@
 //! one pass of `spp` samples per pixel into the accumulation buffer and name their kernel.
 //! Kernels live in `shaders/<name>/`, mirroring these modules.
 
+pub mod bdpt;
 mod nee;
 mod path;
 mod pt;
@@ -10,7 +11,7 @@ mod pt;
 use serde::{Deserialize, Serialize};
 
 use crate::compile::layout::GpuPush;
-use crate::gpu::{ComputePipeline, GpuResult, Recorder};
+use crate::gpu::{ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
 
 /// Options of the path tracers (`pt`, `nee`).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -23,6 +24,27 @@ pub struct PathOptions {
     pub rr_depth: Option<i32>,
 }
 
+/// Options of bidirectional path tracing (`bdpt`; see [`bdpt`] for their meaning).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BdptOptions {
+    /// Mitsuba's max_depth (paths of at most this many segments; −1 = unbounded, capped at
+    /// [`bdpt::DEPTH_CAP`]). Default: the scene's `render.max_depth`, else 6.
+    pub max_depth: Option<i32>,
+    /// Subpath length (segments) at which Russian roulette starts (default 5).
+    pub rr_depth: Option<i32>,
+    /// Multiple importance sampling with the power heuristic (default true); false: every
+    /// strategy that can make a path gets the same weight.
+    pub mis: Option<bool>,
+    /// Debug: render strategy [s, t] alone (s light vertices, t camera vertices).
+    pub strategy: Option<[u32; 2]>,
+    /// Debug, with `strategy`: multiply by the strategy's MIS weight (default true).
+    pub weighted: Option<bool>,
+    /// Debug: integer fixed-point light-tracing splats even where float atomics exist
+    /// (bit-reproducible; the fallback for devices without float atomics).
+    pub fixed_point_splats: Option<bool>,
+}
+
 /// Which integrator, with its options.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
@@ -31,10 +53,12 @@ pub enum IntegratorOptions {
     Pt(PathOptions),
     /// Path tracing with next-event estimation and MIS.
     Nee(PathOptions),
+    /// Bidirectional path tracing with MIS and light-tracing splats.
+    Bdpt(BdptOptions),
 }
 
 /// Names accepted on the command line and in `render.integrator`.
-pub const NAMES: &[&str] = &["pt", "nee"];
+pub const NAMES: &[&str] = &["pt", "nee", "bdpt"];
 
 impl IntegratorOptions {
     /// Default options for an integrator name; None for unknown or not-yet-built integrators.
@@ -42,6 +66,7 @@ impl IntegratorOptions {
         match name {
             "pt" => Some(IntegratorOptions::Pt(PathOptions::default())),
             "nee" => Some(IntegratorOptions::Nee(PathOptions::default())),
+            "bdpt" => Some(IntegratorOptions::Bdpt(BdptOptions::default())),
             _ => None,
         }
     }
@@ -50,6 +75,7 @@ impl IntegratorOptions {
         match self {
             IntegratorOptions::Pt(_) => "pt",
             IntegratorOptions::Nee(_) => "nee",
+            IntegratorOptions::Bdpt(_) => "bdpt",
         }
     }
 
@@ -57,12 +83,14 @@ impl IntegratorOptions {
     pub fn set_max_depth(&mut self, d: i32) {
         match self {
             IntegratorOptions::Pt(o) | IntegratorOptions::Nee(o) => o.max_depth = Some(d),
+            IntegratorOptions::Bdpt(o) => o.max_depth = Some(d),
         }
     }
 
     pub fn max_depth(&self) -> Option<i32> {
         match self {
             IntegratorOptions::Pt(o) | IntegratorOptions::Nee(o) => o.max_depth,
+            IntegratorOptions::Bdpt(o) => o.max_depth,
         }
     }
 
@@ -71,8 +99,34 @@ impl IntegratorOptions {
         match self {
             IntegratorOptions::Pt(o) => Box::new(pt::new(o, scene_max_depth)),
             IntegratorOptions::Nee(o) => Box::new(nee::new(o, scene_max_depth)),
+            IntegratorOptions::Bdpt(o) => Box::new(bdpt::new(o, scene_max_depth)),
         }
     }
+}
+
+/// A per-pixel storage buffer that an integrator's kernel binds besides ACCUM and STATS (e.g.
+/// bdpt's light-tracing splats). The session allocates it zeroed, binds it at `binding`, hands
+/// its contents to [`Integrator::resolve`] and carries it in checkpoints.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ExtraBuffer {
+    pub binding: u32,
+    pub name: &'static str,
+    /// Size per pixel in 16-byte entries (checkpoints carry them as `[f32; 4]` words).
+    pub entries_per_pixel: u32,
+}
+
+/// The plain estimate: accumulated radiance divided by the samples kept per pixel.
+pub fn mean_of_accumulation(accum: &[[f32; 4]]) -> Vec<[f32; 3]> {
+    accum
+        .iter()
+        .map(|a| {
+            if a[3] > 0.0 {
+                [a[0] / a[3], a[1] / a[3], a[2] / a[3]]
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect()
 }
 
 /// The common interface.
@@ -90,6 +144,23 @@ pub trait Integrator: Send {
         push: GpuPush,
         groups: [u32; 3],
     ) -> GpuResult<()>;
+    /// Adapts to the device before the kernel is built (e.g. bdpt picks float-atomic or
+    /// fixed-point splats). Default: nothing.
+    fn prepare(&mut self, _ctx: &GpuContext) {}
+    /// Kernel defines besides the scene's feature set. Default: none.
+    fn defines(&self) -> ShaderDefines {
+        Vec::new()
+    }
+    /// Per-pixel buffers besides ACCUM and STATS. Default: none.
+    fn extra_buffers(&self) -> Vec<ExtraBuffer> {
+        Vec::new()
+    }
+    /// The image from the raw buffers: `accum` per pixel (Σr, Σg, Σb, samples kept), `extra[i]`
+    /// the contents of `extra_buffers()[i]`, `spp` the samples per pixel rendered so far.
+    /// Default: [`mean_of_accumulation`].
+    fn resolve(&self, accum: &[[f32; 4]], _extra: &[Vec<[f32; 4]>], _spp: u32) -> Vec<[f32; 3]> {
+        mean_of_accumulation(accum)
+    }
 }
 
 #[cfg(test)]
@@ -110,5 +181,29 @@ mod tests {
             .unwrap_err();
         assert!(e.to_string().contains("max_dpeth"), "{e}");
         assert!(serde_json::from_str::<IntegratorOptions>(r#"{"type":"xyz"}"#).is_err());
+    }
+
+    #[test]
+    fn bdpt_options_parse_and_reject_unknown_fields() {
+        let o: IntegratorOptions = serde_json::from_str(
+            r#"{"type":"bdpt","max_depth":4,"rr_depth":3,"mis":false,"strategy":[2,1],"weighted":false}"#,
+        )
+        .unwrap();
+        assert_eq!(
+            o,
+            IntegratorOptions::Bdpt(BdptOptions {
+                max_depth: Some(4),
+                rr_depth: Some(3),
+                mis: Some(false),
+                strategy: Some([2, 1]),
+                weighted: Some(false),
+                fixed_point_splats: None,
+            })
+        );
+        assert_eq!(o.name(), "bdpt");
+        assert_eq!(IntegratorOptions::from_name("bdpt").map(|o| o.name()), Some("bdpt"));
+        let e = serde_json::from_str::<IntegratorOptions>(r#"{"type":"bdpt","mis_off":true}"#)
+            .unwrap_err();
+        assert!(e.to_string().contains("mis_off"), "{e}");
     }
 }

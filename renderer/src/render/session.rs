@@ -1,4 +1,6 @@
 //! One render in progress: uploaded scene buffers, accumulation buffer, pipeline and counters.
+//! Integrators may declare extra per-pixel buffers (bdpt: light-tracing splats) and how the image
+//! is formed from them; checkpoints carry them after the accumulation.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -8,7 +10,7 @@ use crate::compile::layout::{binding, GpuPush, GpuStats};
 use crate::compile::CompiledScene;
 use crate::film::Image;
 use crate::gpu::{compile_glsl, Binding, Buffer, BufferUsage, ComputePipeline, GpuContext};
-use crate::integrators::{Integrator, IntegratorOptions};
+use crate::integrators::{ExtraBuffer, Integrator, IntegratorOptions};
 
 /// Timing of one pass.
 #[derive(Debug, Clone, Copy)]
@@ -39,6 +41,8 @@ pub struct RenderSession {
     // Scene buffers are kept alive for the pipeline's descriptor set.
     _scene: Vec<Buffer>,
     accum: Buffer,
+    /// The integrator's extra per-pixel buffers, in `extra_buffers()` order.
+    extra: Vec<(ExtraBuffer, Buffer)>,
     stats_buf: Buffer,
     width: u32,
     height: u32,
@@ -74,7 +78,8 @@ impl RenderSession {
         seed: u64,
     ) -> Result<Self, RenderError> {
         let start = Instant::now();
-        let integrator = options.build(scene_max_depth);
+        let mut integrator = options.build(scene_max_depth);
+        integrator.prepare(ctx);
         let (w, h) = (scene.width, scene.height);
         let pixels = w as u64 * h as u64;
         // Step 1: scene buffers, each at its named binding.
@@ -131,8 +136,17 @@ impl RenderSession {
             BufferUsage::Storage,
         )?;
         ctx.fill_zero(&stats_buf)?;
-        // Step 3: the kernel, specialised for the scene's features.
-        let spirv = compile_glsl(integrator.kernel(), &scene.features.defines())?;
+        let mut extra = Vec::new();
+        for e in integrator.extra_buffers() {
+            let bytes = pixels * 16 * e.entries_per_pixel as u64;
+            let b = Buffer::new(ctx, e.name, bytes, BufferUsage::Storage)?;
+            ctx.fill_zero(&b)?;
+            extra.push((e, b));
+        }
+        // Step 3: the kernel, specialised for the scene's features (and the integrator's own).
+        let mut defines = scene.features.defines();
+        defines.extend(integrator.defines());
+        let spirv = compile_glsl(integrator.kernel(), &defines)?;
         let mut bindings: Vec<Binding<'_>> = scene_buffers
             .iter()
             .map(|(i, b)| Binding {
@@ -148,6 +162,12 @@ impl RenderSession {
             index: binding::STATS,
             buffer: &stats_buf,
         });
+        for (e, b) in &extra {
+            bindings.push(Binding {
+                index: e.binding,
+                buffer: b,
+            });
+        }
         let pipeline = ComputePipeline::new(
             ctx,
             integrator.kernel(),
@@ -163,6 +183,7 @@ impl RenderSession {
             pipeline,
             _scene: scene_buffers.into_iter().map(|(_, b)| b).collect(),
             accum,
+            extra,
             stats_buf,
             width: w,
             height: h,
@@ -250,11 +271,30 @@ impl RenderSession {
         }
     }
 
-    /// The raw accumulation buffer: per pixel (Σr, Σg, Σb, samples kept), row 0 at the top.
+    /// Entries (`[f32; 4]`) in [`Self::accumulation`]: width·height, plus the integrator's extra
+    /// buffers (bdpt: one or two per pixel).
+    pub fn accumulation_len(&self) -> usize {
+        let n = (self.width * self.height) as usize;
+        n + self
+            .extra
+            .iter()
+            .map(|(e, _)| n * e.entries_per_pixel as usize)
+            .sum::<usize>()
+    }
+
+    /// The raw accumulation buffer: per pixel (Σr, Σg, Σb, samples kept), row 0 at the top,
+    /// followed by the raw words of the integrator's extra buffers (bdpt: the light-tracing
+    /// splats), [`Self::accumulation_len`] entries in all. Restore it as a whole.
     pub fn accumulation(&self) -> Result<Vec<[f32; 4]>, RenderError> {
-        Ok(self
-            .ctx
-            .download_vec(&self.accum, (self.width * self.height) as usize)?)
+        let n = (self.width * self.height) as usize;
+        let mut out: Vec<[f32; 4]> = self.ctx.download_vec(&self.accum, n)?;
+        for (e, b) in &self.extra {
+            out.extend(
+                self.ctx
+                    .download_vec::<[f32; 4]>(b, n * e.entries_per_pixel as usize)?,
+            );
+        }
+        Ok(out)
     }
 
     /// Resumes from a checkpoint: the accumulation and counters of an earlier session of the same
@@ -266,14 +306,22 @@ impl RenderSession {
         progress: Progress,
     ) -> Result<(), RenderError> {
         let n = (self.width * self.height) as usize;
-        if accumulation.len() != n {
+        let want = self.accumulation_len();
+        if accumulation.len() != want {
             return Err(RenderError::Invalid(format!(
-                "checkpoint has {} pixels, the film {n}",
+                "checkpoint has {} entries, this film and integrator {want}",
                 accumulation.len()
             )));
         }
         self.ctx
-            .upload(&self.accum, 0, bytemuck::cast_slice(accumulation))?;
+            .upload(&self.accum, 0, bytemuck::cast_slice(&accumulation[..n]))?;
+        let mut at = n;
+        for (e, b) in &self.extra {
+            let len = n * e.entries_per_pixel as usize;
+            self.ctx
+                .upload(b, 0, bytemuck::cast_slice(&accumulation[at..at + len]))?;
+            at += len;
+        }
         self.spp = progress.spp;
         self.passes = progress.passes;
         self.rays = progress.rays;
@@ -283,20 +331,19 @@ impl RenderSession {
         Ok(())
     }
 
-    /// The current estimate: accumulated radiance divided by the samples kept per pixel.
+    /// The current estimate: accumulated radiance divided by the samples kept per pixel, as the
+    /// integrator resolves it (bdpt adds its light-tracing splats).
     pub fn image(&self) -> Result<Image, RenderError> {
         let n = (self.width * self.height) as usize;
         let acc: Vec<[f32; 4]> = self.ctx.download_vec(&self.accum, n)?;
-        let pixels = acc
-            .iter()
-            .map(|a| {
-                if a[3] > 0.0 {
-                    [a[0] / a[3], a[1] / a[3], a[2] / a[3]]
-                } else {
-                    [0.0; 3]
-                }
-            })
-            .collect();
+        let mut extra = Vec::with_capacity(self.extra.len());
+        for (e, b) in &self.extra {
+            extra.push(
+                self.ctx
+                    .download_vec::<[f32; 4]>(b, n * e.entries_per_pixel as usize)?,
+            );
+        }
+        let pixels = self.integrator.resolve(&acc, &extra, self.spp);
         Ok(Image {
             width: self.width,
             height: self.height,

@@ -1,14 +1,252 @@
-//! `candela serve`: the HTTP render server (being written).
+//! `candela serve`: the HTTP render server. Opens the store in the data directory, installs
+//! the built-in scenes' assets, starts the GPU worker thread and serves the API and the web
+//! viewer until SIGTERM or Ctrl-C, then shuts down gracefully: new requests stop, event streams
+//! end, every running job is checkpointed (and resumes at the next start), exit status 0.
+//!
+//! Prints `candela: listening on http://ADDR` on stdout once the socket is bound (the actual
+//! port when `--bind` asks for port 0). Refuses (exit 2) to bind a non-loopback address
+//! without a token: anyone who can reach it could use the GPU.
+
+use std::net::{SocketAddr, ToSocketAddrs};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
 
 use clap::Args;
+use tokio::sync::watch;
 
 use super::CliError;
+use crate::app::{app, AppState};
+use crate::config::ServerConfig;
+use crate::shared::Shared;
+use crate::store::Store;
 
 #[derive(Debug, Args)]
-pub struct ServeArgs {}
+pub struct ServeArgs {
+    /// Address to listen on (port 0: any free port).
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    pub bind: String,
+    /// Where jobs, images and checkpoints are kept.
+    #[arg(long, default_value = "candela-data")]
+    pub data_dir: PathBuf,
+    /// Require `Authorization: Bearer TOKEN` on the API (default: $CANDELA_TOKEN).
+    #[arg(long)]
+    pub token: Option<String>,
+    /// Use the first Vulkan device whose name contains this text.
+    #[arg(long)]
+    pub device: Option<String>,
+    /// Seconds between snapshots (image + progress event) of a running job.
+    #[arg(long, default_value_t = 1.0)]
+    pub snapshot_interval: f64,
+    /// Seconds between checkpoints of a running job.
+    #[arg(long, default_value_t = 10.0)]
+    pub checkpoint_interval: f64,
+    /// Most unfinished (queued, running, paused) jobs; more submissions get 429.
+    #[arg(long, default_value_t = 100)]
+    pub max_queued: u64,
+    /// Most jobs rendering at once (sharing the GPU); others wait queued.
+    #[arg(long, default_value_t = 4)]
+    pub max_active: usize,
+    /// Largest request body, MiB.
+    #[arg(long, default_value_t = 256)]
+    pub max_body_mb: u64,
+    /// Largest film (pixels).
+    #[arg(long, default_value_t = 64 << 20)]
+    pub max_pixels: u64,
+    /// Largest spp budget.
+    #[arg(long, default_value_t = 1 << 20)]
+    pub max_spp: u32,
+    /// Largest time budget, seconds.
+    #[arg(long, default_value_t = 604800.0)]
+    pub max_time: f64,
+    /// Most triangles in a scene.
+    #[arg(long, default_value_t = 20_000_000)]
+    pub max_triangles: usize,
+    /// Target duration of one render pass, milliseconds.
+    #[arg(long, default_value_t = 150)]
+    pub pass_ms: u64,
+    /// Seconds between SSE keep-alive comments.
+    #[arg(long, default_value_t = 15.0)]
+    pub sse_keepalive: f64,
+    /// Enable the Vulkan validation layer (its messages fail the job).
+    #[arg(long)]
+    pub validation: bool,
+}
 
-pub fn run(_a: ServeArgs) -> Result<(), CliError> {
-    Err(CliError::failure(
-        "candela serve is not available in this build yet",
-    ))
+fn seconds(flag: &str, v: f64) -> Result<Duration, CliError> {
+    if v.is_finite() && v > 0.0 && v <= 86400.0 {
+        Ok(Duration::from_secs_f64(v))
+    } else {
+        Err(CliError::input(format!(
+            "{flag}: must be a number of seconds in (0, 86400], got {v}"
+        )))
+    }
+}
+
+/// Checks the flags and builds the configuration and bind address.
+fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), CliError> {
+    let addrs: Vec<SocketAddr> = a
+        .bind
+        .to_socket_addrs()
+        .map_err(|e| CliError::input(format!("--bind {}: {e} (expected HOST:PORT)", a.bind)))?
+        .collect();
+    let addr = *addrs
+        .first()
+        .ok_or_else(|| CliError::input(format!("--bind {}: no address", a.bind)))?;
+    let token = a
+        .token
+        .clone()
+        .or_else(|| std::env::var("CANDELA_TOKEN").ok())
+        .filter(|t| !t.trim().is_empty());
+    if token.is_none() && !addrs.iter().all(|a| a.ip().is_loopback()) {
+        return Err(CliError::input(format!(
+            "--bind {}: refusing to listen on a non-loopback address without a token; give --token TOKEN (or set CANDELA_TOKEN)",
+            a.bind
+        )));
+    }
+    if a.max_active == 0 || a.max_queued == 0 || a.max_spp == 0 || a.max_pixels == 0 {
+        return Err(CliError::input(
+            "--max-active, --max-queued, --max-spp and --max-pixels must be at least 1",
+        ));
+    }
+    if !(a.max_time.is_finite() && a.max_time > 0.0) {
+        return Err(CliError::input("--max-time: must be a positive number of seconds"));
+    }
+    let mut c = ServerConfig::new(a.data_dir.clone());
+    c.token = token;
+    c.device = a.device.clone();
+    c.validation = a.validation;
+    c.snapshot_interval = seconds("--snapshot-interval", a.snapshot_interval)?;
+    c.checkpoint_interval = seconds("--checkpoint-interval", a.checkpoint_interval)?;
+    c.sse_keepalive = seconds("--sse-keepalive", a.sse_keepalive)?;
+    c.pass_target = Duration::from_millis(a.pass_ms.clamp(1, 10_000));
+    c.max_active = a.max_active;
+    c.limits.max_body_bytes = (a.max_body_mb.clamp(1, 1 << 20) << 20) as usize;
+    c.limits.max_upload_bytes = c.limits.max_upload_bytes.max(c.limits.max_body_bytes as u64);
+    c.limits.max_pixels = a.max_pixels;
+    c.limits.max_spp = a.max_spp;
+    c.limits.max_time_s = a.max_time;
+    c.limits.max_triangles = a.max_triangles;
+    c.limits.max_unfinished_jobs = a.max_queued;
+    Ok((c, addr))
+}
+
+/// Resolves on SIGTERM or Ctrl-C.
+async fn shutdown_signal() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = ctrl_c => {},
+        _ = term => {},
+    }
+}
+
+pub fn run(a: ServeArgs) -> Result<(), CliError> {
+    let (config, addr) = configure(&a)?;
+    // Step 1: the data directory (one server per directory), the store, the built-in assets.
+    let dir = &config.data_dir;
+    std::fs::create_dir_all(dir.join("jobs"))
+        .map_err(|e| CliError::failure(format!("--data-dir {}: {e}", dir.display())))?;
+    let lock = std::fs::File::create(dir.join("lock"))
+        .map_err(|e| CliError::failure(format!("--data-dir {}: {e}", dir.display())))?;
+    if lock.try_lock().is_err() {
+        return Err(CliError::failure(format!(
+            "--data-dir {}: another candela server is using it",
+            dir.display()
+        )));
+    }
+    let _ = std::fs::remove_dir_all(config.tmp_dir());
+    let _ = std::fs::create_dir_all(config.tmp_dir());
+    let store = Store::open(&dir.join("candela.db")).map_err(|e| {
+        CliError::failure(format!("{}: {e}", dir.join("candela.db").display()))
+    })?;
+    crate::builtin_scenes::install(&config.builtin_dir())
+        .map_err(|e| CliError::failure(format!("writing the built-in scenes: {e}")))?;
+    let (store, shared, config) = (Arc::new(store), Arc::new(Shared::default()), Arc::new(config));
+
+    // Step 2: the runtime, the socket, the worker.
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(std::thread::available_parallelism().map_or(2, |n| n.get().clamp(2, 8)))
+        .enable_all()
+        .build()
+        .map_err(|e| CliError::failure(format!("starting the runtime: {e}")))?;
+    rt.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(addr)
+            .await
+            .map_err(|e| CliError::failure(format!("--bind {addr}: {e}")))?;
+        let local = listener
+            .local_addr()
+            .map_err(|e| CliError::failure(e.to_string()))?;
+        let (worker, thread) = crate::worker::spawn(store.clone(), shared.clone(), config.clone())
+            .map_err(|e| CliError::failure(format!("starting the GPU worker: {e}")))?;
+        let (stop_tx, stop_rx) = watch::channel(false);
+        let stop_watch = stop_rx.clone();
+        let state = AppState {
+            store,
+            shared,
+            worker: worker.clone(),
+            config,
+            shutdown: stop_rx,
+        };
+        println!("candela: listening on http://{local}");
+        use std::io::Write;
+        let _ = std::io::stdout().flush();
+        tracing::info!(%local, "listening");
+
+        // Step 3: serve until a signal; then stop streams, checkpoint, and leave.
+        let (sig_tx, sig_rx) = tokio::sync::oneshot::channel::<()>();
+        tokio::spawn(async move {
+            shutdown_signal().await;
+            tracing::info!("shutting down");
+            let _ = stop_tx.send(true);
+            let _ = sig_tx.send(());
+            // Keep the sender alive so receivers see `true`, not a closed channel.
+            std::future::pending::<()>().await;
+        });
+        let server = axum::serve(listener, app(state)).with_graceful_shutdown(async {
+            let _ = sig_rx.await;
+        });
+        let mut served = tokio::spawn(async move { server.await });
+        // Wait for the server to stop; once the signal came, give open requests 10 s.
+        let mut stopping = stop_watch;
+        let result = tokio::select! {
+            r = &mut served => Some(r),
+            _ = async {
+                let _ = stopping.wait_for(|s| *s).await;
+                tokio::time::sleep(Duration::from_secs(10)).await;
+            } => None,
+        };
+        let result = match result {
+            Some(r) => r,
+            None => {
+                tracing::warn!("requests still open after 10 s; closing them");
+                served.abort();
+                Ok(Ok(()))
+            }
+        };
+        worker.shutdown();
+        let joined = tokio::task::spawn_blocking(move || thread.join()).await;
+        if joined.is_err() {
+            tracing::error!("the GPU worker did not stop cleanly");
+        }
+        match result {
+            Ok(Ok(())) => Ok(()),
+            Ok(Err(e)) => Err(CliError::failure(format!("server: {e}"))),
+            Err(e) => Err(CliError::failure(format!("server: {e}"))),
+        }
+    })?;
+    drop(lock);
+    Ok(())
 }

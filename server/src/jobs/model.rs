@@ -68,11 +68,6 @@ impl JobState {
         matches!(self, JobState::Done | JobState::Failed | JobState::Canceled)
     }
 
-    /// Queued and running jobs compete for the GPU.
-    pub fn is_runnable(self) -> bool {
-        matches!(self, JobState::Queued | JobState::Running)
-    }
-
     /// Whether `self → to` is a valid transition (see the diagram at the top of this file).
     pub fn can_become(self, to: JobState) -> bool {
         use JobState::*;

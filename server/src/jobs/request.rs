@@ -51,38 +51,36 @@ pub enum SceneInput {
 
 /// Parses a request body; JSON syntax errors are 400, everything else 422 naming the field.
 pub fn parse_request(body: &[u8]) -> Result<JobRequest, ApiError> {
-    let de = &mut serde_json::Deserializer::from_slice(body);
-    serde_path_to_error::deserialize(de).map_err(|e| {
+    parse_object(body)
+}
+
+/// Parses a JSON object body into `T` (`deny_unknown_fields`): 400 when it is not a JSON
+/// object, 422 naming the field when a field is unknown or of the wrong type.
+pub fn parse_object<T: serde::de::DeserializeOwned>(body: &[u8]) -> Result<T, ApiError> {
+    let value: Value = serde_json::from_slice(body).map_err(|e| ApiError::BadRequest {
+        code: "invalid_json",
+        message: format!("the body is not valid JSON: {e}"),
+    })?;
+    if !value.is_object() {
+        return Err(ApiError::BadRequest {
+            code: "invalid_json",
+            message: "the body must be a JSON object".into(),
+        });
+    }
+    serde_path_to_error::deserialize(value).map_err(|e| {
         let path = e.path().to_string();
-        let inner = e.into_inner();
-        let msg = inner.to_string();
-        use serde_json::error::Category;
-        match inner.classify() {
-            Category::Syntax | Category::Eof | Category::Io => ApiError::BadRequest {
-                code: "invalid_json",
-                message: format!("the body is not valid JSON: {msg}"),
-            },
-            Category::Data => {
-                // Unknown fields are reported at their parent; name the field itself.
-                let field = msg
-                    .strip_prefix("unknown field `")
-                    .and_then(|rest| rest.split('`').next());
-                let path = match (field, path.as_str()) {
-                    (Some(f), ".") => f.to_string(),
-                    (Some(f), p) => format!("{p}.{f}"),
-                    (None, ".") => String::new(),
-                    (None, p) => p.to_string(),
-                };
-                if path.is_empty() {
-                    ApiError::BadRequest {
-                        code: "invalid_json",
-                        message: format!("the body must be a JSON object: {msg}"),
-                    }
-                } else {
-                    ApiError::invalid(path.clone(), format!("{path}: {}", tidy(&msg)))
-                }
-            }
-        }
+        let msg = e.into_inner().to_string();
+        // Unknown fields may be reported at their parent; name the field itself.
+        let field = msg
+            .strip_prefix("unknown field `")
+            .and_then(|rest| rest.split('`').next());
+        let path = match (field, path.as_str()) {
+            (Some(f), ".") => f.to_string(),
+            (Some(f), p) if p == f || p.ends_with(&format!(".{f}")) => p.to_string(),
+            (Some(f), p) => format!("{p}.{f}"),
+            (None, p) => p.to_string(),
+        };
+        ApiError::invalid(path.clone(), format!("{path}: {}", tidy(&msg)))
     })
 }
 

@@ -1,10 +1,11 @@
 //! Checkpoints of a render in progress: the raw accumulation buffer (per pixel Σr, Σg, Σb and
-//! the samples kept, f32) and the session's [`Progress`] counters, in one file written
+//! the samples kept, f32, then any extra per-pixel buffers of the integrator: whatever
+//! `RenderSession::accumulation` returns) and the session's [`Progress`] counters, in one file written
 //! atomically (temporary sibling, fsync, rename). Restoring both gives an exact resume, because
 //! the renderer keys its random numbers by sample index.
 //!
 //! Layout (little-endian): `CNDLCKP1`, width u32, height u32, JSON length u32, JSON
-//! (`{"seed", "progress"}`), width·height·4 f32, FNV-1a 64 of everything before it.
+//! (`{"seed", "entries", "progress"}`), entries·4 f32, FNV-1a 64 of everything before it.
 
 use std::io::Write;
 use std::path::Path;
@@ -18,6 +19,8 @@ const MAGIC: &[u8; 8] = b"CNDLCKP1";
 #[derive(Debug, Clone, Serialize, Deserialize)]
 struct Header {
     seed: u64,
+    /// Number of `[f32; 4]` entries that follow.
+    entries: usize,
     progress: Progress,
 }
 
@@ -41,6 +44,7 @@ pub fn write(
 ) -> std::io::Result<()> {
     let json = serde_json::to_vec(&Header {
         seed,
+        entries: accumulation.len(),
         progress: *progress,
     })?;
     let mut buf = Vec::with_capacity(24 + json.len() + accumulation.len() * 16 + 8);
@@ -73,13 +77,14 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     std::fs::rename(&tmp, path)
 }
 
-/// Reads a checkpoint written for a `width`×`height` film and `seed`; `Err` says why it
-/// cannot be used (missing, corrupt, or for other settings).
+/// Reads a checkpoint written for a `width`×`height` film, `seed`, and `entries` accumulation
+/// entries; `Err` says why it cannot be used (missing, corrupt, or for other settings).
 pub fn read(
     path: &Path,
     width: u32,
     height: u32,
     seed: u64,
+    entries: usize,
 ) -> Result<(Progress, Vec<[f32; 4]>), String> {
     let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
     let bad = |what: &str| format!("{}: {what}", path.display());
@@ -95,14 +100,19 @@ pub fn read(
     if (w, h) != (width, height) {
         return Err(bad(&format!("made for {w}x{h}, not {width}x{height}")));
     }
-    let pixels = width as usize * height as usize;
-    if body.len() != 20 + json_len + pixels * 16 {
+    if body.len() < 20 + json_len {
         return Err(bad("truncated"));
     }
     let header: Header =
         serde_json::from_slice(&body[20..20 + json_len]).map_err(|e| bad(&e.to_string()))?;
     if header.seed != seed {
         return Err(bad("made with another seed"));
+    }
+    if header.entries != entries || body.len() != 20 + json_len + entries * 16 {
+        return Err(bad(&format!(
+            "holds {} accumulation entries, the session {entries}",
+            header.entries
+        )));
     }
     let acc = body[20 + json_len..]
         .chunks_exact(16)
@@ -132,14 +142,15 @@ mod tests {
         };
         let acc = vec![[1.0, 2.0, 3.0, 4.0], [0.5, 0.25, 0.0, 12.0]];
         write(&path, 2, 1, 7, &progress, &acc).unwrap();
-        assert_eq!(read(&path, 2, 1, 7).unwrap(), (progress, acc));
-        assert!(read(&path, 1, 2, 7).is_err());
-        assert!(read(&path, 2, 1, 8).is_err());
+        assert_eq!(read(&path, 2, 1, 7, 2).unwrap(), (progress, acc));
+        assert!(read(&path, 1, 2, 7, 2).is_err());
+        assert!(read(&path, 2, 1, 8, 2).is_err());
+        assert!(read(&path, 2, 1, 7, 3).is_err());
         let mut bytes = std::fs::read(&path).unwrap();
         let n = bytes.len();
         bytes[n - 12] ^= 1;
         std::fs::write(&path, &bytes).unwrap();
-        assert!(read(&path, 2, 1, 7).unwrap_err().contains("checksum"));
+        assert!(read(&path, 2, 1, 7, 2).unwrap_err().contains("checksum"));
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

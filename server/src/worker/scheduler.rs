@@ -61,11 +61,6 @@ impl Scheduler {
         self.entries.clear();
     }
 
-    /// Whether job `id` is scheduled.
-    pub fn contains(&self, id: JobId) -> bool {
-        self.entries.contains_key(&id)
-    }
-
     /// Number of scheduled jobs.
     pub fn len(&self) -> usize {
         self.entries.len()

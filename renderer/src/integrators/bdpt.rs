@@ -1,0 +1,168 @@
+//! `bdpt`: bidirectional path tracing (Veach 1997, ch. 10), with pbrt-v3's `BDPTIntegrator` as
+//! the model: a camera subpath and a light subpath per sample, every connection strategy (s, t)
+//! allowed by max_depth (Mitsuba's meaning: paths of at most max_depth segments), multiple
+//! importance sampling with the power heuristic, light tracing (t = 1) splatted into the film.
+//! Kernel: shaders/bdpt/bdpt.comp (vertex.glsl, subpath.glsl, connect.glsl, splat.glsl).
+//!
+//! # GPU design: per-pixel light subpaths
+//! Each thread owns one pixel and, per sample, traces one camera subpath and one light subpath of
+//! at most max_depth (+1) vertices into fixed-size private arrays, then evaluates every (s, t)
+//! connection. Per-thread state is bounded by the array capacity, which the kernel takes from
+//! max_depth at compile time (`BDPT_DEPTH_CAP`; −1 and values above [`DEPTH_CAP`] are capped
+//! at [`DEPTH_CAP`] segments, so an "unbounded" render does not sample paths longer than that —
+//! with Russian roulette from rr_depth they carry little energy, but a closed white furnace
+//! would lose some). No recursion, one dispatch per pass. A light-vertex cache (Davidovič et
+//! al. 2014) is faster, but shares one buffer of light vertices between pixels and resamples
+//! connections; the per-pixel design reproduces pbrt's estimator strategy by strategy, which is
+//! what the tests verify. It is the reference the faster design can be checked against.
+//!
+//! # The film
+//! Strategies with t ≥ 2 belong to the thread's pixel and accumulate in ACCUM like pt/nee's
+//! samples: bit-identical whatever the pass split. Light tracing lands on arbitrary pixels and is
+//! added atomically to a splat buffer (binding SPLAT): with float atomics where the device has
+//! `shaderBufferFloat32AtomicAdd` (the order of float additions varies between runs, so that
+//! part of the image is reproducible only to rounding), else — or with the debug option
+//! `fixed_point_splats` — as 64-bit fixed point from 32-bit integer atomics, which is exact and
+//! order-independent. The image is accum.rgb / accum.w + splat / (pixels · spp): one light path
+//! is traced per pixel and sample. Checkpoints carry the splat buffer after the accumulation.
+//!
+//! # Options
+//! `{"type": "bdpt", "max_depth", "rr_depth", "mis": true|false, "strategy": [s, t],
+//! "weighted": true|false, "fixed_point_splats": true|false}`. `mis: false` gives every strategy
+//! that could make a path the same weight. `strategy` renders one technique alone (the Veach
+//! pyramid), multiplied by its MIS weight unless `weighted` is false; unweighted, each technique
+//! of a path length is an unbiased estimate of that length's image wherever it can sample every
+//! path (no delta lights or specular connections).
+
+use super::{BdptOptions, ExtraBuffer, Integrator};
+use crate::compile::layout::{binding, GpuPush};
+use crate::gpu::{ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
+
+/// Most segments a bdpt path may have: the private vertex arrays hold 2·DEPTH_CAP + 1 vertices.
+pub const DEPTH_CAP: i32 = 32;
+
+/// Fractional bits of the fixed-point splats (mirrors SPLAT_FRAC_BITS in shaders/bdpt/splat.glsl).
+const SPLAT_FRAC_BITS: i32 = 20;
+
+pub struct BdptIntegrator {
+    max_depth: i32,
+    rr_depth: i32,
+    mis: bool,
+    strategy: Option<[u32; 2]>,
+    weighted: bool,
+    force_fixed_point: bool,
+    /// Decided in `prepare` from the device.
+    float_splats: bool,
+}
+
+pub fn new(o: &BdptOptions, scene_max_depth: Option<i32>) -> BdptIntegrator {
+    BdptIntegrator {
+        max_depth: o.max_depth.or(scene_max_depth).unwrap_or(6),
+        rr_depth: o.rr_depth.unwrap_or(5),
+        mis: o.mis.unwrap_or(true),
+        strategy: o.strategy,
+        weighted: o.weighted.unwrap_or(true),
+        force_fixed_point: o.fixed_point_splats.unwrap_or(false),
+        float_splats: false,
+    }
+}
+
+impl BdptIntegrator {
+    /// The vertex-array capacity the kernel is compiled for, in segments.
+    fn depth_cap(&self) -> i32 {
+        if self.max_depth < 0 {
+            DEPTH_CAP
+        } else {
+            self.max_depth.clamp(1, DEPTH_CAP)
+        }
+    }
+}
+
+impl Integrator for BdptIntegrator {
+    fn name(&self) -> &'static str {
+        "bdpt"
+    }
+    fn kernel(&self) -> &'static str {
+        "bdpt/bdpt.comp"
+    }
+    fn max_depth(&self) -> i32 {
+        self.max_depth
+    }
+    fn record_pass(
+        &self,
+        rec: &mut Recorder<'_>,
+        pipeline: &ComputePipeline,
+        mut push: GpuPush,
+        groups: [u32; 3],
+    ) -> GpuResult<()> {
+        push.max_depth = self.max_depth;
+        push.rr_depth = self.rr_depth;
+        rec.dispatch(pipeline, bytemuck::bytes_of(&push), groups, "bdpt pass")
+    }
+    fn prepare(&mut self, ctx: &GpuContext) {
+        self.float_splats = ctx.float_atomics && !self.force_fixed_point;
+    }
+    fn defines(&self) -> ShaderDefines {
+        let (s, t) = match self.strategy {
+            Some([s, t]) => (s as i32, t as i32),
+            None => (-1, -1),
+        };
+        let mut d: ShaderDefines = vec![
+            ("BDPT_DEPTH_CAP".into(), self.depth_cap().to_string()),
+            ("BDPT_MIS".into(), (self.mis as i32).to_string()),
+            ("BDPT_STRATEGY_S".into(), s.to_string()),
+            ("BDPT_STRATEGY_T".into(), t.to_string()),
+            ("BDPT_WEIGHTED".into(), (self.weighted as i32).to_string()),
+        ];
+        if self.float_splats {
+            d.push(("BDPT_FLOAT_SPLATS".into(), "1".into()));
+        }
+        d
+    }
+    fn extra_buffers(&self) -> Vec<ExtraBuffer> {
+        vec![ExtraBuffer {
+            binding: binding::SPLAT,
+            name: "bdpt splats",
+            entries_per_pixel: if self.float_splats { 1 } else { 2 },
+        }]
+    }
+    fn resolve(&self, accum: &[[f32; 4]], extra: &[Vec<[f32; 4]>], spp: u32) -> Vec<[f32; 3]> {
+        let n = accum.len();
+        let paths = n as f64 * spp as f64;
+        let splat = |i: usize, c: usize| -> f64 {
+            let Some(buf) = extra.first() else {
+                return 0.0;
+            };
+            if self.float_splats {
+                buf.get(i).map_or(0.0, |e| e[c] as f64)
+            } else {
+                let (lo, hi) = match (buf.get(2 * i), buf.get(2 * i + 1)) {
+                    (Some(lo), Some(hi)) => (lo[c].to_bits() as u64, hi[c].to_bits() as u64),
+                    _ => return 0.0,
+                };
+                ((hi << 32) | lo) as f64 / (1u64 << SPLAT_FRAC_BITS) as f64
+            }
+        };
+        accum
+            .iter()
+            .enumerate()
+            .map(|(i, a)| {
+                let mut px = [0f32; 3];
+                for (c, v) in px.iter_mut().enumerate() {
+                    let camera = if a[3] > 0.0 {
+                        a[c] as f64 / a[3] as f64
+                    } else {
+                        0.0
+                    };
+                    let light = if paths > 0.0 {
+                        splat(i, c) / paths
+                    } else {
+                        0.0
+                    };
+                    *v = (camera + light) as f32;
+                }
+                px
+            })
+            .collect()
+    }
+}

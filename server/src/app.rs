@@ -1,0 +1,111 @@
+//! The HTTP application: shared state, the `app(state) -> Router` factory (every route of the
+//! API, the metrics, the embedded web viewer), bearer-token authentication, JSON fallbacks for
+//! unknown routes and methods, and the body-size limit.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use axum::extract::{DefaultBodyLimit, Query, Request, State};
+use axum::http::header;
+use axum::middleware::{self, Next};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post};
+use axum::Router;
+use tokio::sync::watch;
+use tower_http::trace::TraceLayer;
+
+use crate::api_error::ApiError;
+use crate::config::ServerConfig;
+use crate::routes;
+use crate::shared::Shared;
+use crate::store::Store;
+use crate::worker::WorkerHandle;
+
+/// What every handler can reach.
+#[derive(Clone)]
+pub struct AppState {
+    pub store: Arc<Store>,
+    pub shared: Arc<Shared>,
+    pub worker: WorkerHandle,
+    pub config: Arc<ServerConfig>,
+    /// Becomes `true` when the server starts shutting down (ends SSE streams and waits).
+    pub shutdown: watch::Receiver<bool>,
+}
+
+impl AppState {
+    /// Whether shutdown has begun.
+    pub fn shutting_down(&self) -> bool {
+        *self.shutdown.borrow()
+    }
+}
+
+/// The router with every route, layer and fallback.
+pub fn app(state: AppState) -> Router {
+    let api = Router::new()
+        .route("/api/health", get(routes::ops::health))
+        .route("/api/jobs", post(routes::jobs::create).get(routes::jobs::list))
+        .route(
+            "/api/jobs/{id}",
+            get(routes::jobs::get_one)
+                .delete(routes::jobs::cancel)
+                .patch(routes::jobs::patch),
+        )
+        .route("/api/jobs/{id}/pause", post(routes::jobs::pause))
+        .route("/api/jobs/{id}/resume", post(routes::jobs::resume))
+        .route("/api/jobs/{id}/events", get(routes::events::stream))
+        .route("/api/jobs/{id}/image.png", get(routes::images::png))
+        .route("/api/jobs/{id}/image.exr", get(routes::images::exr))
+        .route("/api/scenes", get(routes::scenes::list))
+        .route("/api/scenes/{name}", get(routes::scenes::get_one))
+        .route("/metrics", get(routes::ops::metrics));
+    Router::new()
+        .merge(api)
+        .merge(routes::static_files::router())
+        .fallback(not_found)
+        .method_not_allowed_fallback(method_not_allowed)
+        .layer(middleware::from_fn_with_state(state.clone(), require_token))
+        .layer(DefaultBodyLimit::max(state.config.limits.max_body_bytes))
+        .layer(TraceLayer::new_for_http())
+        .with_state(state)
+}
+
+async fn not_found(req: Request) -> ApiError {
+    ApiError::NotFound(format!("no route {} {}", req.method(), req.uri().path()))
+}
+
+async fn method_not_allowed() -> ApiError {
+    ApiError::MethodNotAllowed
+}
+
+/// Equal-time comparison of two secrets.
+fn same_secret(a: &[u8], b: &[u8]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+}
+
+/// With a token configured, `/api/*` (except `/api/health`) and `/metrics` need
+/// `Authorization: Bearer TOKEN`, or `?token=TOKEN` where a header cannot be set (EventSource,
+/// `<img src>`). The web viewer's static files stay open.
+async fn require_token(State(st): State<AppState>, req: Request, next: Next) -> Response {
+    let Some(token) = st.config.token.as_deref() else {
+        return next.run(req).await;
+    };
+    let path = req.uri().path();
+    let protected = (path.starts_with("/api/") || path == "/metrics") && path != "/api/health";
+    if !protected {
+        return next.run(req).await;
+    }
+    let from_header = req
+        .headers()
+        .get(header::AUTHORIZATION)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.strip_prefix("Bearer "))
+        .map(|t| t.trim().to_string());
+    let from_query = Query::<HashMap<String, String>>::try_from_uri(req.uri())
+        .ok()
+        .and_then(|q| q.0.get("token").cloned());
+    let given = from_header.or(from_query);
+    match given {
+        Some(t) if same_secret(t.as_bytes(), token.as_bytes()) => next.run(req).await,
+        _ => ApiError::Unauthorized.into_response(),
+    }
+}

@@ -1,0 +1,6 @@
+//! Jobs: the model (states, settings, JSON view), request parsing and validation, and scene
+//! uploads (multipart, tar/zip).
+
+pub mod model;
+pub mod request;
+pub mod upload;

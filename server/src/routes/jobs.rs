@@ -1,0 +1,284 @@
+//! `/api/jobs`: submit (JSON or multipart upload, optionally waiting for the end), list, get,
+//! cancel (`DELETE`), pause, resume and reprioritise (`PATCH`). State changes go through the
+//! store's transition table (409 on an invalid one) and wake the GPU worker.
+
+use std::collections::HashMap;
+
+use axum::body::Bytes;
+use axum::extract::{FromRequest, Multipart, Path, Query, Request, State};
+use axum::http::{header, StatusCode};
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use serde::Deserialize;
+use serde_json::{json, Value};
+use tokio::sync::broadcast::error::RecvError;
+
+use crate::api_error::ApiError;
+use crate::app::AppState;
+use crate::jobs::model::{JobId, JobRecord, JobState, MAX_PRIORITY};
+use crate::jobs::request::{parse_object, parse_request, prepare, SceneInput};
+use crate::jobs::upload::read_multipart;
+use crate::store::{JobPaths, Transition};
+
+/// Parses the `{id}` of a job route (anything but an integer is simply not a job).
+pub fn job_id(raw: &str) -> Result<JobId, ApiError> {
+    raw.parse::<JobId>()
+        .ok()
+        .filter(|id| *id > 0)
+        .ok_or_else(|| ApiError::NotFound(format!("no job \"{raw}\"")))
+}
+
+/// A boolean query parameter: true/1/yes, false/0/no/empty.
+pub fn query_bool(q: &HashMap<String, String>, name: &str) -> Result<bool, ApiError> {
+    match q.get(name).map(|s| s.to_ascii_lowercase()) {
+        None => Ok(false),
+        Some(v) => match v.as_str() {
+            "" | "true" | "1" | "yes" => Ok(true),
+            "false" | "0" | "no" => Ok(false),
+            _ => Err(ApiError::bad_request(format!(
+                "{name}: expected true or false, got \"{v}\""
+            ))),
+        },
+    }
+}
+
+fn body_error(status: StatusCode, text: String, limit: usize) -> ApiError {
+    if status == StatusCode::PAYLOAD_TOO_LARGE {
+        ApiError::PayloadTooLarge(format!(
+            "the request body is larger than this server's limit of {limit} bytes"
+        ))
+    } else {
+        ApiError::bad_request(format!("reading the body: {text}"))
+    }
+}
+
+/// `POST /api/jobs[?wait=true]`: 201 with the job (after it ended, with `wait`).
+pub async fn create(
+    State(st): State<AppState>,
+    Query(q): Query<HashMap<String, String>>,
+    req: Request,
+) -> Result<Response, ApiError> {
+    let wait = query_bool(&q, "wait")?;
+    if st.shutting_down() {
+        return Err(ApiError::Unavailable("the server is shutting down".into()));
+    }
+    // Step 1: room in the queue.
+    let limits = &st.config.limits;
+    let counts = st.store.count_by_state()?;
+    let unfinished: u64 = ["queued", "running", "paused"]
+        .iter()
+        .map(|s| counts.get(s).copied().unwrap_or(0))
+        .sum();
+    if unfinished >= limits.max_unfinished_jobs {
+        return Err(ApiError::TooManyJobs(format!(
+            "{unfinished} jobs are unfinished (queued, running or paused); this server accepts at most {}: retry when some have ended",
+            limits.max_unfinished_jobs
+        )));
+    }
+    // Step 2: the request, JSON or multipart, checked and its scene loaded.
+    let is_multipart = req
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|ct| ct.starts_with("multipart/form-data"));
+    let (builtin, cfg) = (st.config.builtin_dir(), st.config.clone());
+    let (new_job, upload) = if is_multipart {
+        let mp = Multipart::from_request(req, &st)
+            .await
+            .map_err(|e| ApiError::bad_request(format!("upload: {}", e.body_text())))?;
+        let mut up = read_multipart(mp, limits, &st.config.tmp_dir()).await?;
+        let input = SceneInput::Uploaded {
+            json: up.scene_json.clone(),
+            dir: up.base.clone(),
+        };
+        let job = std::mem::take(&mut up.job);
+        let new = tokio::task::spawn_blocking(move || prepare(job, input, &cfg.limits, &builtin))
+            .await
+            .map_err(ApiError::internal)??;
+        (new, Some(up))
+    } else {
+        let body = Bytes::from_request(req, &st)
+            .await
+            .map_err(|e| body_error(e.status(), e.body_text(), limits.max_body_bytes))?;
+        let job = parse_request(&body)?;
+        let new = tokio::task::spawn_blocking(move || {
+            prepare(job, SceneInput::InRequest, &cfg.limits, &builtin)
+        })
+        .await
+        .map_err(ApiError::internal)??;
+        (new, None)
+    };
+    // Step 3: store it (moving uploaded assets into the job's folder) and wake the worker.
+    let data_dir = st.config.data_dir.clone();
+    let store = st.store.clone();
+    let rec = tokio::task::spawn_blocking(move || {
+        let r = store.insert_job(&new_job, |id| {
+            if let Some(up) = &upload {
+                let dest = JobPaths::new(&data_dir, id).assets();
+                if let Some(parent) = dest.parent() {
+                    std::fs::create_dir_all(parent).map_err(|e| e.to_string())?;
+                }
+                let _ = std::fs::remove_dir_all(&dest);
+                std::fs::rename(&up.base, &dest).map_err(|e| e.to_string())?;
+            }
+            Ok(())
+        });
+        drop(upload);
+        r
+    })
+    .await
+    .map_err(ApiError::internal)??;
+    st.shared
+        .jobs_submitted
+        .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    tracing::info!(job = rec.id, name = %rec.name, "job submitted");
+    st.worker.wake();
+    let rec = if wait { wait_for_end(&st, rec.id).await? } else { rec };
+    let location = format!("/api/jobs/{}", rec.id);
+    Ok((
+        StatusCode::CREATED,
+        [(header::LOCATION, location)],
+        Json(rec.to_json()),
+    )
+        .into_response())
+}
+
+/// Waits until job `id` is done, failed or canceled (or the server shuts down).
+async fn wait_for_end(st: &AppState, id: JobId) -> Result<JobRecord, ApiError> {
+    let mut live = st.store.subscribe();
+    let mut shutdown = st.shutdown.clone();
+    loop {
+        let rec = st.store.get_job(id)?;
+        if rec.state.is_terminal() || *shutdown.borrow() {
+            return Ok(rec);
+        }
+        loop {
+            tokio::select! {
+                r = live.recv() => match r {
+                    Ok(e) if e.job_id == id && e.is_final() => break,
+                    Ok(_) => continue,
+                    Err(RecvError::Lagged(_)) => break,
+                    Err(RecvError::Closed) => return Ok(st.store.get_job(id)?),
+                },
+                _ = shutdown.changed() => break,
+            }
+        }
+    }
+}
+
+/// `GET /api/jobs[?state=queued,running][&limit=N]`: newest first.
+pub async fn list(
+    State(st): State<AppState>,
+    Query(q): Query<HashMap<String, String>>,
+) -> Result<Json<Value>, ApiError> {
+    let mut states = Vec::new();
+    if let Some(s) = q.get("state") {
+        for name in s.split(',').map(str::trim).filter(|n| !n.is_empty()) {
+            states.push(JobState::parse(name).ok_or_else(|| {
+                ApiError::bad_request(format!(
+                    "state: unknown \"{name}\" (queued, running, paused, done, failed or canceled)"
+                ))
+            })?);
+        }
+    }
+    let limit = match q.get("limit") {
+        None => 1000,
+        Some(l) => l
+            .parse::<usize>()
+            .ok()
+            .filter(|n| *n > 0)
+            .ok_or_else(|| ApiError::bad_request(format!("limit: expected a positive integer, got \"{l}\"")))?,
+    };
+    let mut jobs = Vec::new();
+    if states.is_empty() {
+        jobs = st.store.list_jobs(None, limit)?;
+    } else {
+        for s in states {
+            jobs.extend(st.store.list_jobs(Some(s), limit)?);
+        }
+        jobs.sort_by(|a, b| b.id.cmp(&a.id));
+        jobs.truncate(limit);
+    }
+    let jobs: Vec<Value> = jobs.iter().map(JobRecord::to_json).collect();
+    Ok(Json(json!({ "jobs": jobs })))
+}
+
+/// `GET /api/jobs/{id}`.
+pub async fn get_one(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<Value>, ApiError> {
+    Ok(Json(st.store.get_job(job_id(&id)?)?.to_json()))
+}
+
+async fn change_state(
+    st: &AppState,
+    raw: &str,
+    to: JobState,
+    verb: &'static str,
+) -> Result<Json<Value>, ApiError> {
+    let id = job_id(raw)?;
+    let t = Transition {
+        verb,
+        ..Default::default()
+    };
+    let rec = st.store.transition(id, to, t)?;
+    tracing::info!(job = id, state = to.as_str(), "job {verb}");
+    st.worker.wake();
+    Ok(Json(rec.to_json()))
+}
+
+/// `DELETE /api/jobs/{id}`: cancel (409 once it has ended).
+pub async fn cancel(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<Value>, ApiError> {
+    change_state(&st, &id, JobState::Canceled, "cancel").await
+}
+
+/// `POST /api/jobs/{id}/pause`: queued or running → paused (checkpointed).
+pub async fn pause(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<Value>, ApiError> {
+    change_state(&st, &id, JobState::Paused, "pause").await
+}
+
+/// `POST /api/jobs/{id}/resume`: paused → queued.
+pub async fn resume(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<Value>, ApiError> {
+    change_state(&st, &id, JobState::Queued, "resume").await
+}
+
+/// The fields `PATCH` accepts.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct JobPatch {
+    priority: Option<u32>,
+}
+
+/// `PATCH /api/jobs/{id}` with `{"priority": P}`.
+pub async fn patch(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+    body: Result<Bytes, axum::extract::rejection::BytesRejection>,
+) -> Result<Json<Value>, ApiError> {
+    let id = job_id(&id)?;
+    let body =
+        body.map_err(|e| body_error(e.status(), e.body_text(), st.config.limits.max_body_bytes))?;
+    let p: JobPatch = parse_object(&body)?;
+    let priority = p
+        .priority
+        .ok_or_else(|| ApiError::invalid("priority", "priority: missing (the only field PATCH changes)"))?;
+    if !(1..=MAX_PRIORITY).contains(&priority) {
+        return Err(ApiError::invalid(
+            "priority",
+            format!("priority: must be in 1..={MAX_PRIORITY}, got {priority}"),
+        ));
+    }
+    let rec = st.store.set_priority(id, priority)?;
+    st.worker.wake();
+    Ok(Json(rec.to_json()))
+}

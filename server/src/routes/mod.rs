@@ -1,0 +1,10 @@
+//! HTTP handlers, one module per resource: jobs (submit, list, control), events (SSE), images
+//! (PNG/EXR snapshots), scenes (built-ins), ops (health, metrics), static_files (web viewer).
+//! The router itself is assembled in `app.rs`.
+
+pub mod events;
+pub mod images;
+pub mod jobs;
+pub mod ops;
+pub mod scenes;
+pub mod static_files;

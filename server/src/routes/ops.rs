@@ -1,0 +1,42 @@
+//! Operations: `GET /api/health` (always open: status, version, device, jobs by state) and
+//! `GET /metrics` (Prometheus text: jobs by state, samples rendered, GPU busy seconds, passes,
+//! queue-wait histogram, open event streams).
+
+use axum::extract::State;
+use axum::http::header;
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use serde_json::{json, Value};
+
+use crate::api_error::ApiError;
+use crate::app::AppState;
+
+/// Health: `status` is "ok" when the device is ready, "degraded" otherwise (the API still
+/// accepts jobs; they wait for the device).
+pub async fn health(State(st): State<AppState>) -> Result<Json<Value>, ApiError> {
+    let gpu = st.shared.gpu();
+    let jobs = st.store.count_by_state()?;
+    let status = match (st.shutting_down(), gpu.state) {
+        (true, _) => "shutting_down",
+        (false, "ready") => "ok",
+        (false, _) => "degraded",
+    };
+    Ok(Json(json!({
+        "status": status,
+        "version": env!("CARGO_PKG_VERSION"),
+        "uptime_s": st.shared.uptime_s(),
+        "gpu": gpu,
+        "jobs": jobs,
+        "auth": st.config.token.is_some(),
+    })))
+}
+
+/// Prometheus exposition.
+pub async fn metrics(State(st): State<AppState>) -> Result<Response, ApiError> {
+    let jobs = st.store.count_by_state()?;
+    Ok((
+        [(header::CONTENT_TYPE, "text/plain; version=0.0.4; charset=utf-8")],
+        st.shared.prometheus(&jobs),
+    )
+        .into_response())
+}

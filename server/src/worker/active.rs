@@ -1,0 +1,162 @@
+//! One job being rendered by the worker: its [`RenderSession`], the pass sizing, and what it
+//! reports — progress (with an ETA that accounts for sharing the GPU), checkpoints and images.
+
+use std::time::{Duration, Instant};
+
+use renderer::film::Image;
+use renderer::render::{next_pass_size, Budget, PassStats, Progress, RenderError, RenderSession};
+use serde_json::{json, Value};
+
+use super::checkpoint;
+use crate::jobs::model::JobSettings;
+use crate::store::JobPaths;
+
+/// Why writing a checkpoint failed.
+#[derive(Debug)]
+pub enum CheckpointError {
+    /// Reading the accumulation back from the device.
+    Render(RenderError),
+    /// Writing the files.
+    Io(std::io::Error),
+}
+
+/// A job with a live render session.
+pub struct ActiveJob {
+    pub session: RenderSession,
+    pub settings: JobSettings,
+    pub paths: JobPaths,
+    /// Size and wall time of the last pass (None before the first).
+    last_pass: Option<(u32, Duration)>,
+    /// When the last snapshot was published (None: publish after the next pass).
+    pub last_snapshot: Option<Instant>,
+    pub last_checkpoint: Instant,
+    /// When the session was created, and the counters then (for the ETA).
+    admitted: Instant,
+    spp_at_admit: u32,
+    time_at_admit: f64,
+}
+
+impl ActiveJob {
+    /// Wraps a session (fresh or restored).
+    pub fn new(session: RenderSession, settings: JobSettings, paths: JobPaths) -> Self {
+        let p = session.progress();
+        ActiveJob {
+            session,
+            settings,
+            paths,
+            last_pass: None,
+            last_snapshot: None,
+            last_checkpoint: Instant::now(),
+            admitted: Instant::now(),
+            spp_at_admit: p.spp,
+            time_at_admit: p.time_s,
+        }
+    }
+
+    /// Whether the budget is reached.
+    pub fn finished(&self) -> bool {
+        match self.settings.budget() {
+            Budget::Spp(n) => self.session.spp() >= n,
+            Budget::Time(t) => self.session.elapsed().as_secs_f64() >= t,
+        }
+    }
+
+    /// Samples per pixel of the next pass: sized from the last one to take about `target`, and
+    /// never past the budget.
+    pub fn next_pass_spp(&self, target: Duration) -> u32 {
+        let target = match self.settings.budget() {
+            Budget::Time(t) => {
+                target.min(Duration::from_secs_f64((t - self.session.elapsed().as_secs_f64()).max(0.0)))
+            }
+            Budget::Spp(_) => target,
+        };
+        let n = match self.last_pass {
+            None => 1,
+            Some((spp, wall)) => next_pass_size(spp, wall, target),
+        };
+        match self.settings.budget() {
+            Budget::Spp(total) => n.min(total.saturating_sub(self.session.spp())).max(1),
+            Budget::Time(_) => n.max(1),
+        }
+    }
+
+    /// Notes a pass that ran.
+    pub fn record_pass(&mut self, stats: &PassStats) {
+        self.last_pass = Some((stats.spp, stats.wall));
+    }
+
+    /// Whether a snapshot is due.
+    pub fn snapshot_due(&self, interval: Duration) -> bool {
+        self.last_snapshot.is_none_or(|t| t.elapsed() >= interval)
+    }
+
+    /// Whether a checkpoint is due.
+    pub fn checkpoint_due(&self, interval: Duration) -> bool {
+        self.last_checkpoint.elapsed() >= interval
+    }
+
+    /// The data of a `progress` event.
+    pub fn progress_json(&self) -> Value {
+        let stats = self.session.stats();
+        let p = self.session.progress();
+        // Wall-clock seconds per unit of work since admission: includes the time other jobs
+        // held the GPU, so the ETA reflects the current share.
+        let wall = self.admitted.elapsed().as_secs_f64();
+        let (target_spp, eta_s, fraction) = match self.settings.budget() {
+            Budget::Spp(n) => {
+                let done = p.spp.saturating_sub(self.spp_at_admit);
+                let left = n.saturating_sub(p.spp) as f64;
+                let eta = (done > 0).then(|| left * wall / done as f64);
+                (Some(n), eta, p.spp as f64 / n.max(1) as f64)
+            }
+            Budget::Time(t) => {
+                let own = p.time_s - self.time_at_admit;
+                let left = (t - p.time_s).max(0.0);
+                let eta = (own > 0.0).then(|| left * wall / own);
+                (None, eta, p.time_s / t.max(1e-9))
+            }
+        };
+        json!({
+            "spp": p.spp,
+            "target_spp": target_spp,
+            "time_s": self.settings.time_s,
+            "elapsed_s": p.time_s,
+            "passes": p.passes,
+            "msamples_per_s": stats.msamples_per_s,
+            "rays_per_s": stats.rays_per_s,
+            "eta_s": eta_s,
+            "fraction": fraction.min(1.0),
+            "dropped_samples": p.dropped_samples,
+        })
+    }
+
+    /// Writes the checkpoint and the image it implies; returns the progress saved.
+    pub fn write_checkpoint(&mut self) -> Result<Progress, CheckpointError> {
+        let acc = self
+            .session
+            .accumulation()
+            .map_err(CheckpointError::Render)?;
+        let progress = self.session.progress();
+        let (w, h) = (self.settings.width, self.settings.height);
+        checkpoint::write(
+            &self.paths.checkpoint(),
+            w,
+            h,
+            self.settings.seed,
+            &progress,
+            &acc,
+        )
+        .map_err(CheckpointError::Io)?;
+        let image = self.session.image().map_err(CheckpointError::Render)?;
+        self.write_image(&image)?;
+        self.last_checkpoint = Instant::now();
+        Ok(progress)
+    }
+
+    /// Writes `image` as the job's on-disk image (EXR, atomically).
+    pub fn write_image(&self, image: &Image) -> Result<(), CheckpointError> {
+        std::fs::create_dir_all(&self.paths.dir).map_err(CheckpointError::Io)?;
+        renderer::film::write_exr(&self.paths.image(), image)
+            .map_err(|e| CheckpointError::Io(std::io::Error::other(e.to_string())))
+    }
+}

@@ -1,0 +1,507 @@
+//! The GPU worker: one `std::thread` that owns the Vulkan context and every render session, so
+//! the async side never touches Vulkan. It reads what to render from the store (queued and
+//! running jobs), keeps up to `max_active` sessions on the device, and runs one pass at a time
+//! for the job the stride scheduler picks (scheduler.rs), publishing snapshots, progress events
+//! and checkpoints at their intervals.
+//!
+//! Failures: a scene or shader error fails that job; a device error (a Vulkan call failing, or
+//! a panic inside the renderer) fails the job whose pass it was, drops every session and
+//! rebuilds the device; the other jobs resume from their checkpoints, exactly. On shutdown every
+//! active job is checkpointed and stays `running` in the store, to be resumed at the next start.
+
+mod active;
+mod checkpoint;
+mod scheduler;
+
+use std::collections::BTreeMap;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::{mpsc, Arc};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use renderer::gpu::{GpuContext, GpuError, GpuOptions};
+use renderer::render::{RenderError, RenderSession};
+use serde_json::json;
+use tracing::{error, info, warn};
+
+use crate::config::ServerConfig;
+use crate::jobs::model::{now_s, JobId, JobState, SceneSource};
+use crate::shared::{GpuStatus, Shared};
+use crate::store::{JobPaths, Store, StoreError, Transition};
+use active::{ActiveJob, CheckpointError};
+use scheduler::Scheduler;
+
+/// A message to the worker.
+enum Msg {
+    /// Jobs changed in the store: look again.
+    Wake,
+    /// Checkpoint everything and stop.
+    Shutdown,
+}
+
+/// The async side's handle on the worker.
+#[derive(Clone)]
+pub struct WorkerHandle {
+    tx: mpsc::Sender<Msg>,
+}
+
+impl WorkerHandle {
+    /// Tells the worker that jobs changed (submitted, paused, resumed, canceled, reprioritised).
+    pub fn wake(&self) {
+        let _ = self.tx.send(Msg::Wake);
+    }
+
+    /// Asks the worker to checkpoint its jobs and stop.
+    pub fn shutdown(&self) {
+        let _ = self.tx.send(Msg::Shutdown);
+    }
+}
+
+/// Starts the worker thread.
+pub fn spawn(
+    store: Arc<Store>,
+    shared: Arc<Shared>,
+    config: Arc<ServerConfig>,
+) -> std::io::Result<(WorkerHandle, JoinHandle<()>)> {
+    let (tx, rx) = mpsc::channel();
+    let thread = std::thread::Builder::new()
+        .name("gpu-worker".into())
+        .spawn(move || {
+            let mut worker = Worker {
+                store,
+                shared,
+                config,
+                rx,
+                ctx: None,
+                active: BTreeMap::new(),
+                sched: Scheduler::default(),
+                dirty: true,
+                last_open: None,
+            };
+            // A panic outside a pass (which is caught where it happens) restarts the loop with
+            // a fresh device rather than ending the thread.
+            loop {
+                match catch_unwind(AssertUnwindSafe(|| worker.run())) {
+                    Ok(()) => return,
+                    Err(_) => {
+                        error!("the GPU worker panicked; rebuilding the device");
+                        worker.reset_device("the worker panicked");
+                    }
+                }
+            }
+        })?;
+    Ok((WorkerHandle { tx }, thread))
+}
+
+struct Worker {
+    store: Arc<Store>,
+    shared: Arc<Shared>,
+    config: Arc<ServerConfig>,
+    rx: mpsc::Receiver<Msg>,
+    ctx: Option<Arc<GpuContext>>,
+    active: BTreeMap<JobId, ActiveJob>,
+    sched: Scheduler,
+    /// The store may hold changes the worker has not looked at.
+    dirty: bool,
+    last_open: Option<Instant>,
+}
+
+/// Whether an error means the device itself is in doubt (rebuild it).
+fn is_device_error(e: &RenderError) -> bool {
+    matches!(e, RenderError::Gpu(GpuError::Vk { .. } | GpuError::Other(_)))
+}
+
+impl Worker {
+    fn run(&mut self) {
+        loop {
+            // Step 1: messages; block only when there is nothing to render.
+            let first = if self.sched.len() == 0 {
+                match self.rx.recv_timeout(Duration::from_millis(500)) {
+                    Ok(m) => Some(m),
+                    Err(mpsc::RecvTimeoutError::Timeout) => {
+                        self.dirty = true;
+                        None
+                    }
+                    Err(mpsc::RecvTimeoutError::Disconnected) => Some(Msg::Shutdown),
+                }
+            } else {
+                self.rx.try_recv().ok()
+            };
+            let msgs: Vec<Msg> = first.into_iter().chain(self.rx.try_iter()).collect();
+            for msg in msgs {
+                match msg {
+                    Msg::Wake => self.dirty = true,
+                    Msg::Shutdown => {
+                        self.shutdown();
+                        return;
+                    }
+                }
+            }
+            // Step 2: a device.
+            if self.ctx.is_none() && !self.open_device() {
+                continue;
+            }
+            // Step 3: which jobs to render.
+            if self.dirty {
+                self.dirty = false;
+                self.reconcile();
+            }
+            // Step 4: one pass of the job the scheduler picks.
+            if let Some(id) = self.sched.pick() {
+                self.step(id);
+            }
+        }
+    }
+
+    /// Creates the device (at most every 2 s after a failure).
+    fn open_device(&mut self) -> bool {
+        if self.last_open.is_some_and(|t| t.elapsed() < Duration::from_secs(2)) {
+            return false;
+        }
+        self.last_open = Some(Instant::now());
+        let opts = GpuOptions {
+            device: self.config.device.clone(),
+            validation: self.config.validation,
+        };
+        match catch_unwind(|| GpuContext::new(&opts)) {
+            Ok(Ok(ctx)) => {
+                info!(device = %ctx.info.name, driver = %ctx.info.driver, "GPU ready");
+                self.shared.set_gpu(GpuStatus {
+                    state: "ready",
+                    device: Some(ctx.info.clone()),
+                    error: None,
+                });
+                self.ctx = Some(Arc::new(ctx));
+                self.dirty = true;
+                true
+            }
+            Ok(Err(e)) => {
+                error!(error = %e, "no GPU; retrying");
+                self.set_unavailable(e.to_string());
+                false
+            }
+            Err(_) => {
+                error!("creating the GPU context panicked; retrying");
+                self.set_unavailable("creating the GPU context panicked".into());
+                false
+            }
+        }
+    }
+
+    fn set_unavailable(&self, error: String) {
+        self.shared.set_gpu(GpuStatus {
+            state: "unavailable",
+            device: None,
+            error: Some(error),
+        });
+    }
+
+    /// Drops every session and the device; the jobs stay running and resume from checkpoints.
+    fn reset_device(&mut self, why: &str) {
+        warn!(why, "resetting the GPU device");
+        self.active.clear();
+        self.sched.clear();
+        self.ctx = None;
+        self.last_open = None;
+        self.dirty = true;
+        self.set_unavailable(format!("restarting after: {why}"));
+    }
+
+    /// Brings the active set in line with the store: retires sessions of jobs that are no
+    /// longer runnable, updates weights, and admits jobs while there are free slots.
+    fn reconcile(&mut self) {
+        let runnable = match self.store.runnable_jobs() {
+            Ok(v) => v,
+            Err(e) => {
+                error!(error = %e, "reading runnable jobs");
+                self.dirty = true;
+                return;
+            }
+        };
+        let gone: Vec<JobId> = self
+            .active
+            .keys()
+            .filter(|id| !runnable.iter().any(|(r, _, _)| r == *id))
+            .copied()
+            .collect();
+        for id in gone {
+            self.retire(id);
+        }
+        for (id, state, priority) in runnable {
+            if self.active.contains_key(&id) {
+                self.sched.set_weight(id, priority);
+            } else if self.active.len() < self.config.max_active.max(1) && self.ctx.is_some() {
+                self.admit(id, state, priority);
+            }
+        }
+    }
+
+    /// Creates the session of a runnable job (restoring its checkpoint) and schedules it.
+    fn admit(&mut self, id: JobId, state: JobState, priority: u32) {
+        let Some(ctx) = self.ctx.clone() else { return };
+        let (rec, text) = match (self.store.get_job(id), self.store.get_scene(id)) {
+            (Ok(r), Ok(t)) => (r, t),
+            (Err(e), _) | (_, Err(e)) => return error!(job = id, error = %e, "reading job"),
+        };
+        let paths = JobPaths::new(&self.config.data_dir, id);
+        let s = rec.settings.clone();
+        // Step 1: scene, compiled for this film.
+        let base = match rec.source {
+            SceneSource::Inline => None,
+            SceneSource::Builtin => Some(self.config.builtin_dir()),
+            SceneSource::Upload => Some(paths.assets()),
+        };
+        let limits = self.config.limits.scene_limits();
+        let scene = match renderer::scene::load_str_with_limits(&text, base.as_deref(), &limits) {
+            Ok(s) => s,
+            Err(e) => return self.fail(id, format!("scene: {e}")),
+        };
+        let compiled = match renderer::compile::compile(&scene, s.width, s.height) {
+            Ok(c) => c,
+            Err(e) => return self.fail(id, format!("compiling the scene: {e}")),
+        };
+        drop(scene);
+        // Step 2: the session, restored from the checkpoint when there is one.
+        let made = catch_unwind(AssertUnwindSafe(|| {
+            RenderSession::new(&ctx, &compiled, &s.integrator, s.scene_max_depth, s.seed)
+        }));
+        let mut session = match made {
+            Ok(Ok(session)) => session,
+            Ok(Err(e)) => return self.render_failed(id, e, "creating the render session"),
+            Err(_) => return self.panicked(id, "creating the render session"),
+        };
+        if paths.checkpoint().exists() {
+            let entries = session.accumulation_len();
+            match checkpoint::read(&paths.checkpoint(), s.width, s.height, s.seed, entries) {
+                Ok((progress, acc)) => {
+                    if let Err(e) = session.restore(&acc, progress) {
+                        return self.render_failed(id, e, "restoring the checkpoint");
+                    }
+                    info!(job = id, spp = progress.spp, "resumed from checkpoint");
+                }
+                Err(e) => warn!(job = id, error = %e, "ignoring unusable checkpoint"),
+            }
+        }
+        // Step 3: mark it running (it may have been paused or canceled meanwhile).
+        if state == JobState::Queued {
+            let t = Transition {
+                verb: "start",
+                ..Default::default()
+            };
+            match self.store.transition(id, JobState::Running, t) {
+                Ok(_) => {
+                    if rec.started_at.is_none() {
+                        self.shared.observe_queue_wait(now_s() - rec.created_at);
+                    }
+                }
+                Err(StoreError::Conflict { .. }) | Err(StoreError::NotFound(_)) => return,
+                Err(e) => return error!(job = id, error = %e, "starting job"),
+            }
+        }
+        info!(job = id, name = %rec.name, "rendering");
+        self.active.insert(id, ActiveJob::new(session, s, paths));
+        self.sched.add(id, priority);
+    }
+
+    /// Drops the session of a job that left the runnable states, saving what it rendered.
+    fn retire(&mut self, id: JobId) {
+        self.sched.remove(id);
+        let Some(mut job) = self.active.remove(&id) else {
+            return;
+        };
+        match self.store.get_job(id).map(|r| r.state) {
+            Ok(JobState::Paused) => match job.write_checkpoint() {
+                Ok(p) => {
+                    let _ = self.store.set_progress(id, &p);
+                    info!(job = id, spp = p.spp, "paused and checkpointed");
+                }
+                Err(e) => self.checkpoint_failed(id, e),
+            },
+            Ok(JobState::Canceled) => {
+                if let Ok(img) = job.session.image() {
+                    let _ = job.write_image(&img);
+                }
+                let _ = self.store.set_progress(id, &job.session.progress());
+                let _ = std::fs::remove_file(job.paths.checkpoint());
+                info!(job = id, "canceled");
+            }
+            _ => {}
+        }
+        self.shared.forget(id);
+    }
+
+    /// Runs one pass of job `id` and whatever falls due after it.
+    fn step(&mut self, id: JobId) {
+        let Some(job) = self.active.get_mut(&id) else {
+            return self.sched.remove(id);
+        };
+        if job.finished() {
+            return self.finish(id);
+        }
+        let spp = job.next_pass_spp(self.config.pass_target);
+        let pixels = job.settings.width as u64 * job.settings.height as u64;
+        let result = catch_unwind(AssertUnwindSafe(|| job.session.run_pass(spp)));
+        let stats = match result {
+            Ok(Ok(stats)) => stats,
+            Ok(Err(e)) => return self.render_failed(id, e, "render pass"),
+            Err(_) => return self.panicked(id, "render pass"),
+        };
+        job.record_pass(&stats);
+        self.sched.charge(id, stats.wall.as_secs_f64());
+        let busy = if stats.gpu.is_zero() { stats.wall } else { stats.gpu };
+        use std::sync::atomic::Ordering::Relaxed;
+        self.shared.samples_total.fetch_add(spp as u64 * pixels, Relaxed);
+        self.shared.gpu_busy_ns.fetch_add(busy.as_nanos() as u64, Relaxed);
+        self.shared.passes_total.fetch_add(1, Relaxed);
+        if job.finished() {
+            return self.finish(id);
+        }
+        if job.snapshot_due(self.config.snapshot_interval) {
+            self.snapshot(id);
+        }
+        let Some(job) = self.active.get_mut(&id) else { return };
+        if job.checkpoint_due(self.config.checkpoint_interval) {
+            match job.write_checkpoint() {
+                Ok(p) => {
+                    let _ = self.store.set_progress(id, &p);
+                }
+                Err(e) => self.checkpoint_failed(id, e),
+            }
+        }
+    }
+
+    /// Publishes the current image and a progress + snapshot event.
+    fn snapshot(&mut self, id: JobId) {
+        let Some(job) = self.active.get_mut(&id) else { return };
+        let image = match job.session.image() {
+            Ok(i) => i,
+            Err(e) => return self.render_failed(id, e, "reading the image"),
+        };
+        job.last_snapshot = Some(Instant::now());
+        let spp = job.session.spp();
+        let progress = job.progress_json();
+        let _ = self.store.set_progress(id, &job.session.progress());
+        self.shared.publish(id, image, spp);
+        let _ = self.store.append_event(id, "progress", progress);
+        let _ = self.store.append_event(id, "snapshot", snapshot_data(id, spp));
+    }
+
+    /// The budget is reached: final image on disk, final events, state done.
+    fn finish(&mut self, id: JobId) {
+        self.sched.remove(id);
+        let Some(mut job) = self.active.remove(&id) else { return };
+        let image = match job.session.image() {
+            Ok(i) => i,
+            Err(e) => return self.render_failed(id, e, "reading the final image"),
+        };
+        if let Err(e) = job.write_image(&image) {
+            let msg = match e {
+                CheckpointError::Io(e) => e.to_string(),
+                CheckpointError::Render(e) => e.to_string(),
+            };
+            return self.fail(id, format!("writing the final image: {msg}"));
+        }
+        let stats = job.session.stats();
+        let progress = job.session.progress();
+        let spp = progress.spp;
+        self.shared.publish(id, image, spp);
+        let _ = self.store.append_event(id, "progress", job.progress_json());
+        let _ = self.store.append_event(id, "snapshot", snapshot_data(id, spp));
+        let stats_json = serde_json::to_value(&stats).unwrap_or_default();
+        let t = Transition {
+            verb: "finish",
+            stats: Some(stats_json.clone()),
+            progress: Some(progress),
+            extra_events: vec![("done", json!({"spp": spp, "stats": stats_json}))],
+            ..Default::default()
+        };
+        match self.store.transition(id, JobState::Done, t) {
+            Ok(_) => {
+                info!(job = id, spp, time_s = stats.time_s, "done");
+                let _ = std::fs::remove_file(job.paths.checkpoint());
+            }
+            // Paused at the last moment: keep the checkpoint so a resume ends at once.
+            Err(StoreError::Conflict {
+                state: JobState::Paused,
+                ..
+            }) => {
+                if let Err(e) = job.write_checkpoint() {
+                    self.checkpoint_failed(id, e);
+                }
+            }
+            Err(e) => warn!(job = id, error = %e, "finishing job"),
+        }
+        self.shared.forget(id);
+    }
+
+    /// Fails job `id` with `message` (no effect on the device).
+    fn fail(&mut self, id: JobId, message: String) {
+        self.sched.remove(id);
+        if let Some(job) = self.active.remove(&id) {
+            let _ = std::fs::remove_file(job.paths.checkpoint());
+        }
+        self.shared.forget(id);
+        error!(job = id, error = %message, "job failed");
+        let t = Transition {
+            verb: "fail",
+            error: Some(message.clone()),
+            extra_events: vec![("error", json!({ "message": message }))],
+            ..Default::default()
+        };
+        if let Err(e) = self.store.transition(id, JobState::Failed, t) {
+            warn!(job = id, error = %e, "marking job failed");
+        }
+    }
+
+    /// A renderer error: fail the job; rebuild the device if the error was the device's.
+    fn render_failed(&mut self, id: JobId, e: RenderError, stage: &str) {
+        let device = is_device_error(&e);
+        self.fail(id, format!("{stage}: {e}"));
+        if device {
+            self.reset_device(&format!("{stage}: {e}"));
+        }
+    }
+
+    /// The renderer panicked: fail the job and rebuild the device.
+    fn panicked(&mut self, id: JobId, stage: &str) {
+        self.fail(id, format!("{stage}: internal renderer error (panic)"));
+        self.reset_device(&format!("{stage} panicked"));
+    }
+
+    fn checkpoint_failed(&mut self, id: JobId, e: CheckpointError) {
+        match e {
+            CheckpointError::Render(e) => self.render_failed(id, e, "reading the checkpoint"),
+            // A full disk is not the job's fault: keep rendering, try again next interval.
+            CheckpointError::Io(e) => warn!(job = id, error = %e, "writing checkpoint"),
+        }
+    }
+
+    /// Checkpoints every active job (they stay `running` and resume at the next start).
+    fn shutdown(&mut self) {
+        let ids: Vec<JobId> = self.active.keys().copied().collect();
+        for id in ids {
+            if let Some(job) = self.active.get_mut(&id) {
+                match job.write_checkpoint() {
+                    Ok(p) => {
+                        let _ = self.store.set_progress(id, &p);
+                        info!(job = id, spp = p.spp, "checkpointed for shutdown");
+                    }
+                    Err(CheckpointError::Io(e)) => error!(job = id, error = %e, "checkpoint"),
+                    Err(CheckpointError::Render(e)) => error!(job = id, error = %e, "checkpoint"),
+                }
+            }
+        }
+        self.active.clear();
+        self.sched.clear();
+        self.ctx = None;
+    }
+}
+
+/// The data of a `snapshot` event.
+fn snapshot_data(id: JobId, spp: u32) -> serde_json::Value {
+    json!({
+        "url": format!("/api/jobs/{id}/image.png?spp={spp}"),
+        "exr_url": format!("/api/jobs/{id}/image.exr?spp={spp}"),
+        "spp": spp,
+    })
+}

@@ -1,0 +1,117 @@
+// `bdpt`: bidirectional path tracing (Veach 1997 ch. 10; pbrt-v3's BDPTIntegrator as the
+// model), one thread per pixel. Per sample the thread traces one camera subpath and one light
+// subpath into fixed-size private arrays (vertex.glsl; capacity BDPT_DEPTH_CAP segments, set by
+// the host from max_depth) and evaluates every strategy (s, t) with s + t − 1 ≤ max_depth
+// (connect.glsl), weighted by the power heuristic. Strategies with t ≥ 2 belong to this pixel
+// and go to ACCUM as pt/nee's samples do (deterministic whatever the pass split); t = 1 (light
+// tracing) lands anywhere and is splatted atomically (splat.glsl).
+// Why per-pixel light subpaths and not a light-vertex cache (Davidovič et al. 2014): it is the
+// simplest design with bounded state (no shared buffer of light vertices, no second dispatch,
+// no resampling bias to reason about) and makes every strategy exactly pbrt's, which the tests
+// check one by one; the cache is the faster follow-up once this is the reference.
+// Defines (renderer/src/integrators/bdpt.rs): BDPT_DEPTH_CAP, BDPT_MIS, BDPT_STRATEGY_S/T (−1:
+// all strategies), BDPT_WEIGHTED, BDPT_FLOAT_SPLATS.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#ifdef BDPT_FLOAT_SPLATS
+#extension GL_EXT_shader_atomic_float : require
+#endif
+
+#include "common/bindings.glsl"
+#include "bdpt/vertex.glsl"
+#include "bdpt/subpath.glsl"
+#include "bdpt/connect.glsl"
+#include "bdpt/splat.glsl"
+
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+bool finite3(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
+
+// True when strategy (s, t) is rendered (all of them, or the debug one).
+bool strategy_enabled(int s, int t) {
+#if BDPT_STRATEGY_S >= 0
+    return s == BDPT_STRATEGY_S && t == BDPT_STRATEGY_T;
+#else
+    return true;
+#endif
+}
+
+// The weight a contribution gets: its MIS weight, or 1 when a debug strategy is rendered
+// unweighted.
+float strategy_weight(float w) {
+#if BDPT_STRATEGY_S >= 0 && !BDPT_WEIGHTED
+    return 1.0;
+#else
+    return w;
+#endif
+}
+
+// One bdpt sample of pixel px: the camera-side estimate (returned) and the light-tracing
+// splats (added to the splat buffer; non-finite ones are dropped and counted).
+vec3 bdpt_sample(uvec2 px, inout Rng rng, int max_depth, inout uint rays, inout uint dropped) {
+    // Step 1: the subpaths; a path of s + t vertices has s + t − 1 ≤ max_depth segments.
+    int nc = camera_subpath(px, max_depth + 1, rng, rays);
+    int nl = light_subpath(max_depth, rng, rays);
+    vec3 L = vec3(0.0);
+    // Step 2: every strategy. s = 1 samples its own light point, so it runs even when the light
+    // subpath is empty.
+    for (int t = 1; t <= nc; ++t) {
+        for (int s = 0; s <= max(nl, 1); ++s) {
+            int k = s + t - 1;
+            if ((s == 1 && t == 1) || k < 1 || k > max_depth) continue;
+            if (s >= 2 && s > nl) continue;
+            if (!strategy_enabled(s, t)) continue;
+            // Each strategy draws from its own dimensions, whichever others run.
+            rng.dim = 1024u + uint(t) * 64u + uint(s);
+            float w;
+            if (t == 1) {
+                vec2 film;
+                vec3 c = connect_t1(s, rng_next2(rng), rays, film, w);
+                c *= strategy_weight(w);
+                if (!finite3(c)) {
+                    dropped += 1u;
+                } else if (any(greaterThan(c, vec3(0.0)))) {
+                    splat_film(film, c);
+                }
+                continue;
+            }
+            vec3 c;
+            if (s == 0) {
+                c = connect_s0(t, w);
+            } else if (s == 1) {
+                c = connect_s1(t, rng_next3(rng), rays, w);
+            } else {
+                c = connect_st(s, t, rays, w);
+            }
+            L += c * strategy_weight(w);
+        }
+    }
+    return L;
+}
+
+void main() {
+    uvec2 px = gl_GlobalInvocationID.xy;
+    if (px.x >= g.film.x || px.y >= g.film.y) return;
+    uint pixel = px.y * g.film.x + px.x;
+    // Mitsuba's max_depth, capped by the arrays' capacity (−1: the capacity).
+    int max_depth = pc.max_depth < 0 ? BDPT_DEPTH_CAP : min(pc.max_depth, BDPT_DEPTH_CAP);
+    vec4 acc = accum[pixel];
+    uint rays = 0u, dropped = 0u;
+    for (uint i = 0u; i < pc.spp; ++i) {
+        Rng rng = rng_init(pixel, pc.sample_base + i, pc.seed_lo, pc.seed_hi);
+        vec3 L = bdpt_sample(px, rng, max_depth, rays, dropped);
+        // Test hook (PUSH_FLAG_INJECT_NAN): poison every 7th sample.
+        if ((pc.flags & 1u) != 0u && (pc.sample_base + i) % 7u == 3u) L = vec3(uintBitsToFloat(0x7fc00000u));
+        // NaN/Inf samples never reach the film: dropped and counted.
+        if (finite3(L)) {
+            acc += vec4(L, 1.0);
+        } else {
+            dropped += 1u;
+        }
+    }
+    accum[pixel] = acc;
+    if (dropped > 0u) atomicAdd(stats.dropped_samples, dropped);
+    // 64-bit ray count: carry into the high word when the low word wraps.
+    uint before = atomicAdd(stats.rays_lo, rays);
+    if (before + rays < before) atomicAdd(stats.rays_hi, 1u);
+}

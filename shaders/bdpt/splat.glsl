@@ -1,0 +1,71 @@
+// Light-tracing splats (t = 1): a light path lands on any pixel, so its contributions are added
+// atomically to a separate buffer at binding B_SPLAT; the host forms the image as
+// accum.rgb / accum.w + splat / (pixels · spp) (renderer/src/integrators/bdpt.rs).
+//  - BDPT_FLOAT_SPLATS: float atomicAdd (GL_EXT_shader_atomic_float; 4 floats per pixel). The
+//    order of the additions varies from run to run, so the splat sum is not bit-reproducible.
+//  - otherwise: 64-bit unsigned fixed point with SPLAT_FRAC_BITS fractional bits, from 32-bit
+//    integer atomics (8 words per pixel: low words r, g, b, −, then high words r, g, b, −; a
+//    wrapped low word carries one into the high word). Integer sums do not depend on order, so
+//    this path is bit-reproducible. Each addition is truncated to 2^−20 and the total must stay
+//    below 2^44 (about 1.8e13) per channel.
+// The pixel filter (camera_we.glsl) spreads a splat over every pixel whose filter covers it.
+#ifndef BDPT_SPLAT_GLSL
+#define BDPT_SPLAT_GLSL
+#include "common/camera_we.glsl"
+
+#define SPLAT_FRAC_BITS 20
+
+#ifdef BDPT_FLOAT_SPLATS
+layout(set = 0, binding = B_SPLAT, scalar) buffer Splat { float splat[]; };
+
+void splat_add(uint pixel, vec3 v) {
+    atomicAdd(splat[4u * pixel + 0u], v.r);
+    atomicAdd(splat[4u * pixel + 1u], v.g);
+    atomicAdd(splat[4u * pixel + 2u], v.b);
+}
+#else
+layout(set = 0, binding = B_SPLAT, scalar) buffer Splat { uint splat[]; };
+
+void splat_add_channel(uint lo_index, float v) {
+    // v · 2^20 as hi · 2^32 + lo, both exact in float arithmetic (power-of-two scalings, and
+    // v − 4096·hi is exact by Sterbenz); the low part is truncated to an integer.
+    v = clamp(v, 0.0, 1.7e13);
+    float hi = floor(v * exp2(float(SPLAT_FRAC_BITS - 32)));
+    uint lo = uint((v - hi * exp2(float(32 - SPLAT_FRAC_BITS))) * exp2(float(SPLAT_FRAC_BITS)));
+    uint carry = 0u;
+    if (lo != 0u) {
+        uint before = atomicAdd(splat[lo_index], lo);
+        if (before + lo < before) carry = 1u;
+    }
+    uint h = uint(hi) + carry;
+    if (h != 0u) atomicAdd(splat[lo_index + 4u], h);
+}
+
+void splat_add(uint pixel, vec3 v) {
+    splat_add_channel(8u * pixel + 0u, v.r);
+    splat_add_channel(8u * pixel + 1u, v.g);
+    splat_add_channel(8u * pixel + 2u, v.b);
+}
+#endif
+
+// Adds contribution L, landed at film position `film` (pixels), to every pixel whose filter
+// covers it, weighted by the normalised filter.
+void splat_film(vec2 film, vec3 L) {
+    ivec2 res = ivec2(g.film.xy);
+    if (g.film.z == 1u) {
+        float r = g.filter_params.y;
+        ivec2 lo = max(ivec2(ceil(film - 0.5 - r)), ivec2(0));
+        ivec2 hi = min(ivec2(floor(film - 0.5 + r)), res - 1);
+        for (int y = lo.y; y <= hi.y; ++y) {
+            for (int x = lo.x; x <= hi.x; ++x) {
+                float wf = camera_filter_eval(film - (vec2(x, y) + 0.5));
+                if (wf > 0.0) splat_add(uint(y * res.x + x), L * wf);
+            }
+        }
+    } else {
+        ivec2 j = ivec2(floor(film));
+        if (all(greaterThanEqual(j, ivec2(0))) && all(lessThan(j, res))) splat_add(uint(j.y * res.x + j.x), L);
+    }
+}
+
+#endif
