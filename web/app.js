@@ -384,6 +384,7 @@ const state = {
   selected: null, // id of the job in the viewer
   stream: null, // EventStream of the selected job
   live: null, // latest progress of the selected job from SSE
+  snapshotUrl: null, // URL of the selected job's latest snapshot event
   tone: { exposure: 0, tonemap: 'clamp' },
   ab: { a: '', b: '', pos: 50 },
   unauthorized: false,
@@ -446,11 +447,19 @@ function afterTokenChange() {
 async function checkHealth() {
   try {
     const h = await api('/api/health');
+    // Health is open even when the API needs a token; it says whether one is required.
+    if (h && h.auth && !getToken()) {
+      noteUnauthorized();
+      return;
+    }
+    if (state.unauthorized) return; // the API refused the token: keep saying so
     const bits = ['Connected'];
-    const dev = h && (h.device || (h.devices && h.devices[0]));
+    const gpu = (h && h.gpu) || {};
+    const dev = gpu.device || (h && h.device);
     if (dev) bits.push(typeof dev === 'string' ? dev : dev.name || '');
-    if (h && h.version) bits.push(`v${h.version}`);
-    setServerStatus(bits.filter(Boolean).join(' · '), 'ok');
+    if (gpu.state && gpu.state !== 'ready') bits.push(`GPU ${gpu.state}${gpu.error ? `: ${gpu.error}` : ''}`);
+    if (h && h.version) bits.push(`candela ${h.version}`);
+    setServerStatus(bits.filter(Boolean).join(' · '), h && h.status && h.status !== 'ok' ? 'warn' : 'ok');
   } catch (err) {
     if (err.status === 401) return; // noteUnauthorized said it
     if (err.status === 404) setServerStatus('Connected', 'ok');
@@ -493,10 +502,12 @@ async function loadScenes() {
 function describeScene() {
   const s = state.scenes.find((x) => x.name === $('scene-name').value);
   const bits = [];
-  if (s && s.description) bits.push(s.description);
   if (s && s.width && s.height) bits.push(`${s.width}×${s.height}`);
-  else if (s && s.film && s.film.width) bits.push(`${s.film.width}×${s.film.height}`);
-  $('scene-desc').textContent = bits.join(' · ');
+  const r = (s && s.render) || {};
+  if (r.integrator) bits.push(r.integrator);
+  if (r.spp) bits.push(`${r.spp} spp`);
+  const text = bits.length ? `Scene defaults: ${bits.join(' · ')}` : '';
+  $('scene-desc').textContent = s && s.description ? `${s.description}${text ? ` (${text})` : ''}` : text;
 }
 
 async function loadExampleJson() {
@@ -706,11 +717,17 @@ function upsertJob(job, front = false) {
 
 let refreshTimer = 0;
 let refreshing = false;
+let refreshAgain = false;
 
+/** Fetches the job list (coalesced: a call during a fetch runs once more right after it). */
 async function refreshJobs() {
   clearTimeout(refreshTimer);
-  if (refreshing) return;
+  if (refreshing) {
+    refreshAgain = true;
+    return;
+  }
   refreshing = true;
+  refreshAgain = false;
   let active = false;
   try {
     const filter = $('state-filter').value;
@@ -738,7 +755,7 @@ async function refreshJobs() {
     if (err.status !== 401) setServerStatus(`Job list: ${err.describe()}`, 'bad');
   } finally {
     refreshing = false;
-    const ms = document.hidden ? 10000 : active ? 1500 : 5000;
+    const ms = refreshAgain ? 0 : document.hidden ? 10000 : active ? 1500 : 5000;
     refreshTimer = setTimeout(refreshJobs, ms);
   }
 }
@@ -762,6 +779,13 @@ function renderJobs() {
   $('jobs-empty').hidden = state.order.length > 0;
   $('jobs-empty').textContent = $('state-filter').value ? 'No jobs in this state.' : 'No jobs yet.';
   renderAbOptions();
+}
+
+/** Updates one row in place (progress events of the selected job). */
+function renderJobRow(id) {
+  const li = $('job-list').querySelector(`li[data-id="${CSS.escape(id)}"]`);
+  const job = state.jobs.get(id);
+  if (li && job) updateJobRow(li, job);
 }
 
 function buildJobRow(id) {
@@ -973,6 +997,7 @@ function openStream(job) {
     renderStats(j, final);
     renderJobs();
     viewSlot.load(pngUrl(j), { spp: final.spp ?? jobSpp(j), job: id, final: 'true' });
+    $('view-message').textContent = `Done: ${final.spp ?? jobSpp(j)} samples per pixel in ${fmtDuration(elapsedOf(final))}.`;
     closeStream(id);
   };
 
@@ -993,13 +1018,16 @@ function openStream(job) {
       if (st === 'queued' && !$('view-image').getAttribute('src')) $('stage-placeholder').textContent = 'Queued: waiting for the GPU…';
       // "done" is followed by a done event with the final numbers; wait a little for it.
       if (st === 'done') finishSoon();
-      else if (TERMINAL.has(st)) closeStream(id);
+      else if (TERMINAL.has(st)) {
+        if (st === 'canceled') $('view-message').textContent = 'Canceled.';
+        closeStream(id);
+      }
     },
     progress: (d) => {
       if (!mine()) return;
       state.live = d;
       renderStats(current(), d);
-      renderJobs();
+      renderJobRow(id);
     },
     snapshot: (d) => {
       if (!mine()) return;
@@ -1064,7 +1092,9 @@ function renderStats(job, p) {
   $('stat-elapsed').textContent = fmtDuration(elapsedOf(p));
   $('stat-msps').textContent = fmtNum(p.msamples_per_s);
   $('stat-rays').textContent = fmtSi(p.rays_per_s);
-  $('stat-eta').textContent = job.state === 'done' ? 'done' : fmtDuration(p.eta_s);
+  $('stat-eta').textContent = job.state === 'done' ? 'done'
+    : TERMINAL.has(job.state) ? '—'
+      : job.state === 'paused' ? 'paused' : fmtDuration(p.eta_s);
   $('stat-dropped').textContent = p.dropped_samples != null ? String(p.dropped_samples) : '—';
   const frac = jobFraction(job, p);
   const bar = $('view-progress');

@@ -47,6 +47,8 @@ fn ssim_of(h: u64, w: u64, fx: impl Fn(u64, u64) -> f64, fy: impl Fn(u64, u64, f
 }
 
 fn assert_matches(name: &str, got: f64, skimage: f64) {
+    let diff = (got - skimage).abs();
+    eprintln!("{name}: candela {got:.16}, scikit-image {skimage:.16}, |diff| {diff:.1e}");
     assert!(
         (got - skimage).abs() < 1e-12,
         "{name}: candela {got:.17} vs scikit-image {skimage:.17}"

@@ -223,7 +223,9 @@ await step('launch Chromium', async () => {
     executablePath: CHROMIUM,
     headless: true,
     args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-      '--disable-background-networking', '--disable-component-update', '--disable-sync'],
+      '--disable-background-networking', '--disable-component-update', '--disable-sync',
+      // Containers often have a tiny /dev/shm; Chromium then crashes without this.
+      '--disable-dev-shm-usage'],
     viewport: { width: 1360, height: 900 },
     acceptDownloads: true,
   });
@@ -423,7 +425,7 @@ await step('A/B view swipes between the two jobs', async () => {
 await step('pause, resume, priority and cancel from the job list', async () => {
   const jobC = await submitExample({ name: 'browser-long', integrator: 'nee', timeS: 300, seed: 3 });
   console.log(`     job ${jobC}`);
-  await waitRowState(jobC, ['running', 'queued'], 30_000);
+  await waitRowState(jobC, 'running', 60_000);
   const row = jobRow(jobC);
   await row.getByRole('button', { name: /^Pause / }).click();
   await waitRowState(jobC, 'paused', 30_000);

@@ -1,8 +1,9 @@
 //! The web viewer in headless Chromium: starts the real `candela serve` on a free loopback port
 //! with a scratch data dir, runs tests/browser/viewer.test.mjs against it (playwright-core driving
 //! the system /usr/bin/chromium: submit the Cornell box, watch it refine, exposure/tonemap, job
-//! controls, A/B view), stops the server and checks the run passed and left its screenshots in
-//! target/test-scratch/browser_viewer/screenshots/.
+//! controls, A/B view, uploads), stops the server and checks the run passed and left its
+//! screenshots in target/test-scratch/browser_viewer{,_token}/screenshots/ (viewer.png first).
+//! Once without and once with a bearer token.
 //!
 //! Needs node, Debian's `chromium` and `npm ci --prefix tests/browser` (scripts/setup.sh does all
 //! three).
@@ -50,12 +51,17 @@ fn pump_lines(r: impl Read + Send + 'static, tx: mpsc::Sender<String>, log: Arc<
     });
 }
 
-/// Starts `candela serve --bind 127.0.0.1:0 --data-dir DIR` and waits for its
+/// Starts `candela serve --bind 127.0.0.1:0 --data-dir DIR [--token T]` and waits for its
 /// `listening on http://ADDR` line.
-fn start_server(data_dir: &Path) -> Server {
-    let mut child = Command::new(candela())
-        .args(["serve", "--bind", "127.0.0.1:0", "--data-dir"])
+fn start_server(data_dir: &Path, token: Option<&str>) -> Server {
+    let mut cmd = Command::new(candela());
+    cmd.args(["serve", "--bind", "127.0.0.1:0", "--data-dir"])
         .arg(data_dir)
+        .env_remove("CANDELA_TOKEN");
+    if let Some(t) = token {
+        cmd.args(["--token", t]);
+    }
+    let mut child = cmd
         .current_dir(repo_root())
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
@@ -137,10 +143,22 @@ fn chromium_path() -> PathBuf {
 /// Fails with what to install when node, Chromium or the npm packages are missing.
 fn check_prerequisites(browser_dir: &Path) {
     let node = Command::new("node").arg("--version").output();
+    let version = match node {
+        Ok(o) if o.status.success() => String::from_utf8_lossy(&o.stdout).trim().to_string(),
+        _ => panic!(
+            "node is not installed: the browser test needs Node.js 20 or newer (scripts/setup.sh \
+             installs it)"
+        ),
+    };
+    let major: u32 = version
+        .trim_start_matches('v')
+        .split('.')
+        .next()
+        .and_then(|m| m.parse().ok())
+        .unwrap_or(0);
     assert!(
-        node.is_ok_and(|o| o.status.success()),
-        "node is not installed: the browser test needs Node.js 20+ (apt-get install -y nodejs npm; \
-         scripts/setup.sh does it)"
+        major >= 20,
+        "node {version} is too old: playwright-core needs Node.js 20 or newer"
     );
     assert!(
         chromium_path().exists(),
@@ -155,24 +173,29 @@ fn check_prerequisites(browser_dir: &Path) {
     );
 }
 
-#[test]
-fn web_viewer_in_headless_chromium() {
+/// Runs the browser script against a fresh server (with `--token` when given) and checks it
+/// passed and saved its screenshots; returns the main screenshot's path.
+fn run_viewer_test(name: &str, token: Option<&str>) -> PathBuf {
     let browser_dir = repo_root().join("tests/browser");
     check_prerequisites(&browser_dir);
 
-    let dir = scratch("browser_viewer");
+    let dir = scratch(name);
     let data = dir.join("data");
     let shots = dir.join("screenshots");
     std::fs::create_dir_all(&shots).unwrap();
 
-    let server = start_server(&data);
+    let server = start_server(&data, token);
     println!("server at {}", server.url);
 
     let mut cmd = Command::new("node");
     cmd.arg(browser_dir.join("viewer.test.mjs"))
         .arg(&server.url)
         .arg(&shots)
-        .current_dir(repo_root());
+        .current_dir(repo_root())
+        .env_remove("CANDELA_TOKEN");
+    if let Some(t) = token {
+        cmd.args(["--token", t]);
+    }
     let (ok, output) = run_with_limit(cmd, BROWSER_RUN);
     let server_log = server.log.lock().unwrap().clone();
     drop(server);
@@ -192,14 +215,28 @@ fn web_viewer_in_headless_chromium() {
         "the browser test passed but wrote no {}",
         main_shot.display()
     );
-    println!("screenshot: {}", main_shot.display());
-    let mut all: Vec<_> = std::fs::read_dir(&shots)
+    let mut others: Vec<_> = std::fs::read_dir(&shots)
         .unwrap()
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "png"))
+        .filter(|p| p.extension().is_some_and(|x| x == "png") && *p != main_shot)
         .collect();
-    all.sort();
-    for p in all {
+    others.sort();
+    println!("screenshot: {}", main_shot.display());
+    for p in others {
         println!("screenshot: {}", p.display());
     }
+    main_shot
+}
+
+/// Submit, live refinement, tone controls, A/B, job controls and uploads in Chromium.
+#[test]
+fn web_viewer_in_headless_chromium() {
+    run_viewer_test("browser_viewer", None);
+}
+
+/// The same with `--token`: the page asks for the token, then every request (the SSE stream
+/// and the images included, which the browser cannot authenticate by itself) carries it.
+#[test]
+fn web_viewer_with_a_bearer_token() {
+    run_viewer_test("browser_viewer_token", Some("browser-test-token"));
 }

@@ -211,8 +211,8 @@ fn limits_give_clear_errors() {
         &["--max-queued", "2", "--max-body-mb", "1", "--max-spp", "5000",
           "--max-pixels", "10000", "--max-triangles", "30"],
     );
-    // 413: a body over 1 MiB.
-    let big = format!("{{\"scene_name\": \"furnace\", \"name\": \"{}\"}}", "a".repeat(2 << 20));
+    // 413: a body over 1 MiB (small enough to be sent whole before the server answers).
+    let big = format!("{{\"scene_name\": \"furnace\", \"name\": \"{}\"}}", "a".repeat(1_100_000));
     assert_error(&s.post_raw("/api/jobs", big), 413, "payload_too_large");
     // 422: spp, pixels, triangles (cornell has 36).
     let e = assert_error(&s.post("/api/jobs", &json!({"scene_name": "furnace", "spp": 6000})), 422, "invalid_field");

@@ -153,8 +153,26 @@ async fn shutdown_signal() {
     }
 }
 
+/// With `--device`, checks that such a device exists (when devices can be listed at all).
+fn check_device(want: Option<&str>) -> Result<(), CliError> {
+    let Some(want) = want else { return Ok(()) };
+    let Ok(devices) = renderer::gpu::list_devices() else {
+        return Ok(()); // no loader: the worker reports it (health: degraded)
+    };
+    let w = want.to_lowercase();
+    if devices.iter().any(|d| d.name.to_lowercase().contains(&w)) {
+        return Ok(());
+    }
+    let names: Vec<&str> = devices.iter().map(|d| d.name.as_str()).collect();
+    Err(CliError::input(format!(
+        "--device {want}: no such Vulkan device (available: {})",
+        names.join(", ")
+    )))
+}
+
 pub fn run(a: ServeArgs) -> Result<(), CliError> {
     let (config, addr) = configure(&a)?;
+    check_device(a.device.as_deref())?;
     // Step 1: the data directory (one server per directory), the store, the built-in assets.
     let dir = &config.data_dir;
     std::fs::create_dir_all(dir.join("jobs"))

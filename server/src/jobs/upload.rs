@@ -140,7 +140,10 @@ pub async fn read_multipart(
     let (mut job, mut scene, mut has_archive) = (None, None, false);
     // Step 1: the parts.
     while let Some(mut field) = mp.next_field().await.map_err(multipart_error)? {
-        let name = field.name().unwrap_or_default().to_string();
+        let name = match field.name() {
+            Some(n) => n.to_string(),
+            None => extended_name(field.headers()).unwrap_or_default(),
+        };
         match name.as_str() {
             "job" => {
                 let bytes = field.bytes().await.map_err(multipart_error)?;
@@ -209,6 +212,40 @@ pub async fn read_multipart(
         base,
         _root: root,
     })
+}
+
+/// The RFC 5987 form of a part's name (`name*=utf-8''assets%2Fwood.png`), which some clients
+/// send for names with `/` and which the multipart parser does not decode.
+fn extended_name(headers: &axum::http::HeaderMap) -> Option<String> {
+    let cd = headers.get("content-disposition")?.to_str().ok()?;
+    let value = cd
+        .split(';')
+        .map(str::trim)
+        .find_map(|p| p.strip_prefix("name*="))?;
+    let (charset, rest) = value.split_once('\'')?;
+    if !charset.eq_ignore_ascii_case("utf-8") {
+        return None;
+    }
+    let encoded = rest.split_once('\'').map(|(_, v)| v)?.trim_matches('"');
+    percent_decode(encoded)
+}
+
+/// Decodes `%XX` escapes (UTF-8).
+fn percent_decode(s: &str) -> Option<String> {
+    let bytes = s.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'%' {
+            let hex = std::str::from_utf8(bytes.get(i + 1..i + 3)?).ok()?;
+            out.push(u8::from_str_radix(hex, 16).ok()?);
+            i += 3;
+        } else {
+            out.push(bytes[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8(out).ok()
 }
 
 /// `scene.json` at the root of `dir`, or inside its only top-level folder.
@@ -347,6 +384,19 @@ fn extract_zip(file: std::fs::File, dest: &Path, budget: &mut Budget<'_>) -> Res
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn extended_names_are_decoded() {
+        let mut h = axum::http::HeaderMap::new();
+        h.insert(
+            "content-disposition",
+            "form-data; name*=utf-8''assets%2Fchecker.png; filename=\"checker.png\""
+                .parse()
+                .unwrap(),
+        );
+        assert_eq!(extended_name(&h).as_deref(), Some("assets/checker.png"));
+        assert_eq!(percent_decode("a%2"), None);
+    }
 
     #[test]
     fn only_plain_relative_paths() {

@@ -12,7 +12,7 @@ use std::convert::Infallible;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
-use axum::extract::{Path, State};
+use axum::extract::State;
 use axum::http::HeaderMap;
 use axum::response::sse::{Event, KeepAlive, Sse};
 use axum::response::IntoResponse;
@@ -20,7 +20,7 @@ use tokio::sync::broadcast::error::RecvError;
 use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 
-use super::jobs::job_id;
+use super::extract::JobIdPath;
 use crate::api_error::ApiError;
 use crate::app::AppState;
 use crate::shared::Shared;
@@ -59,10 +59,9 @@ fn compact(events: Vec<StoredEvent>) -> Vec<StoredEvent> {
 /// The SSE handler.
 pub async fn stream(
     State(st): State<AppState>,
-    Path(raw): Path<String>,
+    JobIdPath(id): JobIdPath,
     headers: HeaderMap,
 ) -> Result<impl IntoResponse, ApiError> {
-    let id = job_id(&raw)?;
     let resume_from = match headers.get("last-event-id") {
         None => None,
         Some(v) => Some(

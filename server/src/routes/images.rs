@@ -3,14 +3,13 @@
 //! once checkpointed, paused or ended), 404 before the first. Any `spp` parameter is only a
 //! cache-buster. The `X-Candela-Spp` header gives the image's sample count.
 
-use std::collections::HashMap;
 use std::sync::Arc;
 
-use axum::extract::{Path, Query, State};
+use axum::extract::State;
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
 
-use super::jobs::job_id;
+use super::extract::{JobIdPath, QueryMap};
 use crate::api_error::ApiError;
 use crate::app::AppState;
 use crate::jobs::model::{JobId, JobRecord};
@@ -60,10 +59,9 @@ fn image_response(content_type: &'static str, id: JobId, ext: &str, spp: u32, bo
 /// `image.png`: tonemapped sRGB.
 pub async fn png(
     State(st): State<AppState>,
-    Path(raw): Path<String>,
-    Query(q): Query<HashMap<String, String>>,
+    JobIdPath(id): JobIdPath,
+    QueryMap(q): QueryMap,
 ) -> Result<Response, ApiError> {
-    let id = job_id(&raw)?;
     // Step 1: display parameters (the job's defaults unless given).
     let exposure = match q.get("exposure") {
         None => None,
@@ -116,9 +114,8 @@ pub async fn png(
 /// `image.exr`: linear radiance, float32 RGB.
 pub async fn exr(
     State(st): State<AppState>,
-    Path(raw): Path<String>,
+    JobIdPath(id): JobIdPath,
 ) -> Result<Response, ApiError> {
-    let id = job_id(&raw)?;
     let (_, snap) = latest(&st, id).await?;
     let spp = snap.spp;
     let bytes = tokio::task::spawn_blocking(move || {

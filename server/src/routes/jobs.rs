@@ -5,7 +5,7 @@
 use std::collections::HashMap;
 
 use axum::body::Bytes;
-use axum::extract::{FromRequest, Multipart, Path, Query, Request, State};
+use axum::extract::{FromRequest, Multipart, Request, State};
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
@@ -13,20 +13,13 @@ use serde::Deserialize;
 use serde_json::{json, Value};
 use tokio::sync::broadcast::error::RecvError;
 
+use super::extract::{JobIdPath, QueryMap};
 use crate::api_error::ApiError;
 use crate::app::AppState;
 use crate::jobs::model::{JobId, JobRecord, JobState, MAX_PRIORITY};
 use crate::jobs::request::{parse_object, parse_request, prepare, SceneInput};
 use crate::jobs::upload::read_multipart;
 use crate::store::{JobPaths, Transition};
-
-/// Parses the `{id}` of a job route (anything but an integer is simply not a job).
-pub fn job_id(raw: &str) -> Result<JobId, ApiError> {
-    raw.parse::<JobId>()
-        .ok()
-        .filter(|id| *id > 0)
-        .ok_or_else(|| ApiError::NotFound(format!("no job \"{raw}\"")))
-}
 
 /// A boolean query parameter: true/1/yes, false/0/no/empty.
 pub fn query_bool(q: &HashMap<String, String>, name: &str) -> Result<bool, ApiError> {
@@ -55,7 +48,7 @@ fn body_error(status: StatusCode, text: String, limit: usize) -> ApiError {
 /// `POST /api/jobs[?wait=true]`: 201 with the job (after it ended, with `wait`).
 pub async fn create(
     State(st): State<AppState>,
-    Query(q): Query<HashMap<String, String>>,
+    QueryMap(q): QueryMap,
     req: Request,
 ) -> Result<Response, ApiError> {
     let wait = query_bool(&q, "wait")?;
@@ -133,7 +126,18 @@ pub async fn create(
         .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     tracing::info!(job = rec.id, name = %rec.name, "job submitted");
     st.worker.wake();
-    let rec = if wait { wait_for_end(&st, rec.id).await? } else { rec };
+    let rec = if wait {
+        let rec = wait_for_end(&st, rec.id).await?;
+        if !rec.state.is_terminal() {
+            return Err(ApiError::Unavailable(format!(
+                "the server is shutting down before job {} ended; it resumes at the next start (GET /api/jobs/{})",
+                rec.id, rec.id
+            )));
+        }
+        rec
+    } else {
+        rec
+    };
     let location = format!("/api/jobs/{}", rec.id);
     Ok((
         StatusCode::CREATED,
@@ -169,7 +173,7 @@ async fn wait_for_end(st: &AppState, id: JobId) -> Result<JobRecord, ApiError> {
 /// `GET /api/jobs[?state=queued,running][&limit=N]`: newest first.
 pub async fn list(
     State(st): State<AppState>,
-    Query(q): Query<HashMap<String, String>>,
+    QueryMap(q): QueryMap,
 ) -> Result<Json<Value>, ApiError> {
     let mut states = Vec::new();
     if let Some(s) = q.get("state") {
@@ -206,18 +210,17 @@ pub async fn list(
 /// `GET /api/jobs/{id}`.
 pub async fn get_one(
     State(st): State<AppState>,
-    Path(id): Path<String>,
+    JobIdPath(id): JobIdPath,
 ) -> Result<Json<Value>, ApiError> {
-    Ok(Json(st.store.get_job(job_id(&id)?)?.to_json()))
+    Ok(Json(st.store.get_job(id)?.to_json()))
 }
 
 async fn change_state(
     st: &AppState,
-    raw: &str,
+    id: JobId,
     to: JobState,
     verb: &'static str,
 ) -> Result<Json<Value>, ApiError> {
-    let id = job_id(raw)?;
     let t = Transition {
         verb,
         ..Default::default()
@@ -231,25 +234,25 @@ async fn change_state(
 /// `DELETE /api/jobs/{id}`: cancel (409 once it has ended).
 pub async fn cancel(
     State(st): State<AppState>,
-    Path(id): Path<String>,
+    JobIdPath(id): JobIdPath,
 ) -> Result<Json<Value>, ApiError> {
-    change_state(&st, &id, JobState::Canceled, "cancel").await
+    change_state(&st, id, JobState::Canceled, "cancel").await
 }
 
 /// `POST /api/jobs/{id}/pause`: queued or running → paused (checkpointed).
 pub async fn pause(
     State(st): State<AppState>,
-    Path(id): Path<String>,
+    JobIdPath(id): JobIdPath,
 ) -> Result<Json<Value>, ApiError> {
-    change_state(&st, &id, JobState::Paused, "pause").await
+    change_state(&st, id, JobState::Paused, "pause").await
 }
 
 /// `POST /api/jobs/{id}/resume`: paused → queued.
 pub async fn resume(
     State(st): State<AppState>,
-    Path(id): Path<String>,
+    JobIdPath(id): JobIdPath,
 ) -> Result<Json<Value>, ApiError> {
-    change_state(&st, &id, JobState::Queued, "resume").await
+    change_state(&st, id, JobState::Queued, "resume").await
 }
 
 /// The fields `PATCH` accepts.
@@ -262,10 +265,9 @@ struct JobPatch {
 /// `PATCH /api/jobs/{id}` with `{"priority": P}`.
 pub async fn patch(
     State(st): State<AppState>,
-    Path(id): Path<String>,
+    JobIdPath(id): JobIdPath,
     body: Result<Bytes, axum::extract::rejection::BytesRejection>,
 ) -> Result<Json<Value>, ApiError> {
-    let id = job_id(&id)?;
     let body =
         body.map_err(|e| body_error(e.status(), e.body_text(), st.config.limits.max_body_bytes))?;
     let p: JobPatch = parse_object(&body)?;

@@ -3,6 +3,7 @@
 //! The router itself is assembled in `app.rs`.
 
 pub mod events;
+pub mod extract;
 pub mod images;
 pub mod jobs;
 pub mod ops;

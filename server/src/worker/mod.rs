@@ -77,6 +77,7 @@ pub fn spawn(
                 sched: Scheduler::default(),
                 dirty: true,
                 last_open: None,
+                open_failures: 0,
             };
             // A panic outside a pass (which is caught where it happens) restarts the loop with
             // a fresh device rather than ending the thread.
@@ -103,7 +104,9 @@ struct Worker {
     sched: Scheduler,
     /// The store may hold changes the worker has not looked at.
     dirty: bool,
+    /// The last attempt to create the device, and failures in a row.
     last_open: Option<Instant>,
+    open_failures: u32,
 }
 
 /// Whether an error means the device itself is in doubt (rebuild it).
@@ -153,9 +156,10 @@ impl Worker {
         }
     }
 
-    /// Creates the device (at most every 2 s after a failure).
+    /// Creates the device; after failures, retries with exponential backoff (2 s to 60 s).
     fn open_device(&mut self) -> bool {
-        if self.last_open.is_some_and(|t| t.elapsed() < Duration::from_secs(2)) {
+        let wait = Duration::from_secs((2u64 << self.open_failures.min(5)).min(60));
+        if self.last_open.is_some_and(|t| t.elapsed() < wait) {
             return false;
         }
         self.last_open = Some(Instant::now());
@@ -173,16 +177,19 @@ impl Worker {
                 });
                 self.ctx = Some(Arc::new(ctx));
                 self.dirty = true;
+                self.open_failures = 0;
                 true
             }
             Ok(Err(e)) => {
                 error!(error = %e, "no GPU; retrying");
                 self.set_unavailable(e.to_string());
+                self.open_failures += 1;
                 false
             }
             Err(_) => {
                 error!("creating the GPU context panicked; retrying");
                 self.set_unavailable("creating the GPU context panicked".into());
+                self.open_failures += 1;
                 false
             }
         }

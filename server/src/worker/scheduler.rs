@@ -22,6 +22,8 @@ struct Entry {
     weight: f64,
     /// Virtual time consumed: Σ seconds / weight.
     pass: f64,
+    /// When it last ran (a pass counter; 0: never). Breaks ties: least recently run first.
+    last_run: u64,
 }
 
 /// The stride scheduler's state.
@@ -30,6 +32,8 @@ pub struct Scheduler {
     entries: BTreeMap<JobId, Entry>,
     /// Virtual time of the last pass charged (for jobs joining an empty scheduler).
     global: f64,
+    /// Passes charged so far.
+    tick: u64,
 }
 
 impl Scheduler {
@@ -48,6 +52,7 @@ impl Scheduler {
         self.entries.entry(id).or_insert(Entry {
             weight: weight.max(1) as f64,
             pass,
+            last_run: 0,
         });
     }
 
@@ -73,11 +78,16 @@ impl Scheduler {
         }
     }
 
-    /// The job to run next: the smallest pass; ties go to the older (smaller) id.
+    /// The job to run next: the smallest pass; ties go to the least recently run (so a
+    /// newcomer runs at once), then to the older (smaller) id.
     pub fn pick(&self) -> Option<JobId> {
         self.entries
             .iter()
-            .min_by(|a, b| a.1.pass.total_cmp(&b.1.pass).then(a.0.cmp(b.0)))
+            .min_by(|a, b| {
+                (a.1.pass.total_cmp(&b.1.pass))
+                    .then(a.1.last_run.cmp(&b.1.last_run))
+                    .then(a.0.cmp(b.0))
+            })
             .map(|(id, _)| *id)
     }
 
@@ -86,6 +96,8 @@ impl Scheduler {
         if let Some(e) = self.entries.get_mut(&id) {
             // p_j += t / w_j
             e.pass += seconds.max(0.0) / e.weight;
+            self.tick += 1;
+            e.last_run = self.tick;
             self.global = self.global.max(self.virtual_time());
         }
     }
