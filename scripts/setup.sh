@@ -12,7 +12,7 @@ if [ "$(id -u)" != 0 ]; then SUDO="sudo"; fi
 need_apt=()
 dpkg -s libvulkan1 >/dev/null 2>&1 || need_apt+=(libvulkan1)
 # Any installed ICD counts as a driver; without one, install lavapipe.
-if ! ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1; then
+if ! compgen -G "/usr/share/vulkan/icd.d/*.json" >/dev/null && ! compgen -G "/etc/vulkan/icd.d/*.json" >/dev/null; then
   need_apt+=(mesa-vulkan-drivers)
 fi
 dpkg -s vulkan-validationlayers >/dev/null 2>&1 || need_apt+=(vulkan-validationlayers)
