@@ -11,10 +11,7 @@ use serde_json::json;
 #[derive(Debug)]
 pub enum ApiError {
     /// 400: malformed request (JSON syntax, query parameters, multipart framing).
-    BadRequest {
-        code: &'static str,
-        message: String,
-    },
+    BadRequest { code: &'static str, message: String },
     /// 401: missing or wrong bearer token.
     Unauthorized,
     /// 404: no such job, scene, image or route.
@@ -115,7 +112,13 @@ impl ApiError {
 
 impl std::fmt::Display for ApiError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{} {}: {}", self.status().as_u16(), self.code(), self.message())
+        write!(
+            f,
+            "{} {}: {}",
+            self.status().as_u16(),
+            self.code(),
+            self.message()
+        )
     }
 }
 

@@ -1,6 +1,7 @@
 //! The HTTP application: shared state, the `app(state) -> Router` factory (every route of the
 //! API, the metrics, the embedded web viewer), bearer-token authentication, JSON fallbacks for
-//! unknown routes and methods, and the body-size limit.
+//! unknown routes and methods, the body-size limit, and a 500 JSON answer (not a dropped
+//! connection) should a handler ever panic.
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -12,6 +13,7 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::Router;
 use tokio::sync::watch;
+use tower_http::catch_panic::CatchPanicLayer;
 use tower_http::trace::TraceLayer;
 
 use crate::api_error::ApiError;
@@ -43,7 +45,10 @@ impl AppState {
 pub fn app(state: AppState) -> Router {
     let api = Router::new()
         .route("/api/health", get(routes::ops::health))
-        .route("/api/jobs", post(routes::jobs::create).get(routes::jobs::list))
+        .route(
+            "/api/jobs",
+            post(routes::jobs::create).get(routes::jobs::list),
+        )
         .route(
             "/api/jobs/{id}",
             get(routes::jobs::get_one)
@@ -66,7 +71,18 @@ pub fn app(state: AppState) -> Router {
         .layer(middleware::from_fn_with_state(state.clone(), require_token))
         .layer(DefaultBodyLimit::max(state.config.limits.max_body_bytes))
         .layer(TraceLayer::new_for_http())
+        .layer(CatchPanicLayer::custom(panic_response))
         .with_state(state)
+}
+
+/// A handler that panicked (a bug): 500 JSON, the panic logged; the server carries on.
+fn panic_response(err: Box<dyn std::any::Any + Send + 'static>) -> Response {
+    let what = err
+        .downcast_ref::<String>()
+        .cloned()
+        .or_else(|| err.downcast_ref::<&str>().map(|s| s.to_string()))
+        .unwrap_or_default();
+    ApiError::internal(format!("handler panicked: {what}")).into_response()
 }
 
 async fn not_found(req: Request) -> ApiError {

@@ -94,8 +94,7 @@ mod tests {
         install(&dir).unwrap();
         install(&dir).unwrap();
         for (name, text) in SCENES {
-            renderer::scene::load_str(text, Some(&dir))
-                .unwrap_or_else(|e| panic!("{name}: {e}"));
+            renderer::scene::load_str(text, Some(&dir)).unwrap_or_else(|e| panic!("{name}: {e}"));
         }
         let _ = std::fs::remove_dir_all(&dir);
     }

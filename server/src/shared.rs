@@ -18,12 +18,15 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
+/// The PNG parameters a cached encoding was made with: (exposure as f32 bits, tonemap name).
+pub type PngKey = (u32, String);
+
 /// A rendered estimate of a job at some sample count, with cached encodings.
 pub struct Snapshot {
     pub image: Image,
     pub spp: u32,
     /// Last PNG encoded: ((exposure bits, tonemap), bytes).
-    pub png: Mutex<Option<((u32, String), Vec<u8>)>>,
+    pub png: Mutex<Option<(PngKey, Vec<u8>)>>,
     /// The EXR encoding, made on first request.
     pub exr: Mutex<Option<Vec<u8>>>,
 }
@@ -153,7 +156,10 @@ impl Shared {
             let _ = writeln!(out, "candela_jobs{{state=\"{state}\"}} {n}");
         }
         let mut line = |name: &str, kind: &str, help: &str, value: String| {
-            let _ = writeln!(out, "# HELP {name} {help}\n# TYPE {name} {kind}\n{name} {value}");
+            let _ = writeln!(
+                out,
+                "# HELP {name} {help}\n# TYPE {name} {kind}\n{name} {value}"
+            );
         };
         line(
             "candela_samples_rendered_total",
@@ -165,7 +171,10 @@ impl Shared {
             "candela_gpu_busy_seconds_total",
             "counter",
             "GPU time spent in render passes since the server started.",
-            format!("{:.6}", self.gpu_busy_ns.load(Ordering::Relaxed) as f64 * 1e-9),
+            format!(
+                "{:.6}",
+                self.gpu_busy_ns.load(Ordering::Relaxed) as f64 * 1e-9
+            ),
         );
         line(
             "candela_passes_total",
@@ -204,7 +213,10 @@ impl Shared {
              # TYPE candela_queue_wait_seconds histogram"
         );
         for (bound, n) in WAIT_BUCKETS.iter().zip(h.counts) {
-            let _ = writeln!(out, "candela_queue_wait_seconds_bucket{{le=\"{bound}\"}} {n}");
+            let _ = writeln!(
+                out,
+                "candela_queue_wait_seconds_bucket{{le=\"{bound}\"}} {n}"
+            );
         }
         let _ = writeln!(
             out,

@@ -9,8 +9,8 @@
 // simplest design with bounded state (no shared buffer of light vertices, no second dispatch,
 // no resampling bias to reason about) and makes every strategy exactly pbrt's, which the tests
 // check one by one; the cache is the faster follow-up once this is the reference.
-// Defines (renderer/src/integrators/bdpt.rs): BDPT_DEPTH_CAP, BDPT_MIS, BDPT_STRATEGY_S/T (−1:
-// all strategies), BDPT_WEIGHTED, BDPT_FLOAT_SPLATS.
+// Defines (renderer/src/integrators/bdpt.rs): BDPT_DEPTH_CAP, BDPT_FLOAT_SPLATS. The options
+// mis / strategy / weighted travel in GpuPush::flags, so they share one compiled kernel.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #ifdef BDPT_FLOAT_SPLATS
@@ -27,31 +27,30 @@ layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 bool finite3(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
 
+// GpuPush::flags bits (renderer/src/compile/layout.rs, PUSH_FLAG_BDPT_*).
+#define PUSH_FLAG_BDPT_NO_MIS (1u << 1)
+#define PUSH_FLAG_BDPT_STRATEGY (1u << 2)
+#define PUSH_FLAG_BDPT_UNWEIGHTED (1u << 3)
+
 // True when strategy (s, t) is rendered (all of them, or the debug one).
 bool strategy_enabled(int s, int t) {
-#if BDPT_STRATEGY_S >= 0
-    return s == BDPT_STRATEGY_S && t == BDPT_STRATEGY_T;
-#else
-    return true;
-#endif
+    if ((pc.flags & PUSH_FLAG_BDPT_STRATEGY) == 0u) return true;
+    return uint(s) == ((pc.flags >> 8) & 0xffu) && uint(t) == ((pc.flags >> 16) & 0xffu);
 }
 
 // The weight a contribution gets: its MIS weight, or 1 when a debug strategy is rendered
 // unweighted.
 float strategy_weight(float w) {
-#if BDPT_STRATEGY_S >= 0 && !BDPT_WEIGHTED
-    return 1.0;
-#else
-    return w;
-#endif
+    const uint unweighted = PUSH_FLAG_BDPT_STRATEGY | PUSH_FLAG_BDPT_UNWEIGHTED;
+    return (pc.flags & unweighted) == unweighted ? 1.0 : w;
 }
 
 // One bdpt sample of pixel px: the camera-side estimate (returned) and the light-tracing
 // splats (added to the splat buffer; non-finite ones are dropped and counted).
 vec3 bdpt_sample(uvec2 px, inout Rng rng, int max_depth, inout uint rays, inout uint dropped) {
     // Step 1: the subpaths; a path of s + t vertices has s + t − 1 ≤ max_depth segments.
-    int nc = camera_subpath(px, max_depth + 1, rng, rays);
-    int nl = light_subpath(max_depth, rng, rays);
+    int nc, nl;
+    trace_subpaths(px, max_depth, rng, rays, nc, nl);
     vec3 L = vec3(0.0);
     // Step 2: every strategy. s = 1 samples its own light point, so it runs even when the light
     // subpath is empty.
@@ -64,10 +63,10 @@ vec3 bdpt_sample(uvec2 px, inout Rng rng, int max_depth, inout uint rays, inout 
             // Each strategy draws from its own dimensions, whichever others run.
             rng.dim = 1024u + uint(t) * 64u + uint(s);
             float w;
+            vec2 film;
+            vec3 c = connect(s, t, rng_next4(rng), rays, film, w);
+            c *= strategy_weight(w);
             if (t == 1) {
-                vec2 film;
-                vec3 c = connect_t1(s, rng_next2(rng), rays, film, w);
-                c *= strategy_weight(w);
                 if (!finite3(c)) {
                     dropped += 1u;
                 } else if (any(greaterThan(c, vec3(0.0)))) {
@@ -75,15 +74,7 @@ vec3 bdpt_sample(uvec2 px, inout Rng rng, int max_depth, inout uint rays, inout 
                 }
                 continue;
             }
-            vec3 c;
-            if (s == 0) {
-                c = connect_s0(t, w);
-            } else if (s == 1) {
-                c = connect_s1(t, rng_next3(rng), rays, w);
-            } else {
-                c = connect_st(s, t, rays, w);
-            }
-            L += c * strategy_weight(w);
+            L += c;
         }
     }
     return L;
@@ -95,6 +86,7 @@ void main() {
     uint pixel = px.y * g.film.x + px.x;
     // Mitsuba's max_depth, capped by the arrays' capacity (−1: the capacity).
     int max_depth = pc.max_depth < 0 ? BDPT_DEPTH_CAP : min(pc.max_depth, BDPT_DEPTH_CAP);
+    bdpt_mis = (pc.flags & PUSH_FLAG_BDPT_NO_MIS) == 0u;
     vec4 acc = accum[pixel];
     uint rays = 0u, dropped = 0u;
     for (uint i = 0u; i < pc.spp; ++i) {

@@ -79,55 +79,68 @@ int random_walk(Ray ray, vec3 beta, float pdf_dir, int max_new, uint mode, int b
     return added;
 }
 
-// The camera subpath: the lens vertex, then a radiance walk. Returns its vertex count (≥ 1).
-int camera_subpath(uvec2 px, int max_verts, inout Rng rng, inout uint rays) {
-    rng.dim = 0u;
-    Ray ray = camera_ray(px, rng);
-    Vertex c = vertex_blank(VTX_CAMERA);
-    c.p = ray.o;
-    c.ns = g.cam_forward.xyz;
-    c.beta = vec3(1.0);
-    vtx[CAM(0)] = c;
-    // pbrt: the first vertex's density comes from Pdf_We (uniform over the film), not the filter.
-    float pdf_dir = camera_pdf_dir(dot(ray.d, g.cam_forward.xyz));
-    return 1 + random_walk(ray, vec3(1.0), pdf_dir, max_verts - 1, TRANSPORT_RADIANCE, CAM(0), 1,
-                           1.0, rng, rays);
-}
-
-// The light subpath: an emitted ray (light_emit.glsl), then an importance walk. Returns its
-// vertex count (0 when no light or no emission was sampled).
-int light_subpath(int max_verts, inout Rng rng, inout uint rays) {
-    if (max_verts <= 0) return 0;
-    rng.dim = 256u;
-    LightEmit e;
-    vec4 u0 = rng_next4(rng), u1 = rng_next4(rng);
-    if (!sample_light_emission(u0, u1, e)) return 0;
-    // Step 1: the light vertex; its density is pbrt's (pdfPos · pick; infinite lights: the
-    // solid-angle density of the direction towards them, as s = 0 and s = 1 see it).
-    Vertex l = vertex_blank(e.infinite ? VTX_INF : VTX_LIGHT);
-    l.p = e.infinite ? -e.d : e.p;
-    l.p_err = e.p_err;
-    l.ng = e.n;
-    l.ns = e.n;
-    l.light = e.li;
-    l.flags = e.delta ? VF_DELTA_LIGHT : 0u;
-    l.beta = e.Le;
-    l.pdf_fwd = e.infinite ? env_pdf(-e.d) : e.pick * e.pdf_pos;
-    vtx[LGT(0)] = l;
-    // Step 2: the emitted ray; β = Le |cos| / (pick · pdf_pos · pdf_dir).
-    float cos_l = dot(e.n, e.n) > 0.0 ? abs(dot(e.n, e.d)) : 1.0;
-    vec3 beta = e.Le * (cos_l / (e.pick * e.pdf_pos * e.pdf_dir));
-    Ray ray;
-    ray.o = dot(e.n, e.n) > 0.0 ? offset_origin(e.p, e.p_err, e.n, e.d) : e.p;
-    ray.d = e.d;
-    ray.tmin = 0.0;
-    ray.tmax = FLT_MAX_C;
-    float m = max_comp(beta);
-    if (!(m > 0.0) || isinf(m)) return 1;
-    // After an infinite light the next density is planar (pdf_pos, |cos| applied in the walk).
-    float pdf = e.infinite ? e.pdf_pos : e.pdf_dir;
-    return 1 + random_walk(ray, beta, pdf, max_verts - 1, TRANSPORT_IMPORTANCE, LGT(0), 1, 1.0 / m,
-                           rng, rays);
+// Both subpaths of one sample: the camera subpath (the lens vertex, then a radiance walk) and
+// the light subpath (an emitted ray from light_emit.glsl, then an importance walk), through one
+// call of random_walk (one inlined copy keeps the kernel small). nc ≥ 1; nl = 0 when no light
+// or no emission was sampled. Vertex counts: camera ≤ max_depth + 1, light ≤ max_depth.
+void trace_subpaths(uvec2 px, int max_depth, inout Rng rng, inout uint rays, out int nc, out int nl) {
+    nc = 1;
+    nl = 0;
+    for (int side = 0; side < 2; ++side) {
+        bool camera = side == 0;
+        Ray ray;
+        vec3 beta;
+        float pdf, rr_norm = 1.0;
+        if (camera) {
+            // Step 1: the lens vertex. pbrt: the first vertex's density comes from Pdf_We
+            // (uniform over the film), not from the filter.
+            rng.dim = 0u;
+            ray = camera_ray(px, rng);
+            Vertex c = vertex_blank(VTX_CAMERA);
+            c.p = ray.o;
+            c.ns = g.cam_forward.xyz;
+            c.beta = vec3(1.0);
+            vtx[CAM(0)] = c;
+            beta = vec3(1.0);
+            pdf = camera_pdf_dir(dot(ray.d, g.cam_forward.xyz));
+        } else {
+            // Step 2: the light vertex; its density is pbrt's (pdfPos · pick; infinite lights:
+            // the solid-angle density of the direction towards them, as s = 0 and s = 1 see it).
+            if (max_depth <= 0) break;
+            rng.dim = 256u;
+            LightEmit e;
+            vec4 u0 = rng_next4(rng), u1 = rng_next4(rng);
+            if (!sample_light_emission(u0, u1, e)) break;
+            Vertex l = vertex_blank(e.infinite ? VTX_INF : VTX_LIGHT);
+            l.p = e.infinite ? -e.d : e.p;
+            l.p_err = e.p_err;
+            l.ng = e.n;
+            l.ns = e.n;
+            l.light = e.li;
+            l.flags = e.delta ? VF_DELTA_LIGHT : 0u;
+            l.beta = e.Le;
+            l.pdf_fwd = e.infinite ? env_pdf(-e.d) : e.pick * e.pdf_pos;
+            vtx[LGT(0)] = l;
+            nl = 1;
+            // The emitted ray; β = Le |cos| / (pick · pdf_pos · pdf_dir). After an infinite light
+            // the next density is planar (pdf_pos; the walk applies |cos|).
+            bool area = dot(e.n, e.n) > 0.0;
+            beta = e.Le * ((area ? abs(dot(e.n, e.d)) : 1.0) / (e.pick * e.pdf_pos * e.pdf_dir));
+            ray.o = area ? offset_origin(e.p, e.p_err, e.n, e.d) : e.p;
+            ray.d = e.d;
+            ray.tmin = 0.0;
+            ray.tmax = FLT_MAX_C;
+            pdf = e.infinite ? e.pdf_pos : e.pdf_dir;
+            float m = max_comp(beta);
+            if (!(m > 0.0) || isinf(m)) break;
+            rr_norm = 1.0 / m;
+        }
+        // Step 3: the walk.
+        int added = random_walk(ray, beta, pdf, camera ? max_depth : max_depth - 1,
+                                camera ? TRANSPORT_RADIANCE : TRANSPORT_IMPORTANCE,
+                                camera ? CAM(0) : LGT(0), 1, rr_norm, rng, rays);
+        if (camera) nc += added; else nl += added;
+    }
 }
 
 #endif

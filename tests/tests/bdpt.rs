@@ -1,74 +1,339 @@
-//! scratch
-use candela_tests::{gpu, scene_path};
+//! Bidirectional path tracing (`bdpt`), measured: it converges to the same images as `nee` and
+//! `pt` (compared after 4×4 block averaging against the measured seed-to-seed noise of both, as
+//! tests/tests/correctness.rs does for pt vs nee), matches Mitsuba 3 on the Cornell box, each of
+//! its strategies alone is an unbiased estimate (Veach's pyramid), its MIS-weighted strategies
+//! add up to the full image, the white furnace is exactly 1, and its film (light-tracing splats)
+//! survives pass splits and checkpoints.
+//!
+//! Noise: for two renders a, b of one integrator with different seeds, relMSE(a, b) ≈ 2σ²
+//! (σ² each render's relative variance), so σ² ≈ relMSE(a, b) / 2; two independent estimates of
+//! one image are then expected at relMSE σ₁² + σ₂². Every threshold below is 3× that plus a small
+//! floor; relMSE is `REL_MSE_FORMULA` on 4×4 blocks. Images are tiny (lavapipe is a CPU).
+
+use candela_tests::{gpu, mitsuba_available, render_mitsuba, scene_path, scratch};
 use renderer::compile::compile;
+use renderer::film::Image;
 use renderer::integrators::IntegratorOptions;
-use renderer::metrics::{downsample_box, rel_mse};
-use renderer::render::{render, Budget, RenderSession};
+use renderer::metrics::{downsample_box, rel_mse, REL_MSE_FORMULA};
+use renderer::render::{render, Budget, RenderSession, RenderStats};
+use renderer::scene::Scene;
 
-fn run(scene: &str, json: &str, spp: u32, w: u32, seed: u64) -> renderer::film::Image {
-    let s = renderer::scene::load_file(&scene_path(scene)).unwrap();
-    let c = compile(&s, w, w).unwrap();
-    let o: IntegratorOptions = serde_json::from_str(json).unwrap();
+/// Film side of most tests: 16×16, i.e. 4×4 blocks of 4×4 pixels.
+const W: u32 = 16;
+
+fn load(name: &str) -> Scene {
+    let path = scene_path(name);
+    renderer::scene::load_file(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+fn options(json: &str) -> IntegratorOptions {
+    serde_json::from_str(json).unwrap_or_else(|e| panic!("{json}: {e}"))
+}
+
+/// Renders `scene` with integrator options given as JSON.
+fn render_with(scene: &Scene, json: &str, spp: u32, w: u32, seed: u64) -> (Image, RenderStats) {
     let ctx = gpu();
-    let mut sess = RenderSession::new(&ctx, &c, &o, s.render.max_depth, seed).unwrap();
-    let t = std::time::Instant::now();
-    let (img, st) = render(&mut sess, Budget::Spp(spp)).unwrap();
-    ctx.check_validation().unwrap();
-    println!("{scene} {json} {spp}spp: mean {:.4?} {:.2}s dropped {}", img.mean(), t.elapsed().as_secs_f64(), st.dropped_samples);
-    img
+    let compiled = compile(scene, w, w).expect("compile");
+    let o = options(json);
+    let mut s =
+        RenderSession::new(&ctx, &compiled, &o, scene.render.max_depth, seed).expect("session");
+    let out = render(&mut s, Budget::Spp(spp)).expect("render");
+    ctx.check_validation().expect("validation layer messages");
+    out
 }
 
-fn cmp(scene: &str, a: &str, sa: u32, b: &str, sb: u32, w: u32) {
-    let a1 = run(scene, a, sa, w, 1);
-    let a2 = run(scene, a, sa, w, 2);
-    let b1 = run(scene, b, sb, w, 3);
-    let b2 = run(scene, b, sb, w, 4);
-    let d = |x, y| rel_mse(&downsample_box(x, 4), &downsample_box(y, 4)).unwrap();
-    let e = d(&a1, &b1);
-    let noise = d(&a1, &a2) / 2.0 + d(&b1, &b2) / 2.0;
-    println!("full-res seed relMSE: A {:.3e} B {:.3e}", rel_mse(&a1,&a2).unwrap(), rel_mse(&b1,&b2).unwrap());
-    println!("==> {scene}: {a} vs {b}: block relMSE {e:.3e} noise {noise:.3e} ratio {:.2}", e / noise);
+/// relMSE after 4×4 block averaging.
+fn blocks(a: &Image, reference: &Image) -> f64 {
+    rel_mse(&downsample_box(a, 4), &downsample_box(reference, 4)).unwrap()
 }
 
-#[test]
-fn exp() {
-    let sc = std::env::var("SC").unwrap_or("cornell.json".into());
-    let a = std::env::var("A").unwrap_or(r#"{"type":"bdpt"}"#.into());
-    let b = std::env::var("B").unwrap_or(r#"{"type":"nee"}"#.into());
-    let sa: u32 = std::env::var("SA").map(|s| s.parse().unwrap()).unwrap_or(64);
-    let sb: u32 = std::env::var("SB").map(|s| s.parse().unwrap()).unwrap_or(256);
-    let w: u32 = std::env::var("W").map(|s| s.parse().unwrap()).unwrap_or(32);
-    cmp(&sc, &a, sa, &b, sb, w);
+/// Two renders (seeds `seed`, `seed + 1`) as one estimate: their average, and its relative
+/// variance on blocks (relMSE(a, b) / 4: half of it is one render's, halved again by averaging).
+fn estimate(scene: &Scene, json: &str, spp: u32, seed: u64) -> (Image, f64, RenderStats) {
+    let (a, stats) = render_with(scene, json, spp, W, seed);
+    let (b, _) = render_with(scene, json, spp, W, seed + 1);
+    let noise = blocks(&a, &b) / 4.0;
+    (combine(&a, &b, 0.5, 0.5), noise, stats)
 }
 
-fn sub(a: &renderer::film::Image, b: &renderer::film::Image) -> renderer::film::Image {
-    let mut o = a.clone();
-    for (p, q) in o.pixels.iter_mut().zip(&b.pixels) { for c in 0..3 { p[c] -= q[c]; } }
-    o
+/// x·a + y·b, pixel by pixel.
+fn combine(a: &Image, b: &Image, x: f32, y: f32) -> Image {
+    Image::from_fn(a.width, a.height, |i, j| {
+        let (p, q) = (a.get(i, j), b.get(i, j));
+        [0, 1, 2].map(|c| x * p[c] + y * q[c])
+    })
 }
 
-#[test]
-fn techniques() {
-    let sc = std::env::var("SC").unwrap_or("cornell.json".into());
-    let k: i32 = std::env::var("K").map(|s| s.parse().unwrap()).unwrap_or(2);
-    let spp: u32 = std::env::var("SA").map(|s| s.parse().unwrap()).unwrap_or(256);
-    let w: u32 = std::env::var("W").map(|s| s.parse().unwrap()).unwrap_or(16);
-    let hi = run(&sc, &format!(r#"{{"type":"nee","max_depth":{k}}}"#), 2048, w, 1);
-    let lo = run(&sc, &format!(r#"{{"type":"nee","max_depth":{}}}"#, k - 1), 2048, w, 1);
-    let r = sub(&hi, &lo);
-    println!("ref exactly {k}: {:.4?}", r.mean());
-    let full_hi = run(&sc, &format!(r#"{{"type":"bdpt","max_depth":{k}}}"#), spp, w, 5);
-    let full_lo = run(&sc, &format!(r#"{{"type":"bdpt","max_depth":{}}}"#, k - 1), spp, w, 5);
-    println!("bdpt exactly {k}: {:.4?}", sub(&full_hi, &full_lo).mean());
-    let mut wsum = [0f64; 3];
-    for t in 1..=(k + 1) {
-        let s = k + 1 - t;
-        if s == 1 && t == 1 { continue; }
-        let img = run(&sc, &format!(r#"{{"type":"bdpt","max_depth":{k},"mis":false,"strategy":[{s},{t}],"weighted":false}}"#), spp, w, 7);
-        let wimg = run(&sc, &format!(r#"{{"type":"bdpt","max_depth":{k},"strategy":[{s},{t}]}}"#), spp, w, 7);
-        for c in 0..3 { wsum[c] += wimg.mean()[c]; }
-        let m = img.mean(); let rm = r.mean();
-        println!("  ({s},{t}) unweighted mean ratio {:.4?}", [m[0]/rm[0], m[1]/rm[1], m[2]/rm[2]]);
+/// bdpt, nee and (unless the scene has delta lights, which pt cannot hit) pt converge to the
+/// same image: means within 3% of nee's and block relMSE within 3× the expected noise.
+fn agree(name: &str, spp_bdpt: u32, spp_nee: u32, spp_pt: Option<u32>) {
+    let scene = load(&format!("{name}.json"));
+    let (bdpt, n_bdpt, stats) = estimate(&scene, r#"{"type":"bdpt"}"#, spp_bdpt, 1);
+    let (nee, n_nee, _) = estimate(&scene, r#"{"type":"nee"}"#, spp_nee, 3);
+    let e = blocks(&bdpt, &nee);
+    let (mb, mn) = (bdpt.mean(), nee.mean());
+    println!(
+        "{name} {W}x{W}: bdpt {spp_bdpt} spp ({:.3} Msamples/s, {} dropped) vs nee {spp_nee} spp: \
+         4x4-block relMSE {e:.3e}, expected noise {:.3e} (bdpt {n_bdpt:.3e}, nee {n_nee:.3e}); \
+         means bdpt {mb:.4?} nee {mn:.4?}",
+        stats.msamples_per_s,
+        stats.dropped_samples,
+        n_bdpt + n_nee
+    );
+    assert_eq!(stats.dropped_samples, 0, "{name}: bdpt dropped samples");
+    for c in 0..3 {
+        assert!(
+            (mb[c] / mn[c] - 1.0).abs() < 0.03,
+            "{name}: means differ: bdpt {mb:?} nee {mn:?}"
+        );
     }
-    println!("sum of weighted: {:.4?}", wsum);
+    assert!(
+        e < 3.0 * (n_bdpt + n_nee) + 1e-4,
+        "{name}: bdpt vs nee {e:.3e}, noise {:.3e}",
+        n_bdpt + n_nee
+    );
+    let Some(spp_pt) = spp_pt else {
+        println!("{name}: pt skipped: it cannot reach point, spot or directional lights");
+        return;
+    };
+    let (pt, n_pt, _) = estimate(&scene, r#"{"type":"pt"}"#, spp_pt, 5);
+    let e = blocks(&bdpt, &pt);
+    println!(
+        "{name} {W}x{W}: bdpt vs pt {spp_pt} spp: 4x4-block relMSE {e:.3e}, expected noise {:.3e} \
+         (pt {n_pt:.3e}); mean pt {:.4?}",
+        n_bdpt + n_pt,
+        pt.mean()
+    );
+    assert!(
+        e < 3.0 * (n_bdpt + n_pt) + 1e-4,
+        "{name}: bdpt vs pt {e:.3e}, noise {:.3e}",
+        n_bdpt + n_pt
+    );
+}
+
+#[test]
+fn cornell_box_agrees_with_nee_and_pt() {
+    agree("cornell", 64, 256, Some(1024));
+}
+
+#[test]
+fn mirror_and_glass_agree_with_nee_and_pt() {
+    agree("mirror_glass", 64, 256, Some(1024));
+}
+
+/// The hard case: a tiny sphere light inside an open-bottom lamp shade.
+#[test]
+fn tiny_light_in_a_shade_agrees_with_nee_and_pt() {
+    agree("shade", 32, 256, Some(1024));
+}
+
+/// Thin lens (aperture 0.12, focus 3.5): t = 1 connections sample the lens.
+#[test]
+fn thin_lens_agrees_with_nee_and_pt() {
+    agree("thinlens", 64, 256, Some(1024));
+}
+
+#[test]
+fn point_spot_directional_lights_agree_with_nee() {
+    agree("lights", 64, 256, None);
+}
+
+/// An independent reference: Mitsuba 3's `path` integrator on the Cornell box.
+#[test]
+fn cornell_box_matches_mitsuba() {
+    assert!(
+        mitsuba_available(),
+        "Mitsuba 3 is not installed: run scripts/setup.sh (pip install mitsuba)"
+    );
+    let path = scene_path("cornell.json");
+    let dir = scratch("bdpt_mitsuba_cornell");
+    let mi = |seed: u64| {
+        let out = dir.join(format!("mitsuba{seed}.exr"));
+        render_mitsuba(&path, &out, 1024, W, W, seed, None).expect("mitsuba render")
+    };
+    let (m1, m2) = (mi(1), mi(2));
+    let n_mi = blocks(&m1, &m2) / 4.0;
+    let mitsuba = combine(&m1, &m2, 0.5, 0.5);
+    let (bdpt, n_bdpt, _) = estimate(&load("cornell.json"), r#"{"type":"bdpt"}"#, 64, 11);
+    let e = blocks(&bdpt, &mitsuba);
+    let (mb, mm) = (bdpt.mean(), mitsuba.mean());
+    println!(
+        "cornell {W}x{W}: bdpt 2x64 spp vs Mitsuba 3 path 2x1024 spp: 4x4-block relMSE {e:.3e}, \
+         expected noise {:.3e}; means bdpt {mb:.4?} mitsuba {mm:.4?}; relMSE = {REL_MSE_FORMULA}",
+        n_bdpt + n_mi
+    );
+    for c in 0..3 {
+        assert!(
+            (mb[c] / mm[c] - 1.0).abs() < 0.02,
+            "means differ: bdpt {mb:?} mitsuba {mm:?}"
+        );
+    }
+    assert!(e < 3.0 * (n_bdpt + n_mi) + 2e-4, "bdpt vs Mitsuba {e:.3e}");
+}
+
+/// Veach's pyramid: for paths of k segments, each strategy (s, t) with s + t = k + 1 (all but
+/// (1, 1)) rendered alone, unweighted, is an unbiased estimate of the image made by paths of
+/// exactly k segments (full bdpt at max_depth k minus max_depth k − 1); so is their average.
+/// The Cornell box has no delta lights or specular surfaces, so every strategy can make every
+/// path.
+#[test]
+fn each_strategy_alone_is_unbiased() {
+    let scene = load("cornell.json");
+    let spp = 128;
+    let full = |d: i32| estimate(&scene, &format!(r#"{{"type":"bdpt","max_depth":{d}}}"#), spp, 21);
+    let mut lower = full(1);
+    for k in 2..=3 {
+        let upper = full(k);
+        let exact = combine(&upper.0, &lower.0, 1.0, -1.0);
+        let n_exact = upper.1 + lower.1;
+        let strategies: Vec<(i32, i32)> = (1..=k + 1).map(|t| (k + 1 - t, t)).collect();
+        let (mut sum, mut n_sum) = (Image::new(W, W), 0.0);
+        for &(s, t) in &strategies {
+            let json = format!(
+                r#"{{"type":"bdpt","max_depth":{k},"mis":false,"strategy":[{s},{t}],"weighted":false}}"#
+            );
+            let (img, n, _) = estimate(&scene, &json, spp, 31 + 2 * t as u64);
+            let e = blocks(&img, &exact);
+            println!(
+                "k = {k}: strategy ({s},{t}) unweighted {spp} spp x2: 4x4-block relMSE {e:.3e} \
+                 against exactly-{k} bdpt, expected noise {:.3e}; means {:.4?} vs {:.4?}",
+                n + n_exact,
+                img.mean(),
+                exact.mean()
+            );
+            assert!(
+                e < 3.0 * (n + n_exact) + 2e-4,
+                "k = {k}, ({s},{t}): {e:.3e} vs noise {:.3e}",
+                n + n_exact
+            );
+            sum = combine(&sum, &img, 1.0, 1.0);
+            n_sum += n;
+        }
+        let count = strategies.len() as f32;
+        let average = combine(&sum, &sum, 0.5 / count, 0.5 / count);
+        let n_avg = n_sum / (count * count) as f64;
+        let e = blocks(&average, &exact);
+        println!(
+            "k = {k}: average of the {count} unweighted strategies: 4x4-block relMSE {e:.3e}, \
+             expected noise {:.3e}; means {:.4?} vs exactly-{k} {:.4?}",
+            n_avg + n_exact,
+            average.mean(),
+            exact.mean()
+        );
+        assert!(e < 3.0 * (n_avg + n_exact) + 1e-4, "k = {k}: average {e:.3e}");
+        lower = upper;
+    }
+}
+
+/// The MIS-weighted strategies of one path length add up to the full image of that length, to
+/// rounding: same seed, same subpaths, only the bookkeeping differs.
+#[test]
+fn weighted_strategies_add_up_to_the_full_image() {
+    let scene = load("cornell.json");
+    let fixed = r#""fixed_point_splats":true"#;
+    let img = |json: String| render_with(&scene, &json, 8, W, 7).0;
+    let full = combine(
+        &img(format!(r#"{{"type":"bdpt","max_depth":3,{fixed}}}"#)),
+        &img(format!(r#"{{"type":"bdpt","max_depth":2,{fixed}}}"#)),
+        1.0,
+        -1.0,
+    );
+    let mut sum = Image::new(W, W);
+    for t in 1..=4 {
+        let s = 4 - t;
+        let json = format!(r#"{{"type":"bdpt","max_depth":3,"strategy":[{s},{t}],{fixed}}}"#);
+        let part = img(json);
+        println!("strategy ({s},{t}) weighted: mean {:.5?}", part.mean());
+        sum = combine(&sum, &part, 1.0, 1.0);
+    }
+    let worst = sum
+        .pixels
+        .iter()
+        .zip(&full.pixels)
+        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs() / (b[c].abs() + 1e-3)))
+        .fold(0f32, f32::max);
+    println!(
+        "k = 3: sum of weighted strategies {:.5?} vs full {:.5?}, worst pixel difference {worst:.2e}",
+        sum.mean(),
+        full.mean()
+    );
+    assert!(worst < 1e-4, "weighted strategies do not add up: {worst}");
+}
+
+/// A white diffuse sphere under constant radiance 1 is exactly 1: environment emission through
+/// every strategy, at unbounded depth.
+#[test]
+fn white_furnace_is_exactly_one() {
+    let (img, stats) = render_with(&load("furnace.json"), r#"{"type":"bdpt"}"#, 32, W, 1);
+    let m = img.mean();
+    println!("furnace bdpt: mean {m:?}, {} dropped", stats.dropped_samples);
+    for c in m {
+        assert!((c - 1.0).abs() < 5e-3, "furnace mean {m:?}");
+    }
+    assert_eq!(stats.dropped_samples, 0);
+}
+
+/// Pass splits and checkpoints. With fixed-point splats the image is bit-identical whatever the
+/// split and after a checkpoint/restore; with float atomics the camera-side accumulation is
+/// bit-identical and the splats (summed in a varying order) agree to rounding; the two splat
+/// encodings agree to rounding.
+#[test]
+fn pass_split_and_checkpoint() {
+    let scene = load("cornell.json");
+    let compiled = compile(&scene, W, W).unwrap();
+    let ctx = gpu();
+    let session = |json: &str, seed: u64| {
+        RenderSession::new(&ctx, &compiled, &options(json), None, seed).unwrap()
+    };
+    let n = (W * W) as usize;
+    for json in [
+        r#"{"type":"bdpt","fixed_point_splats":true}"#,
+        r#"{"type":"bdpt"}"#,
+    ] {
+        let exact = json.contains("fixed");
+        let mut one = session(json, 42);
+        one.run_pass(8).unwrap();
+        let mut many = session(json, 42);
+        for k in [1, 2, 1, 4] {
+            many.run_pass(k).unwrap();
+        }
+        let (a, b) = (one.image().unwrap(), many.image().unwrap());
+        let (acc_a, acc_b) = (one.accumulation().unwrap(), many.accumulation().unwrap());
+        assert_eq!(acc_a.len(), one.accumulation_len());
+        assert_eq!(acc_a.len(), n * if exact || !ctx.float_atomics { 3 } else { 2 });
+        assert_eq!(acc_a[..n], acc_b[..n], "{json}: camera-side accumulation changed");
+        let e = rel_mse(&a, &b).unwrap();
+        println!("{json}: pass split relMSE {e:.2e} (float atomics on device: {})", ctx.float_atomics);
+        if exact {
+            assert_eq!(a.pixels, b.pixels, "{json}: pass split changed the image");
+        } else {
+            assert!(e < 1e-10, "{json}: pass split relMSE {e}");
+        }
+        let mut other = session(json, 43);
+        other.run_pass(8).unwrap();
+        assert_ne!(a.pixels, other.image().unwrap().pixels, "seed must matter");
+        // Checkpoint after 5 spp, restore into a fresh session, finish: as if never stopped.
+        let mut first = session(json, 42);
+        first.run_pass(5).unwrap();
+        let (acc, progress) = (first.accumulation().unwrap(), first.progress());
+        drop(first);
+        let mut resumed = session(json, 42);
+        resumed.restore(&acc, progress).unwrap();
+        resumed.run_pass(3).unwrap();
+        let r = resumed.image().unwrap();
+        if exact {
+            assert_eq!(a.pixels, r.pixels, "{json}: checkpoint changed the image");
+        } else {
+            assert!(rel_mse(&r, &a).unwrap() < 1e-10, "{json}: checkpoint");
+        }
+        assert!(resumed.restore(&acc[..n], progress).is_err(), "short checkpoint accepted");
+    }
+    // Float and fixed-point splats: the same estimate to rounding.
+    let mut f = session(r#"{"type":"bdpt"}"#, 5);
+    let mut x = session(r#"{"type":"bdpt","fixed_point_splats":true}"#, 5);
+    f.run_pass(4).unwrap();
+    x.run_pass(4).unwrap();
+    let e = rel_mse(&f.image().unwrap(), &x.image().unwrap()).unwrap();
+    println!("float vs fixed-point splats: relMSE {e:.2e}");
+    assert!(e < 1e-9, "splat encodings differ: {e}");
 }

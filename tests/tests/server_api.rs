@@ -17,7 +17,11 @@ fn assert_error(r: &(u16, Value), status: u16, code: &str) -> Value {
     assert_eq!(r.0, status, "{}", r.1);
     let e = &r.1["error"];
     assert_eq!(e["code"], code, "{}", r.1);
-    assert!(e["message"].as_str().is_some_and(|m| !m.is_empty()), "{}", r.1);
+    assert!(
+        e["message"].as_str().is_some_and(|m| !m.is_empty()),
+        "{}",
+        r.1
+    );
     e.clone()
 }
 
@@ -30,16 +34,28 @@ fn jobs_endpoints_and_errors() {
     let dir = scratch("server_api_jobs");
     let s = Server::start(
         &dir.join("data"),
-        &["--max-active", "1", "--snapshot-interval", "0.2", "--validation"],
+        &[
+            "--max-active",
+            "1",
+            "--snapshot-interval",
+            "0.2",
+            "--validation",
+        ],
     );
 
     // Health, viewer, scenes.
     let (st, health) = s.get("/api/health");
     assert_eq!(st, 200);
-    assert!(health["status"].is_string() && health["jobs"]["queued"].is_u64(), "{health}");
+    assert!(
+        health["status"].is_string() && health["jobs"]["queued"].is_u64(),
+        "{health}"
+    );
     let page = reqwest::blocking::get(s.at("/")).unwrap();
     assert_eq!(page.status().as_u16(), 200);
-    assert!(page.headers()["content-type"].to_str().unwrap().starts_with("text/html"));
+    assert!(page.headers()["content-type"]
+        .to_str()
+        .unwrap()
+        .starts_with("text/html"));
     let (st, scenes) = s.get("/api/scenes");
     assert_eq!(st, 200);
     let names: Vec<&str> = scenes["scenes"]
@@ -70,20 +86,37 @@ fn jobs_endpoints_and_errors() {
     assert_eq!(long["name"], "long");
     assert_eq!(long["settings"]["integrator"]["type"], "nee");
     for link in ["self", "events", "image.png", "image.exr"] {
-        assert!(long["links"][link].as_str().unwrap().starts_with("/api/jobs/"), "{long}");
+        assert!(
+            long["links"][link]
+                .as_str()
+                .unwrap()
+                .starts_with("/api/jobs/"),
+            "{long}"
+        );
     }
     s.wait_job(l, T, |j| state(j) == "running");
-    let q = s.submit(&json!({"scene_name": "furnace", "spp": 4, "width": 16, "height": 16,
-                              "integrator": {"type": "pt", "max_depth": -1}}));
+    let q = s.submit(
+        &json!({"scene_name": "furnace", "spp": 4, "width": 16, "height": 16,
+                              "integrator": {"type": "pt", "max_depth": -1}}),
+    );
     let q = q["id"].as_i64().unwrap();
     assert_eq!(state(&s.job(q)), "queued");
-    assert_error(&s.get(&format!("/api/jobs/{q}/image.png")), 404, "not_found");
+    assert_error(
+        &s.get(&format!("/api/jobs/{q}/image.png")),
+        404,
+        "not_found",
+    );
 
     // Listing and filtering.
     let ids = |path: &str| -> Vec<i64> {
         let (st, v) = s.get(path);
         assert_eq!(st, 200, "{v}");
-        v["jobs"].as_array().unwrap().iter().map(|j| j["id"].as_i64().unwrap()).collect()
+        v["jobs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|j| j["id"].as_i64().unwrap())
+            .collect()
     };
     assert_eq!(ids("/api/jobs?state=queued"), vec![q]);
     assert_eq!(ids("/api/jobs?state=running"), vec![l]);
@@ -115,22 +148,45 @@ fn jobs_endpoints_and_errors() {
     assert_eq!(done["progress"]["spp"], 4);
     assert_eq!(done["stats"]["spp"], 4);
     assert!(done["finished_at"].is_string());
-    s.wait_job(l, T, |_| s.data_dir.join(format!("jobs/{l}/checkpoint.bin")).exists());
+    s.wait_job(l, T, |_| {
+        s.data_dir.join(format!("jobs/{l}/checkpoint.bin")).exists()
+    });
     let (st, resumed) = s.post(&format!("/api/jobs/{l}/resume"), &json!({}));
     assert_eq!((st, state(&resumed)), (200, "queued"), "{resumed}");
-    assert_error(&s.post(&format!("/api/jobs/{l}/resume"), &json!({})), 409, "conflict");
+    assert_error(
+        &s.post(&format!("/api/jobs/{l}/resume"), &json!({})),
+        409,
+        "conflict",
+    );
 
     // Images of the finished job.
-    let png = s.request(Method::GET, &format!("/api/jobs/{q}/image.png")).send().unwrap();
+    let png = s
+        .request(Method::GET, &format!("/api/jobs/{q}/image.png"))
+        .send()
+        .unwrap();
     assert_eq!(png.status().as_u16(), 200);
     assert_eq!(png.headers()["content-type"], "image/png");
     assert_eq!(png.headers()["x-candela-spp"], "4");
     assert!(png.bytes().unwrap().starts_with(b"\x89PNG"));
-    let r = s.request(Method::GET, &format!("/api/jobs/{q}/image.png?exposure=2&tonemap=aces&spp=4"));
+    let r = s.request(
+        Method::GET,
+        &format!("/api/jobs/{q}/image.png?exposure=2&tonemap=aces&spp=4"),
+    );
     assert_eq!(r.send().unwrap().status().as_u16(), 200);
-    assert_error(&s.get(&format!("/api/jobs/{q}/image.png?exposure=abc")), 400, "bad_request");
-    assert_error(&s.get(&format!("/api/jobs/{q}/image.png?tonemap=filmic")), 400, "bad_request");
-    let exr = s.request(Method::GET, &format!("/api/jobs/{q}/image.exr")).send().unwrap();
+    assert_error(
+        &s.get(&format!("/api/jobs/{q}/image.png?exposure=abc")),
+        400,
+        "bad_request",
+    );
+    assert_error(
+        &s.get(&format!("/api/jobs/{q}/image.png?tonemap=filmic")),
+        400,
+        "bad_request",
+    );
+    let exr = s
+        .request(Method::GET, &format!("/api/jobs/{q}/image.exr"))
+        .send()
+        .unwrap();
     assert_eq!(exr.status().as_u16(), 200);
     let img = renderer::film::decode_exr(&exr.bytes().unwrap()).unwrap();
     assert_eq!((img.width, img.height), (16, 16));
@@ -139,15 +195,30 @@ fn jobs_endpoints_and_errors() {
     assert!((m[0] - 1.0).abs() < 0.05, "furnace mean {m:?}");
 
     // Invalid transitions and cancel.
-    let e = assert_error(&s.post(&format!("/api/jobs/{q}/pause"), &json!({})), 409, "conflict");
+    let e = assert_error(
+        &s.post(&format!("/api/jobs/{q}/pause"), &json!({})),
+        409,
+        "conflict",
+    );
     assert!(e["message"].as_str().unwrap().contains("done"), "{e}");
-    assert_error(&s.send(s.request(Method::DELETE, &format!("/api/jobs/{q}"))), 409, "conflict");
+    assert_error(
+        &s.send(s.request(Method::DELETE, &format!("/api/jobs/{q}"))),
+        409,
+        "conflict",
+    );
     let (st, canceled) = s.send(s.request(Method::DELETE, &format!("/api/jobs/{l}")));
     assert_eq!((st, state(&canceled)), (200, "canceled"), "{canceled}");
-    assert_error(&s.send(s.request(Method::DELETE, &format!("/api/jobs/{l}"))), 409, "conflict");
+    assert_error(
+        &s.send(s.request(Method::DELETE, &format!("/api/jobs/{l}"))),
+        409,
+        "conflict",
+    );
     let events = s.events(l, None).collect_all();
     let last = events.last().unwrap();
-    assert_eq!((last.event.as_str(), &last.data["state"]), ("state", &json!("canceled")));
+    assert_eq!(
+        (last.event.as_str(), &last.data["state"]),
+        ("state", &json!("canceled"))
+    );
 
     // Bad submissions.
     assert_error(&s.post_raw("/api/jobs", "{\"spp\": 4"), 400, "invalid_json");
@@ -156,22 +227,54 @@ fn jobs_endpoints_and_errors() {
         let e = assert_error(&s.post("/api/jobs", &body), 422, code);
         assert_eq!(e["path"], path, "{e}");
     };
-    bad(json!({"scene_name": "cornell", "colour": 1}), "colour", "invalid_field");
+    bad(
+        json!({"scene_name": "cornell", "colour": 1}),
+        "colour",
+        "invalid_field",
+    );
     bad(json!({"scene_name": "nope"}), "scene_name", "invalid_field");
     bad(json!({"spp": 4}), "scene", "invalid_field");
-    bad(json!({"scene_name": "cornell", "integrator": "bdpt2"}), "integrator", "invalid_field");
-    bad(json!({"scene_name": "cornell", "spp": 4, "time_s": 1}), "time_s", "invalid_field");
-    bad(json!({"scene_name": "cornell", "spp": 0}), "spp", "invalid_field");
-    bad(json!({"scene_name": "cornell", "width": 100000}), "width", "invalid_field");
-    bad(json!({"scene_name": "cornell", "tonemap": "filmic"}), "tonemap", "invalid_field");
+    bad(
+        json!({"scene_name": "cornell", "integrator": "bdpt2"}),
+        "integrator",
+        "invalid_field",
+    );
+    bad(
+        json!({"scene_name": "cornell", "spp": 4, "time_s": 1}),
+        "time_s",
+        "invalid_field",
+    );
+    bad(
+        json!({"scene_name": "cornell", "spp": 0}),
+        "spp",
+        "invalid_field",
+    );
+    bad(
+        json!({"scene_name": "cornell", "width": 100000}),
+        "width",
+        "invalid_field",
+    );
+    bad(
+        json!({"scene_name": "cornell", "tonemap": "filmic"}),
+        "tonemap",
+        "invalid_field",
+    );
     let scene = json!({"version": 1, "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0]},
         "materials": {"white": {"type": "diffuse"}},
         "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "glas"}]});
-    bad(json!({"scene": scene}), "scene.objects[0].material", "invalid_scene");
+    bad(
+        json!({"scene": scene}),
+        "scene.objects[0].material",
+        "invalid_scene",
+    );
     assert_error(&s.get("/api/jobs/999"), 404, "not_found");
     assert_error(&s.get("/api/jobs/abc"), 404, "not_found");
     assert_error(&s.get("/api/nothing"), 404, "not_found");
-    assert_error(&s.send(s.request(Method::PUT, &format!("/api/jobs/{q}"))), 405, "method_not_allowed");
+    assert_error(
+        &s.send(s.request(Method::PUT, &format!("/api/jobs/{q}"))),
+        405,
+        "method_not_allowed",
+    );
 
     // ?wait=true returns when the job has ended.
     let (st, waited) = s.post(
@@ -182,7 +285,12 @@ fn jobs_endpoints_and_errors() {
     assert_eq!(waited["progress"]["spp"], 2);
 
     // Metrics.
-    let text = s.request(Method::GET, "/metrics").send().unwrap().text().unwrap();
+    let text = s
+        .request(Method::GET, "/metrics")
+        .send()
+        .unwrap()
+        .text()
+        .unwrap();
     for needle in [
         "candela_jobs{state=\"done\"} 2",
         "candela_jobs{state=\"canceled\"} 1",
@@ -208,28 +316,56 @@ fn limits_give_clear_errors() {
     let dir = scratch("server_api_limits");
     let s = Server::start(
         &dir.join("data"),
-        &["--max-queued", "2", "--max-body-mb", "1", "--max-spp", "5000",
-          "--max-pixels", "10000", "--max-triangles", "30"],
+        &[
+            "--max-queued",
+            "2",
+            "--max-body-mb",
+            "1",
+            "--max-spp",
+            "5000",
+            "--max-pixels",
+            "10000",
+            "--max-triangles",
+            "30",
+        ],
     );
     // 413: a body over 1 MiB (small enough to be sent whole before the server answers).
-    let big = format!("{{\"scene_name\": \"furnace\", \"name\": \"{}\"}}", "a".repeat(1_100_000));
+    let big = format!(
+        "{{\"scene_name\": \"furnace\", \"name\": \"{}\"}}",
+        "a".repeat(1_100_000)
+    );
     assert_error(&s.post_raw("/api/jobs", big), 413, "payload_too_large");
     // 422: spp, pixels, triangles (cornell has 36).
-    let e = assert_error(&s.post("/api/jobs", &json!({"scene_name": "furnace", "spp": 6000})), 422, "invalid_field");
+    let e = assert_error(
+        &s.post("/api/jobs", &json!({"scene_name": "furnace", "spp": 6000})),
+        422,
+        "invalid_field",
+    );
     assert_eq!(e["path"], "spp");
     let e = assert_error(
-        &s.post("/api/jobs", &json!({"scene_name": "furnace", "width": 200, "height": 200})),
+        &s.post(
+            "/api/jobs",
+            &json!({"scene_name": "furnace", "width": 200, "height": 200}),
+        ),
         422,
         "invalid_field",
     );
     assert_eq!(e["path"], "width");
-    let e = assert_error(&s.post("/api/jobs", &json!({"scene_name": "cornell"})), 422, "invalid_scene");
+    let e = assert_error(
+        &s.post("/api/jobs", &json!({"scene_name": "cornell"})),
+        422,
+        "invalid_scene",
+    );
     assert!(e["message"].as_str().unwrap().contains("triangles"), "{e}");
     // 429: two unfinished jobs is the most.
     let job = json!({"scene_name": "furnace", "time_s": 60, "width": 8, "height": 8});
     let a = s.submit(&job)["id"].as_i64().unwrap();
     let b = s.submit(&job)["id"].as_i64().unwrap();
-    let r = s.request(Method::POST, "/api/jobs").json(&job).send().unwrap();
+    let r = s
+        .request(Method::POST, "/api/jobs")
+        .json(&job)
+        .send()
+        .unwrap();
     assert_eq!(r.status().as_u16(), 429);
     assert!(r.headers().contains_key("retry-after"));
     let body: Value = r.json().unwrap();
@@ -255,7 +391,10 @@ fn token_auth_and_bind_refusal() {
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");
-    assert!(err.contains("--token") && err.contains("CANDELA_TOKEN"), "{err}");
+    assert!(
+        err.contains("--token") && err.contains("CANDELA_TOKEN"),
+        "{err}"
+    );
     assert!(!err.contains("panicked"));
 
     // With CANDELA_TOKEN it starts.
@@ -278,16 +417,28 @@ fn token_auth_and_bind_refusal() {
     };
     let r = get("/api/jobs", None);
     assert_eq!(r.status().as_u16(), 401);
-    assert!(r.headers()["www-authenticate"].to_str().unwrap().starts_with("Bearer"));
+    assert!(r.headers()["www-authenticate"]
+        .to_str()
+        .unwrap()
+        .starts_with("Bearer"));
     let body: Value = r.json().unwrap();
     assert_eq!(body["error"]["code"], "unauthorized");
-    assert_eq!(get("/api/jobs", Some("Bearer wrong")).status().as_u16(), 401);
+    assert_eq!(
+        get("/api/jobs", Some("Bearer wrong")).status().as_u16(),
+        401
+    );
     assert_eq!(get("/api/jobs", Some("s3cret")).status().as_u16(), 401);
-    assert_eq!(get("/api/jobs", Some("Bearer s3cret")).status().as_u16(), 200);
+    assert_eq!(
+        get("/api/jobs", Some("Bearer s3cret")).status().as_u16(),
+        200
+    );
     assert_eq!(get("/api/jobs?token=s3cret", None).status().as_u16(), 200);
     assert_eq!(get("/api/scenes", None).status().as_u16(), 401);
     assert_eq!(get("/metrics", None).status().as_u16(), 401);
-    assert_eq!(get("/metrics", Some("Bearer s3cret")).status().as_u16(), 200);
+    assert_eq!(
+        get("/metrics", Some("Bearer s3cret")).status().as_u16(),
+        200
+    );
     assert_eq!(get("/api/health", None).status().as_u16(), 200);
     assert_eq!(get("/", None).status().as_u16(), 200);
     let r = s

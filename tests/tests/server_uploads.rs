@@ -39,7 +39,10 @@ fn finishes(s: &Server, r: (u16, Value)) {
     let done = s.wait_job(id, T, |j| j["state"] != "queued" && j["state"] != "running");
     assert_eq!(done["state"], "done", "{done}");
     assert_eq!(done["progress"]["spp"], 2);
-    let png = s.request(Method::GET, &format!("/api/jobs/{id}/image.png")).send().unwrap();
+    let png = s
+        .request(Method::GET, &format!("/api/jobs/{id}/image.png"))
+        .send()
+        .unwrap();
     assert_eq!(png.status().as_u16(), 200);
 }
 
@@ -50,7 +53,12 @@ fn tar_gz(entries: &[(String, &[u8])]) -> Vec<u8> {
         let mut h = tar::Header::new_gnu();
         h.set_size(bytes.len() as u64);
         h.set_mode(0o644);
-        h.set_entry_type(tar::EntryType::Regular);
+        let dir = name.ends_with('/');
+        h.set_entry_type(if dir {
+            tar::EntryType::Directory
+        } else {
+            tar::EntryType::Regular
+        });
         b.append_data(&mut h, name, *bytes).unwrap();
     }
     b.into_inner().unwrap().finish().unwrap()
@@ -83,16 +91,26 @@ fn uploads_render_and_unsafe_ones_are_refused() {
         .part("job", job_part())
         .part("scene", Part::text(scene.clone()).file_name("scene.json"));
     for (rel, bytes) in &assets {
-        form = form.part(*rel, Part::bytes(bytes.clone()).file_name(rel.rsplit('/').next().unwrap()));
+        form = form.part(
+            *rel,
+            Part::bytes(bytes.clone()).file_name(rel.rsplit('/').next().unwrap()),
+        );
     }
     finishes(&s, upload(&s, form));
 
-    // A .tar.gz of a folder holding scene.json.
-    let mut entries: Vec<(String, &[u8])> = vec![("myscene/scene.json".into(), scene.as_bytes())];
+    // A .tar.gz of a folder holding scene.json (with the "./" entry `tar -C dir .` writes).
+    let mut entries: Vec<(String, &[u8])> = vec![
+        ("./".into(), b""),
+        ("./myscene/".into(), b""),
+        ("myscene/scene.json".into(), scene.as_bytes()),
+    ];
     for (rel, bytes) in &assets {
         entries.push((format!("myscene/{rel}"), bytes));
     }
-    finishes(&s, upload(&s, archive_form(tar_gz(&entries), "myscene.tar.gz")));
+    finishes(
+        &s,
+        upload(&s, archive_form(tar_gz(&entries), "myscene.tar.gz")),
+    );
 
     // A .zip with scene.json at its root.
     let mut entries: Vec<(String, &[u8])> = vec![("scene.json".into(), scene.as_bytes())];
@@ -102,7 +120,9 @@ fn uploads_render_and_unsafe_ones_are_refused() {
     finishes(&s, upload(&s, archive_form(zip(&entries), "scene.zip")));
 
     // Refused: a missing asset (422 with the scene's JSON path).
-    let form = Form::new().part("job", job_part()).part("scene", Part::text(scene.clone()));
+    let form = Form::new()
+        .part("job", job_part())
+        .part("scene", Part::text(scene.clone()));
     let (st, e) = upload(&s, form);
     assert_eq!(st, 422, "{e}");
     assert_eq!(e["error"]["code"], "invalid_scene");
@@ -117,18 +137,35 @@ fn uploads_render_and_unsafe_ones_are_refused() {
     assert!(!dir.join("escape.png").exists() && !dir.join("data/escape.png").exists());
 
     // Refused: archive entries escaping the folder (a zip written by hand, zip-slip style).
-    let evil = zip(&[("scene.json".into(), scene.as_bytes()), ("../../evil.txt".into(), b"x")]);
+    let evil = zip(&[
+        ("scene.json".into(), scene.as_bytes()),
+        ("../../evil.txt".into(), b"x"),
+    ]);
     let (st, e) = upload(&s, archive_form(evil, "evil.zip"));
     assert_eq!(st, 422, "{e}");
     assert_eq!(e["error"]["path"], "archive");
-    assert!(e["error"]["message"].as_str().unwrap().contains("evil.txt"), "{e}");
+    assert!(
+        e["error"]["message"].as_str().unwrap().contains("evil.txt"),
+        "{e}"
+    );
     assert!(!dir.join("evil.txt").exists() && !dir.join("data/evil.txt").exists());
 
     // Refused: no scene.json; not an archive; scene twice; job part with unknown fields.
-    let (st, e) = upload(&s, archive_form(zip(&[("other.json".into(), b"{}")]), "x.zip"));
-    assert_eq!((st, e["error"]["path"].as_str()), (422, Some("archive")), "{e}");
+    let (st, e) = upload(
+        &s,
+        archive_form(zip(&[("other.json".into(), b"{}")]), "x.zip"),
+    );
+    assert_eq!(
+        (st, e["error"]["path"].as_str()),
+        (422, Some("archive")),
+        "{e}"
+    );
     let (st, e) = upload(&s, archive_form(b"just some bytes".to_vec(), "x.tar"));
-    assert_eq!((st, e["error"]["path"].as_str()), (422, Some("archive")), "{e}");
+    assert_eq!(
+        (st, e["error"]["path"].as_str()),
+        (422, Some("archive")),
+        "{e}"
+    );
     let form = archive_form(zip(&[("scene.json".into(), scene.as_bytes())]), "x.zip")
         .part("scene", Part::text(scene.clone()));
     assert_eq!(upload(&s, form).0, 422);
@@ -136,7 +173,11 @@ fn uploads_render_and_unsafe_ones_are_refused() {
         .part("job", Part::text(r#"{"spp": 2, "sppp": 3}"#))
         .part("scene", Part::text(scene.clone()));
     let (st, e) = upload(&s, form);
-    assert_eq!((st, e["error"]["path"].as_str()), (422, Some("sppp")), "{e}");
+    assert_eq!(
+        (st, e["error"]["path"].as_str()),
+        (422, Some("sppp")),
+        "{e}"
+    );
 
     // Nothing was left behind in the upload area, and nothing was written outside data/.
     let tmp: Vec<_> = std::fs::read_dir(dir.join("data/tmp")).unwrap().collect();

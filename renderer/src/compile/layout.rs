@@ -189,6 +189,14 @@ pub struct GpuPush {
 /// `GpuPush::flags` bit: poison every 7th sample (sample index % 7 == 3) with NaN, so tests can
 /// check that such samples are dropped and counted (mirrored in shaders/common/path.glsl).
 pub const PUSH_FLAG_INJECT_NAN: u32 = 1;
+/// `GpuPush::flags` bits of bdpt (mirrored in shaders/bdpt/bdpt.comp): uniform instead of
+/// power-heuristic MIS weights; render only the strategy (s, t) in bits 8–15 (s) and 16–23 (t);
+/// with it, leave that strategy unweighted.
+pub const PUSH_FLAG_BDPT_NO_MIS: u32 = 1 << 1;
+pub const PUSH_FLAG_BDPT_STRATEGY: u32 = 1 << 2;
+pub const PUSH_FLAG_BDPT_UNWEIGHTED: u32 = 1 << 3;
+pub const PUSH_FLAG_BDPT_S_SHIFT: u32 = 8;
+pub const PUSH_FLAG_BDPT_T_SHIFT: u32 = 16;
 
 /// Counters the kernels bump (binding STATS).
 #[repr(C)]

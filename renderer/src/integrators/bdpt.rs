@@ -8,8 +8,8 @@
 //! Each thread owns one pixel and, per sample, traces one camera subpath and one light subpath of
 //! at most max_depth (+1) vertices into fixed-size private arrays, then evaluates every (s, t)
 //! connection. Per-thread state is bounded by the array capacity, which the kernel takes from
-//! max_depth at compile time (`BDPT_DEPTH_CAP`; −1 and values above [`DEPTH_CAP`] are capped
-//! at [`DEPTH_CAP`] segments, so an "unbounded" render does not sample paths longer than that —
+//! max_depth at compile time (`BDPT_DEPTH_CAP`: [`SMALL_DEPTH_CAP`] up to that depth, else
+//! [`DEPTH_CAP`]; −1 and values above [`DEPTH_CAP`] are capped at [`DEPTH_CAP`] segments, so an "unbounded" render does not sample paths longer than that —
 //! with Russian roulette from rr_depth they carry little energy, but a closed white furnace
 //! would lose some). No recursion, one dispatch per pass. A light-vertex cache (Davidovič et
 //! al. 2014) is faster, but shares one buffer of light vertices between pixels and resamples
@@ -35,11 +35,16 @@
 //! path (no delta lights or specular connections).
 
 use super::{BdptOptions, ExtraBuffer, Integrator};
-use crate::compile::layout::{binding, GpuPush};
+use crate::compile::layout::{
+    binding, GpuPush, PUSH_FLAG_BDPT_NO_MIS, PUSH_FLAG_BDPT_STRATEGY, PUSH_FLAG_BDPT_S_SHIFT,
+    PUSH_FLAG_BDPT_T_SHIFT, PUSH_FLAG_BDPT_UNWEIGHTED,
+};
 use crate::gpu::{ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
 
 /// Most segments a bdpt path may have: the private vertex arrays hold 2·DEPTH_CAP + 1 vertices.
 pub const DEPTH_CAP: i32 = 32;
+/// The capacity for max_depth 0..=SMALL_DEPTH_CAP (17 vertices, 1.9 KB per thread).
+pub const SMALL_DEPTH_CAP: i32 = 8;
 
 /// Fractional bits of the fixed-point splats (mirrors SPLAT_FRAC_BITS in shaders/bdpt/splat.glsl).
 const SPLAT_FRAC_BITS: i32 = 20;
@@ -68,13 +73,32 @@ pub fn new(o: &BdptOptions, scene_max_depth: Option<i32>) -> BdptIntegrator {
 }
 
 impl BdptIntegrator {
-    /// The vertex-array capacity the kernel is compiled for, in segments.
+    /// The vertex-array capacity the kernel is compiled for, in segments: [`SMALL_DEPTH_CAP`]
+    /// for the usual depths, so that they all share one kernel (compiling one takes seconds on
+    /// lavapipe), else [`DEPTH_CAP`].
     fn depth_cap(&self) -> i32 {
-        if self.max_depth < 0 {
-            DEPTH_CAP
+        if (0..=SMALL_DEPTH_CAP).contains(&self.max_depth) {
+            SMALL_DEPTH_CAP
         } else {
-            self.max_depth.clamp(1, DEPTH_CAP)
+            DEPTH_CAP
         }
+    }
+
+    /// The options that travel in `GpuPush::flags`.
+    fn flags(&self) -> u32 {
+        let mut f = 0;
+        if !self.mis {
+            f |= PUSH_FLAG_BDPT_NO_MIS;
+        }
+        if let Some([s, t]) = self.strategy {
+            f |= PUSH_FLAG_BDPT_STRATEGY
+                | (s.min(255) << PUSH_FLAG_BDPT_S_SHIFT)
+                | (t.min(255) << PUSH_FLAG_BDPT_T_SHIFT);
+            if !self.weighted {
+                f |= PUSH_FLAG_BDPT_UNWEIGHTED;
+            }
+        }
+        f
     }
 }
 
@@ -97,23 +121,14 @@ impl Integrator for BdptIntegrator {
     ) -> GpuResult<()> {
         push.max_depth = self.max_depth;
         push.rr_depth = self.rr_depth;
+        push.flags |= self.flags();
         rec.dispatch(pipeline, bytemuck::bytes_of(&push), groups, "bdpt pass")
     }
     fn prepare(&mut self, ctx: &GpuContext) {
         self.float_splats = ctx.float_atomics && !self.force_fixed_point;
     }
     fn defines(&self) -> ShaderDefines {
-        let (s, t) = match self.strategy {
-            Some([s, t]) => (s as i32, t as i32),
-            None => (-1, -1),
-        };
-        let mut d: ShaderDefines = vec![
-            ("BDPT_DEPTH_CAP".into(), self.depth_cap().to_string()),
-            ("BDPT_MIS".into(), (self.mis as i32).to_string()),
-            ("BDPT_STRATEGY_S".into(), s.to_string()),
-            ("BDPT_STRATEGY_T".into(), t.to_string()),
-            ("BDPT_WEIGHTED".into(), (self.weighted as i32).to_string()),
-        ];
+        let mut d: ShaderDefines = vec![("BDPT_DEPTH_CAP".into(), self.depth_cap().to_string())];
         if self.float_splats {
             d.push(("BDPT_FLOAT_SPLATS".into(), "1".into()));
         }

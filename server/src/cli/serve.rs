@@ -110,7 +110,9 @@ fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), CliError> {
         ));
     }
     if !(a.max_time.is_finite() && a.max_time > 0.0) {
-        return Err(CliError::input("--max-time: must be a positive number of seconds"));
+        return Err(CliError::input(
+            "--max-time: must be a positive number of seconds",
+        ));
     }
     let mut c = ServerConfig::new(a.data_dir.clone());
     c.token = token;
@@ -122,7 +124,10 @@ fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), CliError> {
     c.pass_target = Duration::from_millis(a.pass_ms.clamp(1, 10_000));
     c.max_active = a.max_active;
     c.limits.max_body_bytes = (a.max_body_mb.clamp(1, 1 << 20) << 20) as usize;
-    c.limits.max_upload_bytes = c.limits.max_upload_bytes.max(c.limits.max_body_bytes as u64);
+    c.limits.max_upload_bytes = c
+        .limits
+        .max_upload_bytes
+        .max(c.limits.max_body_bytes as u64);
     c.limits.max_pixels = a.max_pixels;
     c.limits.max_spp = a.max_spp;
     c.limits.max_time_s = a.max_time;
@@ -187,12 +192,15 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
     }
     let _ = std::fs::remove_dir_all(config.tmp_dir());
     let _ = std::fs::create_dir_all(config.tmp_dir());
-    let store = Store::open(&dir.join("candela.db")).map_err(|e| {
-        CliError::failure(format!("{}: {e}", dir.join("candela.db").display()))
-    })?;
+    let store = Store::open(&dir.join("candela.db"))
+        .map_err(|e| CliError::failure(format!("{}: {e}", dir.join("candela.db").display())))?;
     crate::builtin_scenes::install(&config.builtin_dir())
         .map_err(|e| CliError::failure(format!("writing the built-in scenes: {e}")))?;
-    let (store, shared, config) = (Arc::new(store), Arc::new(Shared::default()), Arc::new(config));
+    let (store, shared, config) = (
+        Arc::new(store),
+        Arc::new(Shared::default()),
+        Arc::new(config),
+    );
 
     // Step 2: the runtime, the socket, the worker.
     let rt = tokio::runtime::Builder::new_multi_thread()

@@ -155,8 +155,12 @@ fn integrator_options(v: Option<&Value>, default: &str) -> Result<IntegratorOpti
                 }
                 _ => {}
             }
-            serde_json::from_value(v.clone())
-                .map_err(|e| ApiError::invalid("integrator", format!("integrator: {}", tidy(&e.to_string()))))?
+            serde_json::from_value(v.clone()).map_err(|e| {
+                ApiError::invalid(
+                    "integrator",
+                    format!("integrator: {}", tidy(&e.to_string())),
+                )
+            })?
         }
         Some(_) => {
             return Err(ApiError::invalid(
@@ -324,13 +328,10 @@ pub fn prepare(
     }
     let name = match req.name {
         Some(n) => check_name(&n)?,
-        None => req
-            .scene_name
-            .clone()
-            .unwrap_or_else(|| match source {
-                SceneSource::Upload => "uploaded scene".into(),
-                _ => "scene".into(),
-            }),
+        None => req.scene_name.clone().unwrap_or_else(|| match source {
+            SceneSource::Upload => "uploaded scene".into(),
+            _ => "scene".into(),
+        }),
     };
     Ok(NewJob {
         name,
@@ -379,7 +380,10 @@ mod tests {
             e => panic!("{e}"),
         }
         let e = parse_request(br#"{"spp": "many"}"#).unwrap_err();
-        assert!(matches!(e, ApiError::Unprocessable { path: Some(ref p), .. } if p == "spp"), "{e}");
+        assert!(
+            matches!(e, ApiError::Unprocessable { path: Some(ref p), .. } if p == "spp"),
+            "{e}"
+        );
         let e = parse_request(b"{\"spp\": 4").unwrap_err();
         assert!(matches!(e, ApiError::BadRequest { .. }), "{e}");
         let e = parse_request(b"[1]").unwrap_err();

@@ -102,11 +102,19 @@ impl Budget<'_> {
 }
 
 /// Streams a part into `path`.
-async fn save_field(field: &mut Field<'_>, path: &Path, budget: &mut Budget<'_>) -> Result<(), ApiError> {
+async fn save_field(
+    field: &mut Field<'_>,
+    path: &Path,
+    budget: &mut Budget<'_>,
+) -> Result<(), ApiError> {
     if let Some(parent) = path.parent() {
-        tokio::fs::create_dir_all(parent).await.map_err(ApiError::internal)?;
+        tokio::fs::create_dir_all(parent)
+            .await
+            .map_err(ApiError::internal)?;
     }
-    let mut file = tokio::fs::File::create(path).await.map_err(ApiError::internal)?;
+    let mut file = tokio::fs::File::create(path)
+        .await
+        .map_err(ApiError::internal)?;
     while let Some(chunk) = field.chunk().await.map_err(multipart_error)? {
         budget.add_bytes(chunk.len() as u64)?;
         file.write_all(&chunk).await.map_err(ApiError::internal)?;
@@ -185,7 +193,8 @@ pub async fn read_multipart(
                 "upload: give the scene inside the archive (scene.json) or as a scene part, not both",
             ));
         }
-        let (limits, files2, budget_used) = (limits.clone(), files.clone(), (budget.files, budget.bytes));
+        let (limits, files2, budget_used) =
+            (limits.clone(), files.clone(), (budget.files, budget.bytes));
         let (json, dir) = tokio::task::spawn_blocking(move || {
             let mut b = Budget {
                 limits: &limits,
@@ -265,9 +274,8 @@ fn find_scene(dir: &Path) -> Result<(String, PathBuf), ApiError> {
             }
         }
     }
-    let bytes = bytes.ok_or_else(|| {
-        ApiError::invalid("archive", "archive: no scene.json at its root")
-    })?;
+    let bytes =
+        bytes.ok_or_else(|| ApiError::invalid("archive", "archive: no scene.json at its root"))?;
     let text = String::from_utf8(bytes)
         .map_err(|_| ApiError::invalid("archive", "archive: scene.json is not UTF-8 text"))?;
     Ok((text, base))
@@ -329,20 +337,33 @@ fn write_entry(
     Ok(())
 }
 
+/// Whether an entry names the archive's root folder itself (`./`).
+fn is_top(name: &str) -> bool {
+    Path::new(name).components().all(|c| c == Component::CurDir)
+}
+
 fn extract_tar(r: impl Read, dest: &Path, budget: &mut Budget<'_>) -> Result<(), ApiError> {
     let mut archive = tar::Archive::new(r);
     for entry in archive.entries().map_err(bad_archive)? {
         let entry = entry.map_err(bad_archive)?;
-        let name = entry.path().map_err(bad_archive)?.to_string_lossy().into_owned();
+        let name = entry
+            .path()
+            .map_err(bad_archive)?
+            .to_string_lossy()
+            .into_owned();
         let kind = entry.header().entry_type();
         if kind.is_symlink() || kind.is_hard_link() {
-            return Err(bad_archive(format!("\"{name}\" is a link; only files and folders are allowed")));
+            return Err(bad_archive(format!(
+                "\"{name}\" is a link; only files and folders are allowed"
+            )));
         }
-        if !(kind.is_file() || kind.is_dir()) {
-            continue; // pax headers and other metadata
+        if !(kind.is_file() || kind.is_dir()) || (kind.is_dir() && is_top(&name)) {
+            continue; // pax headers and other metadata; the archive's own "./"
         }
         let rel = safe_relative(&name).ok_or_else(|| {
-            bad_archive(format!("\"{name}\" is not a relative path inside the archive"))
+            bad_archive(format!(
+                "\"{name}\" is not a relative path inside the archive"
+            ))
         })?;
         if kind.is_dir() {
             std::fs::create_dir_all(dest.join(rel)).map_err(ApiError::internal)?;
@@ -361,13 +382,20 @@ fn extract_zip(file: std::fs::File, dest: &Path, budget: &mut Budget<'_>) -> Res
     for i in 0..zip.len() {
         let entry = zip.by_index(i).map_err(bad_archive)?;
         let name = entry.name().to_string();
+        if entry.is_dir() && is_top(&name) {
+            continue;
+        }
         if entry.is_symlink() {
-            return Err(bad_archive(format!("\"{name}\" is a link; only files and folders are allowed")));
+            return Err(bad_archive(format!(
+                "\"{name}\" is a link; only files and folders are allowed"
+            )));
         }
         let rel = safe_relative(name.trim_end_matches('/'))
             .filter(|_| entry.enclosed_name().is_some())
             .ok_or_else(|| {
-                bad_archive(format!("\"{name}\" is not a relative path inside the archive"))
+                bad_archive(format!(
+                    "\"{name}\" is not a relative path inside the archive"
+                ))
             })?;
         if entry.is_dir() {
             std::fs::create_dir_all(dest.join(rel)).map_err(ApiError::internal)?;
@@ -402,7 +430,15 @@ mod tests {
     fn only_plain_relative_paths() {
         assert_eq!(safe_relative("a/b.png"), Some(PathBuf::from("a/b.png")));
         assert_eq!(safe_relative("./a.obj"), Some(PathBuf::from("a.obj")));
-        for bad in ["", "/etc/passwd", "../x", "a/../../x", "a\\..\\x", ".", "a\0b"] {
+        for bad in [
+            "",
+            "/etc/passwd",
+            "../x",
+            "a/../../x",
+            "a\\..\\x",
+            ".",
+            "a\0b",
+        ] {
             assert_eq!(safe_relative(bad), None, "{bad:?}");
         }
     }

@@ -33,14 +33,23 @@ async fn latest(st: &AppState, id: JobId) -> Result<(JobRecord, Arc<Snapshot>), 
     .await
     .map_err(ApiError::internal)?;
     let (image, bytes) = image.ok_or_else(|| {
-        ApiError::NotFound(format!("job {id} has no image yet (state {})", rec.state.as_str()))
+        ApiError::NotFound(format!(
+            "job {id} has no image yet (state {})",
+            rec.state.as_str()
+        ))
     })?;
     let snap = Snapshot::new(image, spp);
     *snap.exr.lock().unwrap_or_else(|p| p.into_inner()) = Some(bytes);
     Ok((rec, Arc::new(snap)))
 }
 
-fn image_response(content_type: &'static str, id: JobId, ext: &str, spp: u32, body: Vec<u8>) -> Response {
+fn image_response(
+    content_type: &'static str,
+    id: JobId,
+    ext: &str,
+    spp: u32,
+    body: Vec<u8>,
+) -> Response {
     (
         [
             (header::CONTENT_TYPE, content_type.to_string()),
@@ -49,7 +58,10 @@ fn image_response(content_type: &'static str, id: JobId, ext: &str, spp: u32, bo
                 header::CONTENT_DISPOSITION,
                 format!("inline; filename=\"job-{id}.{ext}\""),
             ),
-            (header::HeaderName::from_static("x-candela-spp"), spp.to_string()),
+            (
+                header::HeaderName::from_static("x-candela-spp"),
+                spp.to_string(),
+            ),
         ],
         body,
     )

@@ -187,11 +187,9 @@ pub async fn list(
     }
     let limit = match q.get("limit") {
         None => 1000,
-        Some(l) => l
-            .parse::<usize>()
-            .ok()
-            .filter(|n| *n > 0)
-            .ok_or_else(|| ApiError::bad_request(format!("limit: expected a positive integer, got \"{l}\"")))?,
+        Some(l) => l.parse::<usize>().ok().filter(|n| *n > 0).ok_or_else(|| {
+            ApiError::bad_request(format!("limit: expected a positive integer, got \"{l}\""))
+        })?,
     };
     let mut jobs = Vec::new();
     if states.is_empty() {
@@ -200,7 +198,7 @@ pub async fn list(
         for s in states {
             jobs.extend(st.store.list_jobs(Some(s), limit)?);
         }
-        jobs.sort_by(|a, b| b.id.cmp(&a.id));
+        jobs.sort_by_key(|j| std::cmp::Reverse(j.id));
         jobs.truncate(limit);
     }
     let jobs: Vec<Value> = jobs.iter().map(JobRecord::to_json).collect();
@@ -227,6 +225,10 @@ async fn change_state(
     };
     let rec = st.store.transition(id, to, t)?;
     tracing::info!(job = id, state = to.as_str(), "job {verb}");
+    if to == JobState::Canceled {
+        // A paused job's checkpoint is of no more use (an active one's is removed by the worker).
+        let _ = std::fs::remove_file(JobPaths::new(&st.config.data_dir, id).checkpoint());
+    }
     st.worker.wake();
     Ok(Json(rec.to_json()))
 }
@@ -271,9 +273,12 @@ pub async fn patch(
     let body =
         body.map_err(|e| body_error(e.status(), e.body_text(), st.config.limits.max_body_bytes))?;
     let p: JobPatch = parse_object(&body)?;
-    let priority = p
-        .priority
-        .ok_or_else(|| ApiError::invalid("priority", "priority: missing (the only field PATCH changes)"))?;
+    let priority = p.priority.ok_or_else(|| {
+        ApiError::invalid(
+            "priority",
+            "priority: missing (the only field PATCH changes)",
+        )
+    })?;
     if !(1..=MAX_PRIORITY).contains(&priority) {
         return Err(ApiError::invalid(
             "priority",

@@ -35,7 +35,10 @@ pub async fn health(State(st): State<AppState>) -> Result<Json<Value>, ApiError>
 pub async fn metrics(State(st): State<AppState>) -> Result<Response, ApiError> {
     let jobs = st.store.count_by_state()?;
     Ok((
-        [(header::CONTENT_TYPE, "text/plain; version=0.0.4; charset=utf-8")],
+        [(
+            header::CONTENT_TYPE,
+            "text/plain; version=0.0.4; charset=utf-8",
+        )],
         st.shared.prometheus(&jobs),
     )
         .into_response())

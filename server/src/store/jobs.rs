@@ -82,7 +82,8 @@ impl Store {
         let mut conn = self.conn();
         let tx = conn.transaction()?;
         let now = now_s();
-        let settings = serde_json::to_string(&job.settings).map_err(|e| StoreError::Db(e.to_string()))?;
+        let settings =
+            serde_json::to_string(&job.settings).map_err(|e| StoreError::Db(e.to_string()))?;
         tx.execute(
             "INSERT INTO jobs (name, state, priority, settings, scene, scene_name, source, \
              created_at, updated_at) VALUES (?1, 'queued', ?2, ?3, ?4, ?5, ?6, ?7, ?7)",
@@ -97,7 +98,12 @@ impl Store {
             ],
         )?;
         let id = tx.last_insert_rowid();
-        let event = append_in(&tx, id, "state", &json!({"state": "queued", "previous": null}))?;
+        let event = append_in(
+            &tx,
+            id,
+            "state",
+            &json!({"state": "queued", "previous": null}),
+        )?;
         before_commit(id).map_err(StoreError::Db)?;
         let rec = tx.query_row(
             &format!("SELECT {COLUMNS} FROM jobs WHERE id = ?1"),

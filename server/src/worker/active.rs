@@ -65,9 +65,9 @@ impl ActiveJob {
     /// never past the budget.
     pub fn next_pass_spp(&self, target: Duration) -> u32 {
         let target = match self.settings.budget() {
-            Budget::Time(t) => {
-                target.min(Duration::from_secs_f64((t - self.session.elapsed().as_secs_f64()).max(0.0)))
-            }
+            Budget::Time(t) => target.min(Duration::from_secs_f64(
+                (t - self.session.elapsed().as_secs_f64()).max(0.0),
+            )),
             Budget::Spp(_) => target,
         };
         let n = match self.last_pass {

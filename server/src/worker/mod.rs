@@ -11,6 +11,7 @@
 
 mod active;
 mod checkpoint;
+mod outcome;
 mod scheduler;
 
 use std::collections::BTreeMap;
@@ -21,7 +22,6 @@ use std::time::{Duration, Instant};
 
 use renderer::gpu::{GpuContext, GpuError, GpuOptions};
 use renderer::render::{RenderError, RenderSession};
-use serde_json::json;
 use tracing::{error, info, warn};
 
 use crate::config::ServerConfig;
@@ -78,6 +78,10 @@ pub fn spawn(
                 dirty: true,
                 last_open: None,
                 open_failures: 0,
+                passes: 0,
+                inject_loss_at: std::env::var("CANDELA_TEST_DEVICE_LOSS_AT_PASS")
+                    .ok()
+                    .and_then(|v| v.parse().ok()),
             };
             // A panic outside a pass (which is caught where it happens) restarts the loop with
             // a fresh device rather than ending the thread.
@@ -107,11 +111,18 @@ struct Worker {
     /// The last attempt to create the device, and failures in a row.
     last_open: Option<Instant>,
     open_failures: u32,
+    /// Passes run (or attempted) since start.
+    passes: u64,
+    /// Test hook: pretend the device is lost at this pass (`CANDELA_TEST_DEVICE_LOSS_AT_PASS`).
+    inject_loss_at: Option<u64>,
 }
 
 /// Whether an error means the device itself is in doubt (rebuild it).
 fn is_device_error(e: &RenderError) -> bool {
-    matches!(e, RenderError::Gpu(GpuError::Vk { .. } | GpuError::Other(_)))
+    matches!(
+        e,
+        RenderError::Gpu(GpuError::Vk { .. } | GpuError::Other(_))
+    )
 }
 
 impl Worker {
@@ -345,6 +356,16 @@ impl Worker {
         if job.finished() {
             return self.finish(id);
         }
+        self.passes += 1;
+        if self.inject_loss_at == Some(self.passes) {
+            let e = GpuError::Other(
+                "device lost (injected by CANDELA_TEST_DEVICE_LOSS_AT_PASS)".into(),
+            );
+            return self.render_failed(id, RenderError::Gpu(e), "render pass");
+        }
+        let Some(job) = self.active.get_mut(&id) else {
+            return;
+        };
         let spp = job.next_pass_spp(self.config.pass_target);
         let pixels = job.settings.width as u64 * job.settings.height as u64;
         let result = catch_unwind(AssertUnwindSafe(|| job.session.run_pass(spp)));
@@ -355,10 +376,18 @@ impl Worker {
         };
         job.record_pass(&stats);
         self.sched.charge(id, stats.wall.as_secs_f64());
-        let busy = if stats.gpu.is_zero() { stats.wall } else { stats.gpu };
+        let busy = if stats.gpu.is_zero() {
+            stats.wall
+        } else {
+            stats.gpu
+        };
         use std::sync::atomic::Ordering::Relaxed;
-        self.shared.samples_total.fetch_add(spp as u64 * pixels, Relaxed);
-        self.shared.gpu_busy_ns.fetch_add(busy.as_nanos() as u64, Relaxed);
+        self.shared
+            .samples_total
+            .fetch_add(spp as u64 * pixels, Relaxed);
+        self.shared
+            .gpu_busy_ns
+            .fetch_add(busy.as_nanos() as u64, Relaxed);
         self.shared.passes_total.fetch_add(1, Relaxed);
         if job.finished() {
             return self.finish(id);
@@ -366,7 +395,9 @@ impl Worker {
         if job.snapshot_due(self.config.snapshot_interval) {
             self.snapshot(id);
         }
-        let Some(job) = self.active.get_mut(&id) else { return };
+        let Some(job) = self.active.get_mut(&id) else {
+            return;
+        };
         if job.checkpoint_due(self.config.checkpoint_interval) {
             match job.write_checkpoint() {
                 Ok(p) => {
@@ -374,112 +405,6 @@ impl Worker {
                 }
                 Err(e) => self.checkpoint_failed(id, e),
             }
-        }
-    }
-
-    /// Publishes the current image and a progress + snapshot event.
-    fn snapshot(&mut self, id: JobId) {
-        let Some(job) = self.active.get_mut(&id) else { return };
-        let image = match job.session.image() {
-            Ok(i) => i,
-            Err(e) => return self.render_failed(id, e, "reading the image"),
-        };
-        job.last_snapshot = Some(Instant::now());
-        let spp = job.session.spp();
-        let progress = job.progress_json();
-        let _ = self.store.set_progress(id, &job.session.progress());
-        self.shared.publish(id, image, spp);
-        let _ = self.store.append_event(id, "progress", progress);
-        let _ = self.store.append_event(id, "snapshot", snapshot_data(id, spp));
-    }
-
-    /// The budget is reached: final image on disk, final events, state done.
-    fn finish(&mut self, id: JobId) {
-        self.sched.remove(id);
-        let Some(mut job) = self.active.remove(&id) else { return };
-        let image = match job.session.image() {
-            Ok(i) => i,
-            Err(e) => return self.render_failed(id, e, "reading the final image"),
-        };
-        if let Err(e) = job.write_image(&image) {
-            let msg = match e {
-                CheckpointError::Io(e) => e.to_string(),
-                CheckpointError::Render(e) => e.to_string(),
-            };
-            return self.fail(id, format!("writing the final image: {msg}"));
-        }
-        let stats = job.session.stats();
-        let progress = job.session.progress();
-        let spp = progress.spp;
-        self.shared.publish(id, image, spp);
-        let _ = self.store.append_event(id, "progress", job.progress_json());
-        let _ = self.store.append_event(id, "snapshot", snapshot_data(id, spp));
-        let stats_json = serde_json::to_value(&stats).unwrap_or_default();
-        let t = Transition {
-            verb: "finish",
-            stats: Some(stats_json.clone()),
-            progress: Some(progress),
-            extra_events: vec![("done", json!({"spp": spp, "stats": stats_json}))],
-            ..Default::default()
-        };
-        match self.store.transition(id, JobState::Done, t) {
-            Ok(_) => {
-                info!(job = id, spp, time_s = stats.time_s, "done");
-                let _ = std::fs::remove_file(job.paths.checkpoint());
-            }
-            // Paused at the last moment: keep the checkpoint so a resume ends at once.
-            Err(StoreError::Conflict {
-                state: JobState::Paused,
-                ..
-            }) => {
-                if let Err(e) = job.write_checkpoint() {
-                    self.checkpoint_failed(id, e);
-                }
-            }
-            Err(e) => warn!(job = id, error = %e, "finishing job"),
-        }
-        self.shared.forget(id);
-    }
-
-    /// Fails job `id` with `message` (no effect on the device).
-    fn fail(&mut self, id: JobId, message: String) {
-        self.sched.remove(id);
-        if let Some(job) = self.active.remove(&id) {
-            let _ = std::fs::remove_file(job.paths.checkpoint());
-        }
-        self.shared.forget(id);
-        error!(job = id, error = %message, "job failed");
-        let t = Transition {
-            verb: "fail",
-            error: Some(message.clone()),
-            extra_events: vec![("error", json!({ "message": message }))],
-            ..Default::default()
-        };
-        if let Err(e) = self.store.transition(id, JobState::Failed, t) {
-            warn!(job = id, error = %e, "marking job failed");
-        }
-    }
-
-    /// A renderer error: fail the job; rebuild the device if the error was the device's.
-    fn render_failed(&mut self, id: JobId, e: RenderError, stage: &str) {
-        let device = is_device_error(&e);
-        self.fail(id, format!("{stage}: {e}"));
-        if device {
-            self.reset_device(&format!("{stage}: {e}"));
-        }
-    }
-
-    /// The renderer panicked: fail the job and rebuild the device.
-    fn panicked(&mut self, id: JobId, stage: &str) {
-        self.fail(id, format!("{stage}: internal renderer error (panic)"));
-        self.reset_device(&format!("{stage} panicked"));
-    }
-
-    fn checkpoint_failed(&mut self, id: JobId, e: CheckpointError) {
-        match e {
-            CheckpointError::Render(e) => self.render_failed(id, e, "reading the checkpoint"),
-            // A full disk is not the job's fault: keep rendering, try again next interval.
-            CheckpointError::Io(e) => warn!(job = id, error = %e, "writing checkpoint"),
         }
     }
 
@@ -502,13 +427,4 @@ impl Worker {
         self.sched.clear();
         self.ctx = None;
     }
-}
-
-/// The data of a `snapshot` event.
-fn snapshot_data(id: JobId, spp: u32) -> serde_json::Value {
-    json!({
-        "url": format!("/api/jobs/{id}/image.png?spp={spp}"),
-        "exr_url": format!("/api/jobs/{id}/image.exr?spp={spp}"),
-        "spp": spp,
-    })
 }

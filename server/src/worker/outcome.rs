@@ -1,0 +1,139 @@
+//! What a job's render produces, as seen from the worker: snapshots (image + `progress` and
+//! `snapshot` events), the end (final image on disk, `done` with the stats), and failures
+//! (`error`, and a device rebuild when the device itself is in doubt).
+
+use std::time::Instant;
+
+use renderer::render::RenderError;
+use serde_json::json;
+use tracing::{error, info, warn};
+
+use super::active::CheckpointError;
+use super::{is_device_error, Worker};
+use crate::jobs::model::{JobId, JobState};
+use crate::store::{StoreError, Transition};
+
+impl Worker {
+    /// Publishes the current image and a progress + snapshot event.
+    pub(super) fn snapshot(&mut self, id: JobId) {
+        let Some(job) = self.active.get_mut(&id) else {
+            return;
+        };
+        let image = match job.session.image() {
+            Ok(i) => i,
+            Err(e) => return self.render_failed(id, e, "reading the image"),
+        };
+        job.last_snapshot = Some(Instant::now());
+        let spp = job.session.spp();
+        let progress = job.progress_json();
+        let _ = self.store.set_progress(id, &job.session.progress());
+        self.shared.publish(id, image, spp);
+        let _ = self.store.append_event(id, "progress", progress);
+        let _ = self
+            .store
+            .append_event(id, "snapshot", snapshot_data(id, spp));
+    }
+
+    /// The budget is reached: final image on disk, final events, state done.
+    pub(super) fn finish(&mut self, id: JobId) {
+        self.sched.remove(id);
+        let Some(mut job) = self.active.remove(&id) else {
+            return;
+        };
+        let image = match job.session.image() {
+            Ok(i) => i,
+            Err(e) => return self.render_failed(id, e, "reading the final image"),
+        };
+        if let Err(e) = job.write_image(&image) {
+            let msg = match e {
+                CheckpointError::Io(e) => e.to_string(),
+                CheckpointError::Render(e) => e.to_string(),
+            };
+            return self.fail(id, format!("writing the final image: {msg}"));
+        }
+        let stats = job.session.stats();
+        let progress = job.session.progress();
+        let spp = progress.spp;
+        self.shared.publish(id, image, spp);
+        let _ = self.store.append_event(id, "progress", job.progress_json());
+        let _ = self
+            .store
+            .append_event(id, "snapshot", snapshot_data(id, spp));
+        let stats_json = serde_json::to_value(&stats).unwrap_or_default();
+        let t = Transition {
+            verb: "finish",
+            stats: Some(stats_json.clone()),
+            progress: Some(progress),
+            extra_events: vec![("done", json!({"spp": spp, "stats": stats_json}))],
+            ..Default::default()
+        };
+        match self.store.transition(id, JobState::Done, t) {
+            Ok(_) => {
+                info!(job = id, spp, time_s = stats.time_s, "done");
+                let _ = std::fs::remove_file(job.paths.checkpoint());
+            }
+            // Paused at the last moment: keep the checkpoint so a resume ends at once.
+            Err(StoreError::Conflict {
+                state: JobState::Paused,
+                ..
+            }) => {
+                if let Err(e) = job.write_checkpoint() {
+                    self.checkpoint_failed(id, e);
+                }
+            }
+            Err(e) => warn!(job = id, error = %e, "finishing job"),
+        }
+        self.shared.forget(id);
+    }
+
+    /// Fails job `id` with `message` (no effect on the device).
+    pub(super) fn fail(&mut self, id: JobId, message: String) {
+        self.sched.remove(id);
+        if let Some(job) = self.active.remove(&id) {
+            let _ = std::fs::remove_file(job.paths.checkpoint());
+        }
+        self.shared.forget(id);
+        error!(job = id, error = %message, "job failed");
+        let t = Transition {
+            verb: "fail",
+            error: Some(message.clone()),
+            extra_events: vec![("error", json!({ "message": message }))],
+            ..Default::default()
+        };
+        if let Err(e) = self.store.transition(id, JobState::Failed, t) {
+            warn!(job = id, error = %e, "marking job failed");
+        }
+    }
+
+    /// A renderer error: fail the job; rebuild the device if the error was the device's.
+    pub(super) fn render_failed(&mut self, id: JobId, e: RenderError, stage: &str) {
+        let device = is_device_error(&e);
+        self.fail(id, format!("{stage}: {e}"));
+        if device {
+            self.reset_device(&format!("{stage}: {e}"));
+        }
+    }
+
+    /// The renderer panicked: fail the job and rebuild the device.
+    pub(super) fn panicked(&mut self, id: JobId, stage: &str) {
+        self.fail(id, format!("{stage}: internal renderer error (panic)"));
+        self.reset_device(&format!("{stage} panicked"));
+    }
+
+    pub(super) fn checkpoint_failed(&mut self, id: JobId, e: CheckpointError) {
+        match e {
+            CheckpointError::Render(e) => self.render_failed(id, e, "reading the checkpoint"),
+            // A full disk is not the job's fault: keep rendering, try again next interval.
+            CheckpointError::Io(e) => warn!(job = id, error = %e, "writing checkpoint"),
+        }
+    }
+}
+
+/// The data of a `snapshot` event.
+fn snapshot_data(id: JobId, spp: u32) -> serde_json::Value {
+    json!({
+        "url": format!("/api/jobs/{id}/image.png?spp={spp}"),
+        "exr_url": format!("/api/jobs/{id}/image.exr?spp={spp}"),
+        "spp": spp,
+    })
+}
