@@ -30,7 +30,7 @@ fn options(json: &str) -> IntegratorOptions {
     serde_json::from_str(json).unwrap_or_else(|e| panic!("{json}: {e}"))
 }
 
-/// Renders `scene` with integrator options given as JSON.
+/// Renders `scene` at w×w with integrator options given as JSON.
 fn render_with(scene: &Scene, json: &str, spp: u32, w: u32, seed: u64) -> (Image, RenderStats) {
     let ctx = gpu();
     let compiled = compile(scene, w, w).expect("compile");
@@ -50,10 +50,35 @@ fn blocks(a: &Image, reference: &Image) -> f64 {
 /// Two renders (seeds `seed`, `seed + 1`) as one estimate: their average, and its relative
 /// variance on blocks (relMSE(a, b) / 4: half of it is one render's, halved again by averaging).
 fn estimate(scene: &Scene, json: &str, spp: u32, seed: u64) -> (Image, f64, RenderStats) {
-    let (a, stats) = render_with(scene, json, spp, W, seed);
-    let (b, _) = render_with(scene, json, spp, W, seed + 1);
+    estimate_at(scene, json, spp, W, seed, 0)
+}
+
+/// `estimate` at w×w, with `crop` pixels cut from every side before anything is measured.
+fn estimate_at(
+    scene: &Scene,
+    json: &str,
+    spp: u32,
+    w: u32,
+    seed: u64,
+    crop: u32,
+) -> (Image, f64, RenderStats) {
+    let (a, stats) = render_with(scene, json, spp, w, seed);
+    let (b, _) = render_with(scene, json, spp, w, seed + 1);
+    let (a, b) = (cropped(&a, crop), cropped(&b, crop));
     let noise = blocks(&a, &b) / 4.0;
     (combine(&a, &b, 0.5, 0.5), noise, stats)
+}
+
+/// `img` without `c` pixels on every side.
+fn cropped(img: &Image, c: u32) -> Image {
+    Image::from_fn(img.width - 2 * c, img.height - 2 * c, |x, y| img.get(x + c, y + c))
+}
+
+/// Tolerance for the ratio of two image means: 3%, widened to three standard deviations of the
+/// mean when the estimates are noisier than that (noise: their summed block relative variance,
+/// over the 16 blocks).
+fn mean_tolerance(noise: f64) -> f64 {
+    0.03f64.max(3.0 * (noise / 16.0).sqrt())
 }
 
 /// x·a + y·b, pixel by pixel.
@@ -65,7 +90,7 @@ fn combine(a: &Image, b: &Image, x: f32, y: f32) -> Image {
 }
 
 /// bdpt, nee and (unless the scene has delta lights, which pt cannot hit) pt converge to the
-/// same image: means within 3% of nee's and block relMSE within 3× the expected noise.
+/// same image: means as nee's (`mean_tolerance`) and block relMSE within 3× the expected noise.
 fn agree(name: &str, spp_bdpt: u32, spp_nee: u32, spp_pt: Option<u32>) {
     let scene = load(&format!("{name}.json"));
     let (bdpt, n_bdpt, stats) = estimate(&scene, r#"{"type":"bdpt"}"#, spp_bdpt, 1);
@@ -81,10 +106,11 @@ fn agree(name: &str, spp_bdpt: u32, spp_nee: u32, spp_pt: Option<u32>) {
         n_bdpt + n_nee
     );
     assert_eq!(stats.dropped_samples, 0, "{name}: bdpt dropped samples");
+    let tol = mean_tolerance(n_bdpt + n_nee);
     for c in 0..3 {
         assert!(
-            (mb[c] / mn[c] - 1.0).abs() < 0.03,
-            "{name}: means differ: bdpt {mb:?} nee {mn:?}"
+            (mb[c] / mn[c] - 1.0).abs() < tol,
+            "{name}: means differ by more than {tol:.3}: bdpt {mb:?} nee {mn:?}"
         );
     }
     assert!(
@@ -113,7 +139,7 @@ fn agree(name: &str, spp_bdpt: u32, spp_nee: u32, spp_pt: Option<u32>) {
 
 #[test]
 fn cornell_box_agrees_with_nee_and_pt() {
-    agree("cornell", 64, 256, Some(1024));
+    agree("cornell", 128, 256, Some(1024));
 }
 
 #[test]
@@ -130,7 +156,7 @@ fn tiny_light_in_a_shade_agrees_with_nee_and_pt() {
 /// Thin lens (aperture 0.12, focus 3.5): t = 1 connections sample the lens.
 #[test]
 fn thin_lens_agrees_with_nee_and_pt() {
-    agree("thinlens", 64, 256, Some(1024));
+    agree("thinlens", 128, 256, Some(1024));
 }
 
 #[test]
@@ -138,7 +164,10 @@ fn point_spot_directional_lights_agree_with_nee() {
     agree("lights", 64, 256, None);
 }
 
-/// An independent reference: Mitsuba 3's `path` integrator on the Cornell box.
+/// An independent reference: Mitsuba 3's `path` integrator on the Cornell box. Rendered at 20×20
+/// and compared on the central 16×16: at the film's edge Mitsuba's Gaussian filter renormalises
+/// over samples inside the film only, candela's importance-sampled filter also looks outside, and
+/// at this size the two-pixel border would dominate.
 #[test]
 fn cornell_box_matches_mitsuba() {
     assert!(
@@ -149,16 +178,18 @@ fn cornell_box_matches_mitsuba() {
     let dir = scratch("bdpt_mitsuba_cornell");
     let mi = |seed: u64| {
         let out = dir.join(format!("mitsuba{seed}.exr"));
-        render_mitsuba(&path, &out, 1024, W, W, seed, None).expect("mitsuba render")
+        let img = render_mitsuba(&path, &out, 1024, W + 4, W + 4, seed, None).expect("mitsuba");
+        cropped(&img, 2)
     };
     let (m1, m2) = (mi(1), mi(2));
     let n_mi = blocks(&m1, &m2) / 4.0;
     let mitsuba = combine(&m1, &m2, 0.5, 0.5);
-    let (bdpt, n_bdpt, _) = estimate(&load("cornell.json"), r#"{"type":"bdpt"}"#, 64, 11);
+    let scene = load("cornell.json");
+    let (bdpt, n_bdpt, _) = estimate_at(&scene, r#"{"type":"bdpt"}"#, 96, W + 4, 11, 2);
     let e = blocks(&bdpt, &mitsuba);
     let (mb, mm) = (bdpt.mean(), mitsuba.mean());
     println!(
-        "cornell {W}x{W}: bdpt 2x64 spp vs Mitsuba 3 path 2x1024 spp: 4x4-block relMSE {e:.3e}, \
+        "cornell {W}x{W} (cropped): bdpt 2x96 spp vs Mitsuba 3 path 2x1024 spp: 4x4-block relMSE {e:.3e}, \
          expected noise {:.3e}; means bdpt {mb:.4?} mitsuba {mm:.4?}; relMSE = {REL_MSE_FORMULA}",
         n_bdpt + n_mi
     );
@@ -173,17 +204,17 @@ fn cornell_box_matches_mitsuba() {
 
 /// Veach's pyramid: for paths of k segments, each strategy (s, t) with s + t = k + 1 (all but
 /// (1, 1)) rendered alone, unweighted, is an unbiased estimate of the image made by paths of
-/// exactly k segments (full bdpt at max_depth k minus max_depth k − 1); so is their average.
-/// The Cornell box has no delta lights or specular surfaces, so every strategy can make every
-/// path.
+/// exactly k segments; so is their average. The reference is independent: nee at max_depth k
+/// minus max_depth k − 1. The Cornell box has no delta lights or specular surfaces, so every
+/// strategy can make every path.
 #[test]
 fn each_strategy_alone_is_unbiased() {
     let scene = load("cornell.json");
-    let spp = 128;
-    let full = |d: i32| estimate(&scene, &format!(r#"{{"type":"bdpt","max_depth":{d}}}"#), spp, 21);
-    let mut lower = full(1);
+    let spp = 64;
+    let nee = |d: i32| estimate(&scene, &format!(r#"{{"type":"nee","max_depth":{d}}}"#), 1024, 21);
+    let mut lower = nee(1);
     for k in 2..=3 {
-        let upper = full(k);
+        let upper = nee(k);
         let exact = combine(&upper.0, &lower.0, 1.0, -1.0);
         let n_exact = upper.1 + lower.1;
         let strategies: Vec<(i32, i32)> = (1..=k + 1).map(|t| (k + 1 - t, t)).collect();
@@ -195,14 +226,14 @@ fn each_strategy_alone_is_unbiased() {
             let (img, n, _) = estimate(&scene, &json, spp, 31 + 2 * t as u64);
             let e = blocks(&img, &exact);
             println!(
-                "k = {k}: strategy ({s},{t}) unweighted {spp} spp x2: 4x4-block relMSE {e:.3e} \
-                 against exactly-{k} bdpt, expected noise {:.3e}; means {:.4?} vs {:.4?}",
+                "k = {k}: strategy ({s},{t}) alone, unweighted, 2x{spp} spp: 4x4-block relMSE \
+                 {e:.3e} against exactly-{k} nee, expected noise {:.3e}; means {:.4?} vs {:.4?}",
                 n + n_exact,
                 img.mean(),
                 exact.mean()
             );
             assert!(
-                e < 3.0 * (n + n_exact) + 2e-4,
+                e < 3.0 * (n + n_exact) + 1e-4,
                 "k = {k}, ({s},{t}): {e:.3e} vs noise {:.3e}",
                 n + n_exact
             );
