@@ -5,10 +5,12 @@
 //! add up to the full image, the white furnace is exactly 1, and its film (light-tracing splats)
 //! survives pass splits and checkpoints.
 //!
-//! Noise: for two renders a, b of one integrator with different seeds, relMSE(a, b) ≈ 2σ²
-//! (σ² each render's relative variance), so σ² ≈ relMSE(a, b) / 2; two independent estimates of
+//! Noise: every estimate is the average of four renders with different seeds, and their spread
+//! gives its own relative variance σ² on 4×4 blocks (`Estimate`); two independent estimates of
 //! one image are then expected at relMSE σ₁² + σ₂². Every threshold below is 3× that plus a small
-//! floor; relMSE is `REL_MSE_FORMULA` on 4×4 blocks. Images are tiny (lavapipe is a CPU).
+//! floor; relMSE is `REL_MSE_FORMULA` on 4×4 blocks. Means are compared over the pixels that do
+//! not see an emitter directly, within 1% plus three standard errors. Images are tiny (lavapipe is
+//! a CPU).
 
 use candela_tests::{gpu, mitsuba_available, render_mitsuba, scene_path, scratch};
 use renderer::compile::compile;
@@ -30,10 +32,16 @@ fn options(json: &str) -> IntegratorOptions {
     serde_json::from_str(json).unwrap_or_else(|e| panic!("{json}: {e}"))
 }
 
-/// Renders `scene` at w×w with integrator options given as JSON.
-fn render_with(scene: &Scene, json: &str, spp: u32, w: u32, seed: u64) -> (Image, RenderStats) {
+/// Renders `scene` on a film of `size` pixels with integrator options given as JSON.
+fn render_with(
+    scene: &Scene,
+    json: &str,
+    spp: u32,
+    size: (u32, u32),
+    seed: u64,
+) -> (Image, RenderStats) {
     let ctx = gpu();
-    let compiled = compile(scene, w, w).expect("compile");
+    let compiled = compile(scene, size.0, size.1).expect("compile");
     let o = options(json);
     let mut s =
         RenderSession::new(&ctx, &compiled, &o, scene.render.max_depth, seed).expect("session");
@@ -47,38 +55,135 @@ fn blocks(a: &Image, reference: &Image) -> f64 {
     rel_mse(&downsample_box(a, 4), &downsample_box(reference, 4)).unwrap()
 }
 
-/// Two renders (seeds `seed`, `seed + 1`) as one estimate: their average, and its relative
-/// variance on blocks (relMSE(a, b) / 4: half of it is one render's, halved again by averaging).
-fn estimate(scene: &Scene, json: &str, spp: u32, seed: u64) -> (Image, f64, RenderStats) {
-    estimate_at(scene, json, spp, W, seed, 0)
+/// One estimate of an image from four renders with different seeds: their average, and from
+/// their spread the estimate's own relative variance on 4×4 blocks (per block and channel the
+/// sample variance of the four over 4, divided by (x̄² + 0.01) as `REL_MSE_FORMULA` does, then
+/// averaged), so that two independent estimates are expected at relMSE noise₁ + noise₂.
+struct Estimate {
+    img: Image,
+    parts: Vec<Image>,
+    noise: f64,
+    stats: Option<RenderStats>,
 }
 
-/// `estimate` at w×w, with `crop` pixels cut from every side before anything is measured.
+const PARTS: u32 = 4;
+
+fn estimate(scene: &Scene, json: &str, spp: u32, seed: u64) -> Estimate {
+    estimate_at(scene, json, spp, (W, W), seed, 0)
+}
+
+/// `estimate` of `spp` samples per pixel in all on a film of `size`, with `crop` pixels cut from
+/// every side before anything is measured.
 fn estimate_at(
     scene: &Scene,
     json: &str,
     spp: u32,
-    w: u32,
+    size: (u32, u32),
     seed: u64,
     crop: u32,
-) -> (Image, f64, RenderStats) {
-    let (a, stats) = render_with(scene, json, spp, w, seed);
-    let (b, _) = render_with(scene, json, spp, w, seed + 1);
-    let (a, b) = (cropped(&a, crop), cropped(&b, crop));
-    let noise = blocks(&a, &b) / 4.0;
-    (combine(&a, &b, 0.5, 0.5), noise, stats)
+) -> Estimate {
+    let mut parts = Vec::new();
+    let mut stats = None;
+    for i in 0..PARTS as u64 {
+        let (img, st) = render_with(scene, json, spp.div_ceil(PARTS), size, seed + 1000 * i);
+        parts.push(cropped(&img, crop));
+        stats = Some(st); // the last: its kernel was compiled by the first
+    }
+    from_parts(parts, stats)
+}
+
+/// The estimate made of renders with different seeds.
+fn from_parts(parts: Vec<Image>, stats: Option<RenderStats>) -> Estimate {
+    let n = parts.len() as f64;
+    let img = Image::from_fn(parts[0].width, parts[0].height, |x, y| {
+        let mut p = [0f32; 3];
+        for part in &parts {
+            for (acc, v) in p.iter_mut().zip(part.get(x, y)) {
+                *acc += v / n as f32;
+            }
+        }
+        p
+    });
+    let mean_b = downsample_box(&img, 4);
+    let parts_b: Vec<Image> = parts.iter().map(|p| downsample_box(p, 4)).collect();
+    let (mut sum, mut count) = (0.0, 0usize);
+    for (i, m) in mean_b.pixels.iter().enumerate() {
+        for (c, &mc) in m.iter().enumerate() {
+            let var = parts_b
+                .iter()
+                .map(|p| (p.pixels[i][c] as f64 - mc as f64).powi(2))
+                .sum::<f64>()
+                / (n - 1.0);
+            sum += var / n / ((mc as f64).powi(2) + 0.01);
+            count += 1;
+        }
+    }
+    Estimate {
+        img,
+        parts,
+        noise: sum / count as f64,
+        stats,
+    }
+}
+
+/// Pixels of `reference` below 1 in every channel: the image without the emitters seen directly,
+/// whose few, very bright pixels would otherwise dominate the means with the noise of where the
+/// camera rays land (shared by every integrator and tested elsewhere).
+fn dim_pixels(reference: &Image) -> Vec<bool> {
+    reference
+        .pixels
+        .iter()
+        .map(|p| p.iter().all(|&v| v < 1.0))
+        .collect()
+}
+
+/// Mean of `e` over the pixels in `mask`, per channel, with its standard error from the parts.
+fn masked_mean(e: &Estimate, mask: &[bool]) -> ([f64; 3], [f64; 3]) {
+    let mean_of = |img: &Image| {
+        let mut m = [0f64; 3];
+        let n = mask.iter().filter(|&&k| k).count().max(1) as f64;
+        for (p, _) in img.pixels.iter().zip(mask).filter(|(_, &k)| k) {
+            for c in 0..3 {
+                m[c] += p[c] as f64 / n;
+            }
+        }
+        m
+    };
+    let m = mean_of(&e.img);
+    let parts: Vec<[f64; 3]> = e.parts.iter().map(mean_of).collect();
+    let se = [0, 1, 2].map(|c| {
+        let var = parts.iter().map(|p| (p[c] - m[c]).powi(2)).sum::<f64>() / (PARTS as f64 - 1.0);
+        (var / PARTS as f64).sqrt()
+    });
+    (m, se)
+}
+
+/// Asserts that `a` and the reference `b` have the same mean over `b`'s dim pixels: within 1%
+/// plus three standard errors of the difference. Returns a description for the output.
+fn assert_means(what: &str, a: &Estimate, b: &Estimate) -> String {
+    let mask = dim_pixels(&b.img);
+    let (ma, sa) = masked_mean(a, &mask);
+    let (mb, sb) = masked_mean(b, &mask);
+    for c in 0..3 {
+        let tol = 0.01 * mb[c] + 3.0 * (sa[c] * sa[c] + sb[c] * sb[c]).sqrt();
+        assert!(
+            (ma[c] - mb[c]).abs() < tol,
+            "{what}: means over the dim pixels differ: {ma:?} ± {sa:?} vs {mb:?} ± {sb:?}"
+        );
+    }
+    format!(
+        "means over {} dim pixels {ma:.4?} vs {mb:.4?} (standard errors {:.1e}, {:.1e})",
+        mask.iter().filter(|&&k| k).count(),
+        sa[1],
+        sb[1]
+    )
 }
 
 /// `img` without `c` pixels on every side.
 fn cropped(img: &Image, c: u32) -> Image {
-    Image::from_fn(img.width - 2 * c, img.height - 2 * c, |x, y| img.get(x + c, y + c))
-}
-
-/// Tolerance for the ratio of two image means: 3%, widened to three standard deviations of the
-/// mean when the estimates are noisier than that (noise: their summed block relative variance,
-/// over the 16 blocks).
-fn mean_tolerance(noise: f64) -> f64 {
-    0.03f64.max(3.0 * (noise / 16.0).sqrt())
+    Image::from_fn(img.width - 2 * c, img.height - 2 * c, |x, y| {
+        img.get(x + c, y + c)
+    })
 }
 
 /// x·a + y·b, pixel by pixel.
@@ -90,78 +195,78 @@ fn combine(a: &Image, b: &Image, x: f32, y: f32) -> Image {
 }
 
 /// bdpt, nee and (unless the scene has delta lights, which pt cannot hit) pt converge to the
-/// same image: means as nee's (`mean_tolerance`) and block relMSE within 3× the expected noise.
+/// same image: block relMSE within 3× the expected noise, and the same means (`assert_means`).
 fn agree(name: &str, spp_bdpt: u32, spp_nee: u32, spp_pt: Option<u32>) {
+    agree_on(name, (W, W), spp_bdpt, spp_nee, spp_pt)
+}
+
+/// `agree` on a film of `size` pixels.
+fn agree_on(name: &str, size: (u32, u32), spp_bdpt: u32, spp_nee: u32, spp_pt: Option<u32>) {
     let scene = load(&format!("{name}.json"));
-    let (bdpt, n_bdpt, stats) = estimate(&scene, r#"{"type":"bdpt"}"#, spp_bdpt, 1);
-    let (nee, n_nee, _) = estimate(&scene, r#"{"type":"nee"}"#, spp_nee, 3);
-    let e = blocks(&bdpt, &nee);
-    let (mb, mn) = (bdpt.mean(), nee.mean());
+    let (w, h) = size;
+    let bdpt = estimate_at(&scene, r#"{"type":"bdpt"}"#, spp_bdpt, size, 1, 0);
+    let nee = estimate_at(&scene, r#"{"type":"nee"}"#, spp_nee, size, 2, 0);
+    let e = blocks(&bdpt.img, &nee.img);
+    let expected = bdpt.noise + nee.noise;
+    let stats = bdpt.stats.as_ref().expect("stats");
     println!(
-        "{name} {W}x{W}: bdpt {spp_bdpt} spp ({:.3} Msamples/s, {} dropped) vs nee {spp_nee} spp: \
-         4x4-block relMSE {e:.3e}, expected noise {:.3e} (bdpt {n_bdpt:.3e}, nee {n_nee:.3e}); \
-         means bdpt {mb:.4?} nee {mn:.4?}",
+        "{name} {w}x{h}: bdpt {spp_bdpt} spp ({:.3} Msamples/s) vs nee {spp_nee} spp: 4x4-block \
+         relMSE {e:.3e}, expected noise {expected:.3e} (bdpt {:.3e}, nee {:.3e}); {}",
         stats.msamples_per_s,
-        stats.dropped_samples,
-        n_bdpt + n_nee
+        bdpt.noise,
+        nee.noise,
+        assert_means(&format!("{name}: bdpt vs nee"), &bdpt, &nee)
     );
     assert_eq!(stats.dropped_samples, 0, "{name}: bdpt dropped samples");
-    let tol = mean_tolerance(n_bdpt + n_nee);
-    for c in 0..3 {
-        assert!(
-            (mb[c] / mn[c] - 1.0).abs() < tol,
-            "{name}: means differ by more than {tol:.3}: bdpt {mb:?} nee {mn:?}"
-        );
-    }
     assert!(
-        e < 3.0 * (n_bdpt + n_nee) + 1e-4,
-        "{name}: bdpt vs nee {e:.3e}, noise {:.3e}",
-        n_bdpt + n_nee
+        e < 3.0 * expected + 1e-4,
+        "{name}: bdpt vs nee {e:.3e}, noise {expected:.3e}"
     );
     let Some(spp_pt) = spp_pt else {
         println!("{name}: pt skipped: it cannot reach point, spot or directional lights");
         return;
     };
-    let (pt, n_pt, _) = estimate(&scene, r#"{"type":"pt"}"#, spp_pt, 5);
-    let e = blocks(&bdpt, &pt);
+    let pt = estimate_at(&scene, r#"{"type":"pt"}"#, spp_pt, size, 3, 0);
+    let e = blocks(&bdpt.img, &pt.img);
+    let expected = bdpt.noise + pt.noise;
     println!(
-        "{name} {W}x{W}: bdpt vs pt {spp_pt} spp: 4x4-block relMSE {e:.3e}, expected noise {:.3e} \
-         (pt {n_pt:.3e}); mean pt {:.4?}",
-        n_bdpt + n_pt,
-        pt.mean()
+        "{name} {w}x{h}: bdpt vs pt {spp_pt} spp: 4x4-block relMSE {e:.3e}, expected noise \
+         {expected:.3e} (pt {:.3e}); {}",
+        pt.noise,
+        assert_means(&format!("{name}: bdpt vs pt"), &bdpt, &pt)
     );
     assert!(
-        e < 3.0 * (n_bdpt + n_pt) + 1e-4,
-        "{name}: bdpt vs pt {e:.3e}, noise {:.3e}",
-        n_bdpt + n_pt
+        e < 3.0 * expected + 1e-4,
+        "{name}: bdpt vs pt {e:.3e}, noise {expected:.3e}"
     );
 }
 
 #[test]
 fn cornell_box_agrees_with_nee_and_pt() {
-    agree("cornell", 128, 256, Some(1024));
+    agree("cornell", 256, 512, Some(2048));
 }
 
 #[test]
 fn mirror_and_glass_agree_with_nee_and_pt() {
-    agree("mirror_glass", 64, 256, Some(1024));
+    agree("mirror_glass", 128, 512, Some(2048));
 }
 
 /// The hard case: a tiny sphere light inside an open-bottom lamp shade.
 #[test]
 fn tiny_light_in_a_shade_agrees_with_nee_and_pt() {
-    agree("shade", 32, 256, Some(1024));
+    agree("shade", 64, 512, Some(2048));
 }
 
 /// Thin lens (aperture 0.12, focus 3.5): t = 1 connections sample the lens.
 #[test]
 fn thin_lens_agrees_with_nee_and_pt() {
-    agree("thinlens", 128, 256, Some(1024));
+    agree("thinlens", 256, 512, Some(2048));
 }
 
+/// Also a film of another aspect (3:2): light tracing maps points to pixels itself.
 #[test]
 fn point_spot_directional_lights_agree_with_nee() {
-    agree("lights", 64, 256, None);
+    agree_on("lights", (24, 16), 128, 512, None);
 }
 
 /// An independent reference: Mitsuba 3's `path` integrator on the Cornell box. Rendered at 20×20
@@ -178,28 +283,22 @@ fn cornell_box_matches_mitsuba() {
     let dir = scratch("bdpt_mitsuba_cornell");
     let mi = |seed: u64| {
         let out = dir.join(format!("mitsuba{seed}.exr"));
-        let img = render_mitsuba(&path, &out, 1024, W + 4, W + 4, seed, None).expect("mitsuba");
+        let img = render_mitsuba(&path, &out, 512, W + 4, W + 4, seed, None).expect("mitsuba");
         cropped(&img, 2)
     };
-    let (m1, m2) = (mi(1), mi(2));
-    let n_mi = blocks(&m1, &m2) / 4.0;
-    let mitsuba = combine(&m1, &m2, 0.5, 0.5);
+    let mitsuba = from_parts((1..=PARTS as u64).map(mi).collect(), None);
     let scene = load("cornell.json");
-    let (bdpt, n_bdpt, _) = estimate_at(&scene, r#"{"type":"bdpt"}"#, 96, W + 4, 11, 2);
-    let e = blocks(&bdpt, &mitsuba);
-    let (mb, mm) = (bdpt.mean(), mitsuba.mean());
+    let bdpt = estimate_at(&scene, r#"{"type":"bdpt"}"#, 256, (W + 4, W + 4), 11, 2);
+    let e = blocks(&bdpt.img, &mitsuba.img);
+    let expected = bdpt.noise + mitsuba.noise;
     println!(
-        "cornell {W}x{W} (cropped): bdpt 2x96 spp vs Mitsuba 3 path 2x1024 spp: 4x4-block relMSE {e:.3e}, \
-         expected noise {:.3e}; means bdpt {mb:.4?} mitsuba {mm:.4?}; relMSE = {REL_MSE_FORMULA}",
-        n_bdpt + n_mi
+        "cornell {W}x{W} (cropped from {}x{}): bdpt 256 spp vs Mitsuba 3 path 4x512 spp: \
+         4x4-block relMSE {e:.3e}, expected noise {expected:.3e}; {}; relMSE = {REL_MSE_FORMULA}",
+        W + 4,
+        W + 4,
+        assert_means("bdpt vs Mitsuba", &bdpt, &mitsuba)
     );
-    for c in 0..3 {
-        assert!(
-            (mb[c] / mm[c] - 1.0).abs() < 0.02,
-            "means differ: bdpt {mb:?} mitsuba {mm:?}"
-        );
-    }
-    assert!(e < 3.0 * (n_bdpt + n_mi) + 2e-4, "bdpt vs Mitsuba {e:.3e}");
+    assert!(e < 3.0 * expected + 1e-4, "bdpt vs Mitsuba {e:.3e}");
 }
 
 /// Veach's pyramid: for paths of k segments, each strategy (s, t) with s + t = k + 1 (all but
@@ -210,23 +309,30 @@ fn cornell_box_matches_mitsuba() {
 #[test]
 fn each_strategy_alone_is_unbiased() {
     let scene = load("cornell.json");
-    let spp = 64;
-    let nee = |d: i32| estimate(&scene, &format!(r#"{{"type":"nee","max_depth":{d}}}"#), 1024, 21);
+    let spp = 128;
+    let nee = |d: i32| {
+        estimate(
+            &scene,
+            &format!(r#"{{"type":"nee","max_depth":{d}}}"#),
+            1024,
+            21,
+        )
+    };
     let mut lower = nee(1);
     for k in 2..=3 {
         let upper = nee(k);
-        let exact = combine(&upper.0, &lower.0, 1.0, -1.0);
-        let n_exact = upper.1 + lower.1;
+        let exact = combine(&upper.img, &lower.img, 1.0, -1.0);
+        let n_exact = upper.noise + lower.noise;
         let strategies: Vec<(i32, i32)> = (1..=k + 1).map(|t| (k + 1 - t, t)).collect();
         let (mut sum, mut n_sum) = (Image::new(W, W), 0.0);
         for &(s, t) in &strategies {
             let json = format!(
                 r#"{{"type":"bdpt","max_depth":{k},"mis":false,"strategy":[{s},{t}],"weighted":false}}"#
             );
-            let (img, n, _) = estimate(&scene, &json, spp, 31 + 2 * t as u64);
+            let Estimate { img, noise: n, .. } = estimate(&scene, &json, spp, 31 + t as u64);
             let e = blocks(&img, &exact);
             println!(
-                "k = {k}: strategy ({s},{t}) alone, unweighted, 2x{spp} spp: 4x4-block relMSE \
+                "k = {k}: strategy ({s},{t}) alone, unweighted, {spp} spp: 4x4-block relMSE \
                  {e:.3e} against exactly-{k} nee, expected noise {:.3e}; means {:.4?} vs {:.4?}",
                 n + n_exact,
                 img.mean(),
@@ -251,7 +357,10 @@ fn each_strategy_alone_is_unbiased() {
             average.mean(),
             exact.mean()
         );
-        assert!(e < 3.0 * (n_avg + n_exact) + 1e-4, "k = {k}: average {e:.3e}");
+        assert!(
+            e < 3.0 * (n_avg + n_exact) + 1e-4,
+            "k = {k}: average {e:.3e}"
+        );
         lower = upper;
     }
 }
@@ -262,7 +371,7 @@ fn each_strategy_alone_is_unbiased() {
 fn weighted_strategies_add_up_to_the_full_image() {
     let scene = load("cornell.json");
     let fixed = r#""fixed_point_splats":true"#;
-    let img = |json: String| render_with(&scene, &json, 8, W, 7).0;
+    let img = |json: String| render_with(&scene, &json, 8, (W, W), 7).0;
     let full = combine(
         &img(format!(r#"{{"type":"bdpt","max_depth":3,{fixed}}}"#)),
         &img(format!(r#"{{"type":"bdpt","max_depth":2,{fixed}}}"#)),
@@ -295,9 +404,12 @@ fn weighted_strategies_add_up_to_the_full_image() {
 /// every strategy, at unbounded depth.
 #[test]
 fn white_furnace_is_exactly_one() {
-    let (img, stats) = render_with(&load("furnace.json"), r#"{"type":"bdpt"}"#, 32, W, 1);
+    let (img, stats) = render_with(&load("furnace.json"), r#"{"type":"bdpt"}"#, 32, (W, W), 1);
     let m = img.mean();
-    println!("furnace bdpt: mean {m:?}, {} dropped", stats.dropped_samples);
+    println!(
+        "furnace bdpt: mean {m:?}, {} dropped",
+        stats.dropped_samples
+    );
     for c in m {
         assert!((c - 1.0).abs() < 5e-3, "furnace mean {m:?}");
     }
@@ -331,10 +443,20 @@ fn pass_split_and_checkpoint() {
         let (a, b) = (one.image().unwrap(), many.image().unwrap());
         let (acc_a, acc_b) = (one.accumulation().unwrap(), many.accumulation().unwrap());
         assert_eq!(acc_a.len(), one.accumulation_len());
-        assert_eq!(acc_a.len(), n * if exact || !ctx.float_atomics { 3 } else { 2 });
-        assert_eq!(acc_a[..n], acc_b[..n], "{json}: camera-side accumulation changed");
+        assert_eq!(
+            acc_a.len(),
+            n * if exact || !ctx.float_atomics { 3 } else { 2 }
+        );
+        assert_eq!(
+            acc_a[..n],
+            acc_b[..n],
+            "{json}: camera-side accumulation changed"
+        );
         let e = rel_mse(&a, &b).unwrap();
-        println!("{json}: pass split relMSE {e:.2e} (float atomics on device: {})", ctx.float_atomics);
+        println!(
+            "{json}: pass split relMSE {e:.2e} (float atomics on device: {})",
+            ctx.float_atomics
+        );
         if exact {
             assert_eq!(a.pixels, b.pixels, "{json}: pass split changed the image");
         } else {
@@ -357,7 +479,10 @@ fn pass_split_and_checkpoint() {
         } else {
             assert!(rel_mse(&r, &a).unwrap() < 1e-10, "{json}: checkpoint");
         }
-        assert!(resumed.restore(&acc[..n], progress).is_err(), "short checkpoint accepted");
+        assert!(
+            resumed.restore(&acc[..n], progress).is_err(),
+            "short checkpoint accepted"
+        );
     }
     // Float and fixed-point splats: the same estimate to rounding.
     let mut f = session(r#"{"type":"bdpt"}"#, 5);
@@ -367,4 +492,39 @@ fn pass_split_and_checkpoint() {
     let e = rel_mse(&f.image().unwrap(), &x.image().unwrap()).unwrap();
     println!("float vs fixed-point splats: relMSE {e:.2e}");
     assert!(e < 1e-9, "splat encodings differ: {e}");
+}
+
+/// Not run in CI (`cargo test -p candela-tests --test bdpt -- --ignored`): pt, nee and bdpt on
+/// the shade scene at 64×64 for the same wall time each (CANDELA_EQUAL_TIME_S, default 60 s) on
+/// this machine's device, against a long reference: CANDELA_SHADE_REFERENCE, an EXR of the scene
+/// at 512×512 (e.g. `candela render scenes/shade.json --integrator bdpt --width 512 --height 512
+/// --time 200 -o shade_ref.exr` on a GPU), box-averaged 8×8 down to 64×64 — exact, since the
+/// scene's pixel filter is the box.
+#[test]
+#[ignore]
+fn shade_equal_time_comparison() {
+    let Ok(reference) = std::env::var("CANDELA_SHADE_REFERENCE") else {
+        panic!("set CANDELA_SHADE_REFERENCE to a 512x512 EXR of scenes/shade.json");
+    };
+    let reference = downsample_box(&renderer::film::read_exr(reference.as_ref()).unwrap(), 8);
+    let seconds: f64 = std::env::var("CANDELA_EQUAL_TIME_S")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(60.0);
+    let scene = load("shade.json");
+    let compiled = compile(&scene, 64, 64).unwrap();
+    let ctx = gpu();
+    for name in ["pt", "nee", "bdpt"] {
+        let o = IntegratorOptions::from_name(name).unwrap();
+        let mut s = RenderSession::new(&ctx, &compiled, &o, scene.render.max_depth, 5).unwrap();
+        s.run_pass(1).unwrap(); // compile the kernel outside the timed budget
+        let mut s = RenderSession::new(&ctx, &compiled, &o, scene.render.max_depth, 5).unwrap();
+        let (img, stats) = render(&mut s, Budget::Time(seconds)).unwrap();
+        println!(
+            "shade 64x64, {seconds} s on {}: {name} {} spp, relMSE {:.3e} against the reference",
+            stats.device.name,
+            stats.spp,
+            rel_mse(&img, &reference).unwrap()
+        );
+    }
 }

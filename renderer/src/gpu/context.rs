@@ -294,8 +294,8 @@ impl GpuContext {
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
         // Float atomics (optional): the extension must be present and the feature reported.
         // SAFETY: valid physical device.
-        let device_exts = unsafe { instance.enumerate_device_extension_properties(physical) }
-            .unwrap_or_default();
+        let device_exts =
+            unsafe { instance.enumerate_device_extension_properties(physical) }.unwrap_or_default();
         let has_atomic_float_ext = device_exts.iter().any(|e| {
             e.extension_name_as_c_str()
                 .map(|n| n == ash::ext::shader_atomic_float::NAME)

@@ -5,16 +5,18 @@
 //! Kernel: shaders/bdpt/bdpt.comp (vertex.glsl, subpath.glsl, connect.glsl, splat.glsl).
 //!
 //! # GPU design: per-pixel light subpaths
-//! Each thread owns one pixel and, per sample, traces one camera subpath and one light subpath of
-//! at most max_depth (+1) vertices into fixed-size private arrays, then evaluates every (s, t)
-//! connection. Per-thread state is bounded by the array capacity, which the kernel takes from
-//! max_depth at compile time (`BDPT_DEPTH_CAP`: [`SMALL_DEPTH_CAP`] up to that depth, else
-//! [`DEPTH_CAP`]; −1 and values above [`DEPTH_CAP`] are capped at [`DEPTH_CAP`] segments, so an "unbounded" render does not sample paths longer than that —
-//! with Russian roulette from rr_depth they carry little energy, but a closed white furnace
-//! would lose some). No recursion, one dispatch per pass. A light-vertex cache (Davidovič et
-//! al. 2014) is faster, but shares one buffer of light vertices between pixels and resamples
-//! connections; the per-pixel design reproduces pbrt's estimator strategy by strategy, which is
-//! what the tests verify. It is the reference the faster design can be checked against.
+//! Each thread owns one pixel and, per sample, traces one camera subpath (at most max_depth + 1
+//! vertices) and one light subpath (at most max_depth) into a fixed-size private array, then
+//! evaluates every (s, t) connection: no recursion, no shared state, one dispatch per pass.
+//! Per-thread state is bounded by the array's capacity, compiled in as `BDPT_DEPTH_CAP`:
+//! [`SMALL_DEPTH_CAP`] segments for max_depth up to that (one kernel for the usual depths), else
+//! [`DEPTH_CAP`]. max_depth −1 and larger values are capped at [`DEPTH_CAP`] segments, so an
+//! "unbounded" render does not sample longer paths; with Russian roulette from rr_depth they
+//! carry little energy, but a closed white furnace would lose some.
+//! Why not a light-vertex cache (Davidovič et al. 2014, faster): it shares one buffer of light
+//! vertices between pixels, needs a second dispatch and resamples connections. The per-pixel
+//! design is pbrt's estimator strategy by strategy, which the tests check one by one, so it is
+//! the reference that a faster design can be checked against.
 //!
 //! # The film
 //! Strategies with t ≥ 2 belong to the thread's pixel and accumulate in ACCUM like pt/nee's
@@ -41,8 +43,9 @@ use crate::compile::layout::{
 };
 use crate::gpu::{ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
 
-/// Most segments a bdpt path may have: the private vertex arrays hold 2·DEPTH_CAP + 1 vertices.
-pub const DEPTH_CAP: i32 = 32;
+/// Most segments a bdpt path may have: the private vertex arrays hold 2·DEPTH_CAP + 1 vertices
+/// (5.9 KB per thread). NVIDIA's driver (580, H200) fails to create the pipeline at 32.
+pub const DEPTH_CAP: i32 = 24;
 /// The capacity for max_depth 0..=SMALL_DEPTH_CAP (17 vertices, 1.9 KB per thread).
 pub const SMALL_DEPTH_CAP: i32 = 8;
 

@@ -201,7 +201,10 @@ mod tests {
             })
         );
         assert_eq!(o.name(), "bdpt");
-        assert_eq!(IntegratorOptions::from_name("bdpt").map(|o| o.name()), Some("bdpt"));
+        assert_eq!(
+            IntegratorOptions::from_name("bdpt").map(|o| o.name()),
+            Some("bdpt")
+        );
         let e = serde_json::from_str::<IntegratorOptions>(r#"{"type":"bdpt","mis_off":true}"#)
             .unwrap_err();
         assert!(e.to_string().contains("mis_off"), "{e}");

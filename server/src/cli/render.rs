@@ -23,7 +23,7 @@ pub struct RenderArgs {
     /// Output image: .exr (linear float RGB) or .png (exposure, tonemap, sRGB).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Integrator: pt or nee (default: the scene's render.integrator, else nee).
+    /// Integrator: pt, nee or bdpt (default: the scene's render.integrator, else nee).
     #[arg(long)]
     pub integrator: Option<String>,
     /// Samples per pixel (default: the scene's render.spp, else 256).
