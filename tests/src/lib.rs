@@ -155,3 +155,30 @@ pub fn render_mitsuba(
 pub fn mean(img: &Image) -> [f64; 3] {
     img.mean()
 }
+
+/// Runs the `candela` binary with `args` from the repository root.
+pub fn run_candela(args: &[&str]) -> std::process::Output {
+    Command::new(candela())
+        .args(args)
+        .current_dir(repo_root())
+        .output()
+        .expect("run candela")
+}
+
+/// Lossy UTF-8 of a process output stream.
+pub fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// Asserts exit code 2, a single non-empty stderr line containing every `needle`, and no panic:
+/// the contract for bad input on every subcommand.
+pub fn assert_bad_input(o: &std::process::Output, needles: &[&str]) {
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
+    assert!(!err.contains("panicked"), "panic: {err}");
+    let lines: Vec<_> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "expected one line, got: {err}");
+    for n in needles {
+        assert!(err.contains(n), "expected {n:?} in: {err}");
+    }
+}

@@ -3,11 +3,9 @@
 //! (parses, all runs), chart.svg (well-formed XML, one median polyline per integrator) and
 //! summary.md, and error falls as time grows. Bad input exits 2 with one line.
 
+use candela_tests::{assert_bad_input, run_candela as run, scene_path, scratch, text};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
-use std::process::{Command, Output};
-
-use candela_tests::{candela, repo_root, scene_path, scratch};
 
 const COLUMNS: &[&str] = &[
     "scene",
@@ -33,30 +31,6 @@ const COLUMNS: &[&str] = &[
     "device",
     "commit",
 ];
-
-fn run(args: &[&str]) -> Output {
-    Command::new(candela())
-        .args(args)
-        .current_dir(repo_root())
-        .output()
-        .expect("run candela")
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
-
-/// Asserts exit code 2 and a single `error:` line containing every needle.
-fn assert_bad_input(o: &Output, needles: &[&str]) {
-    let err = text(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
-    assert!(!err.contains("panicked"), "panic: {err}");
-    let lines: Vec<_> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 1, "expected one line, got: {err}");
-    for n in needles {
-        assert!(err.contains(n), "expected {n:?} in: {err}");
-    }
-}
 
 #[test]
 fn bench_writes_results_and_error_falls_with_time() {

@@ -2,32 +2,12 @@
 //! report (text and --json), the files it writes, and bad input of every kind: each must exit 2
 //! with one clear line naming what is wrong and where, never panic.
 
-use std::process::{Command, Output};
+use std::process::Output;
 
-use candela_tests::{candela, repo_root, scene_path, scratch};
-
-fn run(args: &[&str]) -> Output {
-    Command::new(candela())
-        .args(args)
-        .current_dir(repo_root())
-        .output()
-        .expect("run candela")
-}
+use candela_tests::{assert_bad_input, run_candela as run, scene_path, scratch, text};
 
 fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// Asserts exit code 2, a single `error:` line containing every `needle`, and no panic.
-fn assert_bad_input(o: &Output, needles: &[&str]) {
-    let err = stderr(o);
-    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
-    assert!(!err.contains("panicked"), "panic: {err}");
-    let lines: Vec<_> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 1, "expected one line, got: {err}");
-    for n in needles {
-        assert!(err.contains(n), "expected {n:?} in: {err}");
-    }
+    text(&o.stderr)
 }
 
 #[test]

@@ -2,34 +2,9 @@
 //! offset, the FLIP heatmap PNG, the text report, and bad input (missing file, not an EXR, size
 //! mismatch, bad options), each exiting 2 with one line.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-use candela_tests::{candela, repo_root, scratch};
+use candela_tests::{assert_bad_input, run_candela as run, scratch, text};
 use renderer::film::{write_exr, Image};
-
-fn run(args: &[&str]) -> Output {
-    Command::new(candela())
-        .args(args)
-        .current_dir(repo_root())
-        .output()
-        .expect("run candela")
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
-
-fn assert_bad_input(o: &Output, needles: &[&str]) {
-    let err = text(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
-    assert!(!err.contains("panicked"), "panic: {err}");
-    let lines: Vec<_> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 1, "expected one line, got: {err}");
-    for n in needles {
-        assert!(err.contains(n), "expected {n:?} in: {err}");
-    }
-}
+use std::path::{Path, PathBuf};
 
 /// Values in multiples of 1/8, exact in f32, so an added 0.25 is an exact offset.
 fn pattern(w: u32, h: u32, offset: f32) -> Image {
