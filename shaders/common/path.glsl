@@ -51,9 +51,10 @@ vec3 trace_path(uvec2 px, inout Rng rng, inout uint rays) {
         Surface s = surface_at(hit, ray);
         vec3 wo_world = -ray.d;
 
-        // Step 3: emission of the surface hit (front side, as Mitsuba's area emitter).
+        // Step 3: emission of the surface hit, front side only: the side of the geometric normal,
+        // the same side light sampling (lights.glsl) and bdpt emit from.
         GpuMaterial gm = materials[s.material];
-        if (s.light != NONE && dot(wo_world, s.ns) > 0.0) {
+        if (s.light != NONE && dot(wo_world, s.ng) > 0.0) {
             float w = 1.0;
 #if INTEGRATOR_NEE
             if (!prev_delta) w = power_heuristic(prev_pdf, light_pdf_hit(s.light, prev_p, s.p, s.ng));
