@@ -38,11 +38,12 @@
 //!   4σ + 1e-4; at exactly grazing wo (z = 0) every material is black.
 //! The measured values are printed as one table per family.
 
+mod common;
+use common::context;
+
 use std::sync::Arc;
 
-use renderer::gpu::{
-    compile_glsl, Binding, Buffer, BufferUsage, ComputePipeline, GpuContext, GpuOptions,
-};
+use renderer::gpu::{compile_glsl, Binding, Buffer, BufferUsage, ComputePipeline, GpuContext};
 
 const MAT_DIFFUSE: u32 = 0;
 const MAT_CONDUCTOR: u32 = 1;
@@ -249,25 +250,6 @@ fn mean_sigma(v: &[f64]) -> (f64, f64) {
     let m = v.iter().sum::<f64>() / n;
     let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0);
     (m, (var / n).sqrt())
-}
-
-fn context() -> Arc<GpuContext> {
-    let ctx = GpuContext::new(&GpuOptions {
-        device: None,
-        validation: true,
-    })
-    .expect("device");
-    println!(
-        "device: {} ({}), validation layer {}",
-        ctx.info.name,
-        ctx.info.driver,
-        if ctx.validation_enabled {
-            "on"
-        } else {
-            "not installed"
-        }
-    );
-    Arc::new(ctx)
 }
 
 /// Runs bsdf_check.comp over cases × WOS × REPLICAS and aggregates per (case, wo).

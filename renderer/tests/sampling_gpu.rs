@@ -28,12 +28,13 @@
 //!   adjacent dimensions, neighbouring lanes of one rng_next4, and seeds differing in one bit
 //!   (seed_lo and seed_hi); each pairing uses at least 1e5 pairs.
 
+mod common;
+use common::context;
+
 use std::f64::consts::PI;
 use std::sync::Arc;
 
-use renderer::gpu::{
-    compile_glsl, Binding, Buffer, BufferUsage, ComputePipeline, GpuContext, GpuOptions,
-};
+use renderer::gpu::{compile_glsl, Binding, Buffer, BufferUsage, ComputePipeline, GpuContext};
 
 const MODE_COSINE_HEMISPHERE: u32 = 0;
 const MODE_UNIFORM_SPHERE: u32 = 1;
@@ -66,25 +67,6 @@ struct Push {
     seed_lo: u32,
     seed_hi: u32,
     unused: u32,
-}
-
-fn context() -> Arc<GpuContext> {
-    let ctx = GpuContext::new(&GpuOptions {
-        device: None,
-        validation: true,
-    })
-    .expect("device");
-    println!(
-        "device: {} ({}), validation layer {}",
-        ctx.info.name,
-        ctx.info.driver,
-        if ctx.validation_enabled {
-            "on"
-        } else {
-            "not installed"
-        }
-    );
-    Arc::new(ctx)
 }
 
 /// Runs one mode of sampling_check.comp over `inputs` (or `count` RNG keys) and reads back
