@@ -1,6 +1,6 @@
 //! The rendering side of the benchmark: load and compile the scene once, obtain the reference
 //! (read, or rendered by a long `nee` run), warm the device up, then render every
-//! (repeat, budget, integrator) in a fresh session with its own seed and measure it.
+//! (repeat, budget, integrator) from a reset session (cleared film and counters, its own seed) and measure it.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -89,21 +89,23 @@ pub fn run_bench(
         }
         _ => render_reference(&ctx, &compiled, max_depth, cfg, progress)?,
     };
-    // Step 4: warm-up, one short untimed render per integrator (clocks up, caches filled).
+    // Step 4: one session per integrator (kernel build and upload untimed), warmed up with a short
+    // untimed pass; each timed run then starts from `reset(seed)`, as fresh as a new session.
+    let mut sessions = Vec::with_capacity(options.len());
     for o in &options {
         let mut s = new_session(&ctx, &compiled, o, max_depth, 0)?;
         s.run_pass(1).map_err(fail)?;
+        sessions.push(s);
     }
     // Step 5: the timed runs, repeats outermost so slow drifts spread over all cells.
     let total = cfg.repeats as usize * cfg.times.len() * options.len();
     let mut runs = Vec::with_capacity(total);
     for repeat in 0..cfg.repeats {
         for &budget in &cfg.times {
-            for o in &options {
+            for (o, session) in options.iter().zip(sessions.iter_mut()) {
                 let seed = 1 + runs.len() as u64;
-                let mut session = new_session(&ctx, &compiled, o, max_depth, seed)?;
-                let (image, st) = render(&mut session, Budget::Time(budget)).map_err(fail)?;
-                drop(session);
+                session.reset(seed).map_err(fail)?;
+                let (image, st) = render(session, Budget::Time(budget)).map_err(fail)?;
                 let metrics = Metrics::compute(&image, &reference, display)
                     .map_err(|e| BenchError::Failure(format!("{} run: {e}", o.name())))?;
                 progress(&format!(

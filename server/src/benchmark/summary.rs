@@ -45,7 +45,7 @@ pub fn summary_md(r: &BenchReport) -> String {
     let budgets: Vec<String> = r.budgets_s.iter().map(|t| format!("{t}")).collect();
     let _ = writeln!(
         md,
-        "- budgets: {} s; {} repeats each, every run a fresh session with its own seed",
+        "- budgets: {} s; {} repeats each, every run a cleared session with its own seed",
         budgets.join(", "),
         r.repeats
     );
