@@ -385,6 +385,7 @@ const state = {
   stream: null, // EventStream of the selected job
   live: null, // latest progress of the selected job from SSE
   snapshotUrl: null, // URL of the selected job's latest snapshot event
+  metricPoints: [], // [elapsed_s, rel_mse] of the selected job's progress metrics
   tone: { exposure: 0, tonemap: 'clamp' },
   ab: { a: '', b: '', pos: 50 },
   unauthorized: false,
@@ -586,6 +587,8 @@ function readSettings() {
     settings.width = w;
     settings.height = h;
   }
+  const ref = $('reference-job').value;
+  if (ref) settings.reference = { job: Number(ref) };
   return settings;
 }
 
@@ -779,6 +782,55 @@ function renderJobs() {
   $('jobs-empty').hidden = state.order.length > 0;
   $('jobs-empty').textContent = $('state-filter').value ? 'No jobs in this state.' : 'No jobs yet.';
   renderAbOptions();
+  renderReferenceOptions();
+}
+
+/** The submit form's reference selector: every done job (keeps the current choice). */
+function renderReferenceOptions() {
+  const sel = $('reference-job');
+  const keep = sel.value;
+  const done = state.order.filter((id) => (state.jobs.get(id) || {}).state === 'done');
+  sel.replaceChildren(el('option', { value: '' }, 'none'),
+    ...done.map((id) => el('option', { value: String(id) }, `#${id} ${jobName(state.jobs.get(id))} (${jobResolution(state.jobs.get(id))})`)));
+  sel.value = done.map(String).includes(keep) ? keep : '';
+}
+
+/** relMSE (log scale) against elapsed seconds of the selected job, from its progress metrics. */
+function addMetricPoint(p) {
+  const m = p && p.metrics;
+  if (!m || !(m.rel_mse > 0)) return;
+  const t = elapsedOf(p) ?? 0;
+  const pts = state.metricPoints;
+  if (!pts.length || t > pts[pts.length - 1][0]) pts.push([t, m.rel_mse]);
+  else pts[pts.length - 1] = [t, m.rel_mse];
+  renderMetricsChart(m);
+}
+
+function renderMetricsChart(m) {
+  const pts = state.metricPoints;
+  $('metrics-panel').hidden = !pts.length;
+  if (!pts.length) return;
+  const W = 240, H = 120, L = 34, B = 16;
+  const tMax = Math.max(...pts.map((q) => q[0]), 1e-3);
+  const ys = pts.map((q) => Math.log10(q[1]));
+  let lo = Math.floor(Math.min(...ys)), hi = Math.ceil(Math.max(...ys));
+  if (hi === lo) hi = lo + 1;
+  const x = (t) => L + (t / tMax) * (W - L - 4);
+  const y = (v) => 4 + (1 - (Math.log10(v) - lo) / (hi - lo)) * (H - B - 4);
+  const svg = $('metrics-chart');
+  const parts = [];
+  for (let e = lo; e <= hi; e++) {
+    const yy = y(10 ** e);
+    parts.push(`<line x1="${L}" x2="${W - 4}" y1="${yy}" y2="${yy}" class="grid"/>`,
+      `<text x="${L - 3}" y="${yy + 3}" text-anchor="end">1e${e}</text>`);
+  }
+  parts.push(`<text x="${W - 4}" y="${H - 3}" text-anchor="end">${fmtDuration(tMax)}</text>`,
+    `<text x="${L}" y="${H - 3}">0 s · relMSE</text>`,
+    `<polyline class="line" points="${pts.map((q) => `${x(q[0]).toFixed(1)},${y(q[1]).toFixed(1)}`).join(' ')}"/>`);
+  svg.innerHTML = parts.join('');
+  if (m) {
+    $('metrics-text').textContent = `relMSE ${fmtNum(m.rel_mse)} · FLIP ${fmtNum(m.flip)} · SSIM ${m.ssim == null ? '—' : fmtNum(m.ssim)} · PSNR ${m.psnr_db == null ? '—' : fmtNum(m.psnr_db)} dB`;
+  }
 }
 
 /** Updates one row in place (progress events of the selected job). */
@@ -946,6 +998,8 @@ function selectJob(id, { force = false } = {}) {
   state.selected = id;
   state.live = null;
   state.snapshotUrl = null;
+  state.metricPoints = [];
+  renderMetricsChart();
   viewSlot.reset();
   $('view-image').hidden = true;
   $('stage-placeholder').hidden = false;
@@ -963,6 +1017,7 @@ function selectJob(id, { force = false } = {}) {
       upsertJob(job);
       renderViewHeader(job);
       renderStats(job, jobNumbers(job));
+      addMetricPoint(jobProgress(job));
       if (jobSpp(job) > 0 || job.state === 'done') viewSlot.load(pngUrl(job), { spp: jobSpp(job), job: id });
       else $('stage-placeholder').textContent = job.state === 'queued' ? 'Queued: waiting for the GPU…' : 'Waiting for the first snapshot…';
       if (!TERMINAL.has(job.state)) openStream(job);
@@ -1027,6 +1082,7 @@ function openStream(job) {
       if (!mine()) return;
       state.live = d;
       renderStats(current(), d);
+      addMetricPoint(d);
       renderJobRow(id);
     },
     snapshot: (d) => {

@@ -104,6 +104,9 @@ pub struct JobSettings {
     /// Default PNG exposure (EV) and tonemap ("clamp", "reinhard", "aces") of the image endpoint.
     pub exposure: f32,
     pub tonemap: String,
+    /// The reference image (EXR path on disk) progress metrics are computed against.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference: Option<String>,
 }
 
 impl JobSettings {
@@ -189,6 +192,11 @@ impl JobRecord {
             Budget::Spp(n) => (p.spp as f64 / n.max(1) as f64).min(1.0),
             Budget::Time(t) => (p.time_s / t.max(1e-9)).min(1.0),
         };
+        let mut settings = serde_json::to_value(&self.settings).unwrap_or_default();
+        if self.settings.reference.is_some() {
+            // Whether it has one; the path on the server's disk is not the client's business.
+            settings["reference"] = json!(true);
+        }
         json!({
             "id": self.id,
             "name": self.name,
@@ -196,7 +204,7 @@ impl JobRecord {
             "priority": self.priority,
             "scene_name": self.scene_name,
             "scene_source": self.source.as_str(),
-            "settings": self.settings,
+            "settings": settings,
             "progress": {
                 "spp": p.spp,
                 "passes": p.passes,

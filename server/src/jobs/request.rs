@@ -38,6 +38,8 @@ pub struct JobRequest {
     pub height: Option<u32>,
     pub exposure: Option<f32>,
     pub tonemap: Option<String>,
+    /// `{"job": ID}`: a done job's image to compute progress metrics against.
+    pub reference: Option<Value>,
 }
 
 /// Where the scene comes from besides the request's own fields.
@@ -346,6 +348,7 @@ pub fn prepare(
             scene_max_depth: scene.render.max_depth,
             exposure,
             tonemap,
+            reference: None,
         },
         scene: text,
         scene_name: req.scene_name,

@@ -45,6 +45,81 @@ fn body_error(status: StatusCode, text: String, limit: usize) -> ApiError {
     }
 }
 
+/// Resolves a request's `reference` (`{"job": ID}`: that done job's image; `{"file": NAME}`:
+/// an uploaded EXR) to an EXR path kept under `<data>/references`, checked against the film size.
+fn resolve_reference(
+    store: &crate::store::Store,
+    data_dir: &std::path::Path,
+    upload: Option<&std::path::Path>,
+    reference: Option<Value>,
+    settings: &crate::jobs::model::JobSettings,
+) -> Result<Option<String>, ApiError> {
+    let Some(reference) = reference else {
+        return Ok(None);
+    };
+    let source = match (reference.get("job"), reference.get("file")) {
+        (Some(id), None) => {
+            let id = id.as_i64().ok_or_else(|| {
+                ApiError::invalid("reference.job", "reference.job: expected a job id")
+            })?;
+            let rec = store.get_job(id).map_err(|_| {
+                ApiError::invalid("reference.job", format!("reference.job: no job {id}"))
+            })?;
+            if rec.state != JobState::Done {
+                return Err(ApiError::invalid(
+                    "reference.job",
+                    format!(
+                        "reference.job: job {id} is {}, not done",
+                        rec.state.as_str()
+                    ),
+                ));
+            }
+            JobPaths::new(data_dir, id).image()
+        }
+        (None, Some(name)) => {
+            let name = name.as_str().unwrap_or("");
+            let path = upload
+                .map(|b| b.join(name))
+                .filter(|p| !name.is_empty() && !name.contains("..") && p.is_file())
+                .ok_or_else(|| {
+                    ApiError::invalid(
+                        "reference.file",
+                        format!("reference.file: no uploaded file \"{name}\""),
+                    )
+                })?;
+            path
+        }
+        _ => {
+            return Err(ApiError::invalid(
+                "reference",
+                "reference: expected {\"job\": ID} or {\"file\": \"NAME.exr\"}",
+            ))
+        }
+    };
+    let image = renderer::film::read_exr(&source).map_err(|e| {
+        ApiError::invalid("reference", format!("reference: reading the image: {e}"))
+    })?;
+    if (image.width, image.height) != (settings.width, settings.height) {
+        return Err(ApiError::invalid(
+            "reference",
+            format!(
+                "reference: the image is {}x{}, the job's film is {}x{}",
+                image.width, image.height, settings.width, settings.height
+            ),
+        ));
+    }
+    // A copy of its own, so the reference outlives the upload and later changes to its source.
+    let dir = data_dir.join("references");
+    std::fs::create_dir_all(&dir).map_err(ApiError::internal)?;
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos())
+        .unwrap_or(0);
+    let dest = dir.join(format!("{nanos}.exr"));
+    std::fs::copy(&source, &dest).map_err(ApiError::internal)?;
+    Ok(Some(dest.to_string_lossy().into_owned()))
+}
+
 /// `POST /api/jobs[?wait=true]`: 201 with the job (after it ended, with `wait`).
 pub async fn create(
     State(st): State<AppState>,
@@ -84,18 +159,37 @@ pub async fn create(
             json: up.scene_json.clone(),
             dir: up.base.clone(),
         };
-        let job = std::mem::take(&mut up.job);
-        let new = tokio::task::spawn_blocking(move || prepare(job, input, &cfg.limits, &builtin))
-            .await
-            .map_err(ApiError::internal)??;
+        let mut job = std::mem::take(&mut up.job);
+        // `reference` in the job part, or else a part named `reference` holding an EXR.
+        let reference = job.reference.take().or_else(|| {
+            up.base
+                .join("reference")
+                .is_file()
+                .then(|| json!({"file": "reference"}))
+        });
+        let base = up.base.clone();
+        let store = st.store.clone();
+        let new = tokio::task::spawn_blocking(move || {
+            let mut new = prepare(job, input, &cfg.limits, &builtin)?;
+            new.settings.reference =
+                resolve_reference(&store, &cfg.data_dir, Some(&base), reference, &new.settings)?;
+            Ok::<_, ApiError>(new)
+        })
+        .await
+        .map_err(ApiError::internal)??;
         (new, Some(up))
     } else {
         let body = Bytes::from_request(req, &st)
             .await
             .map_err(|e| body_error(e.status(), e.body_text(), limits.max_body_bytes))?;
-        let job = parse_request(&body)?;
+        let mut job = parse_request(&body)?;
+        let reference = job.reference.take();
+        let store = st.store.clone();
         let new = tokio::task::spawn_blocking(move || {
-            prepare(job, SceneInput::InRequest, &cfg.limits, &builtin)
+            let mut new = prepare(job, SceneInput::InRequest, &cfg.limits, &builtin)?;
+            new.settings.reference =
+                resolve_reference(&store, &cfg.data_dir, None, reference, &new.settings)?;
+            Ok::<_, ApiError>(new)
         })
         .await
         .map_err(ApiError::internal)??;
@@ -210,7 +304,14 @@ pub async fn get_one(
     State(st): State<AppState>,
     JobIdPath(id): JobIdPath,
 ) -> Result<Json<Value>, ApiError> {
-    Ok(Json(st.store.get_job(id)?.to_json()))
+    let rec = st.store.get_job(id)?;
+    let mut v = rec.to_json();
+    if rec.settings.reference.is_some() {
+        if let Some(m) = st.store.latest_metrics(id)? {
+            v["progress"]["metrics"] = m;
+        }
+    }
+    Ok(Json(v))
 }
 
 async fn change_state(

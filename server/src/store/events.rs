@@ -98,4 +98,20 @@ impl Store {
         })?;
         Ok(rows.collect::<Result<Vec<_>, _>>()?)
     }
+
+    /// The `metrics` of a job's latest `progress` event that has them.
+    pub fn latest_metrics(&self, job_id: JobId) -> Result<Option<Value>, StoreError> {
+        let conn = self.conn();
+        let data: Option<String> = conn
+            .query_row(
+                "SELECT data FROM events WHERE job_id = ?1 AND kind = 'progress' \
+                 AND data LIKE '%\"metrics\"%' ORDER BY seq DESC LIMIT 1",
+                params![job_id],
+                |r| r.get(0),
+            )
+            .optional()?;
+        Ok(data
+            .and_then(|d| serde_json::from_str::<Value>(&d).ok())
+            .and_then(|v| v.get("metrics").cloned()))
+    }
 }

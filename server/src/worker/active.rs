@@ -4,7 +4,9 @@
 use std::time::{Duration, Instant};
 
 use renderer::film::Image;
+use renderer::metrics::{tonemap_from_name, Display, Metrics, METRIC_NOTES};
 use renderer::render::{next_pass_size, Budget, PassStats, Progress, RenderError, RenderSession};
+use renderer::scene::Tonemap;
 use serde_json::{json, Value};
 
 use super::checkpoint;
@@ -34,13 +36,24 @@ pub struct ActiveJob {
     admitted: Instant,
     spp_at_admit: u32,
     time_at_admit: f64,
+    /// The reference image of the progress metrics (None: no reference, or it is unreadable).
+    reference: Option<Image>,
+    /// Whether a progress event carried `metrics_note` yet.
+    metrics_noted: bool,
 }
 
 impl ActiveJob {
     /// Wraps a session (fresh or restored).
     pub fn new(session: RenderSession, settings: JobSettings, paths: JobPaths) -> Self {
         let p = session.progress();
+        let reference = settings.reference.as_ref().and_then(|path| {
+            renderer::film::read_exr(std::path::Path::new(path))
+                .map_err(|e| tracing::warn!(path, error = %e, "reading the reference image"))
+                .ok()
+        });
         ActiveJob {
+            reference,
+            metrics_noted: false,
             session,
             settings,
             paths,
@@ -128,6 +141,43 @@ impl ActiveJob {
             "fraction": fraction.min(1.0),
             "dropped_samples": p.dropped_samples,
         })
+    }
+
+    /// The `progress` event for `image`: [`Self::progress_json`] plus `metrics` against the
+    /// reference (and `metrics_note` the first time) when the job has one.
+    pub fn progress_with_metrics(&mut self, image: &Image) -> Value {
+        let mut v = self.progress_json();
+        let Some(reference) = &self.reference else {
+            return v;
+        };
+        let tonemap = tonemap_from_name(&self.settings.tonemap).unwrap_or(Tonemap::Clamp);
+        let display = Display {
+            exposure_ev: self.settings.exposure,
+            tonemap,
+        };
+        match Metrics::compute(image, reference, display) {
+            Ok(m) => {
+                v["metrics"] = json!({
+                    "rel_mse": m.rel_mse,
+                    "flip": m.flip,
+                    "ssim": m.ssim,
+                    "psnr_db": m.psnr_db,
+                    "mse": m.mse,
+                });
+                if !self.metrics_noted {
+                    self.metrics_noted = true;
+                    v["metrics_note"] = json!({
+                        "rel_mse": METRIC_NOTES.rel_mse,
+                        "flip": METRIC_NOTES.flip,
+                        "ssim": METRIC_NOTES.ssim,
+                        "psnr_db": METRIC_NOTES.psnr_db,
+                        "mse": METRIC_NOTES.mse,
+                    });
+                }
+            }
+            Err(e) => tracing::warn!(error = %e, "progress metrics"),
+        }
+        v
     }
 
     /// Writes the checkpoint and the image it implies; returns the progress saved.

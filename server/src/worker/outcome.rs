@@ -25,7 +25,7 @@ impl Worker {
         };
         job.last_snapshot = Some(Instant::now());
         let spp = job.session.spp();
-        let progress = job.progress_json();
+        let progress = job.progress_with_metrics(&image);
         let _ = self.store.set_progress(id, &job.session.progress());
         self.shared.publish(id, image, spp);
         let _ = self.store.append_event(id, "progress", progress);
@@ -54,8 +54,9 @@ impl Worker {
         let stats = job.session.stats();
         let progress = job.session.progress();
         let spp = progress.spp;
+        let progress_event = job.progress_with_metrics(&image);
         self.shared.publish(id, image, spp);
-        let _ = self.store.append_event(id, "progress", job.progress_json());
+        let _ = self.store.append_event(id, "progress", progress_event);
         let _ = self
             .store
             .append_event(id, "snapshot", snapshot_data(id, spp));
