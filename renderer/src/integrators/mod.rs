@@ -4,14 +4,21 @@
 //! Kernels live in `shaders/<name>/`, mirroring these modules.
 
 pub mod bdpt;
+pub mod deferred;
 mod nee;
 mod path;
 mod pt;
+pub mod vct;
+pub mod whitted;
 
 use serde::{Deserialize, Serialize};
 
+use std::sync::Arc;
+
 use crate::compile::layout::GpuPush;
-use crate::gpu::{ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
+use crate::compile::CompiledScene;
+use crate::gpu::{Binding, ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
+use crate::render::RenderError;
 
 /// Options of the path tracers (`pt`, `nee`).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -55,6 +62,12 @@ pub enum IntegratorOptions {
     Nee(PathOptions),
     /// Bidirectional path tracing with MIS and light-tracing splats.
     Bdpt(BdptOptions),
+    /// Whitted ray tracing: mirror/refraction recursion, shadow rays.
+    Whitted(whitted::WhittedOptions),
+    /// Deferred many-light shading: packed G-buffer, culled lights.
+    Deferred(deferred::DeferredOptions),
+    /// Voxel cone tracing over a sparse voxel octree.
+    Vct(vct::VctOptions),
 }
 
 /// Names accepted on the command line and in `render.integrator`.
@@ -76,6 +89,9 @@ impl IntegratorOptions {
             IntegratorOptions::Pt(_) => "pt",
             IntegratorOptions::Nee(_) => "nee",
             IntegratorOptions::Bdpt(_) => "bdpt",
+            IntegratorOptions::Whitted(_) => "whitted",
+            IntegratorOptions::Deferred(_) => "deferred",
+            IntegratorOptions::Vct(_) => "vct",
         }
     }
 
@@ -84,6 +100,9 @@ impl IntegratorOptions {
         match self {
             IntegratorOptions::Pt(o) | IntegratorOptions::Nee(o) => o.max_depth = Some(d),
             IntegratorOptions::Bdpt(o) => o.max_depth = Some(d),
+            IntegratorOptions::Whitted(o) => o.max_depth = Some(d),
+            IntegratorOptions::Deferred(o) => o.max_depth = Some(d),
+            IntegratorOptions::Vct(o) => o.max_depth = Some(d),
         }
     }
 
@@ -91,6 +110,9 @@ impl IntegratorOptions {
         match self {
             IntegratorOptions::Pt(o) | IntegratorOptions::Nee(o) => o.max_depth,
             IntegratorOptions::Bdpt(o) => o.max_depth,
+            IntegratorOptions::Whitted(o) => o.max_depth,
+            IntegratorOptions::Deferred(o) => o.max_depth,
+            IntegratorOptions::Vct(o) => o.max_depth,
         }
     }
 
@@ -100,6 +122,9 @@ impl IntegratorOptions {
             IntegratorOptions::Pt(o) => Box::new(pt::new(o, scene_max_depth)),
             IntegratorOptions::Nee(o) => Box::new(nee::new(o, scene_max_depth)),
             IntegratorOptions::Bdpt(o) => Box::new(bdpt::new(o, scene_max_depth)),
+            IntegratorOptions::Whitted(o) => Box::new(whitted::new(o, scene_max_depth)),
+            IntegratorOptions::Deferred(o) => Box::new(deferred::new(o, scene_max_depth)),
+            IntegratorOptions::Vct(o) => Box::new(vct::new(o, scene_max_depth)),
         }
     }
 }
@@ -150,6 +175,30 @@ pub trait Integrator: Send {
     /// Kernel defines besides the scene's feature set. Default: none.
     fn defines(&self) -> ShaderDefines {
         Vec::new()
+    }
+    /// Integrators with stages besides the per-pass kernel (vct's voxel structure, deferred's
+    /// G-buffer and light culling) build their own buffers and pipelines here, once, after the
+    /// scene is on the device. `shared` holds the session's bindings (scene buffers, ACCUM,
+    /// STATS, extra buffers) to bind next to their own; `defines` the scene's feature set plus
+    /// [`Integrator::defines`]. Work that depends only on the scene (not on the seed or the
+    /// samples) may run here; its timings belong in [`Integrator::details`]. Default: nothing.
+    fn setup(
+        &mut self,
+        _ctx: &Arc<GpuContext>,
+        _scene: &CompiledScene,
+        _shared: &[Binding<'_>],
+        _defines: &ShaderDefines,
+    ) -> Result<(), RenderError> {
+        Ok(())
+    }
+    /// Most dispatches `record_pass` records (sizes the timestamp pool). Default: 1.
+    fn dispatches_per_pass(&self) -> u32 {
+        1
+    }
+    /// Integrator-specific statistics reported with the render's (a JSON object: stage
+    /// timings, memory, options in effect). Default: none.
+    fn details(&self) -> Option<serde_json::Value> {
+        None
     }
     /// Per-pixel buffers besides ACCUM and STATS. Default: none.
     fn extra_buffers(&self) -> Vec<ExtraBuffer> {

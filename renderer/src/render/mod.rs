@@ -62,6 +62,9 @@ pub struct RenderStats {
     pub bvh_build_s: f64,
     pub setup_s: f64,
     pub features: crate::compile::FeatureSet,
+    /// The integrator's own statistics (stage timings, memory), where it has any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub details: Option<serde_json::Value>,
 }
 
 #[derive(Debug, thiserror::Error)]

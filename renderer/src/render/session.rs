@@ -175,6 +175,8 @@ impl RenderSession {
             &bindings,
             std::mem::size_of::<GpuPush>() as u32,
         )?;
+        // Step 4: the integrator's own stages (buffers, pipelines, scene-only work).
+        integrator.setup(ctx, scene, &bindings, &defines)?;
         drop(bindings);
         ctx.check_validation()?;
         Ok(RenderSession {
@@ -262,7 +264,9 @@ impl RenderSession {
         let (integrator, pipeline) = (&self.integrator, &self.pipeline);
         let timings = self
             .ctx
-            .record(1, |rec| integrator.record_pass(rec, pipeline, push, groups))?;
+            .record(integrator.dispatches_per_pass(), |rec| {
+                integrator.record_pass(rec, pipeline, push, groups)
+            })?;
         // Counters: read and reset (u32 on the GPU, u64 here).
         let s: Vec<GpuStats> = self.ctx.download_vec(&self.stats_buf, 1)?;
         self.ctx.fill_zero(&self.stats_buf)?;
@@ -396,6 +400,7 @@ impl RenderSession {
             bvh_build_s: self.info.bvh_build.as_secs_f64(),
             setup_s: self.setup.as_secs_f64(),
             features: self.info.features,
+            details: self.integrator.details(),
         }
     }
 }
