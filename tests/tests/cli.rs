@@ -26,6 +26,8 @@ fn renders_png_and_exr_with_a_report() {
         "16",
         "--height",
         "16",
+        "--options",
+        r#"{"max_depth": 3}"#,
         "--json",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -44,6 +46,10 @@ fn renders_png_and_exr_with_a_report() {
     }
     assert_eq!(report["spp"], 4);
     assert_eq!(report["integrator"], "nee");
+    assert_eq!(
+        report["max_depth"], 3,
+        "--options sets the integrator's fields"
+    );
     let img = renderer::film::read_exr(&exr).unwrap();
     assert_eq!((img.width, img.height), (16, 16));
 
@@ -226,6 +232,30 @@ fn bad_input_exits_2_with_a_clear_line() {
     assert_bad_input(
         &run(&["render", p.to_str().unwrap(), "-o", o_path]),
         &["objects[0]"],
+    );
+    // Integrator options: not JSON, an unknown field, a contradicting type.
+    let p = write_scene("good_options", GOOD);
+    let with_options = |json: &str| {
+        run(&[
+            "render",
+            p.to_str().unwrap(),
+            "-o",
+            o_path,
+            "--integrator",
+            "pt",
+            "--options",
+            json,
+        ])
+    };
+    assert_bad_input(&with_options("nope"), &["--options", "not JSON"]);
+    assert_bad_input(&with_options("[1]"), &["--options", "JSON object"]);
+    assert_bad_input(
+        &with_options(r#"{"max_dpeth": 3}"#),
+        &["--options", "max_dpeth"],
+    );
+    assert_bad_input(
+        &with_options(r#"{"type": "nee"}"#),
+        &["--options", "contradicts"],
     );
     // Unknown device.
     let p = write_scene("good_device", GOOD);

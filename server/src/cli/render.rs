@@ -23,9 +23,13 @@ pub struct RenderArgs {
     /// Output image: .exr (linear float RGB) or .png (exposure, tonemap, sRGB).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Integrator: pt, nee or bdpt (default: the scene's render.integrator, else nee).
+    /// Integrator: pt, nee, bdpt, ... (default: the scene's render.integrator, else nee).
     #[arg(long)]
     pub integrator: Option<String>,
+    /// The integrator's options as a JSON object, e.g. '{"max_depth": 3}' (the fields of
+    /// `{"type": NAME, ...}` besides the type; unknown fields are refused).
+    #[arg(long, value_name = "JSON")]
+    pub options: Option<String>,
     /// Samples per pixel (default: the scene's render.spp, else 256).
     #[arg(long, conflicts_with = "time")]
     pub spp: Option<u32>,
@@ -109,6 +113,9 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
             NAMES.join(", ")
         ))
     })?;
+    if let Some(json) = &a.options {
+        options = integrator_options(&name, json)?;
+    }
     if let Some(d) = a.max_depth {
         options.set_max_depth(d);
     }
@@ -188,4 +195,24 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
         println!("wrote       {}", a.output.display());
     }
     Ok(())
+}
+
+/// `--options`: the integrator's fields as a JSON object, parsed as `{"type": name, ...}`.
+fn integrator_options(name: &str, json: &str) -> Result<IntegratorOptions, CliError> {
+    let bad = |m: String| CliError::input(format!("--options: {m}"));
+    let mut v: serde_json::Value =
+        serde_json::from_str(json).map_err(|e| bad(format!("not JSON: {e}")))?;
+    let Some(map) = v.as_object_mut() else {
+        return Err(bad(format!("expected a JSON object, got {json}")));
+    };
+    match map.get("type").and_then(|t| t.as_str()) {
+        Some(t) if t != name => {
+            return Err(bad(format!(
+                "\"type\": \"{t}\" contradicts the integrator \"{name}\""
+            )))
+        }
+        _ => {}
+    }
+    map.insert("type".into(), serde_json::Value::String(name.into()));
+    serde_json::from_value(v).map_err(|e| bad(format!("{name}: {e}")))
 }
