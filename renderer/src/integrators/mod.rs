@@ -71,7 +71,7 @@ pub enum IntegratorOptions {
 }
 
 /// Names accepted on the command line and in `render.integrator`.
-pub const NAMES: &[&str] = &["pt", "nee", "bdpt"];
+pub const NAMES: &[&str] = &["pt", "nee", "bdpt", "whitted"];
 
 impl IntegratorOptions {
     /// Default options for an integrator name; None for unknown or not-yet-built integrators.
@@ -80,6 +80,7 @@ impl IntegratorOptions {
             "pt" => Some(IntegratorOptions::Pt(PathOptions::default())),
             "nee" => Some(IntegratorOptions::Nee(PathOptions::default())),
             "bdpt" => Some(IntegratorOptions::Bdpt(BdptOptions::default())),
+            "whitted" => Some(IntegratorOptions::Whitted(whitted::WhittedOptions::default())),
             _ => None,
         }
     }

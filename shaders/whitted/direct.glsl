@@ -1,0 +1,139 @@
+// `whitted`: deterministic direct lighting of a surface's local lobes. Every light is visited
+// (no random pick): point and spot lights with one shadow ray (intensity / distance², spot
+// falloff as Mitsuba), directional lights with one (irradiance), emissive triangles and spheres
+// with WHITTED_AREA_SAMPLES shadow rays at a fixed Hammersley point set warped as nee's light
+// sampling (common/lights.glsl): uniform by area on triangles, uniform in the subtended cone on
+// spheres (uniform by area from inside). The same points for every pixel and sample, so the
+// image has no noise but a fixed quadrature error (banded penumbrae). Environment lights are
+// skipped: the environment enters as the ambient term (whitted.comp).
+#ifndef WHITTED_DIRECT_GLSL
+#define WHITTED_DIRECT_GLSL
+#include "common/lights.glsl"
+#include "common/surface.glsl"
+#include "common/material.glsl"
+
+#ifndef WHITTED_AREA_SAMPLES
+#define WHITTED_AREA_SAMPLES 16u
+#endif
+
+// Van der Corput radical inverse in base 2.
+float radical_inverse2(uint i) { return float(bitfieldReverse(i) >> 8) * (1.0 / 16777216.0); }
+
+// Point j of the fixed N-point set in [0,1)²: Hammersley, both coordinates centred in their strata.
+vec2 whitted_point(uint j, uint n) {
+    float inv = 1.0 / float(n);
+    return vec2((float(j) + 0.5) * inv, fract(radical_inverse2(j) + 0.5 * inv));
+}
+
+// Samples point u on area light l (triangle or sphere) as seen from p_ref. Returns false when the
+// point faces away or is degenerate. pdf: solid angle, without any pick probability.
+bool whitted_area_sample(GpuLight l, vec3 p_ref, vec2 u, out vec3 pl, out vec3 wi, out float dist,
+                         out float pdf) {
+    pl = vec3(0.0); wi = vec3(0.0, 0.0, 1.0); dist = 0.0; pdf = 0.0;
+    vec3 nl;
+    if (l.kind == LIGHT_TRIANGLE) {
+        vec2 b = sample_uniform_triangle(u);
+        vec3 p0 = l.p0.xyz, p1 = l.p1.xyz, p2 = l.p2.xyz;
+        pl = (1.0 - b.x - b.y) * p0 + b.x * p1 + b.y * p2;
+        nl = normalize(cross(p1 - p0, p2 - p0));
+        vec3 w = pl - p_ref;
+        float dist2 = dot(w, w);
+        if (!(dist2 > 0.0)) return false;
+        dist = sqrt(dist2);
+        wi = w / dist;
+        float cosl = -dot(nl, wi);
+        if (cosl <= 0.0) return false;  // front side only
+        pdf = dist2 / (cosl * l.p0.w);
+        return pdf > 0.0 && !isinf(pdf);
+    }
+    // Sphere.
+    vec3 c = l.p0.xyz;
+    float r = l.p0.w;
+    vec3 dc = c - p_ref;
+    float d2 = dot(dc, dc);
+    if (d2 <= r * r) {
+        nl = sample_uniform_sphere(u);
+    } else {
+        // The cone of directions the sphere subtends (pbrt-v4 SampleSphere, as lights.glsl).
+        float dcl = sqrt(d2);
+        float sin_max = r / dcl, sin2_max = sin_max * sin_max;
+        float cos_max = safe_sqrt(1.0 - sin2_max);
+        float cos_t = (cos_max - 1.0) * u.x + 1.0;
+        float sin2_t = 1.0 - cos_t * cos_t;
+        if (sin2_max < 0.00068523) {
+            sin2_t = sin2_max * u.x;
+            cos_t = sqrt(1.0 - sin2_t);
+        }
+        float cos_a = sin2_t / sin_max + cos_t * safe_sqrt(1.0 - sin2_t / sin2_max);
+        float sin_a = safe_sqrt(1.0 - cos_a * cos_a);
+        float phi = 2.0 * PI * u.y;
+        vec3 wc = dc / dcl;
+        vec3 t, bt;
+        make_frame(-wc, t, bt);
+        nl = from_local(vec3(sin_a * cos(phi), sin_a * sin(phi), cos_a), t, bt, -wc);
+    }
+    pl = c + r * nl;
+    vec3 w = pl - p_ref;
+    float dist2 = dot(w, w);
+    if (!(dist2 > 0.0)) return false;
+    dist = sqrt(dist2);
+    wi = w / dist;
+    vec3 front = l.p1.x > 0.5 ? -nl : nl;
+    if (dot(front, wi) >= 0.0) return false;
+    pdf = sphere_light_pdf(l, p_ref, pl, nl);
+    return pdf > 0.0 && !isinf(pdf);
+}
+
+// Radiance reflected towards wo_world by the local lobes `m` of surface s, from every light.
+vec3 whitted_direct(Surface s, in SurfaceParams m, vec3 wo_world, inout uint rays) {
+    vec3 bt = cross(s.ns, s.tangent);
+    vec3 wo = to_local(wo_world, s.tangent, bt, s.ns);
+    vec3 L = vec3(0.0);
+    uint n_lights = g.film.w;
+    for (uint li = 0u; li < n_lights; ++li) {
+        GpuLight l = lights[li];
+        if (l.kind == LIGHT_TRIANGLE || l.kind == LIGHT_SPHERE) {
+            // Step 1: area lights: the fixed point set; a triangle does not light itself.
+            if (l.kind == LIGHT_TRIANGLE && s.light == li) continue;
+            vec3 sum = vec3(0.0);
+            for (uint j = 0u; j < WHITTED_AREA_SAMPLES; ++j) {
+                vec3 pl, wi_world;
+                float dist, pdf;
+                if (!whitted_area_sample(l, s.p, whitted_point(j, WHITTED_AREA_SAMPLES), pl, wi_world, dist, pdf)) continue;
+                vec3 f = bsdf_eval(m, wo, to_local(wi_world, s.tangent, bt, s.ns), TRANSPORT_RADIANCE);
+                if (!any(greaterThan(f, vec3(0.0)))) continue;
+                rays += 1u;
+                if (trace_any(spawn_ray_to(s, pl))) continue;
+                sum += f * (1.0 / pdf);
+            }
+            L += sum * l.radiance.rgb * (1.0 / float(WHITTED_AREA_SAMPLES));
+        }
+#ifdef HAS_DELTA_LIGHTS
+        else if (l.kind == LIGHT_POINT || l.kind == LIGHT_SPOT) {
+            // Step 2: point and spot lights: intensity / distance², one shadow ray.
+            vec3 w = l.p0.xyz - s.p;
+            float dist2 = dot(w, w);
+            if (!(dist2 > 0.0)) continue;
+            vec3 wi_world = w * inversesqrt(dist2);
+            float falloff = l.kind == LIGHT_SPOT ? spot_falloff(l, -dot(wi_world, l.p1.xyz)) : 1.0;
+            if (!(falloff > 0.0)) continue;
+            vec3 f = bsdf_eval(m, wo, to_local(wi_world, s.tangent, bt, s.ns), TRANSPORT_RADIANCE);
+            if (!any(greaterThan(f, vec3(0.0)))) continue;
+            rays += 1u;
+            if (trace_any(spawn_ray_to(s, l.p0.xyz))) continue;
+            L += f * l.radiance.rgb * (falloff / dist2);
+        } else if (l.kind == LIGHT_DIRECTIONAL) {
+            // Step 3: directional lights: irradiance, one shadow ray to infinity.
+            vec3 wi_world = -l.p0.xyz;
+            vec3 f = bsdf_eval(m, wo, to_local(wi_world, s.tangent, bt, s.ns), TRANSPORT_RADIANCE);
+            if (!any(greaterThan(f, vec3(0.0)))) continue;
+            rays += 1u;
+            if (trace_any(spawn_ray(s, wi_world))) continue;
+            L += f * l.radiance.rgb;
+        }
+#endif
+    }
+    return L;
+}
+
+#endif
