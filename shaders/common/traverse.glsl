@@ -93,11 +93,22 @@ bool traverse(Ray r, bool any_hit, out Hit hit) {
     return hit.prim != NONE;
 }
 
+#ifdef ACCEL_GRID
+// accel "grid": the uniform grid (common/grid.glsl) answers both queries instead of the BVH.
+#include "common/grid.glsl"
+bool trace_closest(Ray r, out Hit hit) { return traverse_grid(r, false, hit); }
+
+bool trace_any(Ray r) {
+    Hit h;
+    return traverse_grid(r, true, h);
+}
+#else
 bool trace_closest(Ray r, out Hit hit) { return traverse(r, false, hit); }
 
 bool trace_any(Ray r) {
     Hit h;
     return traverse(r, true, h);
 }
+#endif
 
 #endif

@@ -18,6 +18,9 @@
 #define B_ACCUM 10
 #define B_STATS 11
 #define B_SPLAT 12   // bdpt: light-tracing splat buffer (shaders/bdpt/splat.glsl)
+#define B_GRID 20        // accel "grid" only (shaders/common/grid.glsl): GpuGridInfo
+#define B_GRID_CELLS 21  // cell offsets into the reference list (cells + 1 entries)
+#define B_GRID_PRIMS 22  // the reference list (primitive indices)
 
 #define NONE 0xffffffffu
 #define PRIM_MATERIAL_MASK 0x00ffffffu
@@ -34,6 +37,12 @@
 #define LIGHT_ENV_MAP 6u
 
 struct GpuPrim { vec4 a; vec4 b; vec4 c; };
+struct GpuGridInfo {
+    vec3 lo; uint nx;
+    vec3 hi; uint ny;
+    vec3 cell; uint nz;
+    vec3 inv_cell; uint prim_refs;
+};
 struct GpuTriShading { vec4 n0; vec4 n1; vec4 n2; vec4 uv_v; };
 struct GpuBvhNode {
     vec3 l_min; uint left;

@@ -6,6 +6,16 @@
 //! and obvhs builds it quickly. The planned next step for large scenes is obvhs's compressed
 //! 8-wide BVH (Ylitie et al. 2017), whose ~2x faster incoherent traversal the issue tracker asks
 //! us to measure against this one.
+//!
+//! `grid` holds the alternative uniform grid (`accel: "grid"`), `select` the options that pick
+//! one and the build entry point used by `compile`, and `cache` the on-disk cache of built
+//! structures.
+
+pub mod cache;
+pub mod grid;
+mod select;
+
+pub use select::{build_accel, Accel, AccelInfo, AccelKind, AccelOptions, CacheStatus};
 
 use std::time::{Duration, Instant};
 

@@ -23,6 +23,11 @@ pub mod binding {
     pub const STATS: u32 = 11;
     /// bdpt: light-tracing splats (t = 1), per pixel; see shaders/bdpt/splat.glsl.
     pub const SPLAT: u32 = 12;
+    /// Uniform grid (`accel: "grid"` only; see renderer/src/accel/grid.rs): its `GpuGridInfo`,
+    /// the cells' offsets into the reference list (cells + 1 entries) and the list itself.
+    pub const GRID: u32 = 20;
+    pub const GRID_CELLS: u32 = 21;
+    pub const GRID_PRIMS: u32 = 22;
 }
 
 /// Marks "none" in u32 index fields.
@@ -70,6 +75,22 @@ pub struct GpuBvhNode {
     pub l_count: u32,
     pub r_max: [f32; 3],
     pub r_count: u32,
+}
+
+/// The uniform grid's frame (64 bytes, binding GRID): cell (x, y, z) spans
+/// `lo + (x, y, z) · cell` to `lo + (x + 1, y + 1, z + 1) · cell`, cells numbered x fastest.
+/// `prim_refs` is the length of the reference list (binding GRID_PRIMS).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuGridInfo {
+    pub lo: [f32; 3],
+    pub nx: u32,
+    pub hi: [f32; 3],
+    pub ny: u32,
+    pub cell: [f32; 3],
+    pub nz: u32,
+    pub inv_cell: [f32; 3],
+    pub prim_refs: u32,
 }
 
 /// Material type ids (mirrored as MAT_* in shaders/common/bsdf/bsdf.glsl).

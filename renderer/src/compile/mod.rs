@@ -8,11 +8,13 @@ pub mod layout;
 mod lights;
 mod materials;
 
+use std::path::Path;
 use std::time::Duration;
 
 use glam::{DVec3, Vec3};
 
-use crate::accel::{self, AccelError, PrimBounds};
+use crate::accel::grid::Grid;
+use crate::accel::{self, AccelError, AccelInfo, AccelOptions, PrimBounds};
 use crate::scene::{Environment, Filter, Light, Scene};
 use layout::*;
 pub use lights::{alias_table, luminance};
@@ -69,6 +71,20 @@ pub struct CompiledScene {
     pub triangle_count: usize,
     pub bvh_depth: usize,
     pub bvh_build_time: Duration,
+    /// The uniform grid when `accel` is "grid" (then `nodes` is empty and the kernels are built
+    /// with `ACCEL_GRID`).
+    pub grid: Option<Grid>,
+    /// Which structure was built, how long it took, its size, cache hit or miss.
+    pub accel: AccelInfo,
+}
+
+/// Options of [`compile_with`].
+#[derive(Debug, Clone, Copy, Default)]
+pub struct CompileOptions<'a> {
+    /// BVH (default) or uniform grid, and the grid's resolution.
+    pub accel: AccelOptions,
+    /// Directory of the acceleration-structure cache (None: always build).
+    pub cache: Option<&'a Path>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -90,8 +106,19 @@ fn f3(v: DVec3) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
 }
 
-/// Compiles `scene` for a film of `width` × `height` (the job may override the scene's film).
+/// Compiles `scene` for a film of `width` × `height` (the job may override the scene's film),
+/// with a BVH and no cache.
 pub fn compile(scene: &Scene, width: u32, height: u32) -> Result<CompiledScene, CompileError> {
+    compile_with(scene, width, height, &CompileOptions::default())
+}
+
+/// [`compile`] with a choice of acceleration structure and a cache of built structures.
+pub fn compile_with(
+    scene: &Scene,
+    width: u32,
+    height: u32,
+    options: &CompileOptions<'_>,
+) -> Result<CompiledScene, CompileError> {
     let origin = scene.camera.position;
     let rel = |p: DVec3| p - origin;
     let mut features = FeatureSet::default();
@@ -201,8 +228,8 @@ pub fn compile(scene: &Scene, width: u32, height: u32) -> Result<CompiledScene, 
         return Err(CompileError::TooManyPrims(prims.len()));
     }
 
-    // Step 3: the BVH, and primitives reordered into its leaf order.
-    let bvh = accel::build(&bounds)?;
+    // Step 3: the BVH (or grid), and primitives reordered into its order.
+    let bvh = accel::build_accel(&options.accel, &prims, &bounds, options.cache)?;
     let mut sorted: Vec<GpuPrim> = bvh.order.iter().map(|&i| prims[i as usize]).collect();
 
     // Step 4: scene bounds (camera-relative) for directional and environment lights.
@@ -357,6 +384,12 @@ pub fn compile(scene: &Scene, width: u32, height: u32) -> Result<CompiledScene, 
         height,
         triangle_count,
         bvh_depth: bvh.depth,
-        bvh_build_time: bvh.build_time,
+        bvh_build_time: if bvh.grid.is_none() {
+            bvh.info.build_time
+        } else {
+            Duration::ZERO
+        },
+        grid: bvh.grid,
+        accel: bvh.info,
     })
 }

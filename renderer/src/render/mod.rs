@@ -62,6 +62,20 @@ pub struct RenderStats {
     pub bvh_build_s: f64,
     pub setup_s: f64,
     pub features: crate::compile::FeatureSet,
+    /// The acceleration structure: "bvh" or "grid".
+    pub accel: String,
+    /// Seconds to obtain it: its build, or loading it from the cache on a hit.
+    pub accel_build_s: f64,
+    /// Bytes of its GPU buffers.
+    pub accel_bytes: u64,
+    /// "hit", "miss" (built and stored) or "off" (no cache).
+    pub accel_cache: crate::accel::CacheStatus,
+    /// Grid only: cells along x, y, z.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grid_resolution: Option<[u32; 3]>,
+    /// Grid only: primitive references over all cells.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grid_refs: Option<u64>,
     /// The integrator's own statistics (stage timings, memory), where it has any.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub details: Option<serde_json::Value>,

@@ -66,6 +66,7 @@ struct SceneInfo {
     bvh_depth: usize,
     bvh_build: Duration,
     features: crate::compile::FeatureSet,
+    accel: crate::accel::AccelInfo,
 }
 
 impl RenderSession {
@@ -84,7 +85,7 @@ impl RenderSession {
         let pixels = w as u64 * h as u64;
         // Step 1: scene buffers, each at its named binding.
         let up = |name: &str, bytes: &[u8]| Buffer::from_slice(ctx, name, bytes);
-        let scene_buffers = vec![
+        let mut scene_buffers = vec![
             (
                 binding::GLOBALS,
                 up("globals", bytemuck::bytes_of(&scene.globals))?,
@@ -126,6 +127,18 @@ impl RenderSession {
                 up("env distribution", bytemuck::cast_slice(&scene.env_dist))?,
             ),
         ];
+        // The uniform grid's buffers exist only when the scene uses it.
+        if let Some(grid) = &scene.grid {
+            scene_buffers.push((binding::GRID, up("grid", bytemuck::bytes_of(&grid.info))?));
+            scene_buffers.push((
+                binding::GRID_CELLS,
+                up("grid cells", bytemuck::cast_slice(&grid.cells))?,
+            ));
+            scene_buffers.push((
+                binding::GRID_PRIMS,
+                up("grid prims", bytemuck::cast_slice(&grid.prims))?,
+            ));
+        }
         // Step 2: accumulation (rgb sum, sample count per pixel) and counters, zeroed.
         let accum = Buffer::new(ctx, "accumulation", pixels * 16, BufferUsage::Storage)?;
         ctx.fill_zero(&accum)?;
@@ -145,6 +158,9 @@ impl RenderSession {
         }
         // Step 3: the kernel, specialised for the scene's features (and the integrator's own).
         let mut defines = scene.features.defines();
+        if scene.grid.is_some() {
+            defines.push(("ACCEL_GRID".to_string(), "1".to_string()));
+        }
         defines.extend(integrator.defines());
         let spirv = compile_glsl(integrator.kernel(), &defines)?;
         let mut bindings: Vec<Binding<'_>> = scene_buffers
@@ -206,6 +222,7 @@ impl RenderSession {
                 bvh_depth: scene.bvh_depth,
                 bvh_build: scene.bvh_build_time,
                 features: scene.features,
+                accel: scene.accel.clone(),
             },
         })
     }
@@ -400,6 +417,12 @@ impl RenderSession {
             bvh_build_s: self.info.bvh_build.as_secs_f64(),
             setup_s: self.setup.as_secs_f64(),
             features: self.info.features,
+            accel: self.info.accel.kind.name().to_string(),
+            accel_build_s: self.info.accel.build_time.as_secs_f64(),
+            accel_bytes: self.info.accel.bytes,
+            accel_cache: self.info.accel.cache,
+            grid_resolution: self.info.accel.grid_resolution,
+            grid_refs: self.info.accel.grid_refs,
             details: self.integrator.details(),
         }
     }

@@ -1,0 +1,239 @@
+//! Which acceleration structure a scene gets (`AccelOptions`), and `build_accel`: look the
+//! structure up in the cache, else build it (BVH or uniform grid) and store it.
+
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+
+use super::grid::{self, Grid};
+use super::{build, cache, AccelError, PrimBounds};
+use crate::compile::layout::{GpuBvhNode, GpuPrim};
+
+/// The acceleration structure kind.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AccelKind {
+    /// Binary BVH (obvhs PLOC), shaders/common/traverse.glsl. The default.
+    #[default]
+    Bvh = 0,
+    /// Uniform grid with 3D-DDA traversal, shaders/common/grid.glsl (`#define ACCEL_GRID`).
+    Grid = 1,
+}
+
+impl AccelKind {
+    /// Every kind's name, as scenes, the CLI and jobs spell it.
+    pub const NAMES: [&'static str; 2] = ["bvh", "grid"];
+
+    /// Parses "bvh" or "grid".
+    pub fn from_name(name: &str) -> Option<AccelKind> {
+        match name {
+            "bvh" => Some(AccelKind::Bvh),
+            "grid" => Some(AccelKind::Grid),
+            _ => None,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        Self::NAMES[self as usize]
+    }
+}
+
+/// How to accelerate ray queries.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+pub struct AccelOptions {
+    pub kind: AccelKind,
+    /// Grid only: cells along the scene box's longest axis (the others get cells of about the
+    /// same size); None: about λ = 3 cells per primitive. Capped at `grid::MAX_AXIS` per axis.
+    pub grid_resolution: Option<u32>,
+    /// Grid only, a testing aid: store the primitives in the order the BVH would (costs a BVH
+    /// build), so grid and BVH renders number primitives and lights identically and can be
+    /// compared pixel for pixel. Off: input order.
+    pub grid_bvh_order: bool,
+}
+
+/// Whether the structure came from the cache.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CacheStatus {
+    /// No cache directory was given.
+    #[default]
+    Off,
+    /// Loaded from the cache; nothing was built.
+    Hit,
+    /// Built (and written to the cache).
+    Miss,
+}
+
+/// What `build_accel` did, for the render statistics.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct AccelInfo {
+    pub kind: AccelKind,
+    /// Time to obtain the structure: the build, or loading it on a cache hit.
+    pub build_time: Duration,
+    /// Bytes of the structure's GPU buffers (BVH nodes, or grid info + cells + references).
+    pub bytes: u64,
+    /// Grid only: cells along x, y, z.
+    pub grid_resolution: Option<[u32; 3]>,
+    /// Grid only: primitive references (a primitive counts once per cell it overlaps).
+    pub grid_refs: Option<u64>,
+    pub cache: CacheStatus,
+}
+
+/// A built acceleration structure.
+#[derive(Debug, Clone)]
+pub struct Accel {
+    /// `order[i]` = the input index of the primitive stored at slot i.
+    pub order: Vec<u32>,
+    /// BVH nodes (empty for the grid).
+    pub nodes: Vec<GpuBvhNode>,
+    pub depth: usize,
+    pub grid: Option<Grid>,
+    pub info: AccelInfo,
+}
+
+/// Builds (or loads from `cache_dir`) the structure over `prims` (input order) with bounds
+/// `bounds`. Cache failures never fail the build: an unreadable file is rebuilt, an unwritable
+/// directory is reported in the log.
+pub fn build_accel(
+    opts: &AccelOptions,
+    prims: &[GpuPrim],
+    bounds: &[PrimBounds],
+    cache_dir: Option<&Path>,
+) -> Result<Accel, AccelError> {
+    let start = Instant::now();
+    // Step 1: the cache.
+    let key = cache_dir.map(|_| cache::key(opts, prims, bounds));
+    if let (Some(dir), Some(key)) = (cache_dir, key) {
+        if let Some(e) = cache::load(dir, opts.kind, key) {
+            if let Some(a) = from_entry(opts, e, prims.len()) {
+                let mut a = a;
+                a.info.build_time = start.elapsed();
+                a.info.cache = CacheStatus::Hit;
+                return Ok(a);
+            }
+        }
+    }
+    // Step 2: build.
+    let mut a = match opts.kind {
+        AccelKind::Bvh => {
+            let bvh = build(bounds)?;
+            Accel {
+                info: AccelInfo {
+                    kind: AccelKind::Bvh,
+                    bytes: (bvh.nodes.len() * std::mem::size_of::<GpuBvhNode>()) as u64,
+                    ..Default::default()
+                },
+                order: bvh.order,
+                nodes: bvh.nodes,
+                depth: bvh.depth,
+                grid: None,
+            }
+        }
+        AccelKind::Grid => {
+            let order: Vec<u32> = if opts.grid_bvh_order {
+                build(bounds)?.order
+            } else {
+                (0..prims.len() as u32).collect()
+            };
+            let sorted: Vec<GpuPrim> = order.iter().map(|&i| prims[i as usize]).collect();
+            let sorted_bounds: Vec<PrimBounds> =
+                order.iter().map(|&i| bounds[i as usize]).collect();
+            let g = grid::build(&sorted, &sorted_bounds, opts.grid_resolution);
+            grid_accel(order, g)
+        }
+    };
+    a.info.build_time = start.elapsed();
+    // Step 3: store.
+    if let (Some(dir), Some(key)) = (cache_dir, key) {
+        a.info.cache = CacheStatus::Miss;
+        let e = cache::Entry {
+            order: a.order.clone(),
+            nodes: a.nodes.clone(),
+            depth: a.depth as u32,
+            grid: a
+                .grid
+                .as_ref()
+                .map(|g| (g.info, g.cells.clone(), g.prims.clone())),
+        };
+        if let Err(err) = cache::store(dir, opts.kind, key, &e) {
+            tracing::warn!("accel cache {}: not written: {err}", dir.display());
+        }
+    }
+    Ok(a)
+}
+
+fn grid_accel(order: Vec<u32>, g: Grid) -> Accel {
+    Accel {
+        info: AccelInfo {
+            kind: AccelKind::Grid,
+            bytes: g.bytes(),
+            grid_resolution: Some(g.resolution()),
+            grid_refs: Some(g.prims.len() as u64),
+            ..Default::default()
+        },
+        order,
+        nodes: Vec::new(),
+        depth: 0,
+        grid: Some(g),
+    }
+}
+
+/// A cache entry as an `Accel`, after checking it is consistent with the scene (every index in
+/// range, the right amount of cells); None when it is not.
+fn from_entry(opts: &AccelOptions, e: cache::Entry, n: usize) -> Option<Accel> {
+    let mut seen = vec![false; n];
+    if e.order.len() != n {
+        return None;
+    }
+    for &i in &e.order {
+        if i as usize >= n || std::mem::replace(&mut seen[i as usize], true) {
+            return None;
+        }
+    }
+    match opts.kind {
+        AccelKind::Bvh => {
+            if e.grid.is_some() || e.nodes.is_empty() || e.depth as usize > super::MAX_DEPTH {
+                return None;
+            }
+            let m = e.nodes.len() as u32;
+            for node in &e.nodes {
+                for (c, count) in [(node.left, node.l_count), (node.right, node.r_count)] {
+                    let ok = if count == 0 {
+                        c < m
+                    } else {
+                        c as u64 + count as u64 <= n as u64
+                    };
+                    if !ok && n > 0 {
+                        return None;
+                    }
+                }
+            }
+            Some(Accel {
+                info: AccelInfo {
+                    kind: AccelKind::Bvh,
+                    bytes: (e.nodes.len() * std::mem::size_of::<GpuBvhNode>()) as u64,
+                    ..Default::default()
+                },
+                order: e.order,
+                nodes: e.nodes,
+                depth: e.depth as usize,
+                grid: None,
+            })
+        }
+        AccelKind::Grid => {
+            let g = e.to_grid()?;
+            let cells = [g.info.nx, g.info.ny, g.info.nz]
+                .iter()
+                .map(|&r| r as u64)
+                .product::<u64>();
+            let ok = g.cells.len() as u64 == cells + 1
+                && g.cells.first() == Some(&0)
+                && g.cells.windows(2).all(|w| w[0] <= w[1])
+                && *g.cells.last()? as usize == g.prims.len()
+                && g.info.prim_refs as usize == g.prims.len()
+                && g.prims.iter().all(|&p| (p as usize) < n);
+            ok.then(|| grid_accel(e.order, g))
+        }
+    }
+}

@@ -1,0 +1,247 @@
+//! The uniform grid (`accel: "grid"`) against the BVH on lavapipe, the acceleration-structure
+//! cache, and the CLI's accel flags.
+//!
+//! With `grid_bvh_order` the grid stores primitives in the BVH's order, so both structures number
+//! primitives and lights alike and, finding the same nearest hits, must give the same image; the
+//! tests report how many pixels differ and the relMSE. With the default input order the images
+//! are two estimates of the same picture (lights are enumerated differently), compared at noise
+//! level.
+
+use std::path::Path;
+
+use candela_tests::*;
+use glam::DVec3;
+use renderer::accel::{AccelKind, AccelOptions, CacheStatus};
+use renderer::compile::{compile_with, CompileOptions, CompiledScene};
+use renderer::film::Image;
+use renderer::integrators::IntegratorOptions;
+use renderer::metrics::rel_mse;
+use renderer::render::{render, Budget, RenderSession, RenderStats};
+use renderer::scene::{Light, Scene};
+
+fn grid(resolution: Option<u32>) -> AccelOptions {
+    AccelOptions {
+        kind: AccelKind::Grid,
+        grid_resolution: resolution,
+        grid_bvh_order: true,
+    }
+}
+
+fn compiled(scene: &Scene, w: u32, accel: AccelOptions, cache: Option<&Path>) -> CompiledScene {
+    let opts = CompileOptions { accel, cache };
+    compile_with(scene, w, w, &opts).expect("compile")
+}
+
+fn render_compiled(
+    scene: &Scene,
+    c: &CompiledScene,
+    integrator: &str,
+    spp: u32,
+    seed: u64,
+) -> (Image, RenderStats) {
+    let ctx = gpu();
+    let options = IntegratorOptions::from_name(integrator).expect("integrator");
+    let mut session =
+        RenderSession::new(&ctx, c, &options, scene.render.max_depth, seed).expect("session");
+    let out = render(&mut session, Budget::Spp(spp)).expect("render");
+    ctx.check_validation().expect("validation layer messages");
+    out
+}
+
+/// Pixels whose colour differs at all, and the relMSE of `a` against `b`.
+fn diff(a: &Image, b: &Image) -> (usize, f64) {
+    let n = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .filter(|(x, y)| x != y)
+        .count();
+    (n, rel_mse(a, b).unwrap())
+}
+
+fn load(name: &str) -> Scene {
+    renderer::scene::load_file(&scene_path(name)).unwrap()
+}
+
+/// Renders `scene` with the BVH and with grids of several resolutions; all must agree.
+fn grid_matches_bvh(label: &str, scene: &Scene, integrator: &str, w: u32, spp: u32) {
+    let bvh = compiled(scene, w, AccelOptions::default(), None);
+    let (reference, stats) = render_compiled(scene, &bvh, integrator, spp, 7);
+    assert_eq!(stats.accel, "bvh");
+    for res in [Some(1), Some(3), None, Some(64)] {
+        let c = compiled(scene, w, grid(res), None);
+        let (img, stats) = render_compiled(scene, &c, integrator, spp, 7);
+        assert_eq!(stats.accel, "grid");
+        let (n, e) = diff(&img, &reference);
+        println!(
+            "{label} {integrator}: grid {:?} ({} refs, {} bytes): {n} of {} pixels differ, \
+             relMSE {e:.3e} against the BVH",
+            stats.grid_resolution.unwrap(),
+            stats.grid_refs.unwrap(),
+            stats.accel_bytes,
+            img.pixels.len()
+        );
+        assert!(e < 1e-5, "{label}: grid {res:?}: relMSE {e}");
+    }
+}
+
+#[test]
+fn grid_matches_bvh_on_the_cornell_box() {
+    // The camera looks in from outside the box: primary rays start outside the grid.
+    grid_matches_bvh("cornell", &load("cornell.json"), "nee", 24, 4);
+}
+
+#[test]
+fn grid_matches_bvh_with_spheres_and_meshes() {
+    grid_matches_bvh("mirror_glass", &load("mirror_glass.json"), "nee", 24, 4);
+    grid_matches_bvh("textured_mesh", &load("textured_mesh.json"), "nee", 24, 4);
+}
+
+#[test]
+fn grid_serves_every_integrator() {
+    let scene = load("cornell.json");
+    for integrator in ["pt", "bdpt"] {
+        let bvh = compiled(&scene, 16, AccelOptions::default(), None);
+        let (reference, _) = render_compiled(&scene, &bvh, integrator, 2, 3);
+        let c = compiled(&scene, 16, grid(None), None);
+        let (img, _) = render_compiled(&scene, &c, integrator, 2, 3);
+        let (n, e) = diff(&img, &reference);
+        println!("cornell {integrator}: grid: {n} pixels differ, relMSE {e:.3e} against the BVH");
+        assert!(e < 1e-5, "{integrator}: relMSE {e}");
+    }
+}
+
+fn translated(scene: &Scene, t: DVec3) -> Scene {
+    let mut far = scene.clone();
+    far.camera.position += t;
+    far.camera.look_at += t;
+    for m in &mut far.meshes {
+        for p in &mut m.positions {
+            *p += t;
+        }
+    }
+    for s in &mut far.spheres {
+        s.center += t;
+    }
+    for l in &mut far.lights {
+        if let Light::Point { position, .. } | Light::Spot { position, .. } = l {
+            *position += t;
+        }
+    }
+    far
+}
+
+/// Far from the origin (camera-relative coordinates) the grid still finds the BVH's hits, and the
+/// picture is that of the scene at the origin.
+#[test]
+fn grid_far_from_the_origin() {
+    let scene = load("mirror_glass.json");
+    let far = translated(&scene, DVec3::new(1e5, -1e5, 1e5));
+    let bvh = compiled(&far, 24, AccelOptions::default(), None);
+    let (reference, _) = render_compiled(&far, &bvh, "nee", 4, 5);
+    let c = compiled(&far, 24, grid(None), None);
+    let (img, _) = render_compiled(&far, &c, "nee", 4, 5);
+    let (n, e) = diff(&img, &reference);
+    println!("mirror_glass translated by 1e5: grid: {n} pixels differ, relMSE {e:.3e} vs BVH");
+    assert!(e < 1e-5, "relMSE {e}");
+}
+
+/// In input order (the default) lights are enumerated differently, so the images are two
+/// estimates of the same picture: grid-vs-BVH must be as close as BVH-vs-BVH with another seed.
+#[test]
+fn grid_in_input_order_converges_to_the_bvh_image() {
+    let scene = load("cornell.json");
+    let bvh = compiled(&scene, 16, AccelOptions::default(), None);
+    let (a, _) = render_compiled(&scene, &bvh, "nee", 16, 1);
+    let (b, _) = render_compiled(&scene, &bvh, "nee", 16, 2);
+    let mut opts = grid(None);
+    opts.grid_bvh_order = false;
+    let c = compiled(&scene, 16, opts, None);
+    let (g, _) = render_compiled(&scene, &c, "nee", 16, 1);
+    let seeds = rel_mse(&b, &a).unwrap();
+    let accel = rel_mse(&g, &a).unwrap();
+    let (ma, mg) = (mean(&a), mean(&g));
+    println!(
+        "cornell nee 16 spp: grid (input order) vs BVH relMSE {accel:.3e}, BVH seed 2 vs seed 1 \
+         {seeds:.3e}; means {mg:.4?} vs {ma:.4?}"
+    );
+    assert!(accel < 2.0 * seeds, "grid {accel} vs seed noise {seeds}");
+    for k in 0..3 {
+        assert!(
+            (ma[k] - mg[k]).abs() < 0.03 * ma[k],
+            "channel {k}: {ma:?} vs {mg:?}"
+        );
+    }
+}
+
+fn same_buffers(a: &CompiledScene, b: &CompiledScene) -> bool {
+    a.nodes == b.nodes
+        && a.prims == b.prims
+        && a.lights == b.lights
+        && a.alias == b.alias
+        && a.globals == b.globals
+        && a.grid.as_ref().map(|g| (g.info, &g.cells, &g.prims))
+            == b.grid.as_ref().map(|g| (g.info, &g.cells, &g.prims))
+}
+
+/// The second compile of a scene is a cache hit with identical buffers; a changed scene misses;
+/// a corrupt file is rebuilt and overwritten.
+#[test]
+fn accel_cache_hits_misses_and_repairs() {
+    let dir = scratch("accel-cache");
+    let scene = load("textured_mesh.json");
+    let default = AccelOptions::default();
+    for (label, accel) in [("bvh", default), ("grid", grid(Some(16)))] {
+        let nocache = compiled(&scene, 16, accel, None);
+        assert_eq!(nocache.accel.cache, CacheStatus::Off);
+        let first = compiled(&scene, 16, accel, Some(&dir));
+        assert_eq!(first.accel.cache, CacheStatus::Miss, "{label}");
+        let second = compiled(&scene, 16, accel, Some(&dir));
+        assert_eq!(second.accel.cache, CacheStatus::Hit, "{label}");
+        assert!(same_buffers(&first, &second) && same_buffers(&first, &nocache));
+        println!(
+            "{label}: build {:.3} ms, cache load {:.3} ms, {} bytes",
+            first.accel.build_time.as_secs_f64() * 1e3,
+            second.accel.build_time.as_secs_f64() * 1e3,
+            second.accel.bytes
+        );
+        // A moved sphere or vertex is another scene.
+        let mut moved = scene.clone();
+        if let Some(s) = moved.spheres.first_mut() {
+            s.center.x += 0.01;
+        } else {
+            moved.meshes[0].positions[0].x += 0.01;
+        }
+        assert_eq!(
+            compiled(&moved, 16, accel, Some(&dir)).accel.cache,
+            CacheStatus::Miss
+        );
+    }
+    // Another grid resolution is another key.
+    let other = compiled(&scene, 16, grid(Some(17)), Some(&dir));
+    assert_eq!(other.accel.cache, CacheStatus::Miss);
+    // Corrupt every file: each is ignored, rebuilt and overwritten.
+    let files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(files.len(), 5, "{files:?}");
+    for f in &files {
+        let mut bytes = std::fs::read(f).unwrap();
+        let mid = bytes.len() / 2;
+        bytes[mid] ^= 0xff;
+        std::fs::write(f, &bytes[..bytes.len() - 1]).unwrap();
+    }
+    for accel in [default, grid(Some(16))] {
+        let rebuilt = compiled(&scene, 16, accel, Some(&dir));
+        assert_eq!(rebuilt.accel.cache, CacheStatus::Miss);
+        let again = compiled(&scene, 16, accel, Some(&dir));
+        assert_eq!(again.accel.cache, CacheStatus::Hit);
+        assert!(same_buffers(&rebuilt, &again));
+    }
+    // No temporary files are left behind.
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let name = e.unwrap().file_name().into_string().unwrap();
+        assert!(name.ends_with(".bin") && !name.starts_with('.'), "{name}");
+    }
+}
