@@ -1,0 +1,428 @@
+//! `whitted` (classic ray tracing), measured on lavapipe at tiny sizes:
+//! - analytic: a glass sphere (IOR 1.5), and a gold conductor sphere (eta/k Fresnel) beside a
+//!   glass one, in front of emissive checker walls under a constant environment, rendered
+//!   without pixel jitter (rays through pixel centres) and compared per pixel with an
+//!   independent f64 tracer written here (ray–sphere, Snell, exact dielectric and conductor
+//!   Fresnel, both branches followed to max_depth, the same 1e-4 weight cut-off). Pixels whose
+//!   f64 value changes under a 1/1000-pixel nudge of the ray (a checker edge or silhouette seen
+//!   through the sphere) are left out; the others must agree within 1e-4 + 1e-4·value;
+//! - `whitted` equals `nee` at max_depth 2 under one delta light (point, spot, directional;
+//!   diffuse, phong, rough principled and rough conductor surfaces): same camera rays, same
+//!   BSDFs, no randomness left in nee's estimate;
+//! - area lights: its fixed quadrature converges to nee's direct light (max_depth 2);
+//! - white furnace: a white diffuse sphere under constant radiance 1 is 1 (the ambient term);
+//! - determinism: without jitter 1 spp and 64 spp (and another seed) give the same image; with
+//!   jitter they differ only by anti-aliasing;
+//! - a report of its relMSE against nee on the Cornell box (no indirect light: darker);
+//! - bad options are refused, naming the field.
+
+use candela_tests::{assert_bad_input, gpu, run_candela, scene_path};
+use glam::DVec3;
+use renderer::compile::compile;
+use renderer::film::Image;
+use renderer::integrators::IntegratorOptions;
+use renderer::metrics::{downsample_box, rel_mse};
+use renderer::render::{render, Budget, RenderSession, RenderStats};
+use renderer::scene::Scene;
+
+fn options(json: &str) -> IntegratorOptions {
+    serde_json::from_str(json).unwrap_or_else(|e| panic!("{json}: {e}"))
+}
+
+fn load_json(json: &str) -> Scene {
+    renderer::scene::load_str(json, None).unwrap_or_else(|e| panic!("{e}\n{json}"))
+}
+
+/// Renders `scene` at `size` with integrator options given as JSON.
+fn render_with(
+    scene: &Scene,
+    json: &str,
+    spp: u32,
+    size: (u32, u32),
+    seed: u64,
+) -> (Image, RenderStats) {
+    let ctx = gpu();
+    let compiled = compile(scene, size.0, size.1).expect("compile");
+    let o = options(json);
+    let mut s =
+        RenderSession::new(&ctx, &compiled, &o, scene.render.max_depth, seed).expect("session");
+    let out = render(&mut s, Budget::Spp(spp)).expect("render");
+    ctx.check_validation().expect("validation layer messages");
+    out
+}
+
+// ---------------------------------------------------------------------------------------------
+// The analytic scenes and their f64 reference.
+
+/// Emission of the two checker colours and the environment.
+const CHECK_A: [f64; 3] = [2.0, 0.5, 0.25];
+const CHECK_B: [f64; 3] = [0.2, 0.6, 1.5];
+const ENV: [f64; 3] = [0.3, 0.4, 0.5];
+
+#[derive(Clone, Copy)]
+enum Kind {
+    Glass { eta: f64 },
+    Conductor { eta: DVec3, k: DVec3 },
+}
+
+#[derive(Clone, Copy)]
+struct Sphere {
+    c: DVec3,
+    r: f64,
+    kind: Kind,
+}
+
+/// One emissive checker cell: the square [x0, x0 + size] × [y0, y0 + size] at z, emitting
+/// towards `facing_z` (+1 or −1); its back is black.
+#[derive(Clone, Copy)]
+struct Cell {
+    x0: f64,
+    y0: f64,
+    size: f64,
+    z: f64,
+    facing_z: f64,
+    emission: DVec3,
+}
+
+struct Analytic {
+    eye: DVec3,
+    fov_y: f64,
+    size: (u32, u32),
+    spheres: Vec<Sphere>,
+    cells: Vec<Cell>,
+}
+
+/// A checker wall of n×n cells of side `size` centred on the z axis at `z`, facing `facing_z`.
+fn checker(n: i32, size: f64, z: f64, facing_z: f64) -> Vec<Cell> {
+    let mut cells = Vec::new();
+    let half = n as f64 * size / 2.0;
+    for i in 0..n {
+        for j in 0..n {
+            let e = if (i + j) % 2 == 0 { CHECK_A } else { CHECK_B };
+            cells.push(Cell {
+                x0: -half + i as f64 * size,
+                y0: -half + j as f64 * size,
+                size,
+                z,
+                facing_z,
+                emission: DVec3::from(e),
+            });
+        }
+    }
+    cells
+}
+
+impl Analytic {
+    /// The scene JSON: cells as quads (reflectance 0, so only their emission shows).
+    fn json(&self) -> String {
+        let mut materials = vec![
+            r#""glass": {"type": "dielectric", "ior": 1.5}"#.to_string(),
+            r#""black": {"type": "diffuse", "reflectance": 0}"#.to_string(),
+        ];
+        let mut objects = Vec::new();
+        for (i, c) in self.cells.iter().enumerate() {
+            let e = c.emission;
+            materials.push(format!(
+                r#""cell{i}": {{"type": "diffuse", "reflectance": 0, "emission": [{}, {}, {}]}}"#,
+                e.x, e.y, e.z
+            ));
+            // front normal = normalize(edge_u × edge_v): x × y = +z, y × x = −z.
+            let (eu, ev) = if c.facing_z > 0.0 {
+                ([c.size, 0.0, 0.0], [0.0, c.size, 0.0])
+            } else {
+                ([0.0, c.size, 0.0], [c.size, 0.0, 0.0])
+            };
+            objects.push(format!(
+                r#"{{"type": "quad", "origin": [{}, {}, {}], "edge_u": {:?}, "edge_v": {:?}, "material": "cell{i}"}}"#,
+                c.x0, c.y0, c.z, eu, ev
+            ));
+        }
+        for (i, s) in self.spheres.iter().enumerate() {
+            let m = match s.kind {
+                Kind::Glass { .. } => "glass".to_string(),
+                Kind::Conductor { eta, k } => {
+                    materials.push(format!(
+                        r#""metal{i}": {{"type": "conductor", "eta": [{}, {}, {}], "k": [{}, {}, {}]}}"#,
+                        eta.x, eta.y, eta.z, k.x, k.y, k.z
+                    ));
+                    format!("metal{i}")
+                }
+            };
+            objects.push(format!(
+                r#"{{"type": "sphere", "center": [{}, {}, {}], "radius": {}, "material": "{m}"}}"#,
+                s.c.x, s.c.y, s.c.z, s.r
+            ));
+        }
+        format!(
+            r#"{{"version": 1,
+  "camera": {{"position": [{}, {}, {}], "look_at": [0, 0, 0], "fov_y": {}}},
+  "film": {{"width": {}, "height": {}, "filter": "box"}},
+  "materials": {{{}}},
+  "objects": [{}],
+  "environment": {{"type": "constant", "radiance": {:?}}}}}"#,
+            self.eye.x,
+            self.eye.y,
+            self.eye.z,
+            self.fov_y,
+            self.size.0,
+            self.size.1,
+            materials.join(",\n"),
+            objects.join(",\n"),
+            ENV
+        )
+    }
+
+    /// The camera ray through film position (fx, fy) in pixels (row 0 at the top).
+    fn camera_ray(&self, fx: f64, fy: f64) -> (DVec3, DVec3) {
+        let forward = (DVec3::ZERO - self.eye).normalize();
+        let right = forward.cross(DVec3::Y).normalize();
+        let up = right.cross(forward);
+        let tan_half = (self.fov_y.to_radians() * 0.5).tan();
+        let (w, h) = (self.size.0 as f64, self.size.1 as f64);
+        let sx = (2.0 * fx / w - 1.0) * tan_half * (w / h);
+        let sy = (1.0 - 2.0 * fy / h) * tan_half;
+        (self.eye, (forward + sx * right + sy * up).normalize())
+    }
+
+    /// Radiance along (o, d) reaching a chain of `depth` segments so far, times `beta`: what
+    /// whitted computes (the shaders' order of operations is irrelevant in f64).
+    fn trace(&self, o: DVec3, d: DVec3, beta: DVec3, depth: i32, max_depth: i32) -> DVec3 {
+        const T_MIN: f64 = 1e-7;
+        // Step 1: nearest sphere and cell.
+        let mut best = f64::INFINITY;
+        let mut hit_sphere = None;
+        for s in &self.spheres {
+            let oc = o - s.c;
+            let b = oc.dot(d);
+            let c = oc.length_squared() - s.r * s.r;
+            let disc = b * b - c;
+            if disc < 0.0 {
+                continue;
+            }
+            let sq = disc.sqrt();
+            for t in [-b - sq, -b + sq] {
+                if t > T_MIN && t < best {
+                    best = t;
+                    hit_sphere = Some(*s);
+                    break;
+                }
+            }
+        }
+        let mut hit_cell = None;
+        for c in &self.cells {
+            if d.z == 0.0 {
+                continue;
+            }
+            let t = (c.z - o.z) / d.z;
+            if !(t > T_MIN && t < best) {
+                continue;
+            }
+            let p = o + t * d;
+            if p.x >= c.x0 && p.x <= c.x0 + c.size && p.y >= c.y0 && p.y <= c.y0 + c.size {
+                best = t;
+                hit_cell = Some(*c);
+                hit_sphere = None;
+            }
+        }
+        // Step 2: escaping rays see the environment; cells show their emission (front only)
+        // and reflect nothing.
+        if let Some(c) = hit_cell {
+            return if d.z * c.facing_z < 0.0 {
+                beta * c.emission
+            } else {
+                DVec3::ZERO
+            };
+        }
+        let Some(s) = hit_sphere else {
+            return beta * DVec3::from(ENV);
+        };
+        // Step 3: no emission on spheres; stop where max_depth says so.
+        if depth + 1 >= max_depth {
+            return DVec3::ZERO;
+        }
+        let p = o + best * d;
+        let n = (p - s.c).normalize();
+        let wo = -d;
+        let cos_i = wo.dot(n);
+        let reflected = -wo + 2.0 * cos_i * n;
+        let mut out = DVec3::ZERO;
+        let follow = |dir: DVec3, w: DVec3, out: &mut DVec3| {
+            if w.max_element() >= 1e-4 {
+                *out += self.trace(p, dir, w, depth + 1, max_depth);
+            }
+        };
+        match s.kind {
+            Kind::Glass { eta } => {
+                // Step 4: exact dielectric Fresnel, η flipped inside, total internal reflection.
+                let outside = cos_i >= 0.0;
+                let eta_ti = if outside { 1.0 / eta } else { eta };
+                let eta_it = 1.0 / eta_ti;
+                let cos_t2 = 1.0 - (1.0 - cos_i * cos_i) * eta_ti * eta_ti;
+                if cos_t2 <= 0.0 {
+                    follow(reflected, beta, &mut out);
+                    return out;
+                }
+                let ci = cos_i.abs();
+                let ct = cos_t2.sqrt();
+                let a_s = (ci - eta_it * ct) / (ci + eta_it * ct);
+                let a_p = (ct - eta_it * ci) / (ct + eta_it * ci);
+                let f = 0.5 * (a_s * a_s + a_p * a_p);
+                // Snell: tangential part scaled by η_ti, normal part across the interface.
+                let t_dir = (-eta_ti * (wo - cos_i * n) - cos_i.signum() * ct * n).normalize();
+                follow(reflected, beta * f, &mut out);
+                follow(t_dir, beta * ((1.0 - f) * eta_ti * eta_ti), &mut out);
+            }
+            Kind::Conductor { eta, k } => {
+                // Step 4: conductor Fresnel (Mitsuba's fresnel_conductor), per channel.
+                let f = DVec3::new(
+                    fresnel_conductor(cos_i.abs(), eta.x, k.x),
+                    fresnel_conductor(cos_i.abs(), eta.y, k.y),
+                    fresnel_conductor(cos_i.abs(), eta.z, k.z),
+                );
+                follow(reflected, beta * f, &mut out);
+            }
+        }
+        out
+    }
+
+    /// The f64 image at pixel centres, and per pixel whether it is stable under a nudge of
+    /// 1/1000 pixel in x and y (else it straddles an edge and f32 rounding may flip it).
+    fn reference(&self, max_depth: i32) -> (Vec<DVec3>, Vec<bool>) {
+        let (w, h) = self.size;
+        let mut img = Vec::new();
+        let mut stable = Vec::new();
+        for y in 0..h {
+            for x in 0..w {
+                let (fx, fy) = (x as f64 + 0.5, y as f64 + 0.5);
+                let (o, d) = self.camera_ray(fx, fy);
+                let l = self.trace(o, d, DVec3::ONE, 0, max_depth);
+                let mut ok = true;
+                for (dx, dy) in [(1e-3, 0.0), (-1e-3, 0.0), (0.0, 1e-3), (0.0, -1e-3)] {
+                    let (o2, d2) = self.camera_ray(fx + dx, fy + dy);
+                    let l2 = self.trace(o2, d2, DVec3::ONE, 0, max_depth);
+                    if (l2 - l).abs().max_element() > 1e-4 * (1.0 + l.max_element()) {
+                        ok = false;
+                    }
+                }
+                img.push(l);
+                stable.push(ok);
+            }
+        }
+        (img, stable)
+    }
+}
+
+/// Unpolarised conductor Fresnel for complex IOR eta + ik (Mitsuba `fresnel_conductor`).
+fn fresnel_conductor(cos_i: f64, eta: f64, k: f64) -> f64 {
+    let c2 = cos_i * cos_i;
+    let s2 = 1.0 - c2;
+    let s4 = s2 * s2;
+    let temp1 = eta * eta - k * k - s2;
+    let a2pb2 = (temp1 * temp1 + 4.0 * k * k * eta * eta).sqrt();
+    let a = (0.5 * (a2pb2 + temp1)).max(0.0).sqrt();
+    let term1 = a2pb2 + c2;
+    let term2 = 2.0 * cos_i * a;
+    let rs = (term1 - term2) / (term1 + term2);
+    let term3 = a2pb2 * c2 + s4;
+    let term4 = term2 * s2;
+    let rp = rs * (term3 - term4) / (term3 + term4);
+    0.5 * (rs + rp)
+}
+
+/// Renders the analytic scene with whitted at pixel centres and compares with the reference.
+fn check_analytic(name: &str, a: &Analytic, max_depth: i32) {
+    let scene = load_json(&a.json());
+    let json = format!(r#"{{"type": "whitted", "jitter": false, "max_depth": {max_depth}}}"#);
+    let (img, stats) = render_with(&scene, &json, 1, a.size, 7);
+    let (reference, stable) = a.reference(max_depth);
+    let (mut worst, mut worst_at, mut compared, mut failed) = (0.0f64, 0usize, 0usize, 0usize);
+    let mut sum_ref = 0.0;
+    for (i, (r, ok)) in reference.iter().zip(&stable).enumerate() {
+        if !ok {
+            continue;
+        }
+        compared += 1;
+        let g = img.pixels[i];
+        for c in 0..3 {
+            let (gv, rv) = (g[c] as f64, r[c]);
+            sum_ref += rv;
+            let err = (gv - rv).abs();
+            let allowed = 1e-4 + 1e-4 * rv.abs();
+            if err / allowed > worst {
+                worst = err / allowed;
+                worst_at = i;
+            }
+            if err > allowed {
+                failed += 1;
+            }
+        }
+    }
+    let n = reference.len();
+    let (wx, wy) = (worst_at as u32 % a.size.0, worst_at as u32 / a.size.0);
+    println!(
+        "{name} (max_depth {max_depth}): {compared}/{n} pixels compared (the rest straddle an \
+         edge), mean reference {:.4}, worst |error| / (1e-4 + 1e-4·ref) = {worst:.3} at ({wx}, {wy}): \
+         gpu {:?} ref {:.5?}; {} rays",
+        sum_ref / (3 * compared.max(1)) as f64,
+        img.pixels[worst_at],
+        reference[worst_at].to_array(),
+        stats.rays
+    );
+    assert!(
+        compared * 10 >= n * 8,
+        "{name}: only {compared} of {n} pixels are away from edges"
+    );
+    assert_eq!(failed, 0, "{name}: {failed} channel values off (see above)");
+}
+
+fn glass_scene() -> Analytic {
+    let mut cells = checker(4, 2.0, -3.0, 1.0);
+    cells.extend(checker(4, 4.0, 9.0, -1.0));
+    Analytic {
+        eye: DVec3::new(0.0, 0.0, 5.0),
+        fov_y: 35.0,
+        size: (24, 24),
+        spheres: vec![Sphere {
+            c: DVec3::ZERO,
+            r: 1.0,
+            kind: Kind::Glass { eta: 1.5 },
+        }],
+        cells,
+    }
+}
+
+#[test]
+fn glass_sphere_matches_the_analytic_reference() {
+    let a = glass_scene();
+    for max_depth in [1, 3, 8] {
+        check_analytic("glass sphere", &a, max_depth);
+    }
+}
+
+#[test]
+fn gold_mirror_and_glass_match_the_analytic_reference() {
+    let mut cells = checker(4, 2.0, -3.0, 1.0);
+    cells.extend(checker(4, 4.0, 9.0, -1.0));
+    let a = Analytic {
+        eye: DVec3::new(0.0, 0.5, 6.0),
+        fov_y: 40.0,
+        size: (32, 16),
+        spheres: vec![
+            Sphere {
+                c: DVec3::new(1.1, 0.0, 0.0),
+                r: 1.0,
+                kind: Kind::Conductor {
+                    eta: DVec3::new(0.143, 0.374, 1.442),
+                    k: DVec3::new(3.983, 2.385, 1.603),
+                },
+            },
+            Sphere {
+                c: DVec3::new(-1.1, 0.0, 0.0),
+                r: 1.0,
+                kind: Kind::Glass { eta: 1.5 },
+            },
+        ],
+        cells,
+    };
+    check_analytic("gold mirror + glass", &a, 6);
+}
