@@ -17,7 +17,9 @@ use std::sync::Arc;
 
 use crate::compile::layout::GpuPush;
 use crate::compile::CompiledScene;
-use crate::gpu::{Binding, ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
+use crate::gpu::{
+    Binding, ComputePipeline, DispatchTiming, GpuContext, GpuResult, Recorder, ShaderDefines,
+};
 use crate::render::RenderError;
 
 /// Options of the path tracers (`pt`, `nee`).
@@ -196,6 +198,10 @@ pub trait Integrator: Send {
     fn dispatches_per_pass(&self) -> u32 {
         1
     }
+    /// The GPU timings of the dispatches `record_pass` just recorded (their labels as given),
+    /// so that integrators with several stages can report per-stage times in
+    /// [`Integrator::details`]. Default: ignored.
+    fn observe_timings(&mut self, _timings: &[DispatchTiming]) {}
     /// Integrator-specific statistics reported with the render's (a JSON object: stage
     /// timings, memory, options in effect). Default: none.
     fn details(&self) -> Option<serde_json::Value> {

@@ -284,6 +284,7 @@ impl RenderSession {
             .record(integrator.dispatches_per_pass(), |rec| {
                 integrator.record_pass(rec, pipeline, push, groups)
             })?;
+        self.integrator.observe_timings(&timings);
         // Counters: read and reset (u32 on the GPU, u64 here).
         let s: Vec<GpuStats> = self.ctx.download_vec(&self.stats_buf, 1)?;
         self.ctx.fill_zero(&self.stats_buf)?;

@@ -1,0 +1,186 @@
+//! The GPU side of `deferred`: its buffers (bindings 30–34 next to the session's scene
+//! bindings), the three stage pipelines, and the recording of a pass. Each sample of a pass runs
+//! the stages in order — `deferred gbuffer` (shaders/deferred/gbuffer.comp), `deferred cull`
+//! (cull.comp, one workgroup per 16×16 tile) and `deferred shade` (shade.comp) — so the G-buffer
+//! holds one sample at a time and its memory does not grow with the samples per pass.
+
+use std::sync::Arc;
+
+use bytemuck::{Pod, Zeroable};
+
+use super::lights::{DeferredLight, LightSet};
+use crate::compile::layout::GpuPush;
+use crate::gpu::{compile_glsl, Binding, Buffer, BufferUsage, ComputePipeline, GpuContext};
+use crate::gpu::{GpuResult, Recorder, ShaderDefines};
+use crate::render::RenderError;
+
+/// Binding indices of the stages' own buffers (B_* in shaders/deferred/common.glsl).
+pub mod binding {
+    pub const PARAMS: u32 = 30;
+    pub const LIGHTS: u32 = 31;
+    pub const GBUFFER: u32 = 32;
+    pub const TILE_COUNTS: u32 = 33;
+    pub const TILE_LIGHTS: u32 = 34;
+}
+
+/// Screen tile side in pixels (TILE in common.glsl).
+pub const TILE: u32 = 16;
+
+/// Tile count marking an overflowed list (TILE_OVERFLOW in common.glsl).
+pub const TILE_OVERFLOW: u32 = u32::MAX;
+
+/// The stages' parameters (DParams in common.glsl, 48 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq, Default)]
+pub struct DeferredParams {
+    pub n_cull: u32,
+    pub n_dir: u32,
+    pub tiles_x: u32,
+    pub tiles_y: u32,
+    pub tile_capacity: u32,
+    pub max_per_pixel: u32,
+    pub shadows: u32,
+    pub cull: u32,
+    pub debug: u32,
+    pub env_ambient: u32,
+    pub pad: [u32; 2],
+}
+
+/// Sizes of what the stages allocate, bytes.
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+pub struct Memory {
+    pub gbuffer: u64,
+    pub lights: u64,
+    pub tile_counts: u64,
+    pub tile_lists: u64,
+    pub total: u64,
+}
+
+/// Buffers and pipelines built once per session by `setup`.
+pub struct Stages {
+    ctx: Arc<GpuContext>,
+    pub params: DeferredParams,
+    pub memory: Memory,
+    gbuffer: ComputePipeline,
+    cull: ComputePipeline,
+    shade: ComputePipeline,
+    _buffers: Vec<Buffer>,
+    tile_counts: usize,
+    width: u32,
+    height: u32,
+}
+
+impl Stages {
+    /// Uploads the light set and builds the stage pipelines, binding the stages' buffers next to
+    /// the session's `shared` ones.
+    pub fn new(
+        ctx: &Arc<GpuContext>,
+        width: u32,
+        height: u32,
+        set: &LightSet,
+        mut params: DeferredParams,
+        shared: &[Binding<'_>],
+        defines: &ShaderDefines,
+    ) -> Result<Stages, RenderError> {
+        // Step 1: tile grid and list capacity (never more than the lights to cull).
+        params.tiles_x = width.div_ceil(TILE);
+        params.tiles_y = height.div_ceil(TILE);
+        params.n_cull = set.n_cull;
+        params.n_dir = set.n_dir;
+        params.tile_capacity = params.tile_capacity.min(set.n_cull).max(1);
+        let tiles = params.tiles_x as u64 * params.tiles_y as u64;
+        let pixels = width as u64 * height as u64;
+        // Step 2: buffers.
+        let lights: &[DeferredLight] = &set.lights;
+        let buffers = vec![
+            Buffer::from_slice(ctx, "deferred params", std::slice::from_ref(&params))?,
+            Buffer::from_slice(ctx, "deferred lights", lights)?,
+            Buffer::new(
+                ctx,
+                "deferred gbuffer",
+                pixels * super::gbuffer::BYTES_PER_PIXEL as u64,
+                BufferUsage::Storage,
+            )?,
+            Buffer::new(ctx, "deferred tile counts", tiles * 4, BufferUsage::Storage)?,
+            Buffer::new(
+                ctx,
+                "deferred tile lists",
+                tiles * params.tile_capacity as u64 * 4,
+                BufferUsage::Storage,
+            )?,
+        ];
+        for b in &buffers[2..] {
+            ctx.fill_zero(b)?;
+        }
+        let memory = Memory {
+            gbuffer: buffers[2].size,
+            lights: buffers[1].size,
+            tile_counts: buffers[3].size,
+            tile_lists: buffers[4].size,
+            total: buffers.iter().map(|b| b.size).sum(),
+        };
+        let own = [
+            binding::PARAMS,
+            binding::LIGHTS,
+            binding::GBUFFER,
+            binding::TILE_COUNTS,
+            binding::TILE_LIGHTS,
+        ];
+        let mut bindings: Vec<Binding<'_>> = shared
+            .iter()
+            .map(|b| Binding {
+                index: b.index,
+                buffer: b.buffer,
+            })
+            .collect();
+        for (index, buffer) in own.into_iter().zip(&buffers) {
+            bindings.push(Binding { index, buffer });
+        }
+        // Step 3: the stage pipelines, for the scene's feature set.
+        let push = std::mem::size_of::<GpuPush>() as u32;
+        let build = |kernel: &str| -> Result<ComputePipeline, RenderError> {
+            let spirv = compile_glsl(kernel, defines)?;
+            Ok(ComputePipeline::new(ctx, kernel, &spirv, &bindings, push)?)
+        };
+        let gbuffer = build("deferred/gbuffer.comp")?;
+        let cull = build("deferred/cull.comp")?;
+        let shade = build("deferred/shade.comp")?;
+        drop(bindings);
+        Ok(Stages {
+            ctx: ctx.clone(),
+            params,
+            memory,
+            gbuffer,
+            cull,
+            shade,
+            _buffers: buffers,
+            tile_counts: tiles as usize,
+            width,
+            height,
+        })
+    }
+
+    /// Records the three stages for each of the pass's `push.spp` samples.
+    pub fn record(&self, rec: &mut Recorder<'_>, push: GpuPush) -> GpuResult<()> {
+        let pixel_groups = [self.width.div_ceil(8), self.height.div_ceil(8), 1];
+        let tile_groups = [self.params.tiles_x, self.params.tiles_y, 1];
+        for i in 0..push.spp {
+            let p = GpuPush {
+                sample_base: push.sample_base + i,
+                spp: 1,
+                ..push
+            };
+            let bytes = bytemuck::bytes_of(&p);
+            rec.dispatch(&self.gbuffer, bytes, pixel_groups, "deferred gbuffer")?;
+            rec.dispatch(&self.cull, bytes, tile_groups, "deferred cull")?;
+            rec.dispatch(&self.shade, bytes, tile_groups, "deferred shade")?;
+        }
+        Ok(())
+    }
+
+    /// The light counts of the tile lists of the last sample rendered (TILE_OVERFLOW for an
+    /// overflowed tile).
+    pub fn tile_counts(&self) -> GpuResult<Vec<u32>> {
+        self.ctx.download_vec(&self._buffers[3], self.tile_counts)
+    }
+}
