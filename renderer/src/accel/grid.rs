@@ -83,8 +83,14 @@ pub fn choose_resolution(extent: [f64; 3], n: usize, resolution: Option<u32>) ->
     };
     // Step 2: cells per axis, capped per axis and then in total.
     let mut res = extent.map(|x| ((x / side).round() as u64).clamp(1, MAX_AXIS as u64) as u32);
-    while res.iter().map(|&r| r as u64).product::<u64>() > MAX_CELLS {
-        res = res.map(|r| (r - r / 8).max(1));
+    let total = |r: &[u32; 3]| r.iter().map(|&x| x as u64).product::<u64>();
+    if total(&res) > MAX_CELLS {
+        let f = (MAX_CELLS as f64 / total(&res) as f64).cbrt();
+        res = res.map(|r| ((r as f64 * f).floor() as u32).max(1));
+        while total(&res) > MAX_CELLS {
+            let a = (0..3).max_by_key(|&a| res[a]).unwrap_or(0);
+            res[a] -= 1;
+        }
     }
     res
 }
@@ -243,3 +249,7 @@ pub fn triangle_box_overlap(t: &[DVec3; 3], bmin: DVec3, bmax: DVec3) -> bool {
     }
     true
 }
+
+#[cfg(test)]
+#[path = "grid_tests.rs"]
+mod tests;
