@@ -6,7 +6,10 @@
 // It opens the viewer, submits the Cornell box at 32×32, checks the image refines live (at least
 // two snapshots with increasing spp) and the job reaches "done" in the list, exercises exposure
 // and tonemap, the EXR download, the A/B view with two jobs, pause/resume/priority/cancel, the
-// other scene sources (pasted JSON, a scene file with assets, a .tar folder) and the error display, and saves screenshots into OUT_DIR (viewer.png is the main one). Exits 0 on
+// other scene sources (pasted JSON, a scene file with assets, a .tar folder) and the error display,
+// then a job with job A as its reference: its live error chart (relMSE, log scale) beside the image
+// at 1360 px and below it at 640 px, its last value against the job's progress events. It saves
+// screenshots into OUT_DIR (viewer.png is the main one). Exits 0 on
 // success, 1 with a "FAIL: <step>: <why>" line (and OUT_DIR/failure.png) otherwise.
 
 import { mkdtempSync, mkdirSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
@@ -495,6 +498,103 @@ await step('the state filter lists only done jobs', async () => {
     return rows.length >= 2 && rows.every((li) => li.dataset.state === 'done');
   }, null, { timeout: 15_000 }).catch(() => { throw new Failure('filtering by state=done did not list only the done jobs'); });
   await page.getByLabel('Show jobs in state').selectOption('');
+});
+
+/** The job's stored progress events (SSE replayed from the start; the stream ends after done). */
+async function progressEvents(id) {
+  const headers = { Accept: 'text/event-stream', 'Last-Event-ID': '0', ...(token ? { Authorization: `Bearer ${token}` } : {}) };
+  const res = await page.request.get(new URL(`/api/jobs/${id}/events`, base).href, { headers, timeout: 30_000 });
+  check(res.ok(), `GET /api/jobs/${id}/events answered ${res.status()}`);
+  const out = [];
+  for (const block of (await res.text()).split(/\r?\n\r?\n/)) {
+    const lines = block.split(/\r?\n/);
+    const event = lines.find((l) => l.startsWith('event:'))?.slice(6).trim();
+    const data = lines.filter((l) => l.startsWith('data:')).map((l) => l.slice(5).trim()).join('\n');
+    if (event === 'progress' && data) out.push(JSON.parse(data));
+  }
+  return out;
+}
+
+/** Bounding boxes of the image and the error chart. */
+async function imageAndChartBoxes() {
+  const img = await page.locator('#view-image').boundingBox();
+  const chart = await page.locator('#metrics-panel').boundingBox();
+  check(img && chart, `image box ${JSON.stringify(img)}, chart box ${JSON.stringify(chart)}`);
+  return { img, chart };
+}
+
+await step('a job with a reference plots its error live beside the image', async () => {
+  // The selected job (the .tar upload) has no reference: no chart.
+  check(await page.locator('#metrics-panel').isHidden(), 'the error chart shows for a job without a reference');
+  // A second render of the Cornell box measured against job A (same size), chosen in the form.
+  await page.getByLabel(/^Reference job/).selectOption(jobA);
+  const jobR = await submitExample({ name: 'browser-with-reference', integrator: 'nee', timeS: 5, seed: 5 });
+  await page.getByLabel(/^Reference job/).selectOption('');
+  console.log(`     job ${jobR} (reference: job ${jobA})`);
+  await page.locator('#metrics-panel').waitFor({ state: 'visible', timeout: 30_000 })
+    .catch(() => { throw new Failure('the error chart did not appear for a job with a reference'); });
+  // Live: a polyline with at least two points while the job renders (or once it ended).
+  await page.waitForFunction(() => {
+    const line = document.querySelector('#metrics-line');
+    return line && line.points.numberOfItems >= 2;
+  }, null, { timeout: RENDER_TIMEOUT, polling: 100 })
+    .catch(async () => { throw new Failure(`the chart has ${await page.locator('#metrics-chart').getAttribute('data-points')} point(s), expected ≥ 2`); });
+  const liveState = await rowState(jobR);
+  console.log(`     ≥ 2 points plotted while the job was ${liveState}`);
+  await page.waitForFunction(() => document.querySelector('#view-image').naturalWidth > 0, null, { timeout: 20_000 });
+  const { img, chart } = await imageAndChartBoxes();
+  console.log(`     image at x ${img.x.toFixed(0)}–${(img.x + img.width).toFixed(0)}, chart at x ${chart.x.toFixed(0)}–${(chart.x + chart.width).toFixed(0)} (viewport 1360 px)`);
+  check(chart.x >= img.x + img.width - 1, `the chart is not to the right of the image: image ${JSON.stringify(img)}, chart ${JSON.stringify(chart)}`);
+  check(chart.y < img.y + img.height && chart.y + chart.height > img.y, `the chart is not beside the image (no vertical overlap): image ${JSON.stringify(img)}, chart ${JSON.stringify(chart)}`);
+  check(img.width >= 4 * SIZE, `the image shrank to ${img.width} px next to the chart`);
+
+  await waitRowState(jobR, 'done');
+  await page.waitForTimeout(1500); // the final progress event and the job JSON
+  const events = (await progressEvents(jobR)).filter((p) => p.metrics);
+  const rel = events.map((p) => p.metrics.rel_mse);
+  console.log(`     ${events.length} progress events with metrics; relMSE ${rel.map((v) => v.toExponential(2)).join(', ')}`);
+  check(events.length >= 2, `only ${events.length} progress event(s) carried metrics`);
+  check(rel.every((v) => Number.isFinite(v) && v > 0), `relMSE values not finite and positive: ${rel.join(', ')}`);
+  const points = await page.locator('#metrics-line').evaluate((l) => [...Array(l.points.numberOfItems).keys()].map((i) => [l.points.getItem(i).x, l.points.getItem(i).y]));
+  check(points.length >= 2, `the final chart has ${points.length} point(s)`);
+  check(points.every(([x, y]) => Number.isFinite(x) && Number.isFinite(y)), `non-finite chart coordinates: ${JSON.stringify(points)}`);
+  for (let i = 1; i < points.length; i++) check(points[i][0] > points[i - 1][0], `time does not increase along the curve: ${JSON.stringify(points)}`);
+  const label = page.locator('#metrics-current');
+  const shown = Number(await label.getAttribute('data-value'));
+  const text = await label.textContent();
+  const last = rel[rel.length - 1];
+  console.log(`     last label "${text}" (value ${shown}), last event relMSE ${last}`);
+  // Equal up to float parsing: the live event and its stored copy may differ in the last bit.
+  check(Math.abs(shown - last) <= 1e-12 * last, `the chart's current value ${shown} is not the last event's relMSE ${last}`);
+  const printed = Number(text.replace(/^relMSE\s+/, ''));
+  check(Number.isFinite(printed) && Math.abs(printed - last) <= 0.01 * last, `the label "${text}" does not read ${last}`);
+  check(/relMSE/.test(await page.locator('#metrics-chart').getAttribute('aria-labelledby').then((ids) => page.evaluate((s) => s.split(' ').map((i) => document.getElementById(i).textContent).join(' '), ids))), 'the chart has no accessible name naming relMSE');
+  await shot('06-reference-chart.png');
+  await shot('06-reference-view.png', page.locator('.view-main'));
+
+  // FLIP instead of relMSE, then back.
+  await page.getByLabel('Error metric').selectOption('flip');
+  await page.waitForFunction(() => /^FLIP /.test(document.querySelector('#metrics-current')?.textContent || ''), null, { timeout: 5_000 })
+    .catch(() => { throw new Failure('choosing FLIP did not relabel the chart'); });
+  const flip = Number(await label.getAttribute('data-value'));
+  check(Math.abs(flip - events[events.length - 1].metrics.flip) <= 1e-12 * flip, `FLIP shows ${flip}, the last event says ${events[events.length - 1].metrics.flip}`);
+  await page.getByLabel('Error metric').selectOption('rel_mse');
+
+  // Narrow window: the chart wraps below the image.
+  await page.setViewportSize({ width: 640, height: 900 });
+  await page.waitForTimeout(400);
+  const narrow = await imageAndChartBoxes();
+  console.log(`     at 640 px: image bottom ${(narrow.img.y + narrow.img.height).toFixed(0)}, chart top ${narrow.chart.y.toFixed(0)}`);
+  check(narrow.chart.y >= narrow.img.y + narrow.img.height - 1, `at 640 px the chart is not below the image: image ${JSON.stringify(narrow.img)}, chart ${JSON.stringify(narrow.chart)}`);
+  await page.setViewportSize({ width: 1360, height: 900 });
+
+  // Another job without a reference hides the chart; reselecting the finished job replays its curve.
+  await jobRow(jobA).getByRole('button', { name: /^View / }).click();
+  await page.locator('#metrics-panel').waitFor({ state: 'hidden', timeout: 10_000 })
+    .catch(() => { throw new Failure('the chart stays visible for a job without a reference'); });
+  await jobRow(jobR).getByRole('button', { name: /^View / }).click();
+  await page.waitForFunction((n) => Number(document.querySelector('#metrics-chart').dataset.points) >= n, Math.min(events.length, 2), { timeout: 20_000 })
+    .catch(async () => { throw new Failure(`reselecting the finished job plotted ${await page.locator('#metrics-chart').getAttribute('data-points')} point(s)`); });
 });
 
 await step('no page errors and nothing fetched from elsewhere', async () => {
