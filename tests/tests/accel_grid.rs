@@ -257,3 +257,130 @@ fn accel_cache_hits_misses_and_repairs() {
         assert!(name.ends_with(".bin") && !name.starts_with('.'), "{name}");
     }
 }
+
+/// Scene `render.accel` errors name the JSON path.
+#[test]
+fn scene_render_block_selects_and_checks_the_accel() {
+    let base = std::fs::read_to_string(scene_path("cornell.json")).unwrap();
+    let with = |render: serde_json::Value| {
+        let mut v: serde_json::Value = serde_json::from_str(&base).unwrap();
+        v["render"] = render;
+        renderer::scene::load_str(&v.to_string(), Some(&scene_path("")))
+    };
+    let s = with(serde_json::json!({"accel": "grid", "grid_resolution": 12})).unwrap();
+    let o = AccelOptions::resolve(&s.render, None, None).unwrap();
+    assert_eq!((o.kind, o.grid_resolution), (AccelKind::Grid, Some(12)));
+    // Overrides win.
+    let o = AccelOptions::resolve(&s.render, Some("bvh"), None).unwrap();
+    assert_eq!(o.kind, AccelKind::Bvh);
+    assert_eq!(
+        AccelOptions::resolve(&s.render, None, Some(3))
+            .unwrap()
+            .grid_resolution,
+        Some(3)
+    );
+    let c = compile_with(
+        &s,
+        8,
+        8,
+        &CompileOptions {
+            accel: o,
+            cache: None,
+        },
+    )
+    .unwrap();
+    assert!(c.grid.is_none());
+    for (render, path) in [
+        (serde_json::json!({"accel": "kd-tree"}), "render.accel"),
+        (
+            serde_json::json!({"accel": "grid", "grid_resolution": 0}),
+            "render.grid_resolution",
+        ),
+        (
+            serde_json::json!({"accel": "grid", "grid_resolution": 100000}),
+            "render.grid_resolution",
+        ),
+        (
+            serde_json::json!({"accel": "bvh", "grid_resolution": 8}),
+            "render.grid_resolution",
+        ),
+        (serde_json::json!({"accel": 3}), "render"),
+    ] {
+        let e = with(render.clone()).unwrap_err();
+        println!("{render}: {e}");
+        assert!(e.to_string().contains(path), "{render}: {e}");
+    }
+}
+
+/// `candela render` flags: bad values are one clear line and exit 2; a grid render reports its
+/// accel, and the second run of the same scene hits the cache.
+#[test]
+fn cli_accel_flags() {
+    let dir = scratch("accel-cli");
+    let out = dir.join("o.exr");
+    let out_s = out.to_str().unwrap();
+    let cache = dir.join("cache");
+    let cache_s = cache.to_str().unwrap();
+    let scene = "scenes/cornell.json";
+    let small = ["--width", "8", "--height", "8", "--spp", "1"];
+    let run = |extra: &[&str]| {
+        let mut args = vec!["render", scene, "-o", out_s];
+        args.extend_from_slice(&small);
+        args.extend_from_slice(extra);
+        run_candela(&args)
+    };
+    assert_bad_input(
+        &run(&["--accel", "octree"]),
+        &["--accel", "octree", "bvh, grid"],
+    );
+    assert_bad_input(
+        &run(&["--accel", "grid", "--grid-resolution", "0"]),
+        &["--grid-resolution"],
+    );
+    assert_bad_input(
+        &run(&["--accel", "grid", "--grid-resolution", "9999"]),
+        &["--grid-resolution"],
+    );
+    assert_bad_input(
+        &run(&["--accel", "bvh", "--grid-resolution", "8"]),
+        &["--grid-resolution"],
+    );
+    let json = |o: std::process::Output| -> serde_json::Value {
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        serde_json::from_slice(&o.stdout).expect("one JSON object")
+    };
+    let grid = [
+        "--accel",
+        "grid",
+        "--grid-resolution",
+        "6",
+        "--json",
+        "--accel-cache",
+        cache_s,
+    ];
+    let first = json(run(&grid));
+    assert_eq!(first["accel"], "grid");
+    assert_eq!(first["accel_cache"], "miss");
+    assert_eq!(first["grid_resolution"], serde_json::json!([6, 6, 6]));
+    assert!(first["accel_bytes"].as_u64().unwrap() > 0);
+    assert!(first["accel_build_s"].as_f64().unwrap() >= 0.0);
+    let second = json(run(&grid));
+    assert_eq!(second["accel_cache"], "hit");
+    let off = json(run(&["--accel", "grid", "--json", "--no-accel-cache"]));
+    assert_eq!(
+        (off["accel"].as_str(), off["accel_cache"].as_str()),
+        (Some("grid"), Some("off"))
+    );
+    let bvh = json(run(&["--json", "--accel-cache", cache_s]));
+    assert_eq!(
+        (bvh["accel"].as_str(), bvh["accel_cache"].as_str()),
+        (Some("bvh"), Some("miss"))
+    );
+    assert!(bvh.get("grid_resolution").is_none());
+    // The text report names the accel.
+    let o = run(&["--accel", "grid", "--accel-cache", cache_s]);
+    let t = text(&o.stdout);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(t.contains("accel       grid, "), "{t}");
+    println!("first {first}\nsecond {second}");
+}

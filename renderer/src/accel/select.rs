@@ -237,3 +237,37 @@ fn from_entry(opts: &AccelOptions, e: cache::Entry, n: usize) -> Option<Accel> {
         }
     }
 }
+
+impl AccelOptions {
+    /// The options of a scene's `render` block (already validated) with overrides (a CLI flag, a
+    /// job's settings) taking precedence: `kind` and `grid_resolution` each fall back on the
+    /// scene's value, then on the defaults (BVH; automatic resolution). Unknown names are an
+    /// error naming the value.
+    pub fn resolve(
+        scene: &crate::scene::RenderDefaults,
+        kind: Option<&str>,
+        grid_resolution: Option<u32>,
+    ) -> Result<AccelOptions, String> {
+        let name = kind.or(scene.accel.as_deref()).unwrap_or("bvh");
+        let kind = AccelKind::from_name(name).ok_or_else(|| {
+            format!(
+                "unknown acceleration structure \"{name}\", expected one of {}",
+                AccelKind::NAMES.join(", ")
+            )
+        })?;
+        let res = grid_resolution.or(scene.grid_resolution);
+        if let Some(r) = res {
+            if !(1..=grid::MAX_AXIS).contains(&r) {
+                return Err(format!(
+                    "grid resolution must be in [1, {}], got {r}",
+                    grid::MAX_AXIS
+                ));
+            }
+        }
+        Ok(AccelOptions {
+            kind,
+            grid_resolution: res,
+            grid_bvh_order: false,
+        })
+    }
+}

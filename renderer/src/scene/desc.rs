@@ -338,4 +338,8 @@ pub struct RenderDesc {
     pub max_depth: Option<i64>,
     #[serde(default)]
     pub spp: Option<u64>,
+    #[serde(default)]
+    pub accel: Option<String>,
+    #[serde(default)]
+    pub grid_resolution: Option<u64>,
 }

@@ -244,7 +244,8 @@ fn full_scene_loads_with_every_feature() {
         RenderDefaults {
             integrator: Some("bdpt".into()),
             max_depth: Some(8),
-            spp: Some(64)
+            spp: Some(64),
+            ..Default::default()
         }
     );
 }

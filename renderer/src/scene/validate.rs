@@ -262,11 +262,47 @@ pub(crate) fn render(d: Option<&RenderDesc>) -> Result<RenderDefaults, SceneErro
             ))
         }
     };
+    let (accel, grid_resolution) = accel(d)?;
     Ok(RenderDefaults {
         integrator: d.integrator.clone(),
         max_depth,
         spp,
+        accel,
+        grid_resolution,
     })
+}
+
+/// `render.accel` and `render.grid_resolution` (docs/accel.md).
+fn accel(d: &RenderDesc) -> Result<(Option<String>, Option<u32>), SceneError> {
+    use crate::accel::{grid::MAX_AXIS, AccelKind};
+    if let Some(name) = &d.accel {
+        if AccelKind::from_name(name).is_none() {
+            return Err(SceneError::invalid(
+                "render.accel",
+                format!(
+                    "unknown acceleration structure \"{name}\", expected one of {}",
+                    AccelKind::NAMES.join(", ")
+                ),
+            ));
+        }
+    }
+    let res = match d.grid_resolution {
+        None => None,
+        Some(_) if d.accel.as_deref() == Some("bvh") => {
+            return Err(SceneError::invalid(
+                "render.grid_resolution",
+                "only applies to \"accel\": \"grid\"",
+            ))
+        }
+        Some(r) if (1..=MAX_AXIS as u64).contains(&r) => Some(r as u32),
+        Some(r) => {
+            return Err(SceneError::invalid(
+                "render.grid_resolution",
+                format!("must be in [1, {MAX_AXIS}] (cells along the longest axis), got {r}"),
+            ))
+        }
+    };
+    Ok((d.accel.clone(), res))
 }
 
 #[cfg(test)]

@@ -5,7 +5,8 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use clap::Args;
-use renderer::compile::compile;
+use renderer::accel::{AccelKind, AccelOptions};
+use renderer::compile::{compile_with, CompileOptions};
 use renderer::gpu::{GpuContext, GpuOptions};
 use renderer::integrators::{IntegratorOptions, NAMES};
 use renderer::render::{render, Budget, RenderSession};
@@ -54,6 +55,29 @@ pub struct RenderArgs {
     /// Print the report as one JSON object.
     #[arg(long)]
     pub json: bool,
+    /// Acceleration structure: bvh or grid (default: the scene's render.accel, else bvh).
+    #[arg(long, value_name = "KIND")]
+    pub accel: Option<String>,
+    /// Grid cells along the scene's longest axis, 1..=512 (default: the scene's
+    /// render.grid_resolution, else about 3 cells per primitive).
+    #[arg(long, value_name = "N")]
+    pub grid_resolution: Option<u32>,
+    /// Cache built acceleration structures in DIR (default: $XDG_CACHE_HOME/candela/accel or
+    /// ~/.cache/candela/accel).
+    #[arg(long, value_name = "DIR", conflicts_with = "no_accel_cache")]
+    pub accel_cache: Option<PathBuf>,
+    /// Always build the acceleration structure; read and write no cache.
+    #[arg(long)]
+    pub no_accel_cache: bool,
+}
+
+/// The per-user accel cache: $XDG_CACHE_HOME/candela/accel, else ~/.cache/candela/accel; None
+/// when neither variable is set.
+pub fn default_accel_cache() -> Option<PathBuf> {
+    let nonempty = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+    nonempty("XDG_CACHE_HOME")
+        .or_else(|| nonempty("HOME").map(|h| h.join(".cache")))
+        .map(|c| c.join("candela").join("accel"))
 }
 
 fn check_args(a: &RenderArgs) -> Result<(), CliError> {
@@ -81,6 +105,27 @@ fn check_args(a: &RenderArgs) -> Result<(), CliError> {
                     "{flag}: must be in 1..={MAX_SIDE}, got {v}"
                 )));
             }
+        }
+    }
+    if let Some(k) = &a.accel {
+        if AccelKind::from_name(k).is_none() {
+            return Err(CliError::input(format!(
+                "--accel: unknown acceleration structure \"{k}\", expected one of {}",
+                AccelKind::NAMES.join(", ")
+            )));
+        }
+    }
+    if let Some(r) = a.grid_resolution {
+        let max = renderer::accel::grid::MAX_AXIS;
+        if r == 0 || r > max {
+            return Err(CliError::input(format!(
+                "--grid-resolution: must be in 1..={max} (cells along the longest axis), got {r}"
+            )));
+        }
+        if a.accel.as_deref() == Some("bvh") {
+            return Err(CliError::input(
+                "--grid-resolution: only applies to --accel grid",
+            ));
         }
     }
     let ext = a
@@ -143,7 +188,18 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
         e => CliError::failure(e.to_string()),
     })?;
     let ctx = Arc::new(ctx);
-    let compiled = compile(&scene, width, height)
+    let accel = AccelOptions::resolve(&scene.render, a.accel.as_deref(), a.grid_resolution)
+        .map_err(|e| CliError::input(format!("--accel: {e}")))?;
+    let cache = match (&a.accel_cache, a.no_accel_cache) {
+        (_, true) => None,
+        (Some(dir), false) => Some(dir.clone()),
+        (None, false) => default_accel_cache(),
+    };
+    let copts = CompileOptions {
+        accel,
+        cache: cache.as_deref(),
+    };
+    let compiled = compile_with(&scene, width, height, &copts)
         .map_err(|e| CliError::input(format!("{}: {e}", a.scene.display())))?;
     let mut session = RenderSession::new(&ctx, &compiled, &options, scene.render.max_depth, a.seed)
         .map_err(|e| CliError::failure(e.to_string()))?;
@@ -190,6 +246,20 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
         println!(
             "scene       {} triangles, {} primitives, {} lights, BVH {} nodes (depth {})",
             stats.triangles, stats.primitives, stats.lights, stats.bvh_nodes, stats.bvh_depth
+        );
+        let grid = match (stats.grid_resolution, stats.grid_refs) {
+            (Some([x, y, z]), Some(refs)) => format!(", {x}x{y}x{z} cells, {refs} references"),
+            _ => String::new(),
+        };
+        println!(
+            "accel       {}{grid}, {} bytes, {:.3} s, cache {}",
+            stats.accel,
+            stats.accel_bytes,
+            stats.accel_build_s,
+            serde_json::to_value(stats.accel_cache)
+                .ok()
+                .and_then(|v| v.as_str().map(String::from))
+                .unwrap_or_default()
         );
         println!("dropped     {} NaN/Inf samples", stats.dropped_samples);
         println!("wrote       {}", a.output.display());

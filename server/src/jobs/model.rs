@@ -107,6 +107,22 @@ pub struct JobSettings {
     /// The reference image (EXR path on disk) progress metrics are computed against.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference: Option<String>,
+    /// The request's acceleration structure, overriding the scene's `render.accel` (absent in
+    /// jobs stored before it existed: they use the scene's choice, else the BVH).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub accel: Option<AccelSetting>,
+}
+
+/// A job's acceleration structure: `{"type": "grid", "grid_resolution": 64}` (docs/accel.md).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AccelSetting {
+    /// "bvh" or "grid".
+    #[serde(rename = "type")]
+    pub kind: String,
+    /// Grid cells along the scene's longest axis (None: the scene's, else automatic).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grid_resolution: Option<u32>,
 }
 
 impl JobSettings {

@@ -13,7 +13,7 @@ use renderer::scene::{SceneError, Tonemap};
 use serde::Deserialize;
 use serde_json::Value;
 
-use super::model::{JobSettings, SceneSource, DEFAULT_PRIORITY, MAX_PRIORITY};
+use super::model::{AccelSetting, JobSettings, SceneSource, DEFAULT_PRIORITY, MAX_PRIORITY};
 use crate::api_error::ApiError;
 use crate::builtin_scenes;
 use crate::config::RequestLimits;
@@ -40,6 +40,9 @@ pub struct JobRequest {
     pub tonemap: Option<String>,
     /// `{"job": ID}`: a done job's image to compute progress metrics against.
     pub reference: Option<Value>,
+    /// `"grid"` or `{"type": "grid", "grid_resolution": 64}` (default: the scene's
+    /// `render.accel`, else `"bvh"`).
+    pub accel: Option<Value>,
 }
 
 /// Where the scene comes from besides the request's own fields.
@@ -182,6 +185,52 @@ fn integrator_options(v: Option<&Value>, default: &str) -> Result<IntegratorOpti
     Ok(options)
 }
 
+/// The request's `accel` field: a name or `{"type", "grid_resolution"}`, checked.
+fn accel_setting(v: Option<&Value>) -> Result<Option<AccelSetting>, ApiError> {
+    use renderer::accel::{grid::MAX_AXIS, AccelKind};
+    let setting: AccelSetting = match v {
+        None | Some(Value::Null) => return Ok(None),
+        Some(Value::String(name)) => AccelSetting {
+            kind: name.clone(),
+            grid_resolution: None,
+        },
+        Some(v @ Value::Object(_)) => serde_json::from_value(v.clone()).map_err(|e| {
+            ApiError::invalid("accel", format!("accel: {}", tidy(&e.to_string())))
+        })?,
+        Some(_) => {
+            return Err(ApiError::invalid(
+                "accel",
+                "accel: expected a name (\"grid\") or an object ({\"type\": \"grid\", \"grid_resolution\": 64})",
+            ))
+        }
+    };
+    if AccelKind::from_name(&setting.kind).is_none() {
+        return Err(ApiError::invalid(
+            "accel.type",
+            format!(
+                "accel.type: unknown acceleration structure \"{}\", expected one of {}",
+                setting.kind,
+                AccelKind::NAMES.join(", ")
+            ),
+        ));
+    }
+    if let Some(r) = setting.grid_resolution {
+        if r == 0 || r > MAX_AXIS {
+            return Err(ApiError::invalid(
+                "accel.grid_resolution",
+                format!("accel.grid_resolution: must be in 1..={MAX_AXIS}, got {r}"),
+            ));
+        }
+        if setting.kind != "grid" {
+            return Err(ApiError::invalid(
+                "accel.grid_resolution",
+                "accel.grid_resolution: only applies to \"type\": \"grid\"",
+            ));
+        }
+    }
+    Ok(Some(setting))
+}
+
 /// Checks a request and loads its scene; returns the job to insert. Blocking (reads assets).
 pub fn prepare(
     req: JobRequest,
@@ -251,6 +300,7 @@ pub fn prepare(
     // Step 2: integrator and budget.
     let default_integrator = scene.render.integrator.as_deref().unwrap_or("nee");
     let integrator = integrator_options(req.integrator.as_ref(), default_integrator)?;
+    let accel = accel_setting(req.accel.as_ref())?;
     let (spp, time_s) = match (req.spp, req.time_s) {
         (Some(_), Some(_)) => {
             return Err(ApiError::invalid(
@@ -349,6 +399,7 @@ pub fn prepare(
             exposure,
             tonemap,
             reference: None,
+            accel,
         },
         scene: text,
         scene_name: req.scene_name,

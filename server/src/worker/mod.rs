@@ -11,6 +11,7 @@
 
 mod active;
 mod checkpoint;
+mod metrics_lane;
 mod outcome;
 mod scheduler;
 
@@ -274,7 +275,21 @@ impl Worker {
             Ok(s) => s,
             Err(e) => return self.fail(id, format!("scene: {e}")),
         };
-        let compiled = match renderer::compile::compile(&scene, s.width, s.height) {
+        // The request's accel (else the scene's), built once per scene in the data dir's cache.
+        let accel = match renderer::accel::AccelOptions::resolve(
+            &scene.render,
+            s.accel.as_ref().map(|a| a.kind.as_str()),
+            s.accel.as_ref().and_then(|a| a.grid_resolution),
+        ) {
+            Ok(a) => a,
+            Err(e) => return self.fail(id, format!("accel: {e}")),
+        };
+        let cache = self.config.data_dir.join("accel-cache");
+        let copts = renderer::compile::CompileOptions {
+            accel,
+            cache: Some(&cache),
+        };
+        let compiled = match renderer::compile::compile_with(&scene, s.width, s.height, &copts) {
             Ok(c) => c,
             Err(e) => return self.fail(id, format!("compiling the scene: {e}")),
         };
