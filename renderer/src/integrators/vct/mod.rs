@@ -1,25 +1,93 @@
-//! `vct` (work in progress: being built). Kernels: shaders/vct/.
+//! `vct`: voxel cone tracing (Crassin, Neyret, Sainz, Green & Eisemann 2011, "Interactive
+//! Indirect Illumination Using Voxel Cone Tracing"), in Vulkan compute, over a sparse voxel
+//! octree or a dense grid. Kernels: shaders/vct/. Documentation: docs/vct.md.
+//!
+//! # Stages (all on the GPU; `setup` runs the first four once per geometry)
+//! 1. **voxelize** (build.rs, voxelize.comp): conservative voxelization of every triangle and
+//!    sphere into a fragment list; the grid is a cube fitted to the scene, 2^6..2^10 per axis.
+//! 2. **build** (build.rs, octree.comp / attributes.comp / normalize.comp): the octree level by
+//!    level (flag, allocate with an atomic counter, mark; no CPU round trip per level) or the
+//!    dense grid, then per-voxel albedo, opacity, normal, mean surface point and emission.
+//! 3. **inject** (light.rs, inject.comp): direct light from every light of the scene into every
+//!    voxel: L = albedo/π · E, E from light samples with BVH shadow rays, in the path tracers'
+//!    units.
+//! 4. **filter** (light.rs, dense_mip.comp / brick.comp): six directional values per cell on
+//!    every level above 0 (Crassin's anisotropic voxels); octree values live in 3×3×3 bricks with
+//!    border transfer, at exactly the dense grid's sample positions. `bounces: 2` gathers the
+//!    first bounce per voxel, adds it and filters again (bounce.comp).
+//! 5. **trace** (vct.comp, every pass): primary ray through the BVH; emission and exact direct
+//!    light at the hit (as `nee`'s first vertex); indirect light from cones.
+//!
+//! # max_depth
+//! 1: emitters seen directly; 2: + direct light (no volume is built); ≥ 3 or −1: + the cones'
+//! indirect light: voxel radiance of `bounces` bounces, capped at max_depth − 2.
+//!
+//! Volumes are cached per device and geometry (cache.rs): another camera orientation, film or
+//! sample count reuses the built volume; other lights re-inject and refilter only.
+
+mod build;
+pub mod cache;
+mod debug;
+mod gpu;
+mod light;
+mod options;
+mod volume;
+
+pub use debug::DebugVolume;
+pub use options::{Settings, VctOptions, VctShadows, VctStorage, DENSE_MAX_RESOLUTION};
+pub use volume::StageTimes;
+
+use std::sync::{Arc, Mutex};
 
 use super::Integrator;
 use crate::compile::layout::GpuPush;
-use crate::gpu::{ComputePipeline, GpuResult, Recorder};
-use serde::{Deserialize, Serialize};
+use crate::compile::CompiledScene;
+use crate::gpu::{Binding, ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
+use crate::render::RenderError;
+use volume::Volume;
 
-/// Options of `vct`.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct VctOptions {
-    /// Default: the scene's `render.max_depth`, else 6.
-    pub max_depth: Option<i32>,
+/// The volume a session renders with and its gather pipeline.
+struct State {
+    volume: Arc<Mutex<Volume>>,
+    gather: ComputePipeline,
+    /// How the volume was obtained: "built", "cached" or "relit" (cached, lights changed).
+    origin: &'static str,
+    defines: ShaderDefines,
 }
 
 pub struct VctIntegrator {
+    options: VctOptions,
     max_depth: i32,
+    state: Option<State>,
+    settings: Option<Settings>,
 }
 
 pub fn new(o: &VctOptions, scene_max_depth: Option<i32>) -> VctIntegrator {
     VctIntegrator {
+        options: *o,
         max_depth: o.max_depth.or(scene_max_depth).unwrap_or(6),
+        state: None,
+        settings: None,
+    }
+}
+
+impl VctIntegrator {
+    /// Whether this render needs the voxel volume (indirect light or AO).
+    fn needs_volume(&self, s: &Settings) -> bool {
+        s.ao || s.shadows == VctShadows::Cone || self.max_depth < 0 || self.max_depth >= 3
+    }
+
+    /// Debug: samples the session's volume at (grid position, level, direction) probes (see
+    /// shaders/vct/probe.comp: level −(m+1) reads exactly level m). None without a volume.
+    pub fn probe(
+        &self,
+        ctx: &Arc<GpuContext>,
+        shared: &[Binding<'_>],
+        probes: &[([f32; 4], [f32; 4])],
+    ) -> Option<Result<Vec<[f32; 4]>, RenderError>> {
+        let st = self.state.as_ref()?;
+        let v = st.volume.lock().ok()?;
+        Some(v.probe(ctx, shared, &st.defines, probes))
     }
 }
 
@@ -33,6 +101,64 @@ impl Integrator for VctIntegrator {
     fn max_depth(&self) -> i32 {
         self.max_depth
     }
+
+    fn setup(
+        &mut self,
+        ctx: &Arc<GpuContext>,
+        scene: &CompiledScene,
+        shared: &[Binding<'_>],
+        defines: &ShaderDefines,
+    ) -> Result<(), RenderError> {
+        let mut s = self.options.settings()?;
+        self.settings = Some(s);
+        if !self.needs_volume(&s) {
+            return Ok(());
+        }
+        // Voxel bounces beyond max_depth − 2 would add paths longer than max_depth.
+        if self.max_depth >= 0 {
+            s.bounces = s.bounces.min((self.max_depth - 2).max(1) as u32);
+        }
+        self.settings = Some(s);
+        // Step 1: a cached volume of this geometry, else a new one.
+        let key = cache::geometry_key(scene, &s);
+        let lights = cache::lights_key(scene, &s);
+        let (volume, mut origin) = match cache::lookup(ctx, key) {
+            cache::Lookup::Hit(v) => (v, "cached"),
+            cache::Lookup::Miss => {
+                let v = Arc::new(Mutex::new(build::build(ctx, scene, shared, defines, &s)?));
+                cache::store(ctx, key, v.clone());
+                (v, "built")
+            }
+        };
+        let mut vdefines = defines.clone();
+        vdefines.push(("VCT_VOLUME".into(), "1".into()));
+        let gather = {
+            let mut v = volume
+                .lock()
+                .map_err(|_| RenderError::Invalid("vct: volume lock poisoned".into()))?;
+            // Step 2: light it (again, where the lights changed) and apply this render's options.
+            if v.lights_key != Some(lights) {
+                v.light(ctx, shared, defines, &s, lights)?;
+                if origin == "cached" {
+                    origin = "relit";
+                }
+            } else {
+                v.apply_options(ctx, &s)?;
+            }
+            // Step 3: the gather kernel, bound to the session's buffers and the volume's.
+            let set = v.set();
+            let b = gpu::bindings(shared, &v.params_buf, &v.info_buf, &v.dummy, &set);
+            gpu::pipeline(ctx, "vct/vct.comp", &vdefines, &b)?
+        };
+        self.state = Some(State {
+            volume,
+            gather,
+            origin,
+            defines: defines.clone(),
+        });
+        Ok(())
+    }
+
     fn record_pass(
         &self,
         rec: &mut Recorder<'_>,
@@ -41,6 +167,60 @@ impl Integrator for VctIntegrator {
         groups: [u32; 3],
     ) -> GpuResult<()> {
         push.max_depth = self.max_depth;
-        rec.dispatch(pipeline, bytemuck::bytes_of(&push), groups, "vct pass")
+        match &self.state {
+            Some(st) => rec.dispatch(&st.gather, bytemuck::bytes_of(&push), groups, "vct trace"),
+            None => rec.dispatch(
+                pipeline,
+                bytemuck::bytes_of(&push),
+                groups,
+                "vct trace (direct)",
+            ),
+        }
+    }
+
+    fn details(&self) -> Option<serde_json::Value> {
+        let s = self.settings?;
+        let Some(st) = &self.state else {
+            return Some(serde_json::json!({
+                "volume": "none (max_depth <= 2: emission and direct light only)",
+                "resolution": s.resolution,
+                "storage": s.storage,
+            }));
+        };
+        let v = st.volume.lock().ok()?;
+        let memory: serde_json::Map<String, serde_json::Value> = v
+            .memory()
+            .into_iter()
+            .map(|(k, b)| (k.to_string(), b.into()))
+            .collect();
+        let (b, l) = (v.build_times, v.light_times);
+        let built = st.origin == "built";
+        Some(serde_json::json!({
+            "volume": st.origin,
+            "storage": v.storage,
+            "resolution": v.resolution,
+            "levels": v.levels,
+            "bounces": s.bounces,
+            "shadows": s.shadows,
+            "cones": s.cones,
+            "cone_aperture_deg": s.cone_aperture_deg,
+            "voxels": v.voxels,
+            "fragments": v.fragments,
+            "nodes": v.nodes_used,
+            "slots": v.slots,
+            "voxel_size": v.params.grid[3],
+            "timings_ms": {
+                "voxelize": if built { b.voxelize_ms } else { 0.0 },
+                "build": if built { b.build_ms } else { 0.0 },
+                "inject": if st.origin != "cached" { l.inject_ms } else { 0.0 },
+                "filter": if st.origin != "cached" { l.filter_ms } else { 0.0 },
+                "bounce": if st.origin != "cached" { l.bounce_ms } else { 0.0 },
+            },
+            "trace_timing": "the render's gpu_time_s: every pass is one trace dispatch",
+            "first_build_timings_ms": b,
+            "memory_bytes": memory,
+            "memory_total_bytes": v.total_bytes(),
+            "build_peak_extra_bytes": v.build_peak_bytes,
+        }))
     }
 }

@@ -1,0 +1,114 @@
+//! The in-process cache of built volumes: the structure is rebuilt only when the geometry
+//! changes. Keyed by the device and a hash of what the voxels depend on (primitives, shading
+//! data, materials, textures, resolution, storage); an entry remembers which lights it was
+//! lit for, so a render with other lights re-injects (and refilters) without rebuilding, and a
+//! render with another camera orientation or film reuses it as is. Geometry is camera-relative,
+//! so moving the camera's position is a geometry change. At most [`CAPACITY`] volumes are kept;
+//! a volume in use by a live session with other lights is never changed underneath it (a fresh,
+//! uncached one is built instead).
+
+use std::collections::hash_map::DefaultHasher;
+use std::hash::{Hash, Hasher};
+use std::sync::{Arc, Mutex, OnceLock};
+
+use super::options::Settings;
+use super::volume::Volume;
+use crate::compile::CompiledScene;
+use crate::gpu::GpuContext;
+
+/// Volumes kept.
+pub const CAPACITY: usize = 2;
+
+struct Entry {
+    ctx: usize,
+    key: u64,
+    volume: Arc<Mutex<Volume>>,
+}
+
+fn cache() -> &'static Mutex<Vec<Entry>> {
+    static CACHE: OnceLock<Mutex<Vec<Entry>>> = OnceLock::new();
+    CACHE.get_or_init(|| Mutex::new(Vec::new()))
+}
+
+fn bytes<T: bytemuck::Pod>(h: &mut DefaultHasher, v: &[T]) {
+    let b: &[u8] = bytemuck::cast_slice(v);
+    b.len().hash(h);
+    b.hash(h);
+}
+
+/// Hash of what the voxel structure depends on.
+pub fn geometry_key(scene: &CompiledScene, s: &Settings) -> u64 {
+    let mut h = DefaultHasher::new();
+    bytes(&mut h, &scene.prims);
+    bytes(&mut h, &scene.tri_shading);
+    bytes(&mut h, &scene.materials);
+    bytes(&mut h, &scene.textures);
+    bytes(&mut h, &scene.texels);
+    (s.resolution, s.storage).hash(&mut h);
+    h.finish()
+}
+
+/// Hash of what the injected radiance depends on besides the geometry.
+pub fn lights_key(scene: &CompiledScene, s: &Settings) -> u64 {
+    let mut h = DefaultHasher::new();
+    bytes(&mut h, &scene.lights);
+    bytes(&mut h, &scene.alias);
+    bytes(&mut h, &scene.env_dist);
+    bytes(&mut h, &[scene.globals.env]);
+    bytes(&mut h, &[scene.globals.env_params]);
+    (s.inject_samples, s.bounces, s.cones).hash(&mut h);
+    (s.cone_aperture_deg.to_bits(), s.step.to_bits()).hash(&mut h);
+    h.finish()
+}
+
+/// What a lookup found.
+pub enum Lookup {
+    /// A volume of this geometry that no live session holds.
+    Hit(Arc<Mutex<Volume>>),
+    Miss,
+}
+
+/// Finds a volume of this geometry on this device that no live session holds (a held one is
+/// never changed underneath its session: the caller builds a fresh one instead).
+pub fn lookup(ctx: &Arc<GpuContext>, key: u64) -> Lookup {
+    let Ok(mut c) = cache().lock() else {
+        return Lookup::Miss;
+    };
+    let id = Arc::as_ptr(ctx) as usize;
+    // Volumes of another device are of no use any more (a rebuilt device, another context).
+    c.retain(|e| e.ctx == id);
+    let Some(i) = c.iter().position(|e| e.key == key) else {
+        return Lookup::Miss;
+    };
+    let e = c.remove(i);
+    let free = Arc::strong_count(&e.volume) == 1;
+    let v = e.volume.clone();
+    c.push(e); // most recently used last
+    if free {
+        Lookup::Hit(v)
+    } else {
+        Lookup::Miss
+    }
+}
+
+/// Stores a freshly built volume, evicting the least recently used beyond [`CAPACITY`].
+pub fn store(ctx: &Arc<GpuContext>, key: u64, volume: Arc<Mutex<Volume>>) {
+    let Ok(mut c) = cache().lock() else { return };
+    let id = Arc::as_ptr(ctx) as usize;
+    c.retain(|e| e.ctx == id && e.key != key);
+    c.push(Entry {
+        ctx: id,
+        key,
+        volume,
+    });
+    while c.len() > CAPACITY {
+        c.remove(0);
+    }
+}
+
+/// Empties the cache (tests; frees the GPU memory of unused volumes).
+pub fn clear() {
+    if let Ok(mut c) = cache().lock() {
+        c.clear();
+    }
+}

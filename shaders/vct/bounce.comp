@@ -1,0 +1,40 @@
+// vct option `bounces: 2`: the second bounce by re-injection. Mode 0: every occupied voxel
+// gathers the first bounce's filtered radiance with the diffuse cones around its normal (both
+// sides for two-sided surfaces) and keeps L₂ = albedo/π · E_indirect; mode 1 adds L₂ to the
+// injected radiance, which is then filtered again.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#include "vct/common.glsl"
+#include "vct/cone.glsl"
+
+layout(local_size_x = 64, local_size_y = 1, local_size_z = 1) in;
+
+void main() {
+    uint slot = LINEAR_GID;
+    if (slot >= VP_COUNT) return;
+    if (VP_MODE == 1u) {
+        vec4 a = unpack_h4(rad[slot]), b = unpack_h4(bounce[slot]);
+        rad[slot] = pack_h4(vec4(a.rgb + b.rgb, a.a));
+        return;
+    }
+    Voxel vx = load_voxel(slot);
+    if (vx.opacity <= 0.0 || dot(vx.n, vx.n) == 0.0) { bounce[slot] = uvec2(0u); return; }
+    uint n = max(uint(P.cone.y), 1u);
+    float tan_half = P.cone.x;
+    vec3 E = vec3(0.0);
+    for (int side = 0; side < 2; ++side) {
+        if (side == 1 && !vx.two_sided) break;
+        vec3 nn = side == 0 ? vx.n : -vx.n;
+        vec3 t, b;
+        make_frame(nn, t, b);
+        vec3 origin = vx.p + nn * P.grid.w;
+        vec3 Es = vec3(0.0);
+        for (uint i = 0u; i < n; ++i) {
+            vec3 d = from_local(diffuse_cone_dir(i, n, 0.0), t, b, nn);
+            Es += cone_trace(origin, d, tan_half, 1.0, 1e9).rgb;
+        }
+        E += Es * (PI / float(n));
+    }
+    vec3 L = vx.albedo * INV_PI * E * vx.opacity;
+    bounce[slot] = pack_h4(vec4(min(L, vec3(6e4)), 0.0));
+}

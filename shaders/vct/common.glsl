@@ -1,0 +1,144 @@
+// vct: the voxel volume's bindings, parameters and packing, shared by every vct kernel
+// (renderer/src/integrators/vct/ mirrors them: `VctParams`, `VctInfo`, the `B_VCT_*` indices).
+// Positions are camera-relative like the scene's; grid units put voxel corners at integers.
+//
+// Storage. Every surface voxel has a *slot*: dense storage numbers voxels linearly
+// (x + R(y + Rz)); the octree gives the 8 voxels under each leaf-parent node (depth D−1) slots
+// (node − level_start[D−1])·8 + octant. Per slot: packed attributes (albedo+opacity, normal,
+// mean surface point), emission and the injected radiance. Mip levels m ≥ 1 hold six
+// directional values per cell (Crassin et al. 2011's anisotropic voxels): dense storage in one
+// flat array per level, the octree in 3×3×3 bricks (see volume.glsl).
+#ifndef VCT_COMMON_GLSL
+#define VCT_COMMON_GLSL
+#include "common/bindings.glsl"
+#include "common/math.glsl"
+
+#define B_VCT_PARAMS 16
+#define B_VCT_INFO 17
+#define B_VCT_FRAGS 18
+#define B_VCT_NODES 19
+#define B_VCT_ACC 20
+#define B_VCT_ATTR 21
+#define B_VCT_EMIT 22
+#define B_VCT_RAD 23
+#define B_VCT_MIP 24
+#define B_VCT_LEAF 25
+#define B_VCT_BOUNCE 26
+#define B_VCT_PROBE 27
+
+#define VCT_LEVELS_MAX 16
+#define NODE_FLAG 0x80000000u
+#define ACC_WORDS 14u
+
+struct VctParams {
+    vec4 grid;        // grid minimum corner (camera-relative), voxel size
+    uvec4 dims;       // resolution R, levels D = log2 R, storage (0 dense, 1 octree), bounce cones on both sides
+    vec4 cone;        // tan of the diffuse cones' half-angle, diffuse cone count, step factor, AO distance (grid units)
+    uvec4 mode;       // ao output, shadow cones, injection samples per voxel, 0
+    uvec4 caps;       // fragment capacity, node capacity, slot capacity, 0
+    uint mip_offset[VCT_LEVELS_MAX]; // dense: first cell of level m in MIP (cells of 6 values)
+};
+
+struct VctInfo {
+    uint frag_count;
+    uint node_count;
+    uint overflow;
+    uint voxel_count;
+    uint level_start[VCT_LEVELS_MAX];
+    uint level_end[VCT_LEVELS_MAX];
+};
+
+layout(set = 0, binding = B_VCT_PARAMS, scalar) readonly buffer VctParamsBuf { VctParams P; };
+layout(set = 0, binding = B_VCT_INFO, scalar) buffer VctInfoBuf { VctInfo info; };
+layout(set = 0, binding = B_VCT_FRAGS, scalar) buffer VctFrags { uvec2 frags[]; };      // (packed voxel, prim)
+layout(set = 0, binding = B_VCT_NODES, scalar) buffer VctNodes { uvec2 vnodes[]; };     // (first child | flag, packed coords)
+layout(set = 0, binding = B_VCT_ACC, scalar) buffer VctAcc { uint acc[]; };            // ACC_WORDS per slot while building
+layout(set = 0, binding = B_VCT_ATTR, scalar) buffer VctAttr { uvec4 attr[]; };        // albedo rgba8, normal snorm8+two-sided, point offset snorm16×3
+layout(set = 0, binding = B_VCT_EMIT, scalar) buffer VctEmit { uvec2 emit[]; };        // half4 emitted radiance
+layout(set = 0, binding = B_VCT_RAD, scalar) buffer VctRad { uvec2 rad[]; };           // half4 (radiance·opacity, opacity)
+layout(set = 0, binding = B_VCT_MIP, scalar) buffer VctMip { uvec2 mip[]; };           // half4 × 6 directions per cell / brick sample
+layout(set = 0, binding = B_VCT_LEAF, scalar) buffer VctLeaf { uvec2 leaf[]; };        // octree: 27 half4 per leaf-parent brick
+layout(set = 0, binding = B_VCT_BOUNCE, scalar) buffer VctBounce { uvec2 bounce[]; };  // second bounce per slot
+
+// Build kernels reuse the session's push-constant block (common/types.glsl): the level or depth
+// in sample_base, a thread count in spp, a mode in flags.
+#define VP_LEVEL pc.sample_base
+#define VP_COUNT pc.spp
+#define VP_MODE pc.flags
+
+// The thread's index in a 1D launch spread over x and y (x at most 65535 groups of 64).
+#define LINEAR_GID (gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * 64u)
+
+uvec2 pack_h4(vec4 v) { return uvec2(packHalf2x16(v.xy), packHalf2x16(v.zw)); }
+vec4 unpack_h4(uvec2 u) { return vec4(unpackHalf2x16(u.x), unpackHalf2x16(u.y)); }
+
+uint pack_cell(uvec3 c) { return c.x | (c.y << 10) | (c.z << 20); }
+uvec3 unpack_cell(uint p) { return uvec3(p & 1023u, (p >> 10) & 1023u, (p >> 20) & 1023u); }
+uint octant(uvec3 b) { return b.x | (b.y << 1) | (b.z << 2); }
+uvec3 octant_bits(uint o) { return uvec3(o & 1u, (o >> 1) & 1u, (o >> 2) & 1u); }
+
+uint vct_res() { return P.dims.x; }
+uint vct_levels() { return P.dims.y; }
+bool vct_octree() { return P.dims.z == 1u; }
+
+// World (camera-relative) ↔ grid units.
+vec3 to_grid(vec3 p) { return (p - P.grid.xyz) / P.grid.w; }
+vec3 from_grid(vec3 q) { return P.grid.xyz + q * P.grid.w; }
+
+// The octree node at depth k holding cell c of that depth (c < 2^k), or NONE.
+uint octree_find(uvec3 c, uint k) {
+    uint node = 0u;
+    for (uint d = 0u; d < k; ++d) {
+        uint child = vnodes[node].x & ~NODE_FLAG;
+        if (child == 0u) return NONE;
+        uvec3 b = (c >> (k - 1u - d)) & 1u;
+        node = child + octant(b);
+    }
+    return node;
+}
+
+// The slot of level-0 voxel v, or NONE where the octree has no node for it.
+uint voxel_slot(uvec3 v) {
+    uint r = vct_res();
+    if (!vct_octree()) return v.x + r * (v.y + r * v.z);
+    uint k = vct_levels() - 1u;
+    uint node = octree_find(v >> 1u, k);
+    if (node == NONE) return NONE;
+    return (node - info.level_start[k]) * 8u + octant(v & 1u);
+}
+
+// The level-0 voxel a slot belongs to.
+uvec3 slot_cell(uint slot) {
+    uint r = vct_res();
+    if (!vct_octree()) return uvec3(slot % r, (slot / r) % r, slot / (r * r));
+    uint k = vct_levels() - 1u;
+    uvec3 c = unpack_cell(vnodes[info.level_start[k] + slot / 8u].y);
+    return 2u * c + octant_bits(slot % 8u);
+}
+
+/// A voxel's averaged surface: albedo, opacity, normal (zero where the normals cancel), whether
+/// any of its surfaces reflects on both sides, and its mean surface point (camera-relative).
+struct Voxel { vec3 albedo; float opacity; vec3 n; bool two_sided; vec3 p; };
+
+Voxel load_voxel(uint slot) {
+    uvec4 a = attr[slot];
+    Voxel vx;
+    vec4 al = unpackUnorm4x8(a.x);
+    vec4 nn = unpackSnorm4x8(a.y);
+    vx.albedo = al.rgb;
+    vx.opacity = al.a;
+    vx.n = dot(nn.xyz, nn.xyz) > 0.25 ? normalize(nn.xyz) : vec3(0.0);
+    vx.two_sided = nn.w > 0.5;
+    vec3 off = vec3(unpackSnorm2x16(a.z), unpackSnorm2x16(a.w).x);
+    vx.p = from_grid(vec3(slot_cell(slot)) + 0.5 + off);
+    return vx;
+}
+
+// Anisotropic value seen by a cone travelling along d from six directional values
+// (+x, −x, +y, −y, +z, −z): weights d², the face each axis shows (Crassin 2011).
+vec4 combine_dirs(vec4 v0, vec4 v1, vec4 v2, vec4 v3, vec4 v4, vec4 v5, vec3 d) {
+    vec3 w = d * d;
+    return w.x * (d.x >= 0.0 ? v0 : v1) + w.y * (d.y >= 0.0 ? v2 : v3) + w.z * (d.z >= 0.0 ? v4 : v5);
+}
+
+#endif

@@ -1,0 +1,46 @@
+// Cone tracing through the filtered volume (Crassin et al. 2011 §4): march along the axis with
+// steps proportional to the cone's diameter, read the level whose cell size matches the
+// diameter (log2 of it, in voxels), correct each sample's opacity for the step length
+// (α' = 1 − (1 − α)^(Δt/diameter)) and composite front to back, stopping when opaque, out of the
+// grid or past t_max. Returns (radiance, opacity): the radiance that reaches the apex from the
+// volume, weighted by what lies in front of it.
+#ifndef VCT_CONE_GLSL
+#define VCT_CONE_GLSL
+#include "vct/volume.glsl"
+
+// Apex p (camera-relative), unit direction d, tan of the half-angle; t0 and t_max in voxels.
+vec4 cone_trace(vec3 p, vec3 d, float tan_half, float t0, float t_max) {
+    vec3 pg0 = to_grid(p);
+    float r = float(vct_res());
+    vec3 C = vec3(0.0);
+    float A = 0.0;
+    float t = t0;
+    float step_factor = max(P.cone.z, 0.05);
+    for (int it = 0; it < 1024 && t < t_max && A < 0.99; ++it) {
+        vec3 pg = pg0 + t * d;
+        if (any(lessThan(pg, vec3(-1.0))) || any(greaterThan(pg, vec3(r + 1.0)))) break;
+        float diam = max(2.0 * tan_half * t, 1.0);
+        vec4 s = vol_sample_lod(pg, log2(diam), d);
+        float dt = diam * step_factor;
+        float a = clamp(s.a, 0.0, 1.0);
+        if (a > 1e-4) {
+            float ac = 1.0 - pow(1.0 - min(a, 0.9999), dt / diam);
+            C += (1.0 - A) * s.rgb * (ac / a);
+            A += (1.0 - A) * ac;
+        }
+        t += dt;
+    }
+    return vec4(C, A);
+}
+
+// Cone directions for the diffuse gather: N directions around +z placed on the cosine-weighted
+// hemisphere by a golden-angle spiral, rotated by `phi0`; each then stands for π/N of the
+// cosine-weighted integral (E ≈ π/N · Σ L_i).
+vec3 diffuse_cone_dir(uint i, uint n, float phi0) {
+    float u = (float(i) + 0.5) / float(n);
+    float r = sqrt(u);
+    float phi = phi0 + float(i) * 2.39996323;
+    return vec3(r * cos(phi), r * sin(phi), sqrt(max(1.0 - u, 0.0)));
+}
+
+#endif

@@ -1,0 +1,57 @@
+// vct stage 4: light injection. Every occupied voxel gets the radiance its surface reflects
+// diffusely under direct light: L = albedo/π · E, with the irradiance E estimated from
+// `inject_samples` light samples at the voxel's mean surface point (the same light sampling as
+// `nee`: every light of the scene, emissive triangles and spheres, point, spot, directional,
+// environment, in the same units), each tested with a shadow ray through the BVH. Voxels whose
+// surfaces are two-sided take light from both sides (|cos θ|), else from the side of their
+// normal. Emission is not injected: direct light is computed exactly at shaded points, so the
+// cones gather only reflected light. Samples are keyed by slot and sample index (deterministic).
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#include "vct/common.glsl"
+#include "common/rng.glsl"
+#include "common/traverse.glsl"
+#include "common/lights.glsl"
+
+layout(local_size_x = 64, local_size_y = 1, local_size_z = 1) in;
+
+void main() {
+    uint slot = LINEAR_GID;
+    if (slot >= VP_COUNT) return;
+    Voxel vx = load_voxel(slot);
+    if (vx.opacity <= 0.0) { rad[slot] = uvec2(0u); return; }
+    // Step 1: irradiance from K light samples with shadow rays.
+    uint K = max(P.mode.z, 1u);
+    vec3 E = vec3(0.0);
+    float eps = 0.05 * P.grid.w;
+    for (uint i = 0u; i < K; ++i) {
+        Rng rng = rng_init(slot, i, 0x76637421u, 0x1a2b3c4du);
+        LightSample ls;
+        if (!sample_light(vx.p, rng_next3(rng), ls)) continue;
+        float c = dot(vx.n, ls.wi);
+        float cosw = vx.two_sided ? abs(c) : max(c, 0.0);
+        if (dot(vx.n, vx.n) == 0.0) cosw = 0.5; // normals cancel: the average over both sides
+        if (cosw <= 0.0 || !any(greaterThan(ls.L, vec3(0.0)))) continue;
+        // Leave the surface on the light's side.
+        vec3 side = dot(vx.n, vx.n) > 0.0 ? (c >= 0.0 ? vx.n : -vx.n) : ls.wi;
+        Ray r;
+        r.o = vx.p + side * eps;
+        r.tmin = 0.0;
+        if (isinf(ls.dist)) {
+            r.d = ls.wi;
+            r.tmax = FLT_MAX_C;
+        } else {
+            vec3 d = ls.p - r.o;
+            float len = length(d);
+            r.d = d / len;
+            r.tmax = len * (1.0 - 1e-3);
+        }
+        if (trace_any(r)) continue;
+        E += ls.L * cosw / ls.pdf;
+    }
+    E /= float(K);
+    // Step 2: outgoing diffuse radiance, premultiplied by opacity.
+    vec3 L = vx.albedo * INV_PI * E;
+    if (!(all(greaterThanEqual(L, vec3(0.0))) && all(lessThan(L, vec3(6e4))))) L = vec3(0.0);
+    rad[slot] = pack_h4(vec4(L * vx.opacity, vx.opacity));
+}
