@@ -73,7 +73,7 @@ pub enum IntegratorOptions {
 }
 
 /// Names accepted on the command line and in `render.integrator`.
-pub const NAMES: &[&str] = &["pt", "nee", "bdpt", "whitted"];
+pub const NAMES: &[&str] = &["pt", "nee", "bdpt", "deferred", "whitted"];
 
 impl IntegratorOptions {
     /// Default options for an integrator name; None for unknown or not-yet-built integrators.
@@ -82,6 +82,7 @@ impl IntegratorOptions {
             "pt" => Some(IntegratorOptions::Pt(PathOptions::default())),
             "nee" => Some(IntegratorOptions::Nee(PathOptions::default())),
             "bdpt" => Some(IntegratorOptions::Bdpt(BdptOptions::default())),
+            "deferred" => Some(IntegratorOptions::Deferred(deferred::DeferredOptions::default())),
             "whitted" => Some(IntegratorOptions::Whitted(whitted::WhittedOptions::default())),
             _ => None,
         }

@@ -4,9 +4,9 @@
 //! along the camera ray (the position is reconstructed from the regenerated camera ray), the
 //! material index with a front-side bit, and the uv as 2 × f16 (for textured materials).
 //!
-//! Error of the normal: 16-bit snorm steps of 1/32767 in the octahedral square map to at most
-//! about 4.4e-5 rad on the sphere (the square is stretched by at most 2 near the fold); the
-//! tests bound it by 1e-4 rad. The depth is stored exactly.
+//! Error of the normal: 16-bit snorm steps of 1/32767 in the octahedral square; over 20,000
+//! directions (plus the axes and folds) the worst decoded angle is 6.2e-5 rad, and the tests
+//! bound it by 1e-4 rad. The depth is stored exactly (f32 bits).
 
 use glam::{Vec2, Vec3};
 

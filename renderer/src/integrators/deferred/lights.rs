@@ -386,7 +386,7 @@ mod tests {
             point([0.2, 0.2, 0.2], 1e6), // too strong to merge: kept
         ];
         let o = ManagerOptions {
-            cutoff: 1.0,
+            cutoff: 100.0,
             merge_radius: 1.0,
         };
         let set = manage(&lights, &o);
@@ -396,6 +396,6 @@ mod tests {
         let m = set.lights[2];
         assert_eq!(m.intensity[0], 4.0);
         assert!((m.pos_radius[0] - 0.25).abs() < 1e-6, "{m:?}");
-        assert!((m.pos_radius[3] - 2.0).abs() < 1e-6);
+        assert!((m.pos_radius[3] - 0.2).abs() < 1e-6);
     }
 }
