@@ -100,7 +100,8 @@ fn grid_matches_bvh_with_spheres_and_meshes() {
 #[test]
 fn grid_serves_every_integrator() {
     let scene = load("cornell.json");
-    for integrator in ["pt", "bdpt"] {
+    // Every integrator users can pick (pt, nee, bdpt, whitted, deferred, ...).
+    for &integrator in renderer::integrators::NAMES {
         let bvh = compiled(&scene, 16, AccelOptions::default(), None);
         let (reference, _) = render_compiled(&scene, &bvh, integrator, 2, 3);
         let (again, _) = render_compiled(&scene, &bvh, integrator, 2, 3);

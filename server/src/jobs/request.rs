@@ -463,4 +463,47 @@ mod tests {
             "{e}"
         );
     }
+
+    /// `accel`: a name or an object, stored with the job; bad values are 422 naming the field.
+    #[test]
+    fn accel_setting_is_checked_and_stored() {
+        let dir = std::env::temp_dir();
+        let limits = RequestLimits::default();
+        let job = |body: &str| {
+            prepare(
+                parse_request(body.as_bytes()).unwrap(),
+                SceneInput::InRequest,
+                &limits,
+                &dir,
+            )
+        };
+        let j = job(r#"{"scene_name": "furnace"}"#).unwrap();
+        assert_eq!(j.settings.accel, None);
+        assert!(serde_json::to_value(&j.settings).unwrap().get("accel").is_none());
+        let j = job(r#"{"scene_name": "furnace", "accel": "grid"}"#).unwrap();
+        assert_eq!(j.settings.accel.as_ref().unwrap().kind, "grid");
+        let j =
+            job(r#"{"scene_name": "furnace", "accel": {"type": "grid", "grid_resolution": 32}}"#)
+                .unwrap();
+        let stored = serde_json::to_value(&j.settings).unwrap();
+        assert_eq!(
+            stored["accel"],
+            serde_json::json!({"type": "grid", "grid_resolution": 32})
+        );
+        let back: JobSettings = serde_json::from_value(stored).unwrap();
+        assert_eq!(back, j.settings);
+        for (body, path) in [
+            (r#""octree""#, "accel.type"),
+            (r#"{"type": "grid", "grid_resolution": 0}"#, "accel.grid_resolution"),
+            (r#"{"type": "bvh", "grid_resolution": 8}"#, "accel.grid_resolution"),
+            (r#"{"type": "grid", "cells": 8}"#, "accel"),
+            ("7", "accel"),
+        ] {
+            let e = job(&format!(r#"{{"scene_name": "furnace", "accel": {body}}}"#)).unwrap_err();
+            assert!(
+                matches!(e, ApiError::Unprocessable { path: Some(ref p), .. } if p == path),
+                "{body}: {e}"
+            );
+        }
+    }
 }
