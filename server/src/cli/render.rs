@@ -74,7 +74,11 @@ pub struct RenderArgs {
 /// The per-user accel cache: $XDG_CACHE_HOME/candela/accel, else ~/.cache/candela/accel; None
 /// when neither variable is set.
 pub fn default_accel_cache() -> Option<PathBuf> {
-    let nonempty = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+    let nonempty = |k: &str| {
+        std::env::var_os(k)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+    };
     nonempty("XDG_CACHE_HOME")
         .or_else(|| nonempty("HOME").map(|h| h.join(".cache")))
         .map(|c| c.join("candela").join("accel"))

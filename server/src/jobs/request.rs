@@ -479,7 +479,10 @@ mod tests {
         };
         let j = job(r#"{"scene_name": "furnace"}"#).unwrap();
         assert_eq!(j.settings.accel, None);
-        assert!(serde_json::to_value(&j.settings).unwrap().get("accel").is_none());
+        assert!(serde_json::to_value(&j.settings)
+            .unwrap()
+            .get("accel")
+            .is_none());
         let j = job(r#"{"scene_name": "furnace", "accel": "grid"}"#).unwrap();
         assert_eq!(j.settings.accel.as_ref().unwrap().kind, "grid");
         let j =
@@ -494,8 +497,14 @@ mod tests {
         assert_eq!(back, j.settings);
         for (body, path) in [
             (r#""octree""#, "accel.type"),
-            (r#"{"type": "grid", "grid_resolution": 0}"#, "accel.grid_resolution"),
-            (r#"{"type": "bvh", "grid_resolution": 8}"#, "accel.grid_resolution"),
+            (
+                r#"{"type": "grid", "grid_resolution": 0}"#,
+                "accel.grid_resolution",
+            ),
+            (
+                r#"{"type": "bvh", "grid_resolution": 8}"#,
+                "accel.grid_resolution",
+            ),
             (r#"{"type": "grid", "cells": 8}"#, "accel"),
             ("7", "accel"),
         ] {
