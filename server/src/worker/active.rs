@@ -1,17 +1,19 @@
 //! One job being rendered by the worker: its [`RenderSession`], the pass sizing, and what it
 //! reports — progress (with an ETA that accounts for sharing the GPU), checkpoints and images.
 
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use renderer::film::Image;
-use renderer::metrics::{tonemap_from_name, Display, Metrics, METRIC_NOTES};
+use renderer::metrics::{tonemap_from_name, Display};
 use renderer::render::{next_pass_size, Budget, PassStats, Progress, RenderError, RenderSession};
 use renderer::scene::Tonemap;
 use serde_json::{json, Value};
 
 use super::checkpoint;
-use crate::jobs::model::JobSettings;
-use crate::store::JobPaths;
+use super::metrics_lane::{add_metrics, MetricsLane};
+use crate::jobs::model::{JobId, JobSettings};
+use crate::store::{JobPaths, Store};
 
 /// Why writing a checkpoint failed.
 #[derive(Debug)]
@@ -37,8 +39,10 @@ pub struct ActiveJob {
     spp_at_admit: u32,
     time_at_admit: f64,
     /// The reference image of the progress metrics (None: no reference, or it is unreadable).
-    reference: Option<Image>,
-    /// Whether a progress event carried `metrics_note` yet.
+    reference: Option<Arc<Image>>,
+    /// The thread measuring snapshots against the reference (started with the first snapshot).
+    lane: Option<MetricsLane>,
+    /// Whether a progress event measured inline carried `metrics_note` yet.
     metrics_noted: bool,
 }
 
@@ -50,9 +54,11 @@ impl ActiveJob {
             renderer::film::read_exr(std::path::Path::new(path))
                 .map_err(|e| tracing::warn!(path, error = %e, "reading the reference image"))
                 .ok()
+                .map(Arc::new)
         });
         ActiveJob {
             reference,
+            lane: None,
             metrics_noted: false,
             session,
             settings,
@@ -143,41 +149,58 @@ impl ActiveJob {
         })
     }
 
-    /// The `progress` event for `image`: [`Self::progress_json`] plus `metrics` against the
-    /// reference (and `metrics_note` the first time) when the job has one.
-    pub fn progress_with_metrics(&mut self, image: &Image) -> Value {
-        let mut v = self.progress_json();
-        let Some(reference) = &self.reference else {
-            return v;
-        };
-        let tonemap = tonemap_from_name(&self.settings.tonemap).unwrap_or(Tonemap::Clamp);
-        let display = Display {
+    /// Whether the job measures its snapshots against a reference (then
+    /// [`Self::report_snapshot`] wants a copy of each image).
+    pub fn has_reference(&self) -> bool {
+        self.reference.is_some()
+    }
+
+    /// How the reference and the snapshots are compared (the job's exposure and tonemap).
+    fn display(&self) -> Display {
+        Display {
             exposure_ev: self.settings.exposure,
-            tonemap,
-        };
-        match Metrics::compute(image, reference, display) {
-            Ok(m) => {
-                v["metrics"] = json!({
-                    "rel_mse": m.rel_mse,
-                    "flip": m.flip,
-                    "ssim": m.ssim,
-                    "psnr_db": m.psnr_db,
-                    "mse": m.mse,
-                });
-                if !self.metrics_noted {
-                    self.metrics_noted = true;
-                    v["metrics_note"] = json!({
-                        "rel_mse": METRIC_NOTES.rel_mse,
-                        "flip": METRIC_NOTES.flip,
-                        "ssim": METRIC_NOTES.ssim,
-                        "psnr_db": METRIC_NOTES.psnr_db,
-                        "mse": METRIC_NOTES.mse,
-                    });
-                }
-            }
-            Err(e) => tracing::warn!(error = %e, "progress metrics"),
+            tonemap: tonemap_from_name(&self.settings.tonemap).unwrap_or(Tonemap::Clamp),
         }
-        v
+    }
+
+    /// Appends a snapshot's `progress` event ([`Self::progress_json`], plus `metrics` of `image`
+    /// against the reference and `metrics_note` the first time) and its `snapshot` event. With a
+    /// reference the metrics are computed on the job's [`MetricsLane`], which appends both events
+    /// when done (inline if its thread could not start); call [`Self::flush_metrics`] before
+    /// events that must come after them.
+    pub fn report_snapshot(
+        &mut self,
+        store: &Arc<Store>,
+        id: JobId,
+        image: Option<Image>,
+        snapshot: Value,
+    ) {
+        let mut progress = self.progress_json();
+        if let (Some(reference), Some(image)) = (self.reference.clone(), image) {
+            let display = self.display();
+            let lane = self.lane.get_or_insert_with(|| {
+                MetricsLane::start(id, reference.clone(), display, store.clone())
+            });
+            if lane.running() {
+                return lane.submit(image, progress, snapshot);
+            }
+            add_metrics(
+                &mut progress,
+                &image,
+                &reference,
+                display,
+                &mut self.metrics_noted,
+            );
+        }
+        let _ = store.append_event(id, "progress", progress);
+        let _ = store.append_event(id, "snapshot", snapshot);
+    }
+
+    /// Waits until the metrics lane has appended every snapshot's events.
+    pub fn flush_metrics(&self) {
+        if let Some(lane) = &self.lane {
+            lane.flush();
+        }
     }
 
     /// Writes the checkpoint and the image it implies; returns the progress saved.

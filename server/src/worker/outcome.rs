@@ -25,13 +25,11 @@ impl Worker {
         };
         job.last_snapshot = Some(Instant::now());
         let spp = job.session.spp();
-        let progress = job.progress_with_metrics(&image);
         let _ = self.store.set_progress(id, &job.session.progress());
+        // Published first, so the snapshot event never announces an older image.
+        let measured = job.has_reference().then(|| image.clone());
         self.shared.publish(id, image, spp);
-        let _ = self.store.append_event(id, "progress", progress);
-        let _ = self
-            .store
-            .append_event(id, "snapshot", snapshot_data(id, spp));
+        job.report_snapshot(&self.store, id, measured, snapshot_data(id, spp));
     }
 
     /// The budget is reached: final image on disk, final events, state done.
@@ -54,12 +52,11 @@ impl Worker {
         let stats = job.session.stats();
         let progress = job.session.progress();
         let spp = progress.spp;
-        let progress_event = job.progress_with_metrics(&image);
+        let measured = job.has_reference().then(|| image.clone());
         self.shared.publish(id, image, spp);
-        let _ = self.store.append_event(id, "progress", progress_event);
-        let _ = self
-            .store
-            .append_event(id, "snapshot", snapshot_data(id, spp));
+        job.report_snapshot(&self.store, id, measured, snapshot_data(id, spp));
+        // The final progress and snapshot events come before `done`.
+        job.flush_metrics();
         let stats_json = serde_json::to_value(&stats).unwrap_or_default();
         let t = Transition {
             verb: "finish",
