@@ -602,3 +602,97 @@ fn cornell_box_against_nee_report() {
     );
     assert!(r.is_finite() && r < 0.5, "cornell relMSE {r}");
 }
+
+#[test]
+fn merging_keeps_the_far_field_of_many_small_lights() {
+    // 216 lights of I = 0.01 in a 0.1-wide cluster 2 above the floor: at cutoff 0.02 each has
+    // radius 0.71 and alone is culled everywhere on the floor, but together they deliver ~0.5.
+    // With merge_radius 1.5 they become one light of the summed intensity at their centroid.
+    let mut lights = Vec::new();
+    for i in 0..6 {
+        for j in 0..6 {
+            for k in 0..6 {
+                let p = [
+                    0.05 + 0.02 * i as f32,
+                    2.05 + 0.02 * j as f32,
+                    0.05 + 0.02 * k as f32,
+                ];
+                lights.push(format!(
+                    r#"{{"type":"point","position":[{},{},{}],"intensity":[0.01,0.01,0.01]}}"#,
+                    p[0], p[1], p[2]
+                ));
+            }
+        }
+    }
+    let scene = parse(&floor_scene(&lights.join(","), "", ""));
+    let size = (16, 16);
+    let exact = render_with(&scene, r#"{"type":"deferred","cull":false}"#, 4, size, 3).0;
+    let (merged, st) = render_with(
+        &scene,
+        r#"{"type":"deferred","cutoff":0.02,"merge_radius":1.5}"#,
+        4,
+        size,
+        3,
+    );
+    let culled = render_with(&scene, r#"{"type":"deferred","cutoff":0.02}"#, 4, size, 3).0;
+    let d = st.details.unwrap();
+    assert_eq!(d["lights"]["merged_from"], 216, "{d}");
+    assert_eq!(d["lights"]["merged_into"], 1, "{d}");
+    let r_merged = rel_mse(&merged, &exact).unwrap();
+    let r_culled = rel_mse(&culled, &exact).unwrap();
+    println!("216 clustered lights: relMSE against all lights unculled: merged {r_merged:.2e}, culled without merging {r_culled:.2e}");
+    // Cluster size 0.1 at distance ≥ 2: the merged light's relative error is O((0.1/2)²).
+    assert!(r_merged < 1e-4, "{r_merged}");
+    assert!(r_culled > 0.1, "{r_culled}");
+}
+
+#[test]
+fn candela_render_takes_deferred_options() {
+    use candela_tests::{run_candela, scratch, text};
+    let dir = scratch("deferred_cli");
+    let out = dir.join("out.exr");
+    let o = run_candela(&[
+        "render",
+        "scenes/cornell.json",
+        "-o",
+        out.to_str().unwrap(),
+        "--integrator",
+        "deferred",
+        "--options",
+        r#"{"shadows": true, "cutoff": 0.01, "max_lights_per_pixel": 4}"#,
+        "--spp",
+        "2",
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json report");
+    assert_eq!(v["integrator"], "deferred");
+    let d = &v["details"];
+    assert_eq!(d["gbuffer_bytes_per_pixel"], 16);
+    assert_eq!(d["options"]["shadows"], true);
+    assert_eq!(d["lights"]["scene_triangle"], 2, "{d}");
+    assert!(d["stage_ms"]["shade"].as_f64().unwrap() >= 0.0);
+    // Bad values are refused with the field named.
+    let bad = run_candela(&[
+        "render",
+        "scenes/cornell.json",
+        "-o",
+        out.to_str().unwrap(),
+        "--integrator",
+        "deferred",
+        "--options",
+        r#"{"max_lights_per_pixel": 99}"#,
+        "--spp",
+        "1",
+    ]);
+    assert!(!bad.status.success());
+    assert!(
+        text(&bad.stderr).contains("max_lights_per_pixel"),
+        "{}",
+        text(&bad.stderr)
+    );
+}
