@@ -1,7 +1,8 @@
 //! The web viewer in headless Chromium: starts the real `candela serve` on a free loopback port
 //! with a scratch data dir, runs tests/browser/viewer.test.mjs against it (playwright-core driving
 //! the system /usr/bin/chromium: submit the Cornell box, watch it refine, exposure/tonemap, job
-//! controls, A/B view, uploads), stops the server and checks the run passed and left its
+//! controls, A/B view, uploads, a job with a reference and its live error chart beside the
+//! image), stops the server and checks the run passed and left its
 //! screenshots in target/test-scratch/browser_viewer{,_token}/screenshots/ (viewer.png first).
 //! Once without and once with a bearer token.
 //!
@@ -228,7 +229,8 @@ fn run_viewer_test(name: &str, token: Option<&str>) -> PathBuf {
     main_shot
 }
 
-/// Submit, live refinement, tone controls, A/B, job controls and uploads in Chromium.
+/// Submit, live refinement, tone controls, A/B, job controls, uploads and the error chart of a
+/// job with a reference, in Chromium.
 #[test]
 fn web_viewer_in_headless_chromium() {
     run_viewer_test("browser_viewer", None);
