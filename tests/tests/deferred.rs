@@ -239,8 +239,15 @@ fn matches_nee_at_max_depth_2_without_occluders() {
 #[test]
 fn gbuffer_round_trips_normals_and_positions() {
     use renderer::integrators::deferred::gbuffer::NORMAL_ERROR_BOUND;
-    // Spheres, meshes with interpolated normals, boxes: the shade scene of the repository.
-    for name in ["lights.json", "cornell.json"] {
+    // Spheres, meshes with interpolated normals and textures, boxes, a thin-lens camera (rays
+    // from different origins), an environment map.
+    for name in [
+        "lights.json",
+        "cornell.json",
+        "thinlens.json",
+        "textured_mesh.json",
+        "envmap.json",
+    ] {
         let scene = load(name);
         let mut worst = [0f32; 3];
         let mut hits = 0;
@@ -695,4 +702,29 @@ fn candela_render_takes_deferred_options() {
         "{}",
         text(&bad.stderr)
     );
+}
+
+#[test]
+fn matches_nee_with_shadows_on_point_spot_directional_and_environment_lights() {
+    // Scenes without area lights: with shadow rays, deferred computes exactly nee's direct
+    // light (point, spot and directional lights among spheres and a box; an environment map
+    // lighting spheres and a rough conductor, through the ambient term's BSDF sample).
+    for (name, nee_spp, def_spp) in [("lights.json", 256, 16), ("envmap.json", 256, 64)] {
+        let scene = load(name);
+        let size = (16, 16);
+        let nee = estimate(&scene, r#"{"type":"nee","max_depth":2}"#, nee_spp, size);
+        let def = estimate(
+            &scene,
+            r#"{"type":"deferred","max_depth":2,"shadows":true,"cutoff":0}"#,
+            def_spp,
+            size,
+        );
+        compare(
+            &format!("{name}: deferred (shadows) vs nee"),
+            &def,
+            &nee,
+            1e-3,
+            true,
+        );
+    }
 }
