@@ -5,7 +5,7 @@
 // environment, in the same units), each tested with a shadow ray through the BVH. Voxels whose
 // surfaces are two-sided take light from both sides (|cos θ|), else from the side of their
 // normal. Emission is not injected: direct light is computed exactly at shaded points, so the
-// cones gather only reflected light. Samples are keyed by slot and sample index (deterministic).
+// cones gather only reflected light. Samples are keyed by voxel and sample index (deterministic).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "vct/common.glsl"
@@ -20,12 +20,15 @@ void main() {
     if (slot >= VP_COUNT) return;
     Voxel vx = load_voxel(slot);
     if (vx.opacity <= 0.0) { rad[slot] = uvec2(0u); return; }
-    // Step 1: irradiance from K light samples with shadow rays.
+    // Step 1: irradiance from K light samples with shadow rays, keyed by the voxel (not the
+    // slot), so both storages inject the same values.
+    uvec3 cell = slot_cell(slot);
+    uint cell_key = cell.x + vct_res() * (cell.y + vct_res() * cell.z);
     uint K = max(P.mode.z, 1u);
     vec3 E = vec3(0.0);
     float eps = 0.05 * P.grid.w;
     for (uint i = 0u; i < K; ++i) {
-        Rng rng = rng_init(slot, i, 0x76637421u, 0x1a2b3c4du);
+        Rng rng = rng_init(cell_key, i, 0x76637421u, 0x1a2b3c4du);
         LightSample ls;
         if (!sample_light(vx.p, rng_next3(rng), ls)) continue;
         float c = dot(vx.n, ls.wi);
