@@ -123,7 +123,7 @@ pub fn new(o: &DeferredOptions, scene_max_depth: Option<i32>) -> DeferredIntegra
     let m = o.max_depth.or(scene_max_depth).unwrap_or(6);
     DeferredIntegrator {
         options: *o,
-        max_depth: if m < 0 || m > 2 { 2 } else { m },
+        max_depth: if (0..=2).contains(&m) { m } else { 2 },
         stages: None,
         lights: LightSet::default(),
         times: StageTimes::default(),
