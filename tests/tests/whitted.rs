@@ -1,6 +1,6 @@
 //! `whitted` (classic ray tracing), measured on lavapipe at tiny sizes:
 //! - analytic: a glass sphere (IOR 1.5), and a gold conductor sphere (eta/k Fresnel) beside a
-//!   glass one, in front of emissive checker walls under a constant environment, rendered
+//!   glass one and a smooth principled metal (Schlick Fresnel), in front of emissive checker walls under a constant environment, rendered
 //!   without pixel jitter (rays through pixel centres) and compared per pixel with an
 //!   independent f64 tracer written here (ray–sphere, Snell, exact dielectric and conductor
 //!   Fresnel, both branches followed to max_depth, the same 1e-4 weight cut-off). Pixels whose
@@ -61,8 +61,18 @@ const ENV: [f64; 3] = [0.3, 0.4, 0.5];
 
 #[derive(Clone, Copy)]
 enum Kind {
-    Glass { eta: f64 },
-    Conductor { eta: DVec3, k: DVec3 },
+    Glass {
+        eta: f64,
+    },
+    Conductor {
+        eta: DVec3,
+        k: DVec3,
+    },
+    /// principled, metallic 1, roughness below mirror_roughness: a mirror weighted by
+    /// Schlick's Fresnel with R0 = base_color (η = 1.5 from the default specular 0.5).
+    Metal {
+        base: DVec3,
+    },
 }
 
 #[derive(Clone, Copy)]
@@ -146,6 +156,13 @@ impl Analytic {
                         eta.x, eta.y, eta.z, k.x, k.y, k.z
                     ));
                     format!("metal{i}")
+                }
+                Kind::Metal { base } => {
+                    materials.push(format!(
+                        r#""principled{i}": {{"type": "principled", "base_color": [{}, {}, {}], "metallic": 1, "roughness": 0.05}}"#,
+                        base.x, base.y, base.z
+                    ));
+                    format!("principled{i}")
                 }
             };
             objects.push(format!(
@@ -281,6 +298,11 @@ impl Analytic {
                 );
                 follow(reflected, beta * f, &mut out);
             }
+            Kind::Metal { base } => {
+                // Step 4: Schlick: R0 + (1 − R0)(1 − cos θ)^5 (outside, η > 1).
+                let w = (1.0 - cos_i.abs()).clamp(0.0, 1.0).powi(5);
+                follow(reflected, beta * (base + (DVec3::ONE - base) * w), &mut out);
+            }
         }
         out
     }
@@ -400,7 +422,7 @@ fn glass_sphere_matches_the_analytic_reference() {
 }
 
 #[test]
-fn gold_mirror_and_glass_match_the_analytic_reference() {
+fn gold_mirror_metal_and_glass_match_the_analytic_reference() {
     let mut cells = checker(4, 2.0, -3.0, 1.0);
     cells.extend(checker(4, 4.0, 9.0, -1.0));
     let a = Analytic {
@@ -421,10 +443,17 @@ fn gold_mirror_and_glass_match_the_analytic_reference() {
                 r: 1.0,
                 kind: Kind::Glass { eta: 1.5 },
             },
+            Sphere {
+                c: DVec3::new(0.0, 1.1, 0.8),
+                r: 0.6,
+                kind: Kind::Metal {
+                    base: DVec3::new(0.9, 0.6, 0.3),
+                },
+            },
         ],
         cells,
     };
-    check_analytic("gold mirror + glass", &a, 6);
+    check_analytic("gold mirror + principled metal + glass", &a, 6);
 }
 
 // ---------------------------------------------------------------------------------------------
