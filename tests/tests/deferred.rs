@@ -728,3 +728,48 @@ fn matches_nee_with_shadows_on_point_spot_directional_and_environment_lights() {
         );
     }
 }
+
+#[test]
+fn cone_culling_skips_only_lights_that_cannot_reach() {
+    // 64 narrow spots (10°) pointing straight down from 0.5 above the floor, unbounded radii
+    // (cutoff 0): only their cones cull. A culled light contributes exactly nothing, so the
+    // image equals the unculled one bit for bit, while the tile lists hold a fraction of them.
+    let mut lights = Vec::new();
+    for i in 0..8 {
+        for j in 0..8 {
+            let (x, z) = (-1.75 + 0.5 * i as f32, -1.75 + 0.5 * j as f32);
+            lights.push(format!(
+                r#"{{"type":"spot","position":[{x},0.5,{z}],"look_at":[{x},0,{z}],"intensity":[1,1,1],"cutoff_angle":10}}"#
+            ));
+        }
+    }
+    let scene = parse(&floor_scene(&lights.join(","), "", ""));
+    let size = (48, 48);
+    let (culled, st) = render_with(&scene, r#"{"type":"deferred","cutoff":0}"#, 1, size, 4);
+    let unculled = render_with(&scene, r#"{"type":"deferred","cull":false}"#, 1, size, 4).0;
+    let mean = st.details.unwrap()["tile_lists"]["mean_lights"]
+        .as_f64()
+        .unwrap();
+    println!("64 narrow spots, cutoff 0: mean tile list {mean:.1}");
+    assert!(mean < 32.0, "cones culled little: {mean} of 64 per tile");
+    assert_eq!(culled.pixels, unculled.pixels);
+    // The Cornell box's light (two cosine lights, a hemisphere each) likewise.
+    let cornell = load("cornell.json");
+    let a = render_with(
+        &cornell,
+        r#"{"type":"deferred","cutoff":0}"#,
+        1,
+        (16, 16),
+        4,
+    )
+    .0;
+    let b = render_with(
+        &cornell,
+        r#"{"type":"deferred","cull":false}"#,
+        1,
+        (16, 16),
+        4,
+    )
+    .0;
+    assert_eq!(a.pixels, b.pixels);
+}
