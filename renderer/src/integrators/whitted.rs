@@ -1,6 +1,7 @@
 //! `whitted`: classic Whitted ray tracing (Whitted 1980, "An Improved Illumination Model for
 //! Shaded Display"), made to agree with the physically based integrators wherever it can.
 //! Kernel: shaders/whitted/whitted.comp (shade.glsl: material mapping; direct.glsl: shadow rays).
+//! User documentation with measured figures: docs/whitted.md.
 //!
 //! # Algorithm
 //! One thread per pixel; per sample one camera ray, then an explicit, fixed-size stack of
@@ -12,7 +13,9 @@
 //!   of shaders/common/bsdf: one shadow ray to every point, spot and directional light
 //!   (intensity / distance² for point and spot lights: the physical inverse-square law, which is
 //!   also what phong's distance attenuation is here), and `area_samples` shadow rays to every
-//!   emissive triangle and sphere, at a fixed point set (below).
+//!   emissive triangle and sphere, at a fixed point set (below). Shadow rays stop at any
+//!   surface, glass included (opaque shadows, no caustics). Cost: `area_samples` rays per
+//!   emissive triangle per hit, so large emissive meshes want a small `area_samples`.
 //! - **Ambient**: the environment radiance in the direction of the shading normal times the
 //!   local lobes' albedo, no shadow ray. For a constant environment and an unoccluded diffuse
 //!   surface this is exact (albedo × L_env); occlusion is ignored and an environment map is
