@@ -154,6 +154,15 @@ impl WhittedIntegrator {
     }
 }
 
+/// `x`, or 0 where it is NaN or infinite (so a bad value still compiles; setup reports it).
+fn finite_or_zero(x: f32) -> f32 {
+    if x.is_finite() {
+        x
+    } else {
+        0.0
+    }
+}
+
 impl Integrator for WhittedIntegrator {
     fn name(&self) -> &'static str {
         "whitted"
@@ -179,7 +188,10 @@ impl Integrator for WhittedIntegrator {
             ),
             (
                 "WHITTED_MIRROR_ROUGHNESS".into(),
-                format!("{:?}", self.mirror_roughness.max(0.0).min(1e30)),
+                format!(
+                    "{:?}",
+                    finite_or_zero(self.mirror_roughness).clamp(0.0, 1e30)
+                ),
             ),
         ]
     }
