@@ -1,6 +1,7 @@
 //! `whitted` (classic ray tracing), measured on lavapipe at tiny sizes:
 //! - analytic: a glass sphere (IOR 1.5), and a gold conductor sphere (eta/k Fresnel) beside a
-//!   glass one and a smooth principled metal (Schlick Fresnel), in front of emissive checker walls under a constant environment, rendered
+//!   glass one and a smooth principled metal (Schlick Fresnel), and a smooth principled plastic
+//!   (Lambert lit by a point light with shadow rays, ambient, a Fresnel coat) with the two, in front of emissive checker walls under a constant environment, rendered
 //!   without pixel jitter (rays through pixel centres) and compared per pixel with an
 //!   independent f64 tracer written here (ray–sphere, Snell, exact dielectric and conductor
 //!   Fresnel, both branches followed to max_depth, the same 1e-4 weight cut-off). Pixels whose
@@ -15,6 +16,8 @@
 //!   jitter they differ only by anti-aliasing;
 //! - a report of its relMSE against nee on the Cornell box (no indirect light: darker);
 //! - bad options are refused, naming the field.
+
+use std::f64::consts::PI;
 
 use candela_tests::{assert_bad_input, gpu, run_candela, scene_path};
 use glam::DVec3;
@@ -73,6 +76,11 @@ enum Kind {
     Metal {
         base: DVec3,
     },
+    /// principled, metallic 0, roughness below mirror_roughness: Lambert with base_color lit
+    /// by the point light plus the ambient term, and a mirror weighted by F_dielectric(1.5).
+    Plastic {
+        base: DVec3,
+    },
 }
 
 #[derive(Clone, Copy)]
@@ -100,6 +108,9 @@ struct Analytic {
     size: (u32, u32),
     spheres: Vec<Sphere>,
     cells: Vec<Cell>,
+    /// A point light (position, intensity); only in scenes without cells (whose area-light
+    /// quadrature the reference does not model).
+    point: Option<(DVec3, DVec3)>,
 }
 
 /// A checker wall of n×n cells of side `size` centred on the z axis at `z`, facing `facing_z`.
@@ -164,6 +175,13 @@ impl Analytic {
                     ));
                     format!("principled{i}")
                 }
+                Kind::Plastic { base } => {
+                    materials.push(format!(
+                        r#""plastic{i}": {{"type": "principled", "base_color": [{}, {}, {}], "metallic": 0, "roughness": 0.05}}"#,
+                        base.x, base.y, base.z
+                    ));
+                    format!("plastic{i}")
+                }
             };
             objects.push(format!(
                 r#"{{"type": "sphere", "center": [{}, {}, {}], "radius": {}, "material": "{m}"}}"#,
@@ -176,6 +194,7 @@ impl Analytic {
   "film": {{"width": {}, "height": {}, "filter": "box"}},
   "materials": {{{}}},
   "objects": [{}],
+  "lights": [{}],
   "environment": {{"type": "constant", "radiance": {:?}}}}}"#,
             self.eye.x,
             self.eye.y,
@@ -185,6 +204,12 @@ impl Analytic {
             self.size.1,
             materials.join(",\n"),
             objects.join(",\n"),
+            self.point
+                .map(|(p, i)| format!(
+                    r#"{{"type": "point", "position": [{}, {}, {}], "intensity": [{}, {}, {}]}}"#,
+                    p.x, p.y, p.z, i.x, i.y, i.z
+                ))
+                .unwrap_or_default(),
             ENV
         )
     }
@@ -207,6 +232,17 @@ impl Analytic {
         const T_MIN: f64 = 1e-7;
         // Step 1: nearest sphere and cell.
         let mut best = f64::INFINITY;
+        let t_sphere = |s: &Sphere, o: DVec3, d: DVec3| -> Option<f64> {
+            let oc = o - s.c;
+            let b = oc.dot(d);
+            let c = oc.length_squared() - s.r * s.r;
+            let disc = b * b - c;
+            if disc < 0.0 {
+                return None;
+            }
+            let sq = disc.sqrt();
+            [-b - sq, -b + sq].into_iter().find(|&t| t > T_MIN)
+        };
         let mut hit_sphere = None;
         for s in &self.spheres {
             let oc = o - s.c;
@@ -271,19 +307,13 @@ impl Analytic {
         match s.kind {
             Kind::Glass { eta } => {
                 // Step 4: exact dielectric Fresnel, η flipped inside, total internal reflection.
-                let outside = cos_i >= 0.0;
-                let eta_ti = if outside { 1.0 / eta } else { eta };
-                let eta_it = 1.0 / eta_ti;
-                let cos_t2 = 1.0 - (1.0 - cos_i * cos_i) * eta_ti * eta_ti;
-                if cos_t2 <= 0.0 {
+                let f = fresnel_dielectric(cos_i, eta);
+                if f >= 1.0 {
                     follow(reflected, beta, &mut out);
                     return out;
                 }
-                let ci = cos_i.abs();
-                let ct = cos_t2.sqrt();
-                let a_s = (ci - eta_it * ct) / (ci + eta_it * ct);
-                let a_p = (ct - eta_it * ci) / (ct + eta_it * ci);
-                let f = 0.5 * (a_s * a_s + a_p * a_p);
+                let eta_ti = if cos_i >= 0.0 { 1.0 / eta } else { eta };
+                let ct = (1.0 - (1.0 - cos_i * cos_i) * eta_ti * eta_ti).sqrt();
                 // Snell: tangential part scaled by η_ti, normal part across the interface.
                 let t_dir = (-eta_ti * (wo - cos_i * n) - cos_i.signum() * ct * n).normalize();
                 follow(reflected, beta * f, &mut out);
@@ -297,6 +327,29 @@ impl Analytic {
                     fresnel_conductor(cos_i.abs(), eta.z, k.z),
                 );
                 follow(reflected, beta * f, &mut out);
+            }
+            Kind::Plastic { base } => {
+                // Step 4: Lambert lit by the point light (shadow rays stop at any sphere)...
+                assert!(
+                    self.cells.is_empty(),
+                    "plastic with area lights is not modelled"
+                );
+                if let Some((lp, intensity)) = self.point {
+                    let l = lp - p;
+                    let dist = l.length();
+                    let wl = l / dist;
+                    let cos = n.dot(wl);
+                    let blocked = self
+                        .spheres
+                        .iter()
+                        .any(|s| t_sphere(s, p, wl).is_some_and(|t| t < dist));
+                    if cos > 0.0 && !blocked {
+                        out += beta * base * intensity * (cos / (PI * dist * dist));
+                    }
+                }
+                // ... plus ambient (albedo × the constant environment) and the coat's mirror.
+                out += beta * base * DVec3::from(ENV);
+                follow(reflected, beta * fresnel_dielectric(cos_i, 1.5), &mut out);
             }
             Kind::Metal { base } => {
                 // Step 4: Schlick: R0 + (1 − R0)(1 − cos θ)^5 (outside, η > 1).
@@ -332,6 +385,21 @@ impl Analytic {
         }
         (img, stable)
     }
+}
+
+/// Unpolarised dielectric Fresnel reflectance for the signed incident cosine (η flipped
+/// inside; 1 on total internal reflection).
+fn fresnel_dielectric(cos_i: f64, eta: f64) -> f64 {
+    let eta_ti = if cos_i >= 0.0 { 1.0 / eta } else { eta };
+    let eta_it = 1.0 / eta_ti;
+    let cos_t2 = 1.0 - (1.0 - cos_i * cos_i) * eta_ti * eta_ti;
+    if cos_t2 <= 0.0 {
+        return 1.0;
+    }
+    let (ci, ct) = (cos_i.abs(), cos_t2.sqrt());
+    let a_s = (ci - eta_it * ct) / (ci + eta_it * ct);
+    let a_p = (ct - eta_it * ci) / (ct + eta_it * ci);
+    0.5 * (a_s * a_s + a_p * a_p)
 }
 
 /// Unpolarised conductor Fresnel for complex IOR eta + ik (Mitsuba `fresnel_conductor`).
@@ -410,6 +478,7 @@ fn glass_scene() -> Analytic {
             kind: Kind::Glass { eta: 1.5 },
         }],
         cells,
+        point: None,
     }
 }
 
@@ -452,8 +521,45 @@ fn gold_mirror_metal_and_glass_match_the_analytic_reference() {
             },
         ],
         cells,
+        point: None,
     };
     check_analytic("gold mirror + principled metal + glass", &a, 6);
+}
+
+#[test]
+fn smooth_plastic_under_a_point_light_matches_the_analytic_reference() {
+    // Lambert (direct light with shadow rays, ambient) under a dielectric coat, seen directly,
+    // in a gold mirror and through glass; the glass casts an opaque shadow.
+    let a = Analytic {
+        eye: DVec3::new(0.0, 1.0, 6.0),
+        fov_y: 40.0,
+        size: (32, 24),
+        spheres: vec![
+            Sphere {
+                c: DVec3::new(0.0, -0.2, 0.0),
+                r: 1.0,
+                kind: Kind::Plastic {
+                    base: DVec3::new(0.7, 0.35, 0.2),
+                },
+            },
+            Sphere {
+                c: DVec3::new(-1.6, 0.6, -1.5),
+                r: 0.8,
+                kind: Kind::Conductor {
+                    eta: DVec3::new(0.143, 0.374, 1.442),
+                    k: DVec3::new(3.983, 2.385, 1.603),
+                },
+            },
+            Sphere {
+                c: DVec3::new(1.3, 0.9, 1.4),
+                r: 0.6,
+                kind: Kind::Glass { eta: 1.5 },
+            },
+        ],
+        cells: Vec::new(),
+        point: Some((DVec3::new(3.0, 4.0, 3.0), DVec3::new(30.0, 28.0, 25.0))),
+    };
+    check_analytic("plastic + gold + glass, point light", &a, 5);
 }
 
 // ---------------------------------------------------------------------------------------------
