@@ -1,12 +1,13 @@
 //! `whitted` (classic ray tracing), measured on lavapipe at tiny sizes:
-//! - analytic: a glass sphere (IOR 1.5), and a gold conductor sphere (eta/k Fresnel) beside a
-//!   glass one and a smooth principled metal (Schlick Fresnel), and a smooth principled plastic
-//!   (Lambert lit by a point light with shadow rays, ambient, a Fresnel coat) with the two, in front of emissive checker walls under a constant environment, rendered
-//!   without pixel jitter (rays through pixel centres) and compared per pixel with an
-//!   independent f64 tracer written here (ray–sphere, Snell, exact dielectric and conductor
-//!   Fresnel, both branches followed to max_depth, the same 1e-4 weight cut-off). Pixels whose
-//!   f64 value changes under a 1/1000-pixel nudge of the ray (a checker edge or silhouette seen
-//!   through the sphere) are left out; the others must agree within 1e-4 + 1e-4·value;
+//! - analytic: spheres in front of emissive checker walls under a constant environment (glass,
+//!   IOR 1.5; a gold conductor with eta/k Fresnel beside glass and a smooth principled metal
+//!   with Schlick Fresnel), and a smooth principled plastic (Lambert lit by a point light with
+//!   shadow rays, ambient, a Fresnel coat) beside gold and glass, rendered without pixel jitter
+//!   (rays through pixel centres) and compared per pixel with an independent f64 tracer written
+//!   here (ray–sphere, Snell, exact dielectric and conductor Fresnel, both branches followed to
+//!   max_depth, the same 1e-4 weight cut-off). Pixels whose f64 value changes under a
+//!   1/1000-pixel nudge of the ray (an edge or silhouette) are left out; the others must agree
+//!   within 1e-4 + 1e-4·value per channel;
 //! - `whitted` equals `nee` at max_depth 2 under one delta light (point, spot, directional;
 //!   diffuse, phong, rough principled and rough conductor surfaces): same camera rays, same
 //!   BSDFs, no randomness left in nee's estimate;
