@@ -13,6 +13,7 @@
 //!   BSDFs, no randomness left in nee's estimate;
 //! - area lights: its fixed quadrature converges to nee's direct light (max_depth 2);
 //! - white furnace: a white diffuse sphere under constant radiance 1 is 1 (the ambient term);
+//! - each max_depth step only adds light (mirror_glass at 1..10 and −1, pixel by pixel);
 //! - determinism: without jitter 1 spp and 64 spp (and another seed) give the same image; with
 //!   jitter they differ only by anti-aliasing;
 //! - a report of its relMSE against nee on the Cornell box (no indirect light: darker);
@@ -714,6 +715,33 @@ fn white_furnace_is_one() {
         .fold(0.0, f64::max);
     println!("white furnace: max |L − 1| = {worst:.2e}");
     assert!(worst < 1e-5, "{worst}");
+}
+
+#[test]
+fn each_depth_only_adds_light() {
+    // Every term whitted adds is non-negative, so with the same camera rays each pixel can
+    // only brighten as max_depth grows; −1 means the cap (16) and must not overflow the stack.
+    let scene = renderer::scene::load_file(&scene_path("mirror_glass.json")).expect("scene");
+    let mut prev: Option<Image> = None;
+    for d in [1, 2, 3, 4, 6, 10, -1] {
+        let json = format!(r#"{{"type": "whitted", "jitter": false, "max_depth": {d}}}"#);
+        let (img, stats) = render_with(&scene, &json, 1, (24, 24), 0);
+        assert!(img.is_well_formed(), "max_depth {d}: non-finite pixels");
+        assert_eq!(stats.dropped_samples, 0, "max_depth {d}");
+        let m = img.mean();
+        println!(
+            "mirror_glass max_depth {d:>2}: mean {m:.4?}, {} rays",
+            stats.rays
+        );
+        if let Some(p) = &prev {
+            for (a, b) in img.pixels.iter().zip(&p.pixels) {
+                for c in 0..3 {
+                    assert!(a[c] >= b[c] * (1.0 - 1e-6), "max_depth {d}: {a:?} < {b:?}");
+                }
+            }
+        }
+        prev = Some(img);
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
