@@ -214,12 +214,12 @@ fn matches_nee_at_max_depth_2_without_occluders() {
     let def = estimate(
         &scene,
         r#"{"type":"deferred","max_depth":2,"cutoff":0}"#,
-        32,
+        16,
         size,
     );
     compare("deferred (cutoff 0) vs nee", &def, &nee, 1e-3, true);
     // The default cutoff (1e-3) drops nothing visible here; shadows on changes nothing.
-    let def_cut = estimate(&scene, r#"{"type":"deferred","max_depth":2}"#, 32, size);
+    let def_cut = estimate(&scene, r#"{"type":"deferred","max_depth":2}"#, 16, size);
     compare(
         "deferred (default cutoff) vs nee",
         &def_cut,
@@ -230,7 +230,7 @@ fn matches_nee_at_max_depth_2_without_occluders() {
     let def_sh = estimate(
         &scene,
         r#"{"type":"deferred","max_depth":2,"shadows":true}"#,
-        32,
+        16,
         size,
     );
     compare("deferred (shadows) vs nee", &def_sh, &nee, 1e-3, true);
@@ -251,7 +251,7 @@ fn gbuffer_round_trips_normals_and_positions() {
         let scene = load(name);
         let mut worst = [0f32; 3];
         let mut hits = 0;
-        for seed in 0..3 {
+        for seed in 0..2 {
             let (img, _) = render_with(
                 &scene,
                 r#"{"type":"deferred","max_depth":2,"debug":"gbuffer_error"}"#,
@@ -709,7 +709,7 @@ fn matches_nee_with_shadows_on_point_spot_directional_and_environment_lights() {
     // Scenes without area lights: with shadow rays, deferred computes exactly nee's direct
     // light (point, spot and directional lights among spheres and a box; an environment map
     // lighting spheres and a rough conductor, through the ambient term's BSDF sample).
-    for (name, nee_spp, def_spp) in [("lights.json", 256, 16), ("envmap.json", 256, 64)] {
+    for (name, nee_spp, def_spp) in [("lights.json", 256, 16), ("envmap.json", 256, 32)] {
         let scene = load(name);
         let size = (16, 16);
         let nee = estimate(&scene, r#"{"type":"nee","max_depth":2}"#, nee_spp, size);
