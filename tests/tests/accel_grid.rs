@@ -65,10 +65,28 @@ fn load(name: &str) -> Scene {
 
 /// Renders `scene` with the BVH and with grids of several resolutions; all must agree.
 fn grid_matches_bvh(label: &str, scene: &Scene, integrator: &str, w: u32, spp: u32) {
+    grid_matches_bvh_at(
+        label,
+        scene,
+        integrator,
+        w,
+        spp,
+        &[Some(1), Some(3), None, Some(64)],
+    );
+}
+
+fn grid_matches_bvh_at(
+    label: &str,
+    scene: &Scene,
+    integrator: &str,
+    w: u32,
+    spp: u32,
+    resolutions: &[Option<u32>],
+) {
     let bvh = compiled(scene, w, AccelOptions::default(), None);
     let (reference, stats) = render_compiled(scene, &bvh, integrator, spp, 7);
     assert_eq!(stats.accel, "bvh");
-    for res in [Some(1), Some(3), None, Some(64)] {
+    for &res in resolutions {
         let c = compiled(scene, w, grid(res), None);
         let (img, stats) = render_compiled(scene, &c, integrator, spp, 7);
         assert_eq!(stats.accel, "grid");
@@ -384,4 +402,32 @@ fn cli_accel_flags() {
     assert!(o.status.success(), "{}", text(&o.stderr));
     assert!(t.contains("accel       grid, "), "{t}");
     println!("first {first}\nsecond {second}");
+}
+
+/// A dense mesh (a 20k-triangle bumpy sphere in the Cornell box, bench/make_big_scene.py): many
+/// small triangles spanning cell faces. Resolutions from 16 up only: lavapipe (llvmpipe) ends
+/// every loop of an invocation once 65535 iterations have run in all of them together
+/// (`LP_MAX_TGSI_LOOP_ITERATIONS` in Mesa's gallivm), which a grid of one cell holding all 20k
+/// triangles exceeds, silently truncating the kernel's loops; real GPUs have no such limit.
+#[test]
+fn grid_matches_bvh_on_a_dense_mesh() {
+    let dir = scratch("accel-big");
+    let ok = std::process::Command::new("python3")
+        .arg(repo_root().join("bench/make_big_scene.py"))
+        .arg(&dir)
+        .args(["--triangles", "20000"])
+        .output()
+        .expect("python3");
+    assert!(ok.status.success(), "{}", text(&ok.stderr));
+    let scene = renderer::scene::load_file(&dir.join("big.json")).unwrap();
+    for integrator in ["nee", "whitted"] {
+        grid_matches_bvh_at(
+            "bumpy sphere",
+            &scene,
+            integrator,
+            24,
+            2,
+            &[Some(16), None, Some(64)],
+        );
+    }
 }
