@@ -11,8 +11,8 @@
 # device warm-up) and then with `candela render --integrator deferred --json`, and collects
 # from the JSON report: wall and GPU time of the passes, the per-sample GPU time of each stage
 # (G-buffer, cull, shade, from the dispatch timestamps), the lights after the light manager,
-# the mean and largest tile-list length and overflowed tiles (of the last sample), and the
-# memory of the stage buffers. Results: DIR/results.csv, DIR/results.md (a table) and the raw
+# the mean and largest tile-list length and overflowed tiles (of the last sample), the lights
+# tested and shaded per pixel (mean over all samples), and the memory of the stage buffers. Results: DIR/results.csv, DIR/results.md (a table) and the raw
 # reports DIR/render_N.json. --options passes integrator options through, e.g.
 # '{"shadows": true}' or '{"cutoff": 0.01, "max_lights_per_pixel": 16}'. No network is used.
 set -euo pipefail
@@ -73,7 +73,7 @@ except OSError:
     commit = "unknown"
 cols = ["lights", "lights_after_manager", "width", "height", "spp", "time_s", "gpu_time_s",
         "ms_per_sample", "gbuffer_ms", "cull_ms", "shade_ms", "mean_tile_lights",
-        "max_tile_lights", "overflowed_tiles", "stage_memory_mib", "gbuffer_bytes_per_pixel",
+        "max_tile_lights", "tested_per_pixel", "shaded_per_pixel", "overflowed_tiles", "stage_memory_mib", "gbuffer_bytes_per_pixel",
         "rays_per_s", "device", "driver", "commit", "options"]
 rows = []
 for n in ns:
@@ -81,6 +81,7 @@ for n in ns:
     d = r.get("details") or {}
     per = d.get("stage_ms_per_sample", {})
     tl = d.get("tile_lists", {})
+    lpp = d.get("lights_per_pixel", {})
     mem = d.get("memory_bytes", {})
     spp = r["spp"]
     rows.append({
@@ -92,7 +93,9 @@ for n in ns:
         "gbuffer_ms": round(per.get("gbuffer", 0.0), 3), "cull_ms": round(per.get("cull", 0.0), 3),
         "shade_ms": round(per.get("shade", 0.0), 3),
         "mean_tile_lights": round(tl.get("mean_lights", 0.0), 1),
-        "max_tile_lights": tl.get("max_lights", 0), "overflowed_tiles": tl.get("overflowed_tiles", 0),
+        "max_tile_lights": tl.get("max_lights", 0),
+        "tested_per_pixel": round(lpp.get("tested", 0.0), 1),
+        "shaded_per_pixel": round(lpp.get("shaded", 0.0), 1), "overflowed_tiles": tl.get("overflowed_tiles", 0),
         "stage_memory_mib": round(mem.get("total", 0) / 2**20, 2),
         "gbuffer_bytes_per_pixel": d.get("gbuffer_bytes_per_pixel", 0),
         "rays_per_s": round(r.get("rays_per_s", 0.0)),
@@ -104,7 +107,8 @@ with open(f"{out}/results.csv", "w", newline="") as f:
     w.writeheader()
     w.writerows(rows)
 show = ["lights", "lights_after_manager", "ms_per_sample", "gbuffer_ms", "cull_ms", "shade_ms",
-        "mean_tile_lights", "max_tile_lights", "overflowed_tiles", "stage_memory_mib"]
+        "mean_tile_lights", "max_tile_lights", "tested_per_pixel", "shaded_per_pixel",
+        "overflowed_tiles", "stage_memory_mib"]
 with open(f"{out}/results.md", "w") as f:
     r0 = rows[0]
     f.write(f"# deferred: GPU time against the number of lights\n\n"

@@ -4,6 +4,8 @@
 // normal encoding (Cigolle et al. 2014, "A Survey of Efficient Representations for Independent
 // Unit Vectors"), mirrored on the host by renderer/src/integrators/deferred/gbuffer.rs.
 //
+// Bindings 30–35: parameters, light records, G-buffer, tile counts, tile lists, counters.
+//
 // G-buffer: 16 bytes per pixel (one uvec4), for the one camera sample being shaded:
 //   x: shading normal, octahedral, 2 × 16-bit snorm (packSnorm2x16)
 //   y: depth = distance t along the camera ray (f32 bits); the position is reconstructed as
@@ -24,6 +26,7 @@
 #define B_GBUFFER 32
 #define B_TILE_COUNTS 33
 #define B_TILE_LIGHTS 34
+#define B_COUNTERS 35
 
 #define TILE 16
 #define GB_MATERIAL_MASK 0x00ffffffu
@@ -72,6 +75,17 @@ layout(set = 0, binding = B_DLIGHTS, scalar) readonly buffer DLights { DLight dl
 layout(set = 0, binding = B_GBUFFER, scalar) buffer GBuffer { uvec4 gbuf[]; };
 layout(set = 0, binding = B_TILE_COUNTS, scalar) buffer TileCounts { uint tile_counts[]; };
 layout(set = 0, binding = B_TILE_LIGHTS, scalar) buffer TileLights { uint tile_lights[]; };
+// Shading counters, 64-bit as (lo, hi) pairs, summed over a pass and read back by the host:
+// candidate lights tested per pixel, lights that reached the pixel (and were shaded), and the
+// pixels shaded with direct light.
+layout(set = 0, binding = B_COUNTERS, scalar) buffer Counters { uvec2 counters[3]; };
+
+// Adds v to the 64-bit counter i (carry into the high word when the low word wraps).
+void counter_add(uint i, uint v) {
+    if (v == 0u) return;
+    uint before = atomicAdd(counters[i].x, v);
+    if (before + v < before) atomicAdd(counters[i].y, 1u);
+}
 
 uint dl_kind(DLight l) { return floatBitsToUint(l.intensity.w); }
 

@@ -12,6 +12,7 @@
 //     environment radiance there (an unbiased estimate of unshadowed environment lighting; with
 //     `shadows` the direction is tested for occlusion, making it exact direct lighting).
 // Debug modes replace the radiance by G-buffer contents or the culling counts (common.glsl).
+// Counters (common.glsl) record the lights tested and shaded per pixel for the statistics.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "deferred/common.glsl"
@@ -26,6 +27,9 @@ layout(local_size_x = TILE, local_size_y = TILE, local_size_z = 1) in;
 
 shared uint s_rays;
 shared uint s_dropped;
+shared uint s_tested;
+shared uint s_shaded;
+shared uint s_lit;
 
 bool is_finite(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
 
@@ -80,11 +84,12 @@ float light_estimate(vec3 Li, vec3 wi, vec3 n) { return luminance(Li) * abs(dot(
 
 void main() {
     uint lid = gl_LocalInvocationIndex;
-    if (lid == 0u) { s_rays = 0u; s_dropped = 0u; }
+    if (lid == 0u) { s_rays = 0u; s_dropped = 0u; s_tested = 0u; s_shaded = 0u; s_lit = 0u; }
     barrier();
     uvec2 px = gl_GlobalInvocationID.xy;
     bool inside = px.x < g.film.x && px.y < g.film.y;
     uint rays = 0u, dropped = 0u;
+    uint tested = 0u, shaded = 0u, lit = 0u; // for the counters
     if (inside) {
         uint pixel = px.y * g.film.x + px.x;
         uint tile_index = gl_WorkGroupID.y * dp.tiles_x + gl_WorkGroupID.x;
@@ -126,11 +131,14 @@ void main() {
                     uint n = all ? dp.n_cull : count;
                     uint base = tile_index * dp.tile_capacity;
                     uint cap = min(dp.max_per_pixel, uint(MAX_CAP));
+                    lit = 1u;
+                    tested = n;
                     if (cap == 0u) {
                         for (uint k = 0u; k < n; ++k) {
                             DLight l = dlights[all ? k : tile_lights[base + k]];
                             vec3 wi, Li; float dist;
                             if (!light_incident(l, s.p, wi, dist, Li)) continue;
+                            shaded += 1u;
                             vec3 f = bsdf_eval(m, wo, to_local(wi, s.tangent, bt, s.ns), TRANSPORT_RADIANCE);
                             if (!any(greaterThan(f, vec3(0.0)))) continue;
                             if (dp.shadows != 0u && !unoccluded(s, l, wi, dist, rays)) continue;
@@ -154,6 +162,7 @@ void main() {
                             }
                             best_e[j] = e; best_i[j] = li;
                         }
+                        shaded = nb;
                         for (uint k = 0u; k < nb; ++k) {
                             DLight l = dlights[best_i[k]];
                             vec3 wi, Li; float dist;
@@ -231,8 +240,14 @@ void main() {
     // Step 7: counters, reduced per workgroup first.
     if (rays > 0u) atomicAdd(s_rays, rays);
     if (dropped > 0u) atomicAdd(s_dropped, dropped);
+    if (tested > 0u) atomicAdd(s_tested, tested);
+    if (shaded > 0u) atomicAdd(s_shaded, shaded);
+    if (lit > 0u) atomicAdd(s_lit, lit);
     barrier();
     if (lid == 0u) {
+        counter_add(0u, s_tested);
+        counter_add(1u, s_shaded);
+        counter_add(2u, s_lit);
         if (s_dropped > 0u) atomicAdd(stats.dropped_samples, s_dropped);
         uint before = atomicAdd(stats.rays_lo, s_rays);
         if (before + s_rays < before) atomicAdd(stats.rays_hi, 1u);

@@ -423,6 +423,13 @@ fn culling_of_1000_lights_stays_within_the_cutoff_bound() {
     let details = st.details.clone().expect("details");
     println!("details: {details}");
     let mean_list = details["tile_lists"]["mean_lights"].as_f64().unwrap();
+    let tested = details["lights_per_pixel"]["tested"].as_f64().unwrap();
+    let shaded = details["lights_per_pixel"]["shaded"].as_f64().unwrap();
+    println!("lights per pixel: {tested:.1} tested, {shaded:.1} shaded");
+    assert!(
+        shaded > 0.0 && shaded <= tested && tested < n as f64,
+        "{tested} {shaded}"
+    );
     assert!(
         mean_list < 0.5 * n as f64,
         "culling kept {mean_list} of {n} lights per tile"
@@ -495,14 +502,16 @@ fn per_pixel_cap_keeps_the_strongest_light() {
         "",
         "",
     ));
-    let capped = render_with(
+    let (capped, st) = render_with(
         &both,
         r#"{"type":"deferred","max_lights_per_pixel":1}"#,
         2,
         (16, 16),
         1,
-    )
-    .0;
+    );
+    let d = st.details.unwrap();
+    assert_eq!(d["lights_per_pixel"]["shaded"], 1.0, "{d}");
+    assert_eq!(d["lights_per_pixel"]["tested"], 2.0, "{d}");
     let alone = render_with(&strong, r#"{"type":"deferred"}"#, 2, (16, 16), 1).0;
     let all = render_with(&both, r#"{"type":"deferred"}"#, 2, (16, 16), 1).0;
     assert_eq!(capped.pixels, alone.pixels);

@@ -109,6 +109,11 @@ struct StageTimes {
     shade: f64,
     emitters: f64,
     samples: u64,
+    /// Shading counters: candidate lights tested, lights that reached their pixel, pixel
+    /// samples shaded with direct light.
+    tested: u64,
+    shaded: u64,
+    lit: u64,
 }
 
 pub struct DeferredIntegrator {
@@ -264,6 +269,11 @@ impl Integrator for DeferredIntegrator {
                 _ => {}
             }
         }
+        if let Some(Ok(c)) = self.stages.as_ref().map(Stages::take_counters) {
+            self.times.tested += c[0];
+            self.times.shaded += c[1];
+            self.times.lit += c[2];
+        }
     }
 
     fn details(&self) -> Option<serde_json::Value> {
@@ -282,6 +292,11 @@ impl Integrator for DeferredIntegrator {
             "stage_ms_per_sample": {"gbuffer": per(t.gbuffer), "cull": per(t.cull),
                                     "shade": per(t.shade)},
             "lights": self.lights.stats,
+            "lights_per_pixel": {
+                "tested": t.tested as f64 / t.lit.max(1) as f64,
+                "shaded": t.shaded as f64 / t.lit.max(1) as f64,
+                "pixel_samples": t.lit,
+            },
             "cutoff": self.cutoff(),
             "options": self.options,
         });

@@ -1,4 +1,4 @@
-//! The GPU side of `deferred`: its buffers (bindings 30–34 next to the session's scene
+//! The GPU side of `deferred`: its buffers (bindings 30–35 next to the session's scene
 //! bindings), the three stage pipelines, and the recording of a pass. Each sample of a pass runs
 //! the stages in order — `deferred gbuffer` (shaders/deferred/gbuffer.comp), `deferred cull`
 //! (cull.comp, one workgroup per 16×16 tile) and `deferred shade` (shade.comp) — so the G-buffer
@@ -21,6 +21,8 @@ pub mod binding {
     pub const GBUFFER: u32 = 32;
     pub const TILE_COUNTS: u32 = 33;
     pub const TILE_LIGHTS: u32 = 34;
+    /// Shading counters (lights tested, lights shaded, pixels lit; 64-bit each).
+    pub const COUNTERS: u32 = 35;
 }
 
 /// Screen tile side in pixels (TILE in common.glsl).
@@ -53,6 +55,7 @@ pub struct Memory {
     pub lights: u64,
     pub tile_counts: u64,
     pub tile_lists: u64,
+    pub counters: u64,
     pub total: u64,
 }
 
@@ -108,6 +111,7 @@ impl Stages {
                 tiles * params.tile_capacity as u64 * 4,
                 BufferUsage::Storage,
             )?,
+            Buffer::new(ctx, "deferred counters", 24, BufferUsage::Storage)?,
         ];
         for b in &buffers[2..] {
             ctx.fill_zero(b)?;
@@ -117,6 +121,7 @@ impl Stages {
             lights: buffers[1].size,
             tile_counts: buffers[3].size,
             tile_lists: buffers[4].size,
+            counters: buffers[5].size,
             total: buffers.iter().map(|b| b.size).sum(),
         };
         let own = [
@@ -125,6 +130,7 @@ impl Stages {
             binding::GBUFFER,
             binding::TILE_COUNTS,
             binding::TILE_LIGHTS,
+            binding::COUNTERS,
         ];
         let mut bindings: Vec<Binding<'_>> = shared
             .iter()
@@ -176,6 +182,14 @@ impl Stages {
             rec.dispatch(&self.shade, bytes, tile_groups, "deferred shade")?;
         }
         Ok(())
+    }
+
+    /// Reads and clears the shading counters: (candidate lights tested, lights that reached
+    /// their pixel, pixel samples shaded with direct light) since the last call.
+    pub fn take_counters(&self) -> GpuResult<[u64; 3]> {
+        let c: Vec<[u32; 2]> = self.ctx.download_vec(&self._buffers[5], 3)?;
+        self.ctx.fill_zero(&self._buffers[5])?;
+        Ok([0, 1, 2].map(|i| ((c[i][1] as u64) << 32) | c[i][0] as u64))
     }
 
     /// The light counts of the tile lists of the last sample rendered (TILE_OVERFLOW for an
