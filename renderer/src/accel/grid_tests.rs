@@ -359,3 +359,99 @@ fn dda_visits_every_cell_the_ray_crosses() {
         }
     }
 }
+
+/// Ray/triangle distance in f64 (Möller–Trumbore), for the host mirror of the closest-hit walk.
+fn hit_triangle(p: &GpuPrim, o: DVec3, d: DVec3) -> Option<f64> {
+    let v = |w: [f32; 4]| DVec3::new(w[0] as f64, w[1] as f64, w[2] as f64);
+    let (a, b, c) = (v(p.a), v(p.b), v(p.c));
+    let (e1, e2) = (b - a, c - a);
+    let q = d.cross(e2);
+    let det = e1.dot(q);
+    if det.abs() < 1e-14 {
+        return None;
+    }
+    let s = o - a;
+    let u = s.dot(q) / det;
+    let r = s.cross(e1);
+    let w = d.dot(r) / det;
+    let t = e2.dot(r) / det;
+    (u >= 0.0 && w >= 0.0 && u + w <= 1.0 && t > 0.0).then_some(t)
+}
+
+/// The closest-hit rule of grid.glsl on the host: walk the cells in order, keep the nearest hit
+/// so far, stop once it lies before the current cell's exit. Returns (t, primitive).
+fn grid_closest(g: &Grid, prims: &[GpuPrim], o: DVec3, d: DVec3) -> Option<(f64, u32)> {
+    let f = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32];
+    let cells = dda_cells(&g.info, f(o), f(d), 0.0, f32::MAX);
+    let mut best: Option<(f64, u32)> = None;
+    for c in cells {
+        for &i in g.cell(c[0] as u32, c[1] as u32, c[2] as u32) {
+            if let Some(t) = hit_triangle(&prims[i as usize], o, d) {
+                if best.map_or(true, |(bt, _)| t < bt) {
+                    best = Some((t, i));
+                }
+            }
+        }
+        // The cell's exit distance (the nearest far face), as in the shader.
+        let exit = (0..3)
+            .map(|a| {
+                let face = if d[a] >= 0.0 { c[a] + 1 } else { c[a] };
+                let x = g.info.lo[a] as f64 + face as f64 * g.info.cell[a] as f64;
+                if d[a] == 0.0 {
+                    f64::INFINITY
+                } else {
+                    (x - o[a]) / d[a]
+                }
+            })
+            .fold(f64::INFINITY, f64::min);
+        if best.is_some_and(|(t, _)| t <= exit) {
+            break;
+        }
+    }
+    best
+}
+
+/// Long triangles span many cells, so a hit found in an early cell may lie beyond it while a
+/// nearer triangle waits in a later cell: the walk must still return the true nearest hit.
+#[test]
+fn closest_hit_walk_equals_brute_force() {
+    let mut rng = Rng(7);
+    let (prims, bounds): (Vec<GpuPrim>, Vec<PrimBounds>) = (0..80)
+        .map(|i| {
+            let a = rng.v(-4.0, 4.0);
+            let s = if i % 3 == 0 { 7.0 } else { 0.7 };
+            tri([a, a + rng.v(-s, s), a + rng.v(-s, s)])
+        })
+        .unzip();
+    let mut checked = 0;
+    for res in [Some(1), Some(4), None, Some(24)] {
+        let g = build(&prims, &bounds, res);
+        for k in 0..400 {
+            let o = if k % 2 == 0 {
+                rng.v(-4.0, 4.0)
+            } else {
+                rng.v(-20.0, 20.0)
+            };
+            let target = rng.v(-3.0, 3.0);
+            let d = (target - o).normalize();
+            let brute = prims
+                .iter()
+                .enumerate()
+                .filter_map(|(i, p)| hit_triangle(p, o, d).map(|t| (t, i as u32)))
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            let walk = grid_closest(&g, &prims, o, d);
+            match (brute, walk) {
+                (None, None) => {}
+                (Some(b), Some(w)) => {
+                    assert!(
+                        (b.0 - w.0).abs() <= 1e-9 * b.0.max(1.0),
+                        "res {res:?} ray {k}"
+                    );
+                    checked += 1;
+                }
+                _ => panic!("res {res:?} ray {k}: brute {brute:?}, walk {walk:?}"),
+            }
+        }
+    }
+    assert!(checked > 300, "only {checked} rays hit anything");
+}
