@@ -431,3 +431,43 @@ fn grid_matches_bvh_on_a_dense_mesh() {
         );
     }
 }
+
+/// A server job picks the grid with `accel`; its stats say so, and the second job of the same
+/// scene loads the structure from the cache under the data dir.
+#[test]
+fn server_job_accel_and_cache() {
+    use candela_tests::server::Server;
+    use std::time::Duration;
+    let dir = scratch("accel-server");
+    let s = Server::start(&dir.join("data"), &[]);
+    let body = serde_json::json!({
+        "scene_name": "cornell", "spp": 1, "width": 8, "height": 8,
+        "accel": {"type": "grid", "grid_resolution": 5}
+    });
+    let mut stats = Vec::new();
+    for _ in 0..2 {
+        let job = s.submit(&body);
+        assert_eq!(job["settings"]["accel"], body["accel"], "{job}");
+        let id = job["id"].as_i64().unwrap();
+        let done = s.wait_job(id, Duration::from_secs(60), |j| j["state"] == "done");
+        stats.push(done["stats"].clone());
+    }
+    assert_eq!(stats[0]["accel"], "grid");
+    assert_eq!(stats[0]["grid_resolution"], serde_json::json!([5, 5, 5]));
+    assert_eq!(
+        (
+            stats[0]["accel_cache"].as_str(),
+            stats[1]["accel_cache"].as_str()
+        ),
+        (Some("miss"), Some("hit"))
+    );
+    assert!(dir.join("data/accel-cache").read_dir().unwrap().count() >= 1);
+    // A bad value is refused at submission, naming the field.
+    let (st, e) = s.post(
+        "/api/jobs",
+        &serde_json::json!({"scene_name": "cornell", "accel": "octree"}),
+    );
+    assert_eq!(st, 422, "{e}");
+    assert!(e.to_string().contains("accel.type"), "{e}");
+    println!("server job stats: {}", stats[1]);
+}

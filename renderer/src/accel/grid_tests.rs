@@ -455,3 +455,11 @@ fn closest_hit_walk_equals_brute_force() {
     }
     assert!(checked > 300, "only {checked} rays hit anything");
 }
+
+#[test]
+fn grid_info_matches_its_glsl_mirror_size() {
+    // vec3 lo; uint nx; vec3 hi; uint ny; vec3 cell; uint nz; vec3 inv_cell; uint prim_refs
+    assert_eq!(std::mem::size_of::<GpuGridInfo>(), 64);
+    assert_eq!(std::mem::offset_of!(GpuGridInfo, ny), 28);
+    assert_eq!(std::mem::offset_of!(GpuGridInfo, inv_cell), 48);
+}
