@@ -1,12 +1,14 @@
 // `deferred`, stage 2: tiled light culling (after Harada et al. 2012 "Forward+" and Olsson &
 // Assarsson 2011 "Tiled Shading", with 3D tile bounds instead of a frustum and depth range).
 // One 16×16 workgroup per screen tile: its threads reconstruct their pixels' surface points
-// from the G-buffer (camera ray + depth), reduce them to the tile's axis-aligned bounding box,
-// then test every light against it in chunks of 256 — its influence sphere against the box,
-// and a spot's (or area emitter's) cone against the box's bounding sphere — and append the
-// survivors, in light order, to the tile's list. The box is the tile's per-tile depth bounds
-// made exact in 3D: it is conservative for any camera (also the thin lens, whose rays do not
-// share an origin). A tile whose list would exceed `tile_capacity` is marked TILE_OVERFLOW and
+// from the G-buffer (camera ray + depth) and reduce them to two axis-aligned bounding boxes —
+// the points nearer than the middle of the tile's depth range and the farther ones (splitting
+// at the middle depth, like the depth-range splits of 2.5D culling, keeps a foreground object
+// and the background behind it from making one huge box) — then test every light against
+// them in chunks of 256 — its influence sphere against each box, and a spot's (or area
+// emitter's) cone against the box's bounding sphere — and append the survivors, in light
+// order, to the tile's list. The boxes are the tile's depth bounds made exact in 3D: they are
+// conservative for any camera (also the thin lens, whose rays do not share an origin). A tile whose list would exceed `tile_capacity` is marked TILE_OVERFLOW and
 // shaded against every light, so nothing is ever dropped for lack of space.
 #version 460
 #extension GL_GOOGLE_include_directive : require
@@ -14,9 +16,11 @@
 
 layout(local_size_x = TILE, local_size_y = TILE, local_size_z = 1) in;
 
-shared uint s_lo[3];
-shared uint s_hi[3];
-shared uint s_any;
+shared uint s_lo[6];   // box b: components 3b .. 3b+2 (ordered-uint floats)
+shared uint s_hi[6];
+shared uint s_any[2];
+shared uint s_tmin;
+shared uint s_tmax;
 shared uint s_scan[TILE * TILE];
 shared uint s_count;
 shared bool s_overflow;
@@ -59,44 +63,68 @@ void main() {
     uvec2 tile = gl_WorkGroupID.xy;
     uint tile_index = tile.y * dp.tiles_x + tile.x;
     if (lid == 0u) {
-        for (int i = 0; i < 3; ++i) { s_lo[i] = 0xffffffffu; s_hi[i] = 0u; }
-        s_any = 0u;
+        for (int i = 0; i < 6; ++i) { s_lo[i] = 0xffffffffu; s_hi[i] = 0u; }
+        s_any[0] = 0u;
+        s_any[1] = 0u;
+        s_tmin = 0xffffffffu;
+        s_tmax = 0u;
         s_count = 0u;
         s_overflow = false;
     }
     barrier();
-    // Step 1: this pixel's surface point, from the camera ray and the stored depth.
+    // Step 1: this pixel's surface point, from the camera ray and the stored depth, and the
+    // tile's depth range.
     uvec2 px = gl_GlobalInvocationID.xy;
+    bool hit = false;
+    vec3 p = vec3(0.0);
+    float t = 0.0;
     if (px.x < g.film.x && px.y < g.film.y) {
         uint pixel = px.y * g.film.x + px.x;
         uvec4 w = gbuf[pixel];
         if (w.z != NONE) {
             Rng rng;
             Ray ray = sample_camera_ray(px, pc.sample_base, rng);
-            vec3 p = ray.o + uintBitsToFloat(w.y) * ray.d;
-            // Step 2: the tile's bounds (ordered-uint atomics), widened by the position's
-            // rounding error so the box surely contains what the shade stage reconstructs.
-            vec3 e = 1e-5 * (abs(p) + vec3(1e-30));
-            for (int i = 0; i < 3; ++i) {
-                atomicMin(s_lo[i], float_order(p[i] - e[i]));
-                atomicMax(s_hi[i], float_order(p[i] + e[i]));
-            }
-            atomicOr(s_any, 1u);
+            t = uintBitsToFloat(w.y);
+            p = ray.o + t * ray.d;
+            hit = true;
+            atomicMin(s_tmin, float_order(t));
+            atomicMax(s_tmax, float_order(t));
         }
     }
     barrier();
-    if (s_any == 0u) {
+    // Step 2: the near and far boxes (split at the middle depth; ordered-uint atomics), widened
+    // by the position's rounding error so they surely contain what the shade stage rebuilds.
+    if (hit) {
+        float mid = 0.5 * (float_unorder(s_tmin) + float_unorder(s_tmax));
+        uint b = t <= mid ? 0u : 1u;
+        vec3 e = 1e-5 * (abs(p) + vec3(1e-30));
+        for (uint i = 0u; i < 3u; ++i) {
+            atomicMin(s_lo[3u * b + i], float_order(p[i] - e[i]));
+            atomicMax(s_hi[3u * b + i], float_order(p[i] + e[i]));
+        }
+        atomicOr(s_any[b], 1u);
+    }
+    barrier();
+    if (s_any[0] == 0u && s_any[1] == 0u) {
         if (lid == 0u) tile_counts[tile_index] = 0u;
         return;
     }
-    vec3 lo = vec3(float_unorder(s_lo[0]), float_unorder(s_lo[1]), float_unorder(s_lo[2]));
-    vec3 hi = vec3(float_unorder(s_hi[0]), float_unorder(s_hi[1]), float_unorder(s_hi[2]));
+    bool any0 = s_any[0] != 0u, any1 = s_any[1] != 0u;
+    vec3 lo0 = vec3(float_unorder(s_lo[0]), float_unorder(s_lo[1]), float_unorder(s_lo[2]));
+    vec3 hi0 = vec3(float_unorder(s_hi[0]), float_unorder(s_hi[1]), float_unorder(s_hi[2]));
+    vec3 lo1 = vec3(float_unorder(s_lo[3]), float_unorder(s_lo[4]), float_unorder(s_lo[5]));
+    vec3 hi1 = vec3(float_unorder(s_hi[3]), float_unorder(s_hi[4]), float_unorder(s_hi[5]));
     uint base = tile_index * dp.tile_capacity;
-    // Step 3: every light against the box, 256 at a time; survivors are compacted in light
+    // Step 3: every light against the boxes, 256 at a time; survivors are compacted in light
     // order by a prefix sum (Hillis–Steele in shared memory), so the list is deterministic.
     for (uint chunk = 0u; chunk < dp.n_cull; chunk += TILE * TILE) {
         uint li = chunk + lid;
-        uint keep = (li < dp.n_cull && light_touches_box(dlights[li], lo, hi)) ? 1u : 0u;
+        bool touches = false;
+        if (li < dp.n_cull) {
+            DLight l = dlights[li];
+            touches = (any0 && light_touches_box(l, lo0, hi0)) || (any1 && light_touches_box(l, lo1, hi1));
+        }
+        uint keep = touches ? 1u : 0u;
         s_scan[lid] = keep;
         barrier();
         for (uint off = 1u; off < TILE * TILE; off <<= 1) {
