@@ -241,6 +241,7 @@ fn empty_and_flat_scenes() {
 
 /// The host mirror of `traverse_grid`'s walk (f32, as in shaders/common/grid.glsl): the cells
 /// visited for a ray over (tmin, tmax), with no hits to stop it.
+#[allow(clippy::neg_cmp_op_on_partial_ord)] // `!(a <= b)` is true on NaN, as in the shader
 fn dda_cells(info: &GpuGridInfo, o: [f32; 3], d: [f32; 3], tmin: f32, tmax: f32) -> Vec<[i32; 3]> {
     let inv: [f32; 3] = std::array::from_fn(|a| {
         let tiny = 1e-30f32;
@@ -387,7 +388,7 @@ fn grid_closest(g: &Grid, prims: &[GpuPrim], o: DVec3, d: DVec3) -> Option<(f64,
     for c in cells {
         for &i in g.cell(c[0] as u32, c[1] as u32, c[2] as u32) {
             if let Some(t) = hit_triangle(&prims[i as usize], o, d) {
-                if best.map_or(true, |(bt, _)| t < bt) {
+                if best.is_none_or(|(bt, _)| t < bt) {
                     best = Some((t, i));
                 }
             }
