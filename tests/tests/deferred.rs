@@ -256,7 +256,7 @@ fn gbuffer_round_trips_normals_and_positions() {
                 &scene,
                 r#"{"type":"deferred","max_depth":2,"debug":"gbuffer_error"}"#,
                 1,
-                (24, 24),
+                (16, 16),
                 seed,
             );
             for p in &img.pixels {
@@ -718,7 +718,7 @@ fn matches_nee_with_shadows_on_point_spot_directional_and_environment_lights() {
     // Scenes without area lights: with shadow rays, deferred computes exactly nee's direct
     // light (point, spot and directional lights among spheres and a box; an environment map
     // lighting spheres and a rough conductor, through the ambient term's BSDF sample).
-    for (name, nee_spp, def_spp) in [("lights.json", 256, 16), ("envmap.json", 256, 32)] {
+    for (name, nee_spp, def_spp) in [("lights.json", 256, 16), ("envmap.json", 128, 32)] {
         let scene = load(name);
         let size = (16, 16);
         let nee = estimate(&scene, r#"{"type":"nee","max_depth":2}"#, nee_spp, size);
