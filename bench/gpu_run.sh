@@ -31,3 +31,7 @@ if [ -f .carry/mitsuba-cp312.tar.xz ]; then
   mkdir -p /tmp/mi && tar xJf .carry/mitsuba-cp312.tar.xz -C /tmp/mi
   PYTHONPATH=/tmp/mi python3 bench/mitsuba_cornell.py --variant cuda_ad_rgb --width 1280 --height 720 --spp 256 --max-depth 6 | tee -a "$out"
 fi
+# Grid vs BVH (docs/accel.md), opt-in: ACCEL_BENCH=1 bash bench/gpu_run.sh
+if [ -n "${ACCEL_BENCH:-}" ]; then
+  python3 bench/accel_grid.py --candela $bin --out "${OUT:-/tmp}/accel_grid"
+fi
