@@ -35,6 +35,8 @@ void main() {
                 if (dot(-ray.d, s.ng) > 0.0) L = materials[s.material].emission.rgb;
             }
         }
+        // Test hook (PUSH_FLAG_INJECT_NAN), as in the path tracers.
+        if ((pc.flags & 1u) != 0u && (pc.sample_base + i) % 7u == 3u) L = vec3(uintBitsToFloat(0x7fc00000u));
         if (is_finite(L)) acc += vec4(L, 1.0); else dropped += 1u;
     }
     accum[pixel] = acc;

@@ -782,3 +782,25 @@ fn cone_culling_skips_only_lights_that_cannot_reach() {
     .0;
     assert_eq!(a.pixels, b.pixels);
 }
+
+#[test]
+fn nan_samples_are_dropped_and_counted() {
+    // The kernel test hook poisons every sample whose index is 3 mod 7, in the three-stage path
+    // (max_depth 2) and in the emitters-only kernel (max_depth 1): 14 samples hold two per pixel.
+    let scene = load("furnace.json");
+    let compiled = compile(&scene, 8, 8).unwrap();
+    let ctx = gpu();
+    for json in [
+        r#"{"type":"deferred"}"#,
+        r#"{"type":"deferred","max_depth":1}"#,
+    ] {
+        let mut s = RenderSession::new(&ctx, &compiled, &options(json), None, 9).unwrap();
+        s.set_debug_flags(renderer::compile::layout::PUSH_FLAG_INJECT_NAN);
+        s.run_pass(10).unwrap();
+        s.run_pass(4).unwrap();
+        let img = s.image().unwrap();
+        assert_eq!(s.stats().dropped_samples, 2 * 64, "{json}");
+        assert!(img.pixels.iter().flatten().all(|v| v.is_finite()), "{json}");
+    }
+    ctx.check_validation().expect("validation layer messages");
+}
