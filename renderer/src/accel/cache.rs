@@ -290,12 +290,12 @@ pub fn store(dir: &Path, kind: AccelKind, key: [u64; 2], e: &Entry) -> std::io::
 }
 
 impl Entry {
-    /// The grid of a grid entry, with `build_time` set by the caller.
-    pub fn to_grid(&self) -> Option<Grid> {
-        self.grid.as_ref().map(|(info, cells, prims)| Grid {
-            info: *info,
-            cells: cells.clone(),
-            prims: prims.clone(),
+    /// Splits off the grid of a grid entry (`build_time` is left for the caller to set).
+    pub fn take_grid(&mut self) -> Option<Grid> {
+        self.grid.take().map(|(info, cells, prims)| Grid {
+            info,
+            cells,
+            prims,
             build_time: Default::default(),
         })
     }

@@ -136,13 +136,15 @@ pub fn build(prims: &[GpuPrim], bounds: &[PrimBounds], resolution: Option<u32>) 
         let r0: [u32; 3] = std::array::from_fn(|a| cell_range(b.min[a] as f64, a, -dil[a]));
         let r1: [u32; 3] = std::array::from_fn(|a| cell_range(b.max[a] as f64, a, dil[a]));
         let shape = Shape::of(p);
+        // A primitive whose dilated bounds fall in one cell overlaps it: no test needed.
+        let single = r0 == r1;
         for z in r0[2]..=r1[2] {
             for y in r0[1]..=r1[1] {
                 for x in r0[0]..=r1[0] {
                     let c = DVec3::new(x as f64, y as f64, z as f64);
                     let bmin = lo_f + c * cell_f - dil;
                     let bmax = lo_f + (c + 1.0) * cell_f + dil;
-                    if shape.overlaps(bmin, bmax) {
+                    if single || shape.overlaps(bmin, bmax) {
                         let ci = (z * res[1] + y) * res[0] + x;
                         refs.push((ci, i as u32));
                         counts[ci as usize] += 1;
@@ -229,10 +231,10 @@ pub fn triangle_box_overlap(t: &[DVec3; 3], bmin: DVec3, bmax: DVec3) -> bool {
     }
     // Step 2: the triangle's plane, and the nine cross products of edges with box axes.
     let e = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
-    let mut axes: Vec<DVec3> = vec![e[0].cross(e[1])];
-    for edge in e {
-        for unit in [DVec3::X, DVec3::Y, DVec3::Z] {
-            axes.push(edge.cross(unit));
+    let mut axes = [e[0].cross(e[1]); 10];
+    for (k, edge) in e.iter().enumerate() {
+        for (j, unit) in [DVec3::X, DVec3::Y, DVec3::Z].iter().enumerate() {
+            axes[1 + 3 * k + j] = edge.cross(*unit);
         }
     }
     for axis in axes {

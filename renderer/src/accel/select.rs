@@ -181,7 +181,7 @@ fn grid_accel(order: Vec<u32>, g: Grid) -> Accel {
 
 /// A cache entry as an `Accel`, after checking it is consistent with the scene (every index in
 /// range, the right amount of cells); None when it is not.
-fn from_entry(opts: &AccelOptions, e: cache::Entry, n: usize) -> Option<Accel> {
+fn from_entry(opts: &AccelOptions, mut e: cache::Entry, n: usize) -> Option<Accel> {
     let mut seen = vec![false; n];
     if e.order.len() != n {
         return None;
@@ -222,7 +222,7 @@ fn from_entry(opts: &AccelOptions, e: cache::Entry, n: usize) -> Option<Accel> {
             })
         }
         AccelKind::Grid => {
-            let g = e.to_grid()?;
+            let g = e.take_grid()?;
             let cells = [g.info.nx, g.info.ny, g.info.nz]
                 .iter()
                 .map(|&r| r as u64)
