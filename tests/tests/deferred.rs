@@ -40,6 +40,15 @@ fn options(json: &str) -> IntegratorOptions {
     serde_json::from_str(json).unwrap_or_else(|e| panic!("{json}: {e}"))
 }
 
+/// Serialises this binary's GPU work: tests/tests/whitted.rs observed a render on the shared
+/// lavapipe context come out slightly different while other tests of the process rendered
+/// concurrently, and several tests here compare images bit for bit.
+static GPU_LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn gpu_lock() -> std::sync::MutexGuard<'static, ()> {
+    GPU_LOCK.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// Renders `scene` at `size` with integrator options given as JSON, in passes of `pass` samples.
 fn render_passes(
     scene: &Scene,
@@ -49,9 +58,10 @@ fn render_passes(
     seed: u64,
     pass: Option<u32>,
 ) -> (Image, RenderStats) {
-    let ctx = gpu();
     let compiled = compile(scene, size.0, size.1).expect("compile");
     let o = options(json);
+    let _serial = gpu_lock();
+    let ctx = gpu();
     let mut s =
         RenderSession::new(&ctx, &compiled, &o, scene.render.max_depth, seed).expect("session");
     let out = match pass {
@@ -210,7 +220,7 @@ fn matches_nee_at_max_depth_2_without_occluders() {
         r#", "environment": {"type": "constant", "radiance": [0.2, 0.25, 0.3]}"#,
     ));
     let size = (16, 16);
-    let nee = estimate(&scene, r#"{"type":"nee","max_depth":2}"#, 256, size);
+    let nee = estimate(&scene, r#"{"type":"nee","max_depth":2}"#, 128, size);
     let def = estimate(
         &scene,
         r#"{"type":"deferred","max_depth":2,"cutoff":0}"#,
@@ -218,7 +228,8 @@ fn matches_nee_at_max_depth_2_without_occluders() {
         size,
     );
     compare("deferred (cutoff 0) vs nee", &def, &nee, 1e-3, true);
-    // The default cutoff (1e-3) drops nothing visible here; shadows on changes nothing.
+    // The default cutoff (1e-3) drops nothing visible here (shadows are tested with an
+    // occluder below and on lights.json).
     let def_cut = estimate(&scene, r#"{"type":"deferred","max_depth":2}"#, 16, size);
     compare(
         "deferred (default cutoff) vs nee",
@@ -227,13 +238,6 @@ fn matches_nee_at_max_depth_2_without_occluders() {
         1e-3,
         true,
     );
-    let def_sh = estimate(
-        &scene,
-        r#"{"type":"deferred","max_depth":2,"shadows":true}"#,
-        16,
-        size,
-    );
-    compare("deferred (shadows) vs nee", &def_sh, &nee, 1e-3, true);
 }
 
 #[test]
@@ -546,8 +550,8 @@ fn white_furnace_is_one_and_passes_split_freely() {
 fn emitters_seen_directly_match_nee_at_max_depth_1() {
     let scene = load("cornell.json");
     let size = (16, 16);
-    let nee = estimate(&scene, r#"{"type":"nee","max_depth":1}"#, 16, size);
-    let def = estimate(&scene, r#"{"type":"deferred","max_depth":1}"#, 16, size);
+    let nee = estimate(&scene, r#"{"type":"nee","max_depth":1}"#, 8, size);
+    let def = estimate(&scene, r#"{"type":"deferred","max_depth":1}"#, 8, size);
     // Same camera rays from the same random numbers: identical images.
     assert_eq!(def.img.pixels, nee.img.pixels);
 }
@@ -561,7 +565,7 @@ fn shadows_against_nee_with_an_occluder_report() {
         "",
     ));
     let size = (16, 16);
-    let nee = estimate(&scene, r#"{"type":"nee","max_depth":2}"#, 256, size);
+    let nee = estimate(&scene, r#"{"type":"nee","max_depth":2}"#, 128, size);
     let def = estimate(
         &scene,
         r#"{"type":"deferred","max_depth":2,"shadows":true,"cutoff":0}"#,
@@ -602,7 +606,7 @@ fn cornell_box_against_nee_report() {
     // the far field only: the relMSE against nee is reported, with a loose sanity bound.
     let scene = load("cornell.json");
     let size = (16, 16);
-    let nee = estimate(&scene, r#"{"type":"nee","max_depth":2}"#, 128, size);
+    let nee = estimate(&scene, r#"{"type":"nee","max_depth":2}"#, 64, size);
     let def = estimate(
         &scene,
         r#"{"type":"deferred","max_depth":2,"shadows":true}"#,
@@ -718,7 +722,7 @@ fn matches_nee_with_shadows_on_point_spot_directional_and_environment_lights() {
     // Scenes without area lights: with shadow rays, deferred computes exactly nee's direct
     // light (point, spot and directional lights among spheres and a box; an environment map
     // lighting spheres and a rough conductor, through the ambient term's BSDF sample).
-    for (name, nee_spp, def_spp) in [("lights.json", 256, 16), ("envmap.json", 128, 32)] {
+    for (name, nee_spp, def_spp) in [("lights.json", 128, 16), ("envmap.json", 128, 32)] {
         let scene = load(name);
         let size = (16, 16);
         let nee = estimate(&scene, r#"{"type":"nee","max_depth":2}"#, nee_spp, size);
@@ -789,6 +793,7 @@ fn nan_samples_are_dropped_and_counted() {
     // (max_depth 2) and in the emitters-only kernel (max_depth 1): 14 samples hold two per pixel.
     let scene = load("furnace.json");
     let compiled = compile(&scene, 8, 8).unwrap();
+    let _serial = gpu_lock();
     let ctx = gpu();
     for json in [
         r#"{"type":"deferred"}"#,
