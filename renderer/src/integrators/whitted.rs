@@ -15,7 +15,9 @@
 //!   also what phong's distance attenuation is here), and `area_samples` shadow rays to every
 //!   emissive triangle and sphere, at a fixed point set (below). Shadow rays stop at any
 //!   surface, glass included (opaque shadows, no caustics). Cost: `area_samples` rays per
-//!   emissive triangle per hit, so large emissive meshes want a small `area_samples`.
+//!   emissive triangle per hit, so large emissive meshes want a small `area_samples`. On
+//!   lavapipe, whose llvmpipe ends an invocation's loops after 65535 iterations in all, a pass
+//!   of many such samples is silently truncated (docs/whitted.md; the tests use 1-spp passes).
 //! - **Ambient**: the environment radiance in the direction of the shading normal times the
 //!   local lobes' albedo, no shadow ray. For a constant environment and an unoccluded diffuse
 //!   surface this is exact (albedo × L_env); occlusion is ignored and an environment map is
