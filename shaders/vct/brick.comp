@@ -4,7 +4,8 @@
 // interpolation needs one brick: a lookup at a point finds the node holding the lower corner of
 // its 2×2×2 neighbourhood and reads all eight samples from its brick. Sample positions are cell
 // centres, exactly those of the dense storage, so both give the same filtered values.
-// Modes (flags): 0 leaf bricks (depth D−1: level-0 radiance of the node's voxels and border),
+// Modes (flags): 0 leaf bricks (depth D−1: the six directional level-0 values of the node's
+// voxels and border),
 // 1 inner samples of depth k from the children's bricks (anisotropic filtering), 2 border
 // samples of depth k from the neighbours' inner samples. One thread per (node, brick sample).
 #version 460
@@ -28,12 +29,10 @@ void main() {
         uint s = gid % 27u;
         uvec3 i = uvec3(s % 3u, (s / 3u) % 3u, s / 9u);
         uvec3 v = 2u * unpack_cell(vnodes[node].y) + i;
-        uvec2 val = uvec2(0u);
-        if (all(lessThan(v, uvec3(vct_res())))) {
-            uint slot = voxel_slot(v);
-            if (slot != NONE) val = rad[slot];
-        }
-        leaf[(node - info.level_start[leaf_k]) * 27u + s] = val;
+        uint slot = NONE;
+        if (all(lessThan(v, uvec3(vct_res())))) slot = voxel_slot(v);
+        uint at = ((node - info.level_start[leaf_k]) * 27u + s) * 6u;
+        for (uint d = 0u; d < 6u; ++d) leaf[at + d] = slot == NONE ? uvec2(0u) : pack_h4(level0_value(slot, d));
         return;
     }
     uint m = D - 1u - k;
@@ -52,8 +51,8 @@ void main() {
             for (uint co = 0u; co < 8u; ++co) {
                 uint s = brick_index(octant_bits(co));
                 if (m == 1u) {
-                    vec4 v = unpack_h4(leaf[(cn - info.level_start[leaf_k]) * 27u + s]);
-                    for (uint d = 0u; d < 6u; ++d) ch[co][d] = v;
+                    uint at = ((cn - info.level_start[leaf_k]) * 27u + s) * 6u;
+                    for (uint d = 0u; d < 6u; ++d) ch[co][d] = unpack_h4(leaf[at + d]);
                 } else {
                     for (uint d = 0u; d < 6u; ++d) ch[co][d] = unpack_h4(mip[(cn * 27u + s) * 6u + d]);
                 }

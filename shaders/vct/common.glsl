@@ -32,7 +32,7 @@
 
 struct VctParams {
     vec4 grid;        // grid minimum corner (camera-relative), voxel size
-    uvec4 dims;       // resolution R, levels D = log2 R, storage (0 dense, 1 octree), bounce cones on both sides
+    uvec4 dims;       // resolution R, levels D = log2 R, storage (0 dense, 1 octree), coarsest level cones read
     vec4 cone;        // tan of the diffuse cones' half-angle, diffuse cone count, step factor, AO distance (grid units)
     uvec4 mode;       // ao output, shadow cones, injection samples per voxel, 0
     uvec4 caps;       // fragment capacity, node capacity, slot capacity, 0
@@ -55,10 +55,10 @@ layout(set = 0, binding = B_VCT_NODES, scalar) buffer VctNodes { uvec2 vnodes[];
 layout(set = 0, binding = B_VCT_ACC, scalar) buffer VctAcc { uint acc[]; };            // ACC_WORDS per slot while building
 layout(set = 0, binding = B_VCT_ATTR, scalar) buffer VctAttr { uvec4 attr[]; };        // albedo rgba8, normal snorm8+two-sided, point offset snorm16×3
 layout(set = 0, binding = B_VCT_EMIT, scalar) buffer VctEmit { uvec2 emit[]; };        // half4 emitted radiance
-layout(set = 0, binding = B_VCT_RAD, scalar) buffer VctRad { uvec2 rad[]; };           // half4 (radiance·opacity, opacity)
+layout(set = 0, binding = B_VCT_RAD, scalar) buffer VctRad { uvec4 rad[]; };           // half4 (radiance·opacity, opacity) of the front and back sides
 layout(set = 0, binding = B_VCT_MIP, scalar) buffer VctMip { uvec2 mip[]; };           // half4 × 6 directions per cell / brick sample
-layout(set = 0, binding = B_VCT_LEAF, scalar) buffer VctLeaf { uvec2 leaf[]; };        // octree: 27 half4 per leaf-parent brick
-layout(set = 0, binding = B_VCT_BOUNCE, scalar) buffer VctBounce { uvec2 bounce[]; };  // second bounce per slot
+layout(set = 0, binding = B_VCT_LEAF, scalar) buffer VctLeaf { uvec2 leaf[]; };        // octree: 27 × 6 directions half4 per leaf-parent brick
+layout(set = 0, binding = B_VCT_BOUNCE, scalar) buffer VctBounce { uvec4 bounce[]; };  // second bounce per slot, front and back
 
 // Build kernels reuse the session's push-constant block (common/types.glsl): the level or depth
 // in sample_base, a thread count in spp, a mode in flags.
@@ -132,6 +132,23 @@ Voxel load_voxel(uint slot) {
     vec3 off = vec3(unpackSnorm2x16(a.z), unpackSnorm2x16(a.w).x);
     vx.p = from_grid(vec3(slot_cell(slot)) + 0.5 + off);
     return vx;
+}
+
+// Travel direction of directional value `dir` (0 +x, 1 −x, 2 +y, 3 −y, 4 +z, 5 −z).
+vec3 dir_axis(uint dir) {
+    vec3 e = vec3(0.0);
+    e[dir >> 1u] = (dir & 1u) == 0u ? 1.0 : -1.0;
+    return e;
+}
+
+// Level 0 is directional too: a voxel keeps the radiance of the two sides of its surface
+// (front: the side its normal points to), and a cone travelling along e sees the side facing
+// −e. So a thin wall lit on one side does not shine on the other (voxels whose normals cancel
+// show the same value both ways).
+vec4 level0_value(uint slot, uint dir) {
+    uvec4 r = rad[slot];
+    vec4 nn = unpackSnorm4x8(attr[slot].y);
+    return dot(nn.xyz, dir_axis(dir)) <= 0.0 ? unpack_h4(r.xy) : unpack_h4(r.zw);
 }
 
 // Anisotropic value seen by a cone travelling along d from six directional values

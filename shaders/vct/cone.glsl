@@ -1,12 +1,22 @@
 // Cone tracing through the filtered volume (Crassin et al. 2011 §4): march along the axis with
 // steps proportional to the cone's diameter, read the level whose cell size matches the
-// diameter (log2 of it, in voxels), correct each sample's opacity for the step length
+// diameter (log2 of it, in voxels; at most the option `max_level`, beyond which the footprint
+// stays that level's cell), correct each sample's opacity for the step length
 // (α' = 1 − (1 − α)^(Δt/diameter)) and composite front to back, stopping when opaque, out of the
 // grid or past t_max. Returns (radiance, opacity): the radiance that reaches the apex from the
 // volume, weighted by what lies in front of it.
+// Leak guard: coarse cells average a wall with what lies behind it, and the blurred, opacity-
+// corrected samples let a cone through a wall a few voxels thick. So the cone also ends where
+// its axis enters an occupied level-0 voxel: the rest of its weight takes that voxel's radiance
+// (the surface the axis hits). Steps are at most 2^max_level · step voxels long, so walls at
+// least that thick stop every cone.
 #ifndef VCT_CONE_GLSL
 #define VCT_CONE_GLSL
 #include "vct/volume.glsl"
+
+// Cones start this many voxels off the surface (along its normal), then march from one voxel on:
+// closer, they see their own surface's voxels.
+#define CONE_OFFSET 1.5
 
 // Apex p (camera-relative), unit direction d, tan of the half-angle; t0 and t_max in voxels.
 vec4 cone_trace(vec3 p, vec3 d, float tan_half, float t0, float t_max) {
@@ -16,10 +26,19 @@ vec4 cone_trace(vec3 p, vec3 d, float tan_half, float t0, float t_max) {
     float A = 0.0;
     float t = t0;
     float step_factor = max(P.cone.z, 0.05);
-    for (int it = 0; it < 1024 && t < t_max && A < 0.99; ++it) {
+    float max_diam = float(1u << min(P.dims.w, vct_levels() - 1u));
+    for (int it = 0; it < 4096 && t < t_max && A < 0.99; ++it) {
         vec3 pg = pg0 + t * d;
         if (any(lessThan(pg, vec3(-1.0))) || any(greaterThan(pg, vec3(r + 1.0)))) break;
-        float diam = max(2.0 * tan_half * t, 1.0);
+        float diam = clamp(2.0 * tan_half * t, 1.0, max_diam);
+        if (all(greaterThanEqual(pg, vec3(0.0))) && all(lessThan(pg, vec3(r)))) {
+            vec4 hit = cell_value(uvec3(pg), 0u, d);
+            if (hit.a > 0.5) {
+                C += (1.0 - A) * hit.rgb / hit.a;
+                A = 1.0;
+                break;
+            }
+        }
         vec4 s = vol_sample_lod(pg, log2(diam), d);
         float dt = diam * step_factor;
         float a = clamp(s.a, 0.0, 1.0);

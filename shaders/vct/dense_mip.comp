@@ -1,5 +1,5 @@
 // vct stage 3 (dense storage): one anisotropic mip level m ≥ 1 of the dense grid, one thread per
-// cell of level m, from the eight cells of level m − 1 (the isotropic radiance at level 0).
+// cell of level m, from the eight cells of level m − 1 (at level 0, each voxel's side facing the direction).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "vct/common.glsl"
@@ -18,8 +18,7 @@ void main() {
         uvec3 cc = 2u * c + octant_bits(o);
         uint lin = cc.x + nc * (cc.y + nc * cc.z);
         if (m == 1u) {
-            vec4 v = unpack_h4(rad[lin]);
-            for (uint d = 0u; d < 6u; ++d) ch[o][d] = v;
+            for (uint d = 0u; d < 6u; ++d) ch[o][d] = level0_value(lin, d);
         } else {
             uint at = (P.mip_offset[m - 1u] + lin) * 6u;
             for (uint d = 0u; d < 6u; ++d) ch[o][d] = unpack_h4(mip[at + d]);

@@ -2,9 +2,9 @@
 // diffusely under direct light: L = albedo/π · E, with the irradiance E estimated from
 // `inject_samples` light samples at the voxel's mean surface point (the same light sampling as
 // `nee`: every light of the scene, emissive triangles and spheres, point, spot, directional,
-// environment, in the same units), each tested with a shadow ray through the BVH. Voxels whose
-// surfaces are two-sided take light from both sides (|cos θ|), else from the side of their
-// normal. Emission is not injected: direct light is computed exactly at shaded points, so the
+// environment, in the same units), each tested with a shadow ray through the BVH. Each voxel
+// keeps its front (the side of its normal) and back radiance apart; one-sided surfaces have no
+// back. Emission is not injected: direct light is computed exactly at shaded points, so the
 // cones gather only reflected light. Samples are keyed by voxel and sample index (deterministic).
 #version 460
 #extension GL_GOOGLE_include_directive : require
@@ -19,13 +19,14 @@ void main() {
     uint slot = LINEAR_GID;
     if (slot >= VP_COUNT) return;
     Voxel vx = load_voxel(slot);
-    if (vx.opacity <= 0.0) { rad[slot] = uvec2(0u); return; }
+    if (vx.opacity <= 0.0) { rad[slot] = uvec4(0u); return; }
     // Step 1: irradiance from K light samples with shadow rays, keyed by the voxel (not the
     // slot), so both storages inject the same values.
     uvec3 cell = slot_cell(slot);
     uint cell_key = cell.x + vct_res() * (cell.y + vct_res() * cell.z);
     uint K = max(P.mode.z, 1u);
-    vec3 E = vec3(0.0);
+    vec3 E = vec3(0.0), E_back = vec3(0.0);
+    bool degenerate = dot(vx.n, vx.n) == 0.0;
     float eps = 0.05 * P.grid.w;
     for (uint i = 0u; i < K; ++i) {
         Rng rng = rng_init(cell_key, i, 0x76637421u, 0x1a2b3c4du);
@@ -33,7 +34,7 @@ void main() {
         if (!sample_light(vx.p, rng_next3(rng), ls)) continue;
         float c = dot(vx.n, ls.wi);
         float cosw = vx.two_sided ? abs(c) : max(c, 0.0);
-        if (dot(vx.n, vx.n) == 0.0) cosw = 0.5; // normals cancel: the average over both sides
+        if (degenerate) cosw = 0.5; // normals cancel: the average over both sides
         if (cosw <= 0.0 || !any(greaterThan(ls.L, vec3(0.0)))) continue;
         // Leave the surface on the light's side.
         vec3 side = dot(vx.n, vx.n) > 0.0 ? (c >= 0.0 ? vx.n : -vx.n) : ls.wi;
@@ -50,11 +51,13 @@ void main() {
             r.tmax = len * (1.0 - 1e-3);
         }
         if (trace_any(r)) continue;
-        E += ls.L * cosw / ls.pdf;
+        if (c >= 0.0 || degenerate) E += ls.L * cosw / ls.pdf;
+        if (c < 0.0 || degenerate) E_back += ls.L * cosw / ls.pdf;
     }
-    E /= float(K);
-    // Step 2: outgoing diffuse radiance, premultiplied by opacity.
-    vec3 L = vx.albedo * INV_PI * E;
+    // Step 2: outgoing diffuse radiance of each side, premultiplied by opacity.
+    vec3 L = vx.albedo * INV_PI * E / float(K);
+    vec3 Lb = vx.albedo * INV_PI * E_back / float(K);
     if (!(all(greaterThanEqual(L, vec3(0.0))) && all(lessThan(L, vec3(6e4))))) L = vec3(0.0);
-    rad[slot] = pack_h4(vec4(L * vx.opacity, vx.opacity));
+    if (!(all(greaterThanEqual(Lb, vec3(0.0))) && all(lessThan(Lb, vec3(6e4))))) Lb = vec3(0.0);
+    rad[slot] = uvec4(pack_h4(vec4(L * vx.opacity, vx.opacity)), pack_h4(vec4(Lb * vx.opacity, vx.opacity)));
 }

@@ -142,7 +142,7 @@ vec3 shade(uvec2 px, inout Rng rng, inout uint rays) {
         vec3 t, b;
         make_frame(n, t, b);
         float phi0 = 2.0 * PI * rng_next1(rng);
-        vec3 origin = s.p + ng_o * vox;
+        vec3 origin = s.p + ng_o * (CONE_OFFSET * vox);
         for (uint i = 0u; i < nc; ++i) {
             vec3 dl = diffuse_cone_dir(i, nc, phi0);
             vec3 d = from_local(dl, t, b, n);
@@ -157,7 +157,7 @@ vec3 shade(uvec2 px, inout Rng rng, inout uint rays) {
         bool delta = (bs.flags & BSDF_DELTA) != 0u;
         float tan_half = delta ? 0.0 : min(sqrt(1.0 / (PI * max(bs.pdf, 1e-6))), P.cone.x);
         vec3 side = dot(wi_world, ng_o) >= 0.0 ? ng_o : -ng_o;
-        vec3 Lc = cone_trace(s.p + side * vox, wi_world, tan_half, 1.0, 1e9).rgb;
+        vec3 Lc = cone_trace(s.p + side * (CONE_OFFSET * vox), wi_world, tan_half, 1.0, 1e9).rgb;
         L += bs.weight * Lc;
     }
 #endif

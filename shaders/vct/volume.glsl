@@ -1,7 +1,7 @@
 // Sampling the filtered voxel volume, the same way for both storages: trilinear interpolation
 // by hand (storage buffers only, no samplers) between the cell centres of one level, and linear
-// between two levels. Level 0 is isotropic; levels m ≥ 1 show the cone's direction the d²-weighted
-// mix of their three visible directional values. Outside the grid everything is empty.
+// between two levels. Every level, 0 included (the two sides of each voxel's surface), shows the
+// cone's direction the d²-weighted mix of its three visible directional values. Outside the grid everything is empty.
 // Dense: cells are read directly. Octree: the node holding the lower corner of the 2×2×2
 // neighbourhood is found by a walk from the root and all eight samples come from its brick
 // (brick.comp); where that node does not exist (empty space) each corner is looked up alone.
@@ -17,7 +17,11 @@ vec4 mip_dir(uint at, vec3 d) {
 // Sample i (0..2 per axis) of the brick of `node` (depth D−1−m).
 vec4 brick_value(uint node, uint m, uvec3 i, vec3 d) {
     uint s = i.x + 3u * i.y + 9u * i.z;
-    if (m == 0u) return unpack_h4(leaf[(node - info.level_start[vct_levels() - 1u]) * 27u + s]);
+    if (m == 0u) {
+        uint at = ((node - info.level_start[vct_levels() - 1u]) * 27u + s) * 6u;
+        return combine_dirs(unpack_h4(leaf[at]), unpack_h4(leaf[at + 1u]), unpack_h4(leaf[at + 2u]),
+                            unpack_h4(leaf[at + 3u]), unpack_h4(leaf[at + 4u]), unpack_h4(leaf[at + 5u]), d);
+    }
     return mip_dir((node * 27u + s) * 6u, d);
 }
 
@@ -29,7 +33,11 @@ vec4 cell_value(uvec3 c, uint m, vec3 d) {
     }
     uint n = vct_res() >> m;
     uint lin = c.x + n * (c.y + n * c.z);
-    if (m == 0u) return unpack_h4(rad[lin]);
+    if (m == 0u) {
+        vec3 w = d * d;
+        return w.x * level0_value(lin, d.x >= 0.0 ? 0u : 1u) + w.y * level0_value(lin, d.y >= 0.0 ? 2u : 3u) +
+               w.z * level0_value(lin, d.z >= 0.0 ? 4u : 5u);
+    }
     return mip_dir((P.mip_offset[m] + lin) * 6u, d);
 }
 

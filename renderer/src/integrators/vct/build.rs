@@ -54,7 +54,7 @@ pub fn build(
     let ao_voxels = s.ao_distance.unwrap_or(side / 8.0) / voxel;
     let mut params = VctParams {
         grid: [min[0], min[1], min[2], voxel],
-        dims: [r, levels, octree as u32, 0],
+        dims: [r, levels, octree as u32, s.max_level],
         cone: [tan_half, s.cones as f32, s.step, ao_voxels],
         mode: [
             s.ao as u32,
@@ -196,7 +196,7 @@ pub fn build(
     ctx.fill_zero(&acc)?;
     let attr = storage_buffer(ctx, "vct attributes", slots_u * 16)?;
     let emit = storage_buffer(ctx, "vct emission", slots_u * 8)?;
-    let rad = storage_buffer(ctx, "vct radiance", slots_u * 8)?;
+    let rad = storage_buffer(ctx, "vct radiance", slots_u * 16)?;
     ctx.fill_zero(&rad)?;
     params.caps[2] = slots;
     ctx.upload(&params_buf, 0, bytemuck::bytes_of(&params))?;
@@ -243,7 +243,7 @@ pub fn build(
         let leaves = (info.level_end[k] - info.level_start[k]) as u64;
         (
             storage_buffer(ctx, "vct brick pool", inner * 27 * 6 * 8)?,
-            storage_buffer(ctx, "vct leaf bricks", leaves * 27 * 8)?,
+            storage_buffer(ctx, "vct leaf bricks", leaves * 27 * 6 * 8)?,
         )
     } else {
         let mut off = 0u32;

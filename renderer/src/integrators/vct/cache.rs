@@ -56,7 +56,7 @@ pub fn lights_key(scene: &CompiledScene, s: &Settings) -> u64 {
     bytes(&mut h, &scene.env_dist);
     bytes(&mut h, &[scene.globals.env]);
     bytes(&mut h, &[scene.globals.env_params]);
-    (s.inject_samples, s.bounces, s.cones).hash(&mut h);
+    (s.inject_samples, s.bounces, s.cones, s.max_level).hash(&mut h);
     (s.cone_aperture_deg.to_bits(), s.step.to_bits()).hash(&mut h);
     h.finish()
 }

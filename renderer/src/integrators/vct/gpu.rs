@@ -36,7 +36,7 @@ pub const ACC_WORDS: u64 = 14;
 pub struct VctParams {
     /// Grid minimum corner (camera-relative) and voxel size.
     pub grid: [f32; 4],
-    /// Resolution R, levels D = log2 R, storage (0 dense, 1 octree), 0.
+    /// Resolution R, levels D = log2 R, storage (0 dense, 1 octree), coarsest level cones read.
     pub dims: [u32; 4],
     /// tan of the diffuse cones' half-angle, diffuse cone count, step factor, AO distance (voxels).
     pub cone: [f32; 4],

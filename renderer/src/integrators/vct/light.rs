@@ -103,6 +103,7 @@ impl Volume {
             s.step,
             s.ao_distance.unwrap_or(side / 8.0) / voxel,
         ];
+        self.params.dims[3] = s.max_level;
         self.params.mode = [
             s.ao as u32,
             (s.shadows == super::VctShadows::Cone) as u32,
@@ -127,7 +128,7 @@ impl Volume {
             self.bounce = Some(Buffer::new(
                 ctx,
                 "vct bounce",
-                self.slots as u64 * 8,
+                self.slots as u64 * 16,
                 BufferUsage::Storage,
             )?);
         }

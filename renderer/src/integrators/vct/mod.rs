@@ -204,6 +204,7 @@ impl Integrator for VctIntegrator {
             "shadows": s.shadows,
             "cones": s.cones,
             "cone_aperture_deg": s.cone_aperture_deg,
+            "max_level": s.max_level,
             "voxels": v.voxels,
             "fragments": v.fragments,
             "nodes": v.nodes_used,

@@ -56,6 +56,11 @@ pub struct VctOptions {
     pub ao_distance: Option<f32>,
     /// Light samples per voxel for the injection (1..=1024, default 16).
     pub inject_samples: Option<u32>,
+    /// Coarsest level the cones read (0 = the voxels; default log2(resolution) − 4, i.e. cells
+    /// of 1/16 of the grid). Past the diameter of that level's cells a cone keeps its footprint
+    /// and steps by it. Coarse cells average a wall with what lies behind it, so walls thinner
+    /// than 2^max_level voxels can leak light; lower values leak less and cost more steps.
+    pub max_level: Option<u32>,
 }
 
 /// Largest resolution the dense storage accepts (its level 0 alone is R³ cells).
@@ -74,6 +79,7 @@ pub struct Settings {
     pub ao: bool,
     pub ao_distance: Option<f32>,
     pub inject_samples: u32,
+    pub max_level: u32,
 }
 
 fn bad(field: &str, msg: String) -> RenderError {
@@ -131,6 +137,14 @@ impl VctOptions {
                 format!("must be 1..=1024, got {inject_samples}"),
             ));
         }
+        let levels = resolution.trailing_zeros();
+        let max_level = self.max_level.unwrap_or(levels - 4);
+        if max_level >= levels {
+            return Err(bad(
+                "max_level",
+                format!("must be below log2(resolution) = {levels}, got {max_level}"),
+            ));
+        }
         Ok(Settings {
             resolution,
             storage,
@@ -142,6 +156,7 @@ impl VctOptions {
             ao: self.ao.unwrap_or(false),
             ao_distance: self.ao_distance,
             inject_samples,
+            max_level,
         })
     }
 }
