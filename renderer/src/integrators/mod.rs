@@ -73,7 +73,7 @@ pub enum IntegratorOptions {
 }
 
 /// Names accepted on the command line and in `render.integrator`.
-pub const NAMES: &[&str] = &["pt", "nee", "bdpt", "deferred", "whitted"];
+pub const NAMES: &[&str] = &["pt", "nee", "bdpt", "deferred", "whitted", "vct"];
 
 impl IntegratorOptions {
     /// Default options for an integrator name; None for unknown or not-yet-built integrators.
@@ -83,6 +83,7 @@ impl IntegratorOptions {
             "nee" => Some(IntegratorOptions::Nee(PathOptions::default())),
             "bdpt" => Some(IntegratorOptions::Bdpt(BdptOptions::default())),
             "deferred" => Some(IntegratorOptions::Deferred(deferred::DeferredOptions::default())),
+            "vct" => Some(IntegratorOptions::Vct(vct::VctOptions::default())),
             "whitted" => Some(IntegratorOptions::Whitted(whitted::WhittedOptions::default())),
             _ => None,
         }

@@ -56,6 +56,9 @@ struct State {
 }
 
 pub struct VctIntegrator {
+    /// GPU milliseconds of the trace dispatches so far, and their number.
+    trace_ms: f64,
+    trace_passes: u32,
     options: VctOptions,
     max_depth: i32,
     state: Option<State>,
@@ -64,6 +67,8 @@ pub struct VctIntegrator {
 
 pub fn new(o: &VctOptions, scene_max_depth: Option<i32>) -> VctIntegrator {
     VctIntegrator {
+        trace_ms: 0.0,
+        trace_passes: 0,
         options: *o,
         max_depth: o.max_depth.or(scene_max_depth).unwrap_or(6),
         state: None,
@@ -178,6 +183,11 @@ impl Integrator for VctIntegrator {
         }
     }
 
+    fn observe_timings(&mut self, timings: &[crate::gpu::DispatchTiming]) {
+        self.trace_ms += timings.iter().map(|t| t.gpu_ms).sum::<f64>();
+        self.trace_passes += 1;
+    }
+
     fn details(&self) -> Option<serde_json::Value> {
         let s = self.settings?;
         let Some(st) = &self.state else {
@@ -185,6 +195,7 @@ impl Integrator for VctIntegrator {
                 "volume": "none (max_depth <= 2: emission and direct light only)",
                 "resolution": s.resolution,
                 "storage": s.storage,
+                "timings_ms": { "trace": self.trace_ms },
             }));
         };
         let v = st.volume.lock().ok()?;
@@ -216,8 +227,9 @@ impl Integrator for VctIntegrator {
                 "inject": if st.origin != "cached" { l.inject_ms } else { 0.0 },
                 "filter": if st.origin != "cached" { l.filter_ms } else { 0.0 },
                 "bounce": if st.origin != "cached" { l.bounce_ms } else { 0.0 },
+                "trace": self.trace_ms,
             },
-            "trace_timing": "the render's gpu_time_s: every pass is one trace dispatch",
+            "trace_passes": self.trace_passes,
             "first_build_timings_ms": b,
             "memory_bytes": memory,
             "memory_total_bytes": v.total_bytes(),
