@@ -16,6 +16,7 @@
 //! - each max_depth step only adds light (mirror_glass at 1..10 and −1, pixel by pixel);
 //! - determinism: without jitter 1 spp and 16 spp (with another seed) give the same image; with
 //!   jitter they differ only by anti-aliasing;
+//! - passes give the same image however they are split (lavapipe's loop limiter is avoided);
 //! - a report of its relMSE against nee on the Cornell box (no indirect light: darker);
 //! - bad options are refused, naming the field.
 
@@ -38,23 +39,16 @@ fn load_json(json: &str) -> Scene {
     renderer::scene::load_str(json, None).unwrap_or_else(|e| panic!("{e}\n{json}"))
 }
 
-/// Samples per pixel in one dispatch. lavapipe (llvmpipe) silently ends every loop of an
+/// Samples per pixel in one pass. lavapipe (llvmpipe) silently ends every loop of an
 /// invocation once 65535 iterations have run in all of them together (Mesa gallivm's
-/// `LP_MAX_TGSI_LOOP_ITERATIONS`; see tests/tests/accel_grid.rs), and one whitted sample with
-/// hundreds of shadow rays comes near that: `render`'s time-sized passes made the same render
-/// differ from run to run (up to 1.5% in some pixels with 256 points per area light). Fixed,
-/// small passes keep every invocation far below the limit, so every render here is exact and
-/// reproducible. Real GPUs have no such limit.
-fn pass_spp(json: &str) -> u32 {
-    if json.contains("whitted") {
-        1
-    } else {
-        8
-    }
-}
+/// `LP_MAX_TGSI_LOOP_ITERATIONS`; see tests/tests/accel_grid.rs). `render` sizes passes by
+/// time, so a pass could hold enough samples to reach that, differently from run to run (it
+/// did, before whitted split its passes on llvmpipe: up to 1.5% in some pixels). Fixed, small
+/// passes keep every render here reproducible whatever the machine's load.
+const PASS_SPP: u32 = 8;
 
 /// Renders `scene` at `size` with integrator options given as JSON, in passes of
-/// [`pass_spp`] samples.
+/// [`PASS_SPP`] samples.
 fn render_with(
     scene: &Scene,
     json: &str,
@@ -67,9 +61,8 @@ fn render_with(
     let o = options(json);
     let mut s =
         RenderSession::new(&ctx, &compiled, &o, scene.render.max_depth, seed).expect("session");
-    let per_pass = pass_spp(json);
     while s.spp() < spp {
-        s.run_pass(per_pass.min(spp - s.spp())).expect("pass");
+        s.run_pass(PASS_SPP.min(spp - s.spp())).expect("pass");
     }
     let out = render(&mut s, Budget::Spp(spp)).expect("render");
     ctx.check_validation().expect("validation layer messages");
@@ -849,6 +842,44 @@ fn mean_rel_diff(a: &Image, b: &Image, mask: &[bool]) -> f64 {
         }
     }
     sum / n.max(1) as f64
+}
+
+#[test]
+fn one_big_pass_equals_many_small_ones() {
+    // 256 points on each of three area lights: one sample is ~800 shadow rays, so a 16-spp
+    // dispatch would exceed llvmpipe's 65535 loop iterations per invocation; whitted splits
+    // such passes there (LLVMPIPE_SPLIT), and the image must not depend on the split.
+    let scene = load_json(&lit_scene(
+        "",
+        r#",
+    {"type": "quad", "origin": [-0.5, 2.5, -0.5], "edge_u": [1, 0, 0], "edge_v": [0, 0, 1], "material": "lamp"},
+    {"type": "sphere", "center": [1.8, 1.2, 1.2], "radius": 0.25, "material": "bulb"}"#,
+        r#",
+    "lamp": {"type": "diffuse", "reflectance": 0, "emission": [6, 6, 5]},
+    "bulb": {"type": "diffuse", "reflectance": 0, "emission": [8, 5, 3]}"#,
+    ));
+    let ctx = gpu();
+    let compiled = compile(&scene, 16, 16).expect("compile");
+    let o = options(r#"{"type": "whitted", "max_depth": 2, "area_samples": 256}"#);
+    let mut imgs = Vec::new();
+    for split in [vec![16u32], vec![1; 16], vec![5, 11]] {
+        let mut s = RenderSession::new(&ctx, &compiled, &o, None, 11).expect("session");
+        for n in &split {
+            s.run_pass(*n).expect("pass");
+        }
+        imgs.push(s.image().expect("image"));
+    }
+    ctx.check_validation().expect("validation layer messages");
+    for (i, img) in imgs.iter().enumerate().skip(1) {
+        let d = img
+            .pixels
+            .iter()
+            .zip(&imgs[0].pixels)
+            .filter(|(a, b)| a != b)
+            .count();
+        println!("split {i}: {d} pixels differ from one 16-spp pass");
+        assert_eq!(d, 0, "split {i}");
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
