@@ -67,7 +67,8 @@ python3 - "$out" "$root" "$options" $lights <<'PY'
 import csv, json, subprocess, sys
 out, root, options, ns = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4:]
 try:
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
+    import os
+    commit = os.environ.get("CANDELA_COMMIT") or subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
                             text=True, cwd=root).stdout.strip() or "unknown"
 except OSError:
     commit = "unknown"
