@@ -485,7 +485,7 @@ fn mean_rel_diff(a: &Image, b: &Image, mask: &[bool]) -> f64 {
 fn one_big_pass_equals_many_small_ones() {
     // 256 points on each of three area lights: one sample is ~800 shadow rays, so a 16-spp
     // dispatch would exceed llvmpipe's 65535 loop iterations per invocation; whitted splits
-    // such passes there (LLVMPIPE_SPLIT), and the image must not depend on the split.
+    // such passes there (render::LLVMPIPE_MAX_DISPATCHES), and the image must not depend on the split.
     let scene = load_json(&lit_scene(
         "",
         r#",

@@ -196,8 +196,9 @@ pub trait Integrator: Send {
     ) -> Result<(), RenderError> {
         Ok(())
     }
-    /// Most dispatches `record_pass` records (sizes the timestamp pool). Default: 1.
-    fn dispatches_per_pass(&self) -> u32 {
+    /// Most dispatches `record_pass` records for a pass of `spp` samples (sizes the timestamp
+    /// pool). Default: 1.
+    fn dispatches_per_pass(&self, _spp: u32) -> u32 {
         1
     }
     /// The GPU timings of the dispatches `record_pass` just recorded (their labels as given),

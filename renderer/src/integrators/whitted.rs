@@ -16,9 +16,9 @@
 //!   emissive triangle and sphere, at a fixed point set (below). Shadow rays stop at any
 //!   surface, glass included (opaque shadows, no caustics). Cost: `area_samples` rays per
 //!   emissive triangle per hit, so large emissive meshes want a small `area_samples`. On
-//!   lavapipe, whose llvmpipe ends an invocation's loops after 65535 iterations in all, a pass
-//!   of many such samples would be silently truncated: there a pass is split into up to
-//!   [`LLVMPIPE_SPLIT`] dispatches (docs/whitted.md).
+//!   lavapipe, whose llvmpipe ends an invocation's loops after 65535 iterations in all, a
+//!   dispatch of many such samples would be silently truncated: the session splits passes
+//!   there (`render::LLVMPIPE_MAX_DISPATCHES`, docs/whitted.md).
 //! - **Ambient**: the environment radiance in the direction of the shading normal times the
 //!   local lobes' albedo, no shadow ray. For a constant environment and an unoccluded diffuse
 //!   surface this is exact (albedo × L_env); occlusion is ignored and an environment map is
@@ -111,14 +111,7 @@ pub struct WhittedIntegrator {
     area_samples: u32,
     jitter: bool,
     mirror_roughness: f32,
-    /// Most dispatches a pass is split into (see [`LLVMPIPE_SPLIT`]); 1 elsewhere.
-    split: u32,
 }
-
-/// On llvmpipe (lavapipe), whose loop limiter ends all loops of an invocation after 65535
-/// iterations in all, a pass is split into up to this many dispatches of about spp / 64 samples
-/// each (the per-pixel sums are added in the same order, so the image is bit-identical).
-pub const LLVMPIPE_SPLIT: u32 = 64;
 
 /// Builds `whitted` from its options (checked in [`WhittedIntegrator::validate`]).
 pub fn new(o: &WhittedOptions, scene_max_depth: Option<i32>) -> WhittedIntegrator {
@@ -127,7 +120,6 @@ pub fn new(o: &WhittedOptions, scene_max_depth: Option<i32>) -> WhittedIntegrato
         area_samples: o.area_samples.unwrap_or(DEFAULT_AREA_SAMPLES),
         jitter: o.jitter.unwrap_or(true),
         mirror_roughness: o.mirror_roughness.unwrap_or(DEFAULT_MIRROR_ROUGHNESS),
-        split: 1,
     }
 }
 
@@ -222,7 +214,6 @@ impl Integrator for WhittedIntegrator {
             "jitter": self.jitter,
             "mirror_roughness": self.mirror_roughness,
             "min_weight": MIN_WEIGHT,
-            "dispatches_per_pass_max": self.split,
         }))
     }
     fn record_pass(
@@ -233,26 +224,7 @@ impl Integrator for WhittedIntegrator {
         groups: [u32; 3],
     ) -> GpuResult<()> {
         push.max_depth = self.effective_depth();
-        // Split the pass's samples over up to `split` dispatches, in sample order.
-        let n = push.spp.min(self.split).max(1);
-        let (base, extra) = (push.spp / n, push.spp % n);
-        let mut first = push.sample_base;
-        for i in 0..n {
-            let mut p = push;
-            p.sample_base = first;
-            p.spp = base + u32::from(i < extra);
-            first += p.spp;
-            rec.dispatch(pipeline, bytemuck::bytes_of(&p), groups, "whitted pass")?;
-        }
-        Ok(())
-    }
-    fn prepare(&mut self, ctx: &GpuContext) {
-        if ctx.info.name.contains("llvmpipe") {
-            self.split = LLVMPIPE_SPLIT;
-        }
-    }
-    fn dispatches_per_pass(&self) -> u32 {
-        self.split
+        rec.dispatch(pipeline, bytemuck::bytes_of(&push), groups, "whitted pass")
     }
 }
 

@@ -5,7 +5,7 @@
 
 mod session;
 
-pub use session::{PassStats, Progress, RenderSession};
+pub use session::{PassStats, Progress, RenderSession, LLVMPIPE_MAX_DISPATCHES};
 
 use std::time::Duration;
 

@@ -33,6 +33,30 @@ pub struct Progress {
     pub gpu_time_s: f64,
 }
 
+/// Mesa's llvmpipe (lavapipe) silently ends every loop of a shader invocation once 65,535 loop
+/// iterations have run in it (`LP_MAX_TGSI_LOOP_ITERATIONS`), so a dispatch of many samples per
+/// pixel comes out truncated (darker) without an error. There each pass is split into dispatches
+/// of one sample each, up to this many dispatches (beyond, the samples are spread evenly). The
+/// image is the same whatever the split: samples are keyed by index.
+pub const LLVMPIPE_MAX_DISPATCHES: u32 = 64;
+
+/// The pass `push` (samples `sample_base..sample_base + spp`) as up to `limit` consecutive
+/// dispatches of as even a size as possible, in sample order.
+fn pass_chunks(push: &GpuPush, limit: u32) -> Vec<GpuPush> {
+    let n = push.spp.min(limit).max(1);
+    let (base, extra) = (push.spp / n, push.spp % n);
+    let mut first = push.sample_base;
+    (0..n)
+        .map(|i| {
+            let mut p = *push;
+            p.sample_base = first;
+            p.spp = base + u32::from(i < extra);
+            first += p.spp;
+            p
+        })
+        .collect()
+}
+
 /// A progressive render on one device.
 pub struct RenderSession {
     ctx: Arc<GpuContext>,
@@ -56,6 +80,8 @@ pub struct RenderSession {
     setup: Duration,
     info: SceneInfo,
     flags: u32,
+    /// Most dispatches a pass is split into ([`LLVMPIPE_MAX_DISPATCHES`] on llvmpipe, else 1).
+    split_limit: u32,
 }
 
 struct SceneInfo {
@@ -214,6 +240,11 @@ impl RenderSession {
             gpu_time: Duration::ZERO,
             setup: start.elapsed(),
             flags: 0,
+            split_limit: if ctx.info.name.contains("llvmpipe") {
+                LLVMPIPE_MAX_DISPATCHES
+            } else {
+                1
+            },
             info: SceneInfo {
                 triangles: scene.triangle_count,
                 primitives: scene.prims.len(),
@@ -278,12 +309,17 @@ impl RenderSession {
             ..Default::default()
         };
         let groups = [self.width.div_ceil(8), self.height.div_ceil(8), 1];
+        let chunks = pass_chunks(&push, self.split_limit);
         let (integrator, pipeline) = (&self.integrator, &self.pipeline);
-        let timings = self
-            .ctx
-            .record(integrator.dispatches_per_pass(), |rec| {
-                integrator.record_pass(rec, pipeline, push, groups)
-            })?;
+        let most: u32 = chunks
+            .iter()
+            .map(|c| integrator.dispatches_per_pass(c.spp))
+            .sum();
+        let timings = self.ctx.record(most, |rec| {
+            chunks
+                .iter()
+                .try_for_each(|c| integrator.record_pass(rec, pipeline, *c, groups))
+        })?;
         self.integrator.observe_timings(&timings);
         // Counters: read and reset (u32 on the GPU, u64 here).
         let s: Vec<GpuStats> = self.ctx.download_vec(&self.stats_buf, 1)?;
@@ -425,6 +461,41 @@ impl RenderSession {
             grid_resolution: self.info.accel.grid_resolution,
             grid_refs: self.info.accel.grid_refs,
             details: self.integrator.details(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pass_chunks_cover_the_samples_in_order() {
+        for (spp, limit) in [
+            (1, 64),
+            (5, 64),
+            (64, 64),
+            (100, 64),
+            (1000, 64),
+            (7, 1),
+            (3, 2),
+        ] {
+            let push = GpuPush {
+                sample_base: 11,
+                spp,
+                flags: 5,
+                ..Default::default()
+            };
+            let c = pass_chunks(&push, limit);
+            assert_eq!(c.len() as u32, spp.min(limit));
+            let mut next = 11;
+            for p in &c {
+                assert_eq!(p.sample_base, next);
+                assert!(p.spp >= spp / limit && p.spp <= spp.div_ceil(limit).max(1));
+                assert_eq!(p.flags, 5);
+                next += p.spp;
+            }
+            assert_eq!(next, 11 + spp);
         }
     }
 }

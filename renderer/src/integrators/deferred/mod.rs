@@ -223,8 +223,8 @@ impl Integrator for DeferredIntegrator {
         Ok(())
     }
 
-    fn dispatches_per_pass(&self) -> u32 {
-        3 * MAX_SPP_PER_PASS
+    fn dispatches_per_pass(&self, spp: u32) -> u32 {
+        3 * spp.min(MAX_SPP_PER_PASS)
     }
 
     fn record_pass(
