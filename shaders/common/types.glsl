@@ -18,9 +18,9 @@
 #define B_ACCUM 10
 #define B_STATS 11
 #define B_SPLAT 12   // bdpt: light-tracing splat buffer (shaders/bdpt/splat.glsl)
-#define B_GRID 20        // accel "grid" only (shaders/common/grid.glsl): GpuGridInfo
-#define B_GRID_CELLS 21  // cell offsets into the reference list (cells + 1 entries)
-#define B_GRID_PRIMS 22  // the reference list (primitive indices)
+#define B_GRID 13        // accel "grid" only (shaders/common/grid.glsl): GpuGridInfo
+#define B_GRID_CELLS 14  // cell offsets into the reference list (cells + 1 entries)
+#define B_GRID_PRIMS 15  // the reference list (primitive indices)
 
 #define NONE 0xffffffffu
 #define PRIM_MATERIAL_MASK 0x00ffffffu

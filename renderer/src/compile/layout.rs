@@ -7,7 +7,10 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// Descriptor binding indices (set 0), mirrored as `B_*` in types.glsl.
+/// Descriptor binding indices (set 0), mirrored as `B_*` in types.glsl. 0–15 belong to the
+/// session (scene, film, acceleration structure); integrators' own stages take their own
+/// ranges: vct 16–29 (renderer/src/integrators/vct/gpu.rs), deferred 30–39
+/// (renderer/src/integrators/deferred/stages.rs).
 pub mod binding {
     pub const GLOBALS: u32 = 0;
     pub const BVH_NODES: u32 = 1;
@@ -25,9 +28,9 @@ pub mod binding {
     pub const SPLAT: u32 = 12;
     /// Uniform grid (`accel: "grid"` only; see renderer/src/accel/grid.rs): its `GpuGridInfo`,
     /// the cells' offsets into the reference list (cells + 1 entries) and the list itself.
-    pub const GRID: u32 = 20;
-    pub const GRID_CELLS: u32 = 21;
-    pub const GRID_PRIMS: u32 = 22;
+    pub const GRID: u32 = 13;
+    pub const GRID_CELLS: u32 = 14;
+    pub const GRID_PRIMS: u32 = 15;
 }
 
 /// Marks "none" in u32 index fields.
