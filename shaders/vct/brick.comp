@@ -4,8 +4,8 @@
 // interpolation needs one brick: a lookup at a point finds the node holding the lower corner of
 // its 2×2×2 neighbourhood and reads all eight samples from its brick. Sample positions are cell
 // centres, exactly those of the dense storage, so both give the same filtered values.
-// Modes (flags): 0 leaf bricks (depth D−1: the six directional level-0 values of the node's
-// voxels and border),
+// Modes (flags): 0 leaf bricks (depth D−1: the slots of the node's voxels and border, so level 0
+// is read from the voxels' own two-sided radiance as in dense storage),
 // 1 inner samples of depth k from the children's bricks (anisotropic filtering), 2 border
 // samples of depth k from the neighbours' inner samples. One thread per (node, brick sample).
 #version 460
@@ -31,8 +31,7 @@ void main() {
         uvec3 v = 2u * unpack_cell(vnodes[node].y) + i;
         uint slot = NONE;
         if (all(lessThan(v, uvec3(vct_res())))) slot = voxel_slot(v);
-        uint at = ((node - info.level_start[leaf_k]) * 27u + s) * 6u;
-        for (uint d = 0u; d < 6u; ++d) leaf[at + d] = slot == NONE ? uvec2(0u) : pack_h4(level0_value(slot, d));
+        leaf[(node - info.level_start[leaf_k]) * 27u + s] = slot;
         return;
     }
     uint m = D - 1u - k;
@@ -51,8 +50,8 @@ void main() {
             for (uint co = 0u; co < 8u; ++co) {
                 uint s = brick_index(octant_bits(co));
                 if (m == 1u) {
-                    uint at = ((cn - info.level_start[leaf_k]) * 27u + s) * 6u;
-                    for (uint d = 0u; d < 6u; ++d) ch[co][d] = unpack_h4(leaf[at + d]);
+                    uint slot = leaf[(cn - info.level_start[leaf_k]) * 27u + s];
+                    for (uint d = 0u; d < 6u; ++d) ch[co][d] = slot == NONE ? vec4(0.0) : level0_value(slot, d);
                 } else {
                     for (uint d = 0u; d < 6u; ++d) ch[co][d] = unpack_h4(mip[(cn * 27u + s) * 6u + d]);
                 }

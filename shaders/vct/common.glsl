@@ -57,7 +57,7 @@ layout(set = 0, binding = B_VCT_ATTR, scalar) buffer VctAttr { uvec4 attr[]; }; 
 layout(set = 0, binding = B_VCT_EMIT, scalar) buffer VctEmit { uvec2 emit[]; };        // half4 emitted radiance
 layout(set = 0, binding = B_VCT_RAD, scalar) buffer VctRad { uvec4 rad[]; };           // half4 (radiance·opacity, opacity) of the front and back sides
 layout(set = 0, binding = B_VCT_MIP, scalar) buffer VctMip { uvec2 mip[]; };           // half4 × 6 directions per cell / brick sample
-layout(set = 0, binding = B_VCT_LEAF, scalar) buffer VctLeaf { uvec2 leaf[]; };        // octree: 27 × 6 directions half4 per leaf-parent brick
+layout(set = 0, binding = B_VCT_LEAF, scalar) buffer VctLeaf { uint leaf[]; };         // octree: 27 voxel slots (or NONE) per leaf-parent brick
 layout(set = 0, binding = B_VCT_BOUNCE, scalar) buffer VctBounce { uvec4 bounce[]; };  // second bounce per slot, front and back
 
 // Build kernels reuse the session's push-constant block (common/types.glsl): the level or depth
@@ -149,6 +149,14 @@ vec4 level0_value(uint slot, uint dir) {
     uvec4 r = rad[slot];
     vec4 nn = unpackSnorm4x8(attr[slot].y);
     return dot(nn.xyz, dir_axis(dir)) <= 0.0 ? unpack_h4(r.xy) : unpack_h4(r.zw);
+}
+
+// Level-0 value of a slot seen along d: the d²-weighted mix of its three visible directional
+// values (both storages read level 0 this way).
+vec4 level0_dir(uint slot, vec3 d) {
+    vec3 w = d * d;
+    return w.x * level0_value(slot, d.x >= 0.0 ? 0u : 1u) + w.y * level0_value(slot, d.y >= 0.0 ? 2u : 3u) +
+           w.z * level0_value(slot, d.z >= 0.0 ? 4u : 5u);
 }
 
 // Anisotropic value seen by a cone travelling along d from six directional values

@@ -18,9 +18,8 @@ vec4 mip_dir(uint at, vec3 d) {
 vec4 brick_value(uint node, uint m, uvec3 i, vec3 d) {
     uint s = i.x + 3u * i.y + 9u * i.z;
     if (m == 0u) {
-        uint at = ((node - info.level_start[vct_levels() - 1u]) * 27u + s) * 6u;
-        return combine_dirs(unpack_h4(leaf[at]), unpack_h4(leaf[at + 1u]), unpack_h4(leaf[at + 2u]),
-                            unpack_h4(leaf[at + 3u]), unpack_h4(leaf[at + 4u]), unpack_h4(leaf[at + 5u]), d);
+        uint slot = leaf[(node - info.level_start[vct_levels() - 1u]) * 27u + s];
+        return slot == NONE ? vec4(0.0) : level0_dir(slot, d);
     }
     return mip_dir((node * 27u + s) * 6u, d);
 }
@@ -33,11 +32,7 @@ vec4 cell_value(uvec3 c, uint m, vec3 d) {
     }
     uint n = vct_res() >> m;
     uint lin = c.x + n * (c.y + n * c.z);
-    if (m == 0u) {
-        vec3 w = d * d;
-        return w.x * level0_value(lin, d.x >= 0.0 ? 0u : 1u) + w.y * level0_value(lin, d.y >= 0.0 ? 2u : 3u) +
-               w.z * level0_value(lin, d.z >= 0.0 ? 4u : 5u);
-    }
+    if (m == 0u) return level0_dir(lin, d);
     return mip_dir((P.mip_offset[m] + lin) * 6u, d);
 }
 

@@ -420,10 +420,6 @@ fn cornell_against_nee() {
             vec![
                 (r#"{"type":"vct","resolution":64,"max_depth":3}"#, 0.01),
                 (
-                    r#"{"type":"vct","resolution":64,"max_depth":3,"storage":"dense"}"#,
-                    0.01,
-                ),
-                (
                     r#"{"type":"vct","resolution":64,"max_depth":3,"shadows":"cone"}"#,
                     0.04,
                 ),

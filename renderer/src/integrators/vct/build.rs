@@ -243,7 +243,7 @@ pub fn build(
         let leaves = (info.level_end[k] - info.level_start[k]) as u64;
         (
             storage_buffer(ctx, "vct brick pool", inner * 27 * 6 * 8)?,
-            storage_buffer(ctx, "vct leaf bricks", leaves * 27 * 6 * 8)?,
+            storage_buffer(ctx, "vct leaf bricks", leaves * 27 * 4)?,
         )
     } else {
         let mut off = 0u32;
