@@ -35,6 +35,32 @@ float spot_falloff(GpuLight l, float cos_theta) {
     return clamp((l.p2.z - safe_acos(cos_theta)) / (l.p2.z - l.p2.w), 0.0, 1.0);
 }
 
+// The normal at a point of the sphere (centre c, radius r) sampled as seen from p_ref: uniformly
+// over the sphere's area when p_ref is inside, else uniformly in the cone of directions the
+// sphere subtends (pbrt-v4 SampleSphere), with a series expansion for small cones that avoids
+// 1 − cos cancellation. The point is c + r · normal.
+vec3 sample_sphere_seen_from(vec3 c, float r, vec3 p_ref, vec2 u) {
+    vec3 dc = c - p_ref;
+    float d2 = dot(dc, dc);
+    if (d2 <= r * r) return sample_uniform_sphere(u);
+    float dcl = sqrt(d2);
+    float sin_max = r / dcl, sin2_max = sin_max * sin_max;
+    float cos_max = safe_sqrt(1.0 - sin2_max);
+    float cos_t = (cos_max - 1.0) * u.x + 1.0;
+    float sin2_t = 1.0 - cos_t * cos_t;
+    if (sin2_max < 0.00068523) {
+        sin2_t = sin2_max * u.x;
+        cos_t = sqrt(1.0 - sin2_t);
+    }
+    float cos_a = sin2_t / sin_max + cos_t * safe_sqrt(1.0 - sin2_t / sin2_max);
+    float sin_a = safe_sqrt(1.0 - cos_a * cos_a);
+    float phi = 2.0 * PI * u.y;
+    vec3 wc = dc / dcl;
+    vec3 t, bt;
+    make_frame(-wc, t, bt);
+    return from_local(vec3(sin_a * cos(phi), sin_a * sin(phi), cos_a), t, bt, -wc);
+}
+
 // Solid-angle pdf of sampling point `pl` (normal nl) on sphere light l from p_ref.
 float sphere_light_pdf(GpuLight l, vec3 p_ref, vec3 pl, vec3 nl) {
     vec3 c = l.p0.xyz;
@@ -107,34 +133,8 @@ bool sample_light(vec3 p_ref, vec3 u, out LightSample ls) {
     if (l.kind == LIGHT_SPHERE) {
         vec3 c = l.p0.xyz;
         float r = l.p0.w;
-        vec3 dc = c - p_ref;
-        float d2 = dot(dc, dc);
-        vec3 pl, nl;
-        if (d2 <= r * r) {
-            // Inside the sphere: uniform area sampling.
-            nl = sample_uniform_sphere(u2);
-            pl = c + r * nl;
-        } else {
-            // Cone of directions subtended by the sphere (pbrt-v4 SampleSphere).
-            float dcl = sqrt(d2);
-            float sin_max = r / dcl, sin2_max = sin_max * sin_max;
-            float cos_max = safe_sqrt(1.0 - sin2_max);
-            float cos_t = (cos_max - 1.0) * u2.x + 1.0;
-            float sin2_t = 1.0 - cos_t * cos_t;
-            if (sin2_max < 0.00068523) {
-                // Small cones: series expansion avoids 1 − cos cancellation.
-                sin2_t = sin2_max * u2.x;
-                cos_t = sqrt(1.0 - sin2_t);
-            }
-            float cos_a = sin2_t / sin_max + cos_t * safe_sqrt(1.0 - sin2_t / sin2_max);
-            float sin_a = safe_sqrt(1.0 - cos_a * cos_a);
-            float phi = 2.0 * PI * u2.y;
-            vec3 wc = dc / dcl;
-            vec3 t, bt;
-            make_frame(-wc, t, bt);
-            nl = from_local(vec3(sin_a * cos(phi), sin_a * sin(phi), cos_a), t, bt, -wc);
-            pl = c + r * nl;
-        }
+        vec3 nl = sample_sphere_seen_from(c, r, p_ref, u2);
+        vec3 pl = c + r * nl;
         vec3 w = pl - p_ref;
         float dist2 = dot(w, w);
         if (!(dist2 > 0.0)) return false;

@@ -49,29 +49,7 @@ bool whitted_area_sample(GpuLight l, vec3 p_ref, vec2 u, out vec3 pl, out vec3 w
     // Sphere.
     vec3 c = l.p0.xyz;
     float r = l.p0.w;
-    vec3 dc = c - p_ref;
-    float d2 = dot(dc, dc);
-    if (d2 <= r * r) {
-        nl = sample_uniform_sphere(u);
-    } else {
-        // The cone of directions the sphere subtends (pbrt-v4 SampleSphere, as lights.glsl).
-        float dcl = sqrt(d2);
-        float sin_max = r / dcl, sin2_max = sin_max * sin_max;
-        float cos_max = safe_sqrt(1.0 - sin2_max);
-        float cos_t = (cos_max - 1.0) * u.x + 1.0;
-        float sin2_t = 1.0 - cos_t * cos_t;
-        if (sin2_max < 0.00068523) {
-            sin2_t = sin2_max * u.x;
-            cos_t = sqrt(1.0 - sin2_t);
-        }
-        float cos_a = sin2_t / sin_max + cos_t * safe_sqrt(1.0 - sin2_t / sin2_max);
-        float sin_a = safe_sqrt(1.0 - cos_a * cos_a);
-        float phi = 2.0 * PI * u.y;
-        vec3 wc = dc / dcl;
-        vec3 t, bt;
-        make_frame(-wc, t, bt);
-        nl = from_local(vec3(sin_a * cos(phi), sin_a * sin(phi), cos_a), t, bt, -wc);
-    }
+    nl = sample_sphere_seen_from(c, r, p_ref, u);
     pl = c + r * nl;
     vec3 w = pl - p_ref;
     float dist2 = dot(w, w);
