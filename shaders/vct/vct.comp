@@ -51,10 +51,10 @@ bool visible(Surface s, LightSample ls, inout uint rays, out float vis) {
     vis = 1.0;
 #ifdef VCT_VOLUME
     if (P.mode.y == 1u) {
-        // Shadow cone: transparency of a narrow cone towards the light, stopping two voxels short.
+        // Shadow cone: transparency of a narrow cone towards the light, stopping three voxels short.
         vec3 ng = dot(s.ng, ls.wi) >= 0.0 ? s.ng : -s.ng;
-        float tmax = isinf(ls.dist) ? 1e9 : ls.dist / P.grid.w - 2.0;
-        vis = 1.0 - cone_trace(s.p + ng * P.grid.w, ls.wi, 0.02, 1.0, tmax).a;
+        float tmax = isinf(ls.dist) ? 1e9 : ls.dist / P.grid.w - 3.0;
+        vis = 1.0 - cone_trace(s.p + ng * (CONE_OFFSET * P.grid.w), ls.wi, 0.02, 1.0, tmax).a;
         return vis > 0.0;
     }
 #endif

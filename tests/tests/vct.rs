@@ -421,7 +421,7 @@ fn cornell_against_nee() {
                 (r#"{"type":"vct","resolution":64,"max_depth":3}"#, 0.01),
                 (
                     r#"{"type":"vct","resolution":64,"max_depth":3,"shadows":"cone"}"#,
-                    0.04,
+                    0.02,
                 ),
             ],
         ),
