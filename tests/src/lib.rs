@@ -182,3 +182,39 @@ pub fn assert_bad_input(o: &std::process::Output, needles: &[&str]) {
         assert!(err.contains(n), "expected {n:?} in: {err}");
     }
 }
+
+/// The average of renders of one image with different seeds, and that average's own relative
+/// variance on `block`×`block` box averages: per block and channel the sample variance of the
+/// parts over their count, divided by (x̄² + 0.01) as `REL_MSE_FORMULA` does, then averaged. Two
+/// independent estimates of one image are then expected at relMSE noise₁ + noise₂ (on blocks).
+pub fn seed_average(parts: &[Image], block: u32) -> (Image, f64) {
+    assert!(parts.len() >= 2, "a spread needs at least two renders");
+    let n = parts.len() as f64;
+    let img = Image::from_fn(parts[0].width, parts[0].height, |x, y| {
+        let mut p = [0f32; 3];
+        for part in parts {
+            for (acc, v) in p.iter_mut().zip(part.get(x, y)) {
+                *acc += v / n as f32;
+            }
+        }
+        p
+    });
+    let mean_b = renderer::metrics::downsample_box(&img, block);
+    let parts_b: Vec<Image> = parts
+        .iter()
+        .map(|p| renderer::metrics::downsample_box(p, block))
+        .collect();
+    let (mut sum, mut count) = (0.0, 0usize);
+    for (i, m) in mean_b.pixels.iter().enumerate() {
+        for (c, &mc) in m.iter().enumerate() {
+            let var = parts_b
+                .iter()
+                .map(|p| (p.pixels[i][c] as f64 - mc as f64).powi(2))
+                .sum::<f64>()
+                / (n - 1.0);
+            sum += var / n / ((mc as f64).powi(2) + 0.01);
+            count += 1;
+        }
+    }
+    (img, sum / count as f64)
+}

@@ -12,7 +12,7 @@
 //! not see an emitter directly, within 1% plus three standard errors. Images are tiny (lavapipe is
 //! a CPU).
 
-use candela_tests::{gpu, mitsuba_available, render_mitsuba, scene_path, scratch};
+use candela_tests::{gpu, mitsuba_available, render_mitsuba, scene_path, scratch, seed_average};
 use renderer::compile::compile;
 use renderer::film::Image;
 use renderer::integrators::IntegratorOptions;
@@ -94,34 +94,11 @@ fn estimate_at(
 
 /// The estimate made of renders with different seeds.
 fn from_parts(parts: Vec<Image>, stats: Option<RenderStats>) -> Estimate {
-    let n = parts.len() as f64;
-    let img = Image::from_fn(parts[0].width, parts[0].height, |x, y| {
-        let mut p = [0f32; 3];
-        for part in &parts {
-            for (acc, v) in p.iter_mut().zip(part.get(x, y)) {
-                *acc += v / n as f32;
-            }
-        }
-        p
-    });
-    let mean_b = downsample_box(&img, 4);
-    let parts_b: Vec<Image> = parts.iter().map(|p| downsample_box(p, 4)).collect();
-    let (mut sum, mut count) = (0.0, 0usize);
-    for (i, m) in mean_b.pixels.iter().enumerate() {
-        for (c, &mc) in m.iter().enumerate() {
-            let var = parts_b
-                .iter()
-                .map(|p| (p.pixels[i][c] as f64 - mc as f64).powi(2))
-                .sum::<f64>()
-                / (n - 1.0);
-            sum += var / n / ((mc as f64).powi(2) + 0.01);
-            count += 1;
-        }
-    }
+    let (img, noise) = seed_average(&parts, 4);
     Estimate {
         img,
         parts,
-        noise: sum / count as f64,
+        noise,
         stats,
     }
 }

@@ -19,7 +19,7 @@
 //!   (whose area light `deferred` approximates by point-like lights), are reported (printed)
 //!   with loose sanity bounds.
 
-use candela_tests::{gpu, scene_path};
+use candela_tests::{gpu, scene_path, seed_average};
 use renderer::compile::compile;
 use renderer::film::Image;
 use renderer::integrators::IntegratorOptions;
@@ -87,8 +87,8 @@ fn render_with(
     render_passes(scene, json, spp, size, seed, None)
 }
 
-/// An estimate from four seeds: their mean and its relative variance on 4×4 blocks (see
-/// tests/tests/bdpt.rs `Estimate`), so two independent estimates are expected at relMSE
+/// An estimate from four seeds: their mean and its relative variance on 4×4 blocks
+/// (`candela_tests::seed_average`), so two independent estimates are expected at relMSE
 /// noise₁ + noise₂.
 struct Estimate {
     img: Image,
@@ -102,35 +102,8 @@ fn estimate(scene: &Scene, json: &str, spp: u32, size: (u32, u32)) -> Estimate {
     let parts: Vec<Image> = (0..PARTS as u64)
         .map(|i| render_with(scene, json, spp, size, 7 + 1000 * i).0)
         .collect();
-    let n = PARTS as f64;
-    let img = Image::from_fn(size.0, size.1, |x, y| {
-        let mut p = [0f32; 3];
-        for part in &parts {
-            for (acc, v) in p.iter_mut().zip(part.get(x, y)) {
-                *acc += v / n as f32;
-            }
-        }
-        p
-    });
-    let mean_b = downsample_box(&img, 4);
-    let parts_b: Vec<Image> = parts.iter().map(|p| downsample_box(p, 4)).collect();
-    let (mut sum, mut count) = (0.0, 0usize);
-    for (i, m) in mean_b.pixels.iter().enumerate() {
-        for (c, &mc) in m.iter().enumerate() {
-            let var = parts_b
-                .iter()
-                .map(|p| (p.pixels[i][c] as f64 - mc as f64).powi(2))
-                .sum::<f64>()
-                / (n - 1.0);
-            sum += var / n / ((mc as f64).powi(2) + 0.01);
-            count += 1;
-        }
-    }
-    Estimate {
-        img,
-        parts,
-        noise: sum / count as f64,
-    }
+    let (img, noise) = seed_average(&parts, 4);
+    Estimate { img, parts, noise }
 }
 
 /// Mean over all pixels per channel and its standard error from the parts.
