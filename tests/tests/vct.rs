@@ -405,7 +405,7 @@ fn bad_options_name_the_field() {
     }
 }
 
-/// The Cornell box against nee (a 1024-spp reference): relMSE on 4×4 blocks, printed and
+/// The Cornell box against nee (a 512-spp reference; vct at 32 spp): relMSE on 4×4 blocks, printed and
 /// bounded, like for like (max_depth 3: one voxel bounce; and with shadow cones) and
 /// with the scene's max_depth (two voxel bounces against all of nee's paths); plus the stage
 /// timings and memory.
@@ -430,9 +430,9 @@ fn cornell_against_nee() {
             vec![(r#"{"type":"vct","resolution":64,"bounces":2}"#, 0.03)],
         ),
     ] {
-        let (reference, _) = render_with(&scene, nee_json, 1024, w, 7);
+        let (reference, _) = render_with(&scene, nee_json, 512, w, 7);
         for (json, bound) in vct_runs {
-            let (img, st) = render_with(&scene, json, 64, w, 3);
+            let (img, st) = render_with(&scene, json, 32, w, 3);
             let e = blocks(&img, &reference);
             let d = details(&st);
             println!(
