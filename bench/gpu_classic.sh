@@ -51,10 +51,11 @@ quality)
   for r in 128 256 512; do
     render vct_$r scenes/cornell.json --integrator vct --spp 64 --options "{\"resolution\": $r}"
   done
+  render vct_256_dense scenes/cornell.json --integrator vct --spp 64 --options '{"resolution": 256, "storage": "dense"}'
   render vct_512_b2 scenes/cornell.json --integrator vct --spp 64 --options '{"resolution": 512, "bounces": 2}'
   render nee_64 scenes/cornell.json --integrator nee --spp 64
   : > "$out/quality.jsonl"
-  for m in whitted deferred deferred_shadows vct_128 vct_256 vct_512 vct_512_b2 nee_64; do
+  for m in whitted deferred deferred_shadows vct_128 vct_256 vct_256_dense vct_512 vct_512_b2 nee_64; do
     compare $m ref_nee
   done
   compare deferred ref_nee_direct
@@ -76,13 +77,17 @@ grid)
   rm -rf "$out"/big "$out"/*.exr
   ;;
 vct)
+  # Stage timings and memory (details in the JSON report): octree at 2^9 and 2^8, dense (capped
+  # at 2^8) at 2^8, on the repository's scenes and a 1M-triangle mesh.
   python3 bench/make_big_scene.py /tmp/big --triangles 1000000 > /dev/null
   for scene in scenes/textured_mesh.json scenes/cornell.json /tmp/big/big.json; do
     s=$(basename "$scene" .json)
-    for storage in octree dense; do
-      render vct_${s}_$storage "$scene" --integrator vct --spp 16 \
-        --options "{\"resolution\": 512, \"storage\": \"$storage\"}"
-      python3 -c "import json; r=json.load(open('$out/vct_${s}_$storage.json')); print('$s $storage', json.dumps({k: r.get(k) for k in ('time_s','gpu_time_s','setup_s','triangles','details')}))"
+    for cfg in octree:512 octree:256 dense:256; do
+      storage=${cfg%:*} res=${cfg#*:}
+      name=vct_${s}_${storage}_$res
+      render $name "$scene" --integrator vct --spp 16 \
+        --options "{\"resolution\": $res, \"storage\": \"$storage\"}"
+      python3 -c "import json,sys; r=json.load(open(sys.argv[1])); print(sys.argv[2], json.dumps({k: r.get(k) for k in ('time_s','gpu_time_s','setup_s','triangles','details')}))" "$out/$name.json" $name
     done
   done
   rm -f "$out"/*.exr
