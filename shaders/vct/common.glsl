@@ -143,12 +143,24 @@ vec3 dir_axis(uint dir) {
 
 // Level 0 is directional too: a voxel keeps the radiance of the two sides of its surface
 // (front: the side its normal points to), and a cone travelling along e sees the side facing
-// −e. So a thin wall lit on one side does not shine on the other (voxels whose normals cancel
-// show the same value both ways).
+// −e, with the surface's projected coverage |n·e| as opacity: a thin wall lit on one side does
+// not shine on the other, and a wall seen edge-on neither shows its lit side nor occludes
+// (voxels whose normals cancel show the same opaque value every way).
 vec4 level0_value(uint slot, uint dir) {
     uvec4 r = rad[slot];
-    vec4 nn = unpackSnorm4x8(attr[slot].y);
-    return dot(nn.xyz, dir_axis(dir)) <= 0.0 ? unpack_h4(r.xy) : unpack_h4(r.zw);
+    vec3 n = unpackSnorm4x8(attr[slot].y).xyz;
+    float c = dot(n, dir_axis(dir));
+    float nl = dot(n, n);
+    if (nl < 0.25) return unpack_h4(r.xy);
+    return (c <= 0.0 ? unpack_h4(r.xy) : unpack_h4(r.zw)) * (abs(c) * inversesqrt(nl));
+}
+
+// The radiance of the side of slot's surface a ray travelling along d sees (its opacity is 1).
+vec3 level0_seen(uint slot, vec3 d) {
+    uvec4 r = rad[slot];
+    vec3 n = unpackSnorm4x8(attr[slot].y).xyz;
+    vec4 v = dot(n, d) <= 0.0 ? unpack_h4(r.xy) : unpack_h4(r.zw);
+    return v.a > 0.0 ? v.rgb / v.a : vec3(0.0);
 }
 
 // Level-0 value of a slot seen along d: the d²-weighted mix of its three visible directional

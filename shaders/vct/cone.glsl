@@ -7,8 +7,8 @@
 // volume, weighted by what lies in front of it.
 // Leak guard: coarse cells average a wall with what lies behind it, and the blurred, opacity-
 // corrected samples let a cone through a wall a few voxels thick. So the cone also ends where
-// its axis enters an occupied level-0 voxel: the rest of its weight takes that voxel's radiance
-// (the surface the axis hits). Steps are at most 2^max_level · step voxels long, so walls at
+// its axis enters an occupied level-0 voxel: the rest of its weight takes the radiance of the
+// side of that voxel's surface it arrives at. Steps are at most 2^max_level · step voxels long, so walls at
 // least that thick stop every cone.
 #ifndef VCT_CONE_GLSL
 #define VCT_CONE_GLSL
@@ -32,9 +32,9 @@ vec4 cone_trace(vec3 p, vec3 d, float tan_half, float t0, float t_max) {
         if (any(lessThan(pg, vec3(-1.0))) || any(greaterThan(pg, vec3(r + 1.0)))) break;
         float diam = clamp(2.0 * tan_half * t, 1.0, max_diam);
         if (all(greaterThanEqual(pg, vec3(0.0))) && all(lessThan(pg, vec3(r)))) {
-            vec4 hit = cell_value(uvec3(pg), 0u, d);
-            if (hit.a > 0.5) {
-                C += (1.0 - A) * hit.rgb / hit.a;
+            uint hit = occupied_slot(uvec3(pg));
+            if (hit != NONE) {
+                C += (1.0 - A) * level0_seen(hit, d);
                 A = 1.0;
                 break;
             }

@@ -36,6 +36,13 @@ vec4 cell_value(uvec3 c, uint m, vec3 d) {
     return mip_dir((P.mip_offset[m] + lin) * 6u, d);
 }
 
+// The slot of occupied level-0 voxel c (inside the grid), or NONE.
+uint occupied_slot(uvec3 c) {
+    uint slot = voxel_slot(c);
+    if (slot == NONE) return NONE;
+    return unpackUnorm4x8(attr[slot].x).a > 0.5 ? slot : NONE;
+}
+
 // Trilinear sample of level m at grid position pg (level-0 voxel units).
 vec4 vol_sample(vec3 pg, uint m, vec3 d) {
     int n = int(vct_res() >> m);
