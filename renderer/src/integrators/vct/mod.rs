@@ -10,16 +10,18 @@
 //!    dense grid, then per-voxel albedo, opacity, normal, mean surface point and emission.
 //! 3. **inject** (light.rs, inject.comp): direct light from every light of the scene into every
 //!    voxel: L = albedo/π · E, E from light samples with BVH shadow rays, in the path tracers'
-//!    units.
+//!    units; the two sides of each voxel's surface are kept apart (front/back radiance).
 //! 4. **filter** (light.rs, dense_mip.comp / brick.comp): six directional values per cell on
-//!    every level above 0 (Crassin's anisotropic voxels); octree values live in 3×3×3 bricks with
+//!    every level above 0 (Crassin's anisotropic voxels; level 0 shows the side facing the cone
+//!    with the surface's coverage |n·e| as opacity); octree values live in 3×3×3 bricks with
 //!    border transfer, at exactly the dense grid's sample positions. `bounces: 2` gathers the
 //!    first bounce per voxel, adds it and filters again (bounce.comp).
 //! 5. **trace** (vct.comp, every pass): primary ray through the BVH; emission and exact direct
 //!    light at the hit (as `nee`'s first vertex); indirect light from cones.
 //!
 //! # max_depth
-//! 1: emitters seen directly; 2: + direct light (no volume is built); ≥ 3 or −1: + the cones'
+//! 1: emitters seen directly; 2: + direct light (no volume is built unless `ao` or shadow
+//! cones ask for one); ≥ 3 or −1: + the cones'
 //! indirect light: voxel radiance of `bounces` bounces, capped at max_depth − 2.
 //!
 //! Volumes are cached per device and geometry (cache.rs): another camera orientation, film or
