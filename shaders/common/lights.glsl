@@ -35,14 +35,23 @@ float spot_falloff(GpuLight l, float cos_theta) {
     return clamp((l.p2.z - safe_acos(cos_theta)) / (l.p2.z - l.p2.w), 0.0, 1.0);
 }
 
+// Whether sphere light l is sampled by area from p_ref (else by the cone it subtends): from
+// inside, and always when it emits inward (flipped normals): then only points inside see its
+// front, and a point on the sphere itself (a shading point on the emitter, which rounding may
+// put just outside) must reach the far side, not the near intersection the cone gives.
+bool sphere_sampled_by_area(GpuLight l, vec3 p_ref) {
+    vec3 dc = l.p0.xyz - p_ref;
+    return l.p1.x > 0.5 || dot(dc, dc) <= l.p0.w * l.p0.w;
+}
+
 // The normal at a point of the sphere (centre c, radius r) sampled as seen from p_ref: uniformly
-// over the sphere's area when p_ref is inside, else uniformly in the cone of directions the
-// sphere subtends (pbrt-v4 SampleSphere), with a series expansion for small cones that avoids
-// 1 − cos cancellation. The point is c + r · normal.
-vec3 sample_sphere_seen_from(vec3 c, float r, vec3 p_ref, vec2 u) {
+// over the sphere's area when `by_area`, else uniformly in the cone of directions the sphere
+// subtends (pbrt-v4 SampleSphere; p_ref must be outside), with a series expansion for small
+// cones that avoids 1 − cos cancellation. The point is c + r · normal.
+vec3 sample_sphere_seen_from(vec3 c, float r, vec3 p_ref, vec2 u, bool by_area) {
     vec3 dc = c - p_ref;
     float d2 = dot(dc, dc);
-    if (d2 <= r * r) return sample_uniform_sphere(u);
+    if (by_area || d2 <= r * r) return sample_uniform_sphere(u);
     float dcl = sqrt(d2);
     float sin_max = r / dcl, sin2_max = sin_max * sin_max;
     float cos_max = safe_sqrt(1.0 - sin2_max);
@@ -67,8 +76,8 @@ float sphere_light_pdf(GpuLight l, vec3 p_ref, vec3 pl, vec3 nl) {
     float r = l.p0.w;
     vec3 dc = c - p_ref;
     float d2 = dot(dc, dc);
-    if (d2 <= r * r) {
-        // Inside: uniform area sampling converted to solid angle.
+    if (sphere_sampled_by_area(l, p_ref)) {
+        // Uniform area sampling converted to solid angle.
         vec3 w = pl - p_ref;
         float dist2 = dot(w, w);
         float cosl = abs(dot(nl, normalize(w)));
@@ -133,7 +142,7 @@ bool sample_light(vec3 p_ref, vec3 u, out LightSample ls) {
     if (l.kind == LIGHT_SPHERE) {
         vec3 c = l.p0.xyz;
         float r = l.p0.w;
-        vec3 nl = sample_sphere_seen_from(c, r, p_ref, u2);
+        vec3 nl = sample_sphere_seen_from(c, r, p_ref, u2, sphere_sampled_by_area(l, p_ref));
         vec3 pl = c + r * nl;
         vec3 w = pl - p_ref;
         float dist2 = dot(w, w);

@@ -49,7 +49,7 @@ bool whitted_area_sample(GpuLight l, vec3 p_ref, vec2 u, out vec3 pl, out vec3 w
     // Sphere.
     vec3 c = l.p0.xyz;
     float r = l.p0.w;
-    nl = sample_sphere_seen_from(c, r, p_ref, u);
+    nl = sample_sphere_seen_from(c, r, p_ref, u, sphere_sampled_by_area(l, p_ref));
     pl = c + r * nl;
     vec3 w = pl - p_ref;
     float dist2 = dot(w, w);
