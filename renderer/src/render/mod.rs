@@ -4,8 +4,10 @@
 //! `render` drives a session to an spp or wall-time budget.
 
 mod session;
+mod upload;
 
 pub use session::{PassStats, Progress, RenderSession, LLVMPIPE_MAX_DISPATCHES};
+pub use upload::{as_bindings, upload_scene};
 
 use std::time::Duration;
 

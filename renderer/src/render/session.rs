@@ -5,6 +5,7 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use super::upload::{as_bindings, upload_scene};
 use super::{RenderError, RenderStats};
 use crate::compile::layout::{binding, GpuPush, GpuStats};
 use crate::compile::CompiledScene;
@@ -110,61 +111,7 @@ impl RenderSession {
         let (w, h) = (scene.width, scene.height);
         let pixels = w as u64 * h as u64;
         // Step 1: scene buffers, each at its named binding.
-        let up = |name: &str, bytes: &[u8]| Buffer::from_slice(ctx, name, bytes);
-        let mut scene_buffers = vec![
-            (
-                binding::GLOBALS,
-                up("globals", bytemuck::bytes_of(&scene.globals))?,
-            ),
-            (
-                binding::BVH_NODES,
-                up("bvh nodes", bytemuck::cast_slice(&scene.nodes))?,
-            ),
-            (
-                binding::PRIMS,
-                up("prims", bytemuck::cast_slice(&scene.prims))?,
-            ),
-            (
-                binding::TRI_SHADING,
-                up("tri shading", bytemuck::cast_slice(&scene.tri_shading))?,
-            ),
-            (
-                binding::MATERIALS,
-                up("materials", bytemuck::cast_slice(&scene.materials))?,
-            ),
-            (
-                binding::TEXTURES,
-                up("textures", bytemuck::cast_slice(&scene.textures))?,
-            ),
-            (
-                binding::TEXELS,
-                up("texels", bytemuck::cast_slice(&scene.texels))?,
-            ),
-            (
-                binding::LIGHTS,
-                up("lights", bytemuck::cast_slice(&scene.lights))?,
-            ),
-            (
-                binding::LIGHT_ALIAS,
-                up("light alias", bytemuck::cast_slice(&scene.alias))?,
-            ),
-            (
-                binding::ENV_DIST,
-                up("env distribution", bytemuck::cast_slice(&scene.env_dist))?,
-            ),
-        ];
-        // The uniform grid's buffers exist only when the scene uses it.
-        if let Some(grid) = &scene.grid {
-            scene_buffers.push((binding::GRID, up("grid", bytemuck::bytes_of(&grid.info))?));
-            scene_buffers.push((
-                binding::GRID_CELLS,
-                up("grid cells", bytemuck::cast_slice(&grid.cells))?,
-            ));
-            scene_buffers.push((
-                binding::GRID_PRIMS,
-                up("grid prims", bytemuck::cast_slice(&grid.prims))?,
-            ));
-        }
+        let scene_buffers = upload_scene(ctx, scene)?;
         // Step 2: accumulation (rgb sum, sample count per pixel) and counters, zeroed.
         let accum = Buffer::new(ctx, "accumulation", pixels * 16, BufferUsage::Storage)?;
         ctx.fill_zero(&accum)?;
@@ -189,13 +136,7 @@ impl RenderSession {
         }
         defines.extend(integrator.defines());
         let spirv = compile_glsl(integrator.kernel(), &defines)?;
-        let mut bindings: Vec<Binding<'_>> = scene_buffers
-            .iter()
-            .map(|(i, b)| Binding {
-                index: *i,
-                buffer: b,
-            })
-            .collect();
+        let mut bindings = as_bindings(&scene_buffers);
         bindings.push(Binding {
             index: binding::ACCUM,
             buffer: &accum,

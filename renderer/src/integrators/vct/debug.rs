@@ -7,8 +7,8 @@ use super::options::VctOptions;
 use super::{build, cache, volume::Volume};
 use crate::compile::layout::{binding, GpuStats};
 use crate::compile::CompiledScene;
-use crate::gpu::{Binding, Buffer, GpuContext};
-use crate::render::RenderError;
+use crate::gpu::{Buffer, GpuContext};
+use crate::render::{as_bindings, upload_scene, RenderError};
 
 /// A built and lit volume with the scene buffers its kernels bind.
 pub struct DebugVolume {
@@ -27,59 +27,12 @@ impl DebugVolume {
     ) -> Result<Self, RenderError> {
         let s = options.settings()?;
         let up = |name: &str, bytes: &[u8]| Buffer::from_slice(ctx, name, bytes);
-        let mut scene_buffers = vec![
-            (
-                binding::GLOBALS,
-                up("globals", bytemuck::bytes_of(&scene.globals))?,
-            ),
-            (
-                binding::BVH_NODES,
-                up("bvh nodes", bytemuck::cast_slice(&scene.nodes))?,
-            ),
-            (
-                binding::PRIMS,
-                up("prims", bytemuck::cast_slice(&scene.prims))?,
-            ),
-            (
-                binding::TRI_SHADING,
-                up("tri shading", bytemuck::cast_slice(&scene.tri_shading))?,
-            ),
-            (
-                binding::MATERIALS,
-                up("materials", bytemuck::cast_slice(&scene.materials))?,
-            ),
-            (
-                binding::TEXTURES,
-                up("textures", bytemuck::cast_slice(&scene.textures))?,
-            ),
-            (
-                binding::TEXELS,
-                up("texels", bytemuck::cast_slice(&scene.texels))?,
-            ),
-            (
-                binding::LIGHTS,
-                up("lights", bytemuck::cast_slice(&scene.lights))?,
-            ),
-            (
-                binding::LIGHT_ALIAS,
-                up("light alias", bytemuck::cast_slice(&scene.alias))?,
-            ),
-            (
-                binding::ENV_DIST,
-                up("env distribution", bytemuck::cast_slice(&scene.env_dist))?,
-            ),
-        ];
+        let mut scene_buffers = upload_scene(ctx, scene)?;
         scene_buffers.push((binding::ACCUM, up("accum (unused)", &[0u8; 16])?));
         let stats = [0u8; std::mem::size_of::<GpuStats>()];
         scene_buffers.push((binding::STATS, up("stats (unused)", &stats)?));
         let defines = scene.features.defines();
-        let shared: Vec<Binding<'_>> = scene_buffers
-            .iter()
-            .map(|(i, b)| Binding {
-                index: *i,
-                buffer: b,
-            })
-            .collect();
+        let shared = as_bindings(&scene_buffers);
         let mut volume = build::build(ctx, scene, &shared, &defines, &s)?;
         volume.light(ctx, &shared, &defines, &s, cache::lights_key(scene, &s))?;
         drop(shared);
@@ -96,14 +49,7 @@ impl DebugVolume {
     /// level −(m+1) reads exactly level m (no blend between levels). Grid units: level-0
     /// voxels, corners at integers.
     pub fn probe(&self, probes: &[([f32; 4], [f32; 4])]) -> Result<Vec<[f32; 4]>, RenderError> {
-        let shared: Vec<Binding<'_>> = self
-            .scene_buffers
-            .iter()
-            .map(|(i, b)| Binding {
-                index: *i,
-                buffer: b,
-            })
-            .collect();
+        let shared = as_bindings(&self.scene_buffers);
         let out = self
             .volume
             .probe(&self.ctx, &shared, &self.defines, probes)?;
