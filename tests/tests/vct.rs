@@ -376,6 +376,41 @@ fn volume_is_cached_and_relit() {
     );
 }
 
+/// A camera moved to another position finds the volume of the same world geometry and places
+/// it relative to itself (geometry is uploaded camera-relative, the volume's corner is kept in
+/// world space): the image is the one a fresh build for that camera gives.
+#[test]
+fn moved_camera_reuses_the_volume_in_place() {
+    let _guard = serial();
+    renderer::integrators::vct::cache::clear();
+    let json = r#"{"type":"vct","resolution":64,"max_depth":3}"#;
+    let moved =
+        |scene: &str| scene.replace(r#""position": [0, 0, 4]"#, r#""position": [1.5, 0.5, 3.5]"#);
+    let base = r#"{
+  "version": 1,
+  "camera": {"position": [0, 0, 4], "look_at": [0, 0, 0], "fov_y": 30},
+  "film": {"width": 16, "height": 16},
+  "materials": {"white": {"type": "diffuse", "reflectance": 0.5}},
+  "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "white"},
+              {"type": "quad", "origin": [-3, -1, -3], "edge_u": [0, 0, 6], "edge_v": [6, 0, 0], "material": "white"}],
+  "environment": {"type": "constant", "radiance": [1, 1, 1]}
+}"#;
+    let (_, st_first) = render_with(&parse(base), json, 4, 16, 1);
+    let (reused, st_reused) = render_with(&parse(&moved(base)), json, 4, 16, 1);
+    renderer::integrators::vct::cache::clear();
+    let (fresh, st_fresh) = render_with(&parse(&moved(base)), json, 4, 16, 1);
+    assert_eq!(details(&st_first)["volume"], "built");
+    assert_eq!(details(&st_reused)["volume"], "cached");
+    assert_eq!(details(&st_fresh)["volume"], "built");
+    let e = rel_mse(&reused, &fresh).unwrap();
+    println!(
+        "moved camera: reused volume vs fresh build relMSE {e:.2e}; means {:?} vs {:?}",
+        mean(&reused),
+        mean(&fresh)
+    );
+    assert!(e < 1e-4, "the reused volume is misplaced: relMSE {e}");
+}
+
 /// Bad options are rejected with the field's name.
 #[test]
 fn bad_options_name_the_field() {

@@ -76,6 +76,36 @@ pub struct CompiledScene {
     pub grid: Option<Grid>,
     /// Which structure was built, how long it took, its size, cache hit or miss.
     pub accel: AccelInfo,
+    /// The camera's position in world space (f64): every position above is relative to it.
+    pub camera_position: [f64; 3],
+    /// A hash of the world-space geometry (positions, indices, per-triangle materials, spheres),
+    /// the same wherever the camera is: caches of structures built from the geometry key on it
+    /// and place them with `camera_position`.
+    pub geometry_hash: u64,
+}
+
+/// [`CompiledScene::geometry_hash`] of a scene.
+fn world_geometry_hash(scene: &Scene) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for m in &scene.meshes {
+        let bits: Vec<[u64; 3]> = m
+            .positions
+            .iter()
+            .map(|p| p.to_array().map(f64::to_bits))
+            .collect();
+        (bits, &m.indices, &m.materials).hash(&mut h);
+    }
+    for s in &scene.spheres {
+        (
+            s.center.to_array().map(f64::to_bits),
+            s.radius.to_bits(),
+            s.flip_normals,
+            s.material,
+        )
+            .hash(&mut h);
+    }
+    h.finish()
 }
 
 /// Options of [`compile_with`].
@@ -391,5 +421,7 @@ pub fn compile_with(
         },
         grid: bvh.grid,
         accel: bvh.info,
+        camera_position: origin.to_array(),
+        geometry_hash: world_geometry_hash(scene),
     })
 }

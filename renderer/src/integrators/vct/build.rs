@@ -285,6 +285,7 @@ pub fn build(
         build_times: times,
         light_times: StageTimes::default(),
         lights_key: None,
+        world_min: [0, 1, 2].map(|i| params.grid[i] as f64 + scene.camera_position[i]),
     })
 }
 

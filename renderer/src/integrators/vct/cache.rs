@@ -2,8 +2,8 @@
 //! changes. Keyed by the device and a hash of what the voxels depend on (primitives, shading
 //! data, materials, textures, resolution, storage); an entry remembers which lights it was
 //! lit for, so a render with other lights re-injects (and refilters) without rebuilding, and a
-//! render with another camera orientation or film reuses it as is. Geometry is camera-relative,
-//! so moving the camera's position is a geometry change. At most [`CAPACITY`] volumes are kept;
+//! render with another camera (position, orientation, lens) or film reuses it as is, placed
+//! relative to the new camera (the volume's corner is kept in world space). At most [`CAPACITY`] volumes are kept;
 //! a volume in use by a live session with other lights is never changed underneath it (a fresh,
 //! uncached one is built instead).
 
@@ -36,10 +36,12 @@ fn bytes<T: bytemuck::Pod>(h: &mut DefaultHasher, v: &[T]) {
     b.hash(h);
 }
 
-/// Hash of what the voxel structure depends on.
+/// Hash of what the voxel structure depends on: the world-space geometry (not its
+/// camera-relative copy, so a moved camera finds the volume and places it, see
+/// `Volume::place`), shading data, materials, textures, resolution and storage.
 pub fn geometry_key(scene: &CompiledScene, s: &Settings) -> u64 {
     let mut h = DefaultHasher::new();
-    bytes(&mut h, &scene.prims);
+    scene.geometry_hash.hash(&mut h);
     bytes(&mut h, &scene.tri_shading);
     bytes(&mut h, &scene.materials);
     bytes(&mut h, &scene.textures);

@@ -24,8 +24,9 @@
 //! cones ask for one); ≥ 3 or −1: + the cones'
 //! indirect light: voxel radiance of `bounces` bounces, capped at max_depth − 2.
 //!
-//! Volumes are cached per device and geometry (cache.rs): another camera orientation, film or
-//! sample count reuses the built volume; other lights re-inject and refilter only.
+//! Volumes are cached per device and world-space geometry (cache.rs): another camera (placed
+//! with `Volume::place`), film or sample count reuses the built volume; other lights re-inject
+//! and refilter only.
 
 mod build;
 pub mod cache;
@@ -143,7 +144,9 @@ impl Integrator for VctIntegrator {
             let mut v = volume
                 .lock()
                 .map_err(|_| RenderError::Invalid("vct: volume lock poisoned".into()))?;
-            // Step 2: light it (again, where the lights changed) and apply this render's options.
+            // Step 2: place it relative to this render's camera, light it (again, where the
+            // lights changed) and apply this render's options.
+            v.place(ctx, scene.camera_position)?;
             if v.lights_key != Some(lights) {
                 v.light(ctx, shared, defines, &s, lights)?;
                 if origin == "cached" {

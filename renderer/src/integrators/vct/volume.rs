@@ -50,6 +50,9 @@ pub struct Volume {
     pub light_times: StageTimes,
     /// Key of the lights (and lighting options) the radiance was injected for.
     pub lights_key: Option<u64>,
+    /// The grid's minimum corner in world space (f64): `params.grid.xyz` is it relative to the
+    /// camera of the render that uses the volume (see [`Volume::place`]).
+    pub world_min: [f64; 3],
 }
 
 impl Volume {
@@ -82,6 +85,28 @@ impl Volume {
             m.push(("bounce", b.size));
         }
         m
+    }
+
+    /// Places the volume for a render whose camera is at `camera` (world space): its corner
+    /// relative to that camera, computed in f64 like the rest of the scene. Voxel contents are
+    /// grid-relative, so nothing else moves.
+    pub fn place(
+        &mut self,
+        ctx: &std::sync::Arc<crate::gpu::GpuContext>,
+        camera: [f64; 3],
+    ) -> crate::gpu::GpuResult<()> {
+        let rel = [0, 1, 2].map(|i| (self.world_min[i] - camera[i]) as f32);
+        if rel
+            != [
+                self.params.grid[0],
+                self.params.grid[1],
+                self.params.grid[2],
+            ]
+        {
+            self.params.grid[..3].copy_from_slice(&rel);
+            ctx.upload(&self.params_buf, 0, bytemuck::bytes_of(&self.params))?;
+        }
+        Ok(())
     }
 
     pub fn total_bytes(&self) -> u64 {
