@@ -52,10 +52,16 @@ quality)
     render vct_$r scenes/cornell.json --integrator vct --spp 64 --options "{\"resolution\": $r}"
   done
   render vct_256_dense scenes/cornell.json --integrator vct --spp 64 --options '{"resolution": 256, "storage": "dense"}'
+  render vct_1024 scenes/cornell.json --integrator vct --spp 64 --options '{"resolution": 1024}'
+  # How the cones' coarsest level (max_level, default log2(R) - 4) and step move the error.
+  render vct_512_ml6 scenes/cornell.json --integrator vct --spp 64 --options '{"resolution": 512, "max_level": 6}'
+  render vct_512_ml4 scenes/cornell.json --integrator vct --spp 64 --options '{"resolution": 512, "max_level": 4}'
+  render vct_512_step025 scenes/cornell.json --integrator vct --spp 64 --options '{"resolution": 512, "step": 0.25}'
+  render vct_128_ml2 scenes/cornell.json --integrator vct --spp 64 --options '{"resolution": 128, "max_level": 2}'
   render vct_512_b2 scenes/cornell.json --integrator vct --spp 64 --options '{"resolution": 512, "bounces": 2}'
   render nee_64 scenes/cornell.json --integrator nee --spp 64
   : > "$out/quality.jsonl"
-  for m in whitted deferred deferred_shadows vct_128 vct_256 vct_256_dense vct_512 vct_512_b2 nee_64; do
+  for m in whitted deferred deferred_shadows vct_128 vct_128_ml2 vct_256 vct_256_dense vct_512 vct_512_ml4 vct_512_ml6 vct_512_step025 vct_1024 vct_512_b2 nee_64; do
     compare $m ref_nee
   done
   compare deferred ref_nee_direct
@@ -77,12 +83,12 @@ grid)
   rm -rf "$out"/big "$out"/*.exr
   ;;
 vct)
-  # Stage timings and memory (details in the JSON report): octree at 2^9 and 2^8, dense (capped
-  # at 2^8) at 2^8, on the repository's scenes and a 1M-triangle mesh.
+  # Stage timings and memory (details in the JSON report): octree at 2^10, 2^9 and 2^8, dense
+  # (capped at 2^8) at 2^8, on the repository's scenes and a 1M-triangle mesh.
   python3 bench/make_big_scene.py /tmp/big --triangles 1000000 > /dev/null
   for scene in scenes/textured_mesh.json scenes/cornell.json /tmp/big/big.json; do
     s=$(basename "$scene" .json)
-    for cfg in octree:512 octree:256 dense:256; do
+    for cfg in octree:1024 octree:512 octree:256 dense:256; do
       storage=${cfg%:*} res=${cfg#*:}
       name=vct_${s}_${storage}_$res
       render $name "$scene" --integrator vct --spp 16 \
