@@ -95,12 +95,29 @@ export function readInt(input, label, { min = -Infinity, optional = false } = {}
   return v;
 }
 
+/** The integrator's options: a JSON object typed in the field (empty: none). The server checks
+ *  the fields and names an unknown one. */
+function readOptions(input) {
+  const text = input.value.trim();
+  if (!text) return {};
+  let v;
+  try {
+    v = JSON.parse(text);
+  } catch (e) {
+    throw { field: input, message: `Integrator options: not JSON (${e.message}).` };
+  }
+  if (v === null || typeof v !== 'object' || Array.isArray(v)) {
+    throw { field: input, message: 'Integrator options must be a JSON object, e.g. {"resolution": 128}.' };
+  }
+  return v;
+}
+
 /** The job settings from the form (everything but the scene). */
 export function readSettings() {
   const settings = {};
   const name = $('job-name').value.trim();
   if (name) settings.name = name;
-  const integrator = { type: $('integrator').value };
+  const integrator = { ...readOptions($('integrator-options')), type: $('integrator').value };
   const depth = readInt($('max-depth'), 'Max depth', { min: -1, optional: true });
   if (depth !== undefined) integrator.max_depth = depth;
   settings.integrator = integrator;

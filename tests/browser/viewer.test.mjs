@@ -134,7 +134,7 @@ async function submitExample(settings) {
  *  returns the new job's id. */
 async function submitForm({ name, integrator, spp, timeS, seed = 1, priority = 10, size = SIZE }) {
   await page.getByLabel('Name').fill(name);
-  await page.getByLabel('Integrator').selectOption(integrator);
+  await page.getByLabel('Integrator', { exact: true }).selectOption(integrator);
   if (timeS != null) {
     await page.getByLabel('Time (s)').check();
     await page.getByLabel('Budget value').fill(String(timeS));
@@ -489,6 +489,31 @@ await step('other scene sources: pasted JSON, a scene file with its assets, a .t
   }, folder, { timeout: 20_000 }).catch(() => { throw new Failure('the uploaded scene\'s image did not show'); });
   await shot('05-uploads.png');
   await page.getByLabel('Example', { exact: true }).check();
+});
+
+await step('every integrator is offered, with options as JSON', async () => {
+  const offered = await page.getByLabel('Integrator', { exact: true }).locator('option').evaluateAll((os) => os.map((o) => o.value));
+  for (const name of ['pt', 'nee', 'bdpt', 'whitted', 'deferred', 'vct']) {
+    check(offered.includes(name), `the integrator list lacks ${name} (has ${offered.join(', ')})`);
+  }
+  // Bad options are refused in the page, naming the field.
+  await page.getByLabel('Example', { exact: true }).check();
+  await page.getByLabel('Example scene').selectOption('cornell');
+  await page.getByLabel('Integrator options (JSON, optional)').fill('{resolution: 64');
+  await page.getByLabel('Integrator', { exact: true }).selectOption('vct');
+  await page.getByLabel('Height').press('Enter');
+  await page.waitForFunction(() => /Integrator options/.test(document.querySelector('#submit-error').textContent), null, { timeout: 5_000 })
+    .catch(() => { throw new Failure('invalid integrator options were not reported'); });
+  // vct with a small volume: the options reach the job.
+  await page.getByLabel('Integrator options (JSON, optional)').fill('{"resolution": 64, "cones": 4}');
+  const id = await submitExample({ name: 'browser-vct', integrator: 'vct', spp: 2, size: 16 });
+  await waitRowState(id, 'done', 60_000);
+  const headers = token ? { Authorization: `Bearer ${token}` } : {};
+  const res = await page.request.get(new URL(`/api/jobs/${id}`, base).href, { headers });
+  const job = JSON.stringify(await res.json());
+  check(/"type":"vct"/.test(job) && /"resolution":64/.test(job) && /"cones":4/.test(job),
+    `the vct job does not carry its options: ${job.slice(0, 400)}`);
+  await page.getByLabel('Integrator options (JSON, optional)').fill('');
 });
 
 await step('the state filter lists only done jobs', async () => {
