@@ -4,12 +4,13 @@
 #   bash bench/gpu_classic.sh quality   each mode's error against a nee reference, Cornell box
 #   bash bench/gpu_classic.sh deferred  deferred at 1..10,000 lights, 1920x1080 (deferred_lights.sh)
 #   bash bench/gpu_classic.sh grid      whitted with the BVH against uniform grids (accel_grid.py)
-#   bash bench/gpu_classic.sh vct       vct stage timings and memory at 2^9 (octree and dense)
+#   bash bench/gpu_classic.sh vct       vct stage timings and memory at 2^8..2^10 (octree and dense)
+#   bash bench/gpu_classic.sh vct_depth vct against nee at the same max_depth (3, and 4 with 2 bounces)
 # Expects .carry/candela (release build) and .carry/COMMIT (the commit it was built from).
 # Results go to ${OUT:-/tmp}/<part>/.
 set -u
 cd "$(dirname "$0")/.."
-part=${1:?usage: gpu_classic.sh quality|deferred|grid|vct}
+part=${1:?usage: gpu_classic.sh quality|deferred|grid|vct|vct_depth}
 if [ -d .gl ]; then
   for f in .gl/*.deb; do dpkg -x "$f" /; done
   ldconfig
@@ -69,6 +70,20 @@ quality)
   for f in "$out"/*.json; do
     python3 -c "import json,sys; r=json.load(open(sys.argv[1])); print(sys.argv[1].split('/')[-1], r['integrator'], r['spp'], 'spp', round(r['time_s'],3), 's', round(r['msamples_per_s'],1), 'Msamples/s')" "$f"
   done
+  rm -f "$out"/*.exr
+  ;;
+vct_depth)
+  # vct models paths of at most 3 segments with 1 bounce (4 with 2): against nee at the same
+  # max_depth its error is its own approximation, not the light of the missing bounces.
+  : > "$out/quality.jsonl"
+  render ref_nee_d3 scenes/cornell.json --integrator nee --max-depth 3 --spp 16384
+  render ref_nee_d4 scenes/cornell.json --integrator nee --max-depth 4 --spp 16384
+  for r in 128 256 512 1024; do
+    render vct3_$r scenes/cornell.json --integrator vct --spp 64 --max-depth 3 --options "{\"resolution\": $r}"
+    compare vct3_$r ref_nee_d3
+  done
+  render vct4_512_b2 scenes/cornell.json --integrator vct --spp 64 --max-depth 4 --options '{"resolution": 512, "bounces": 2}'
+  compare vct4_512_b2 ref_nee_d4
   rm -f "$out"/*.exr
   ;;
 deferred)
