@@ -257,6 +257,18 @@ fn bad_input_exits_2_with_a_clear_line() {
         &with_options(r#"{"type": "nee"}"#),
         &["--options", "contradicts"],
     );
+    // Values out of range are refused before any GPU work, naming the field.
+    let o = run(&[
+        "render",
+        p.to_str().unwrap(),
+        "-o",
+        o_path,
+        "--integrator",
+        "vct",
+        "--options",
+        r#"{"resolution": 96}"#,
+    ]);
+    assert_bad_input(&o, &["--options", "resolution"]);
     // Unknown device.
     let p = write_scene("good_device", GOOD);
     assert_bad_input(

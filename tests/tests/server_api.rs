@@ -239,6 +239,26 @@ fn jobs_endpoints_and_errors() {
         "integrator",
         "invalid_field",
     );
+    // Integrator options out of range are refused at submission, naming the field.
+    for (integrator, field) in [
+        (json!({"type": "vct", "resolution": 96}), "resolution"),
+        (json!({"type": "deferred", "cutoff": -1}), "cutoff"),
+        (
+            json!({"type": "whitted", "area_samples": 0}),
+            "area_samples",
+        ),
+    ] {
+        let e = assert_error(
+            &s.post(
+                "/api/jobs",
+                &json!({"scene_name": "cornell", "integrator": integrator}),
+            ),
+            422,
+            "invalid_field",
+        );
+        assert_eq!(e["path"], "integrator", "{e}");
+        assert!(e["message"].as_str().unwrap().contains(field), "{e}");
+    }
     bad(
         json!({"scene_name": "cornell", "spp": 4, "time_s": 1}),
         "time_s",

@@ -82,9 +82,13 @@ impl IntegratorOptions {
             "pt" => Some(IntegratorOptions::Pt(PathOptions::default())),
             "nee" => Some(IntegratorOptions::Nee(PathOptions::default())),
             "bdpt" => Some(IntegratorOptions::Bdpt(BdptOptions::default())),
-            "deferred" => Some(IntegratorOptions::Deferred(deferred::DeferredOptions::default())),
+            "deferred" => Some(IntegratorOptions::Deferred(
+                deferred::DeferredOptions::default(),
+            )),
             "vct" => Some(IntegratorOptions::Vct(vct::VctOptions::default())),
-            "whitted" => Some(IntegratorOptions::Whitted(whitted::WhittedOptions::default())),
+            "whitted" => Some(IntegratorOptions::Whitted(
+                whitted::WhittedOptions::default(),
+            )),
             _ => None,
         }
     }
@@ -118,6 +122,20 @@ impl IntegratorOptions {
             IntegratorOptions::Whitted(o) => o.max_depth,
             IntegratorOptions::Deferred(o) => o.max_depth,
             IntegratorOptions::Vct(o) => o.max_depth,
+        }
+    }
+
+    /// Checks the options' values (ranges, combinations) without a device, naming the field, so
+    /// that a server can refuse a job when it is submitted instead of failing it when it starts.
+    /// `RenderSession::new` checks them again.
+    pub fn validate(&self) -> Result<(), RenderError> {
+        match self {
+            IntegratorOptions::Whitted(o) => whitted::new(o, None).validate(),
+            IntegratorOptions::Deferred(o) => deferred::validate(o),
+            IntegratorOptions::Vct(o) => o.settings().map(|_| ()),
+            IntegratorOptions::Pt(_) | IntegratorOptions::Nee(_) | IntegratorOptions::Bdpt(_) => {
+                Ok(())
+            }
         }
     }
 

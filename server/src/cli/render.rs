@@ -288,5 +288,8 @@ fn integrator_options(name: &str, json: &str) -> Result<IntegratorOptions, CliEr
         _ => {}
     }
     map.insert("type".into(), serde_json::Value::String(name.into()));
-    serde_json::from_value(v).map_err(|e| bad(format!("{name}: {e}")))
+    let options: IntegratorOptions =
+        serde_json::from_value(v).map_err(|e| bad(format!("{name}: {e}")))?;
+    options.validate().map_err(|e| bad(e.to_string()))?;
+    Ok(options)
 }

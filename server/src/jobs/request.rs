@@ -182,6 +182,9 @@ fn integrator_options(v: Option<&Value>, default: &str) -> Result<IntegratorOpti
             ));
         }
     }
+    options
+        .validate()
+        .map_err(|e| ApiError::invalid("integrator", format!("integrator: {e}")))?;
     Ok(options)
 }
 

@@ -136,7 +136,7 @@ pub fn new(o: &DeferredOptions, scene_max_depth: Option<i32>) -> DeferredIntegra
 }
 
 /// Checks the options, naming the offending field.
-fn validate(o: &DeferredOptions) -> Result<(), RenderError> {
+pub(crate) fn validate(o: &DeferredOptions) -> Result<(), RenderError> {
     let bad = |m: String| Err(RenderError::Invalid(format!("deferred.{m}")));
     if let Some(c) = o.cutoff {
         if !(c >= 0.0 && c.is_finite()) {
