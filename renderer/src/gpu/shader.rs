@@ -71,6 +71,16 @@ pub fn compile_glsl(path: &str, defines: &ShaderDefines) -> GpuResult<Arc<Vec<u3
         log,
     };
     let text = shader_source(path).ok_or_else(|| err("no such embedded shader".into()))?;
+    // One compilation at a time: glslang is C++ and its thread safety is not documented by the
+    // binding; a C++ exception crossing into Rust aborts the process. A test binary once
+    // aborted so ("Rust cannot catch foreign exceptions") while two threads built kernels; the
+    // cause was not pinned down, and serialising glslang rules it out. Compiles are cached, so
+    // this costs little.
+    static COMPILING: Mutex<()> = Mutex::new(());
+    let _one_at_a_time = COMPILING.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(hit) = cache().lock().ok().and_then(|c| c.get(&key).cloned()) {
+        return Ok(hit);
+    }
     let compiler =
         glslang::Compiler::acquire().ok_or_else(|| err("glslang failed to initialise".into()))?;
     let source = ShaderSource::try_from(text.to_string()).map_err(|e| err(e.to_string()))?;
