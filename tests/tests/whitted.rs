@@ -299,10 +299,9 @@ fn blocks(a: &Image, reference: &Image) -> f64 {
     rel_mse(&downsample_box(a, 4), &downsample_box(reference, 4)).unwrap()
 }
 
-#[test]
-fn area_light_quadrature_converges_to_nee_direct_light() {
-    // A quad light facing down and a small emissive sphere, no delta lights.
-    let scene = load_json(&lit_scene(
+/// `lit_scene` lit only by area lights: a quad light facing down and a small emissive sphere.
+fn area_lit_scene() -> Scene {
+    load_json(&lit_scene(
         "",
         r#",
     {"type": "quad", "origin": [-0.5, 2.5, -0.5], "edge_u": [1, 0, 0], "edge_v": [0, 0, 1], "material": "lamp"},
@@ -310,7 +309,12 @@ fn area_light_quadrature_converges_to_nee_direct_light() {
         r#",
     "lamp": {"type": "diffuse", "reflectance": 0, "emission": [6, 6, 5]},
     "bulb": {"type": "diffuse", "reflectance": 0, "emission": [8, 5, 3]}"#,
-    ));
+    ))
+}
+
+#[test]
+fn area_light_quadrature_converges_to_nee_direct_light() {
+    let scene = area_lit_scene();
     // The same seed and sample count give whitted and nee the same camera rays, so the
     // anti-aliasing is identical and the difference is nee's noise plus whitted's quadrature
     // error; a second nee render with another seed measures that noise (twice over).
@@ -484,17 +488,10 @@ fn mean_rel_diff(a: &Image, b: &Image, mask: &[bool]) -> f64 {
 #[test]
 fn one_big_pass_equals_many_small_ones() {
     // 256 points on each of three area lights: one sample is ~800 shadow rays, so a 16-spp
-    // dispatch would exceed llvmpipe's 65535 loop iterations per invocation; whitted splits
-    // such passes there (render::LLVMPIPE_MAX_DISPATCHES), and the image must not depend on the split.
-    let scene = load_json(&lit_scene(
-        "",
-        r#",
-    {"type": "quad", "origin": [-0.5, 2.5, -0.5], "edge_u": [1, 0, 0], "edge_v": [0, 0, 1], "material": "lamp"},
-    {"type": "sphere", "center": [1.8, 1.2, 1.2], "radius": 0.25, "material": "bulb"}"#,
-        r#",
-    "lamp": {"type": "diffuse", "reflectance": 0, "emission": [6, 6, 5]},
-    "bulb": {"type": "diffuse", "reflectance": 0, "emission": [8, 5, 3]}"#,
-    ));
+    // dispatch would exceed llvmpipe's 65535 loop iterations per invocation; the render
+    // session splits such passes there (render::LLVMPIPE_MAX_DISPATCHES), and the image must
+    // not depend on the split.
+    let scene = area_lit_scene();
     let ctx = gpu();
     let compiled = compile(&scene, 16, 16).expect("compile");
     let o = options(r#"{"type": "whitted", "max_depth": 2, "area_samples": 256}"#);
