@@ -1,6 +1,6 @@
 //! candela's rendering engine: scene loading, Vulkan compute, BVH, integrators, film.
 //!
-//! Data flow (see DESIGN.md): `scene::load` → `compile` (camera-relative f32 buffers, feature set)
+//! Data flow (see docs/design.md): `scene::load` → `compile` (camera-relative f32 buffers, feature set)
 //! → `accel` (BVH) → `gpu` (device, pipelines) → `integrators` (passes) → `film` (EXR/PNG).
 
 pub mod accel;

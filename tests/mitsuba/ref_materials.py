@@ -1,4 +1,4 @@
-"""Candela materials and textures → Mitsuba 3 BSDF / texture dicts (SCENE_FORMAT.md, "materials").
+"""Candela materials and textures → Mitsuba 3 BSDF / texture dicts (docs/scene-format.md, "materials").
 
 Colour textures become `bitmap` textures read by Mitsuba itself. Scalar textures (candela uses the
 red channel) are decoded here and handed to `bitmap` as a one-channel Bitmap, optionally passed

@@ -1,4 +1,4 @@
-"""Candela scene JSON (SCENE_FORMAT.md, version 1) → Mitsuba 3 scene dict for `mi.load_dict`.
+"""Candela scene JSON (docs/scene-format.md, version 1) → Mitsuba 3 scene dict for `mi.load_dict`.
 
 `build_scene` translates camera, film, render settings, lights and environment here; objects go
 through ref_shapes.py and materials through ref_materials.py. Raises Untranslatable (exit 2) or

@@ -1,4 +1,4 @@
-"""Candela objects (SCENE_FORMAT.md, "objects") → instantiated Mitsuba 3 shapes.
+"""Candela objects (docs/scene-format.md, "objects") → instantiated Mitsuba 3 shapes.
 
 Each object becomes one Mitsuba shape, instantiated here (so ref_scene.py knows the scene bounds)
 with its material's BSDF and, for emissive materials, an `area` emitter. Raises Untranslatable

@@ -1,7 +1,7 @@
 //! Film output: the linear-radiance [`Image`], EXR in and out, PNG out (exposure, tonemap, sRGB),
 //! all files written atomically (temporary sibling, then rename).
 //!
-//! EXR is always linear radiance; exposure and tonemap apply to PNG only (SCENE_FORMAT.md, `film`).
+//! EXR is always linear radiance; exposure and tonemap apply to PNG only (docs/scene-format.md, `film`).
 //! The display transform ([`tonemap_srgb8`], documented in the `tonemap` module): exposure `2^EV`,
 //! per-channel curve (clamp, Reinhard `x/(1+x)`, Narkowicz 2015 ACES fit without the 0.6
 //! pre-scale), clamp to [0, 1], sRGB OETF, round; NaN/Inf pixels encode as black.

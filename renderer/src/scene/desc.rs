@@ -1,4 +1,4 @@
-//! The scene document as written (SCENE_FORMAT.md, version 1): serde structs, every one with
+//! The scene document as written (docs/scene-format.md, version 1): serde structs, every one with
 //! `deny_unknown_fields`. Nothing here is validated beyond JSON types; `validate`, `materials` and
 //! `assemble` turn it into the loaded `Scene`. Optional fields stay `Option` so that defaults that
 //! depend on other fields (beam width, focus distance, sRGB by file type) are applied in one place.

@@ -1,7 +1,7 @@
 //! Value forms of the scene document that are not plain structs: a number-or-triple, colour and
 //! scalar parameters (constant or texture), flat-or-nested number lists, an insertion-ordered map
 //! that rejects duplicate names, and the `version` check. Each has a hand-written visitor so that
-//! its error messages say what the format accepts (SCENE_FORMAT.md).
+//! its error messages say what the format accepts (docs/scene-format.md).
 
 use std::fmt;
 use std::marker::PhantomData;

@@ -1,4 +1,4 @@
-//! Materials: defaults from SCENE_FORMAT.md applied, ranges checked, textures loaded (through the
+//! Materials: defaults from docs/scene-format.md applied, ranges checked, textures loaded (through the
 //! shared `TextureCache`), names kept in document order.
 //!
 //! Ranges: colours finite and non-negative; roughness-like scalars (roughness, anisotropy,

@@ -1,4 +1,4 @@
-//! Scene loading: a scene JSON document (SCENE_FORMAT.md, version 1) parsed, validated and
+//! Scene loading: a scene JSON document (docs/scene-format.md, version 1) parsed, validated and
 //! resolved into the world-space [`Scene`] of `types.rs`.
 //!
 //! Stages: `desc*` (serde structs, `deny_unknown_fields`, JSON paths tracked by

@@ -38,7 +38,7 @@ pub(super) fn write_assets() -> PathBuf {
     dir
 }
 
-/// A scene using every feature of SCENE_FORMAT.md.
+/// A scene using every feature of docs/scene-format.md.
 pub(super) fn full_scene() -> Value {
     json!({
         "version": 1,

@@ -1,4 +1,4 @@
-//! Object transforms, composed and applied in f64 (DESIGN.md: precision).
+//! Object transforms, composed and applied in f64 (docs/design.md: precision).
 //!
 //! `{"matrix": [16 numbers, row-major]}` or any of scale, rotate (axis, degrees), translate,
 //! applied in that order: M = T · R · S. Points use M, normals the inverse transpose of its linear

@@ -1,4 +1,4 @@
-//! The loaded scene: what `scene::load` produces from a validated scene document (SCENE_FORMAT.md).
+//! The loaded scene: what `scene::load` produces from a validated scene document (docs/scene-format.md).
 //!
 //! Everything here is resolved: material names are indices, files are read, transforms are applied
 //! in f64 (world space), textures are decoded to linear RGBA f32. The GPU compile step

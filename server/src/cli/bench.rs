@@ -18,7 +18,7 @@ use crate::benchmark::{
 /// Arguments of `candela bench`.
 #[derive(Debug, Args)]
 pub struct BenchArgs {
-    /// Scene file (JSON, see SCENE_FORMAT.md).
+    /// Scene file (JSON, see docs/scene-format.md).
     pub scene: PathBuf,
     /// Reference image (EXR); default: render one with nee at --reference-spp.
     #[arg(long, value_name = "REF.exr")]

@@ -19,7 +19,7 @@ const MAX_PIXELS: u64 = 64 * 1024 * 1024;
 
 #[derive(Debug, Args)]
 pub struct RenderArgs {
-    /// Scene file (JSON, see SCENE_FORMAT.md).
+    /// Scene file (JSON, see docs/scene-format.md).
     pub scene: PathBuf,
     /// Output image: .exr (linear float RGB) or .png (exposure, tonemap, sRGB).
     #[arg(short, long)]

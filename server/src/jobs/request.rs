@@ -263,7 +263,7 @@ pub fn prepare(
                 if !v.is_object() {
                     return Err(ApiError::invalid(
                         "scene",
-                        "scene: expected a scene object (SCENE_FORMAT.md)",
+                        "scene: expected a scene object (docs/scene-format.md)",
                     ));
                 }
                 (v.to_string(), None, SceneSource::Inline, "scene")
