@@ -3,13 +3,13 @@
 //! environment, render defaults — stopping at the first error.
 
 use std::collections::HashMap;
-use std::path::Path;
 
 use glam::{DVec3, Vec2};
 
 use super::desc::*;
 use super::error::{from_json_error, index_path, join_path, SceneError};
 use super::mesh::{to_world, FileError, Materials, RawMesh, Shading};
+use super::paths::AssetRoot;
 use super::texture::TextureCache;
 use super::transform::Transform;
 use super::validate::{f32_of, non_negative, non_negative3, positive};
@@ -42,13 +42,17 @@ pub(crate) fn parse(json: &str) -> Result<SceneDesc, SceneError> {
 }
 
 /// Loads a scene from JSON text; see `scene::load_str_with_limits`.
-pub(crate) fn load(json: &str, base: Option<&Path>, limits: &Limits) -> Result<Scene, SceneError> {
+pub(crate) fn load(
+    json: &str,
+    root: AssetRoot<'_>,
+    limits: &Limits,
+) -> Result<Scene, SceneError> {
     let desc = parse(json)?;
     let _version_checked = desc.version;
     let camera = validate::camera(&desc.camera)?;
     let film = validate::film(&desc.film, limits)?;
 
-    let mut textures = TextureCache::new(base, limits);
+    let mut textures = TextureCache::new(root, limits);
     let mut material_list = Vec::with_capacity(desc.materials.0.len());
     let mut material_names = Vec::with_capacity(desc.materials.0.len());
     for (name, m) in &desc.materials.0 {
@@ -56,7 +60,7 @@ pub(crate) fn load(json: &str, base: Option<&Path>, limits: &Limits) -> Result<S
         material_names.push(name.clone());
     }
     let mut objects = Objects {
-        base,
+        root,
         limits,
         by_name: material_names
             .iter()
@@ -112,7 +116,7 @@ pub(crate) fn load(json: &str, base: Option<&Path>, limits: &Limits) -> Result<S
 
 /// Objects being converted, with what they need.
 struct Objects<'a> {
-    base: Option<&'a Path>,
+    root: AssetRoot<'a>,
     limits: &'a Limits,
     by_name: HashMap<&'a str, u32>,
     meshes: Vec<TriangleMesh>,
@@ -213,8 +217,8 @@ impl Objects<'_> {
                 ),
             ));
         }
-        let asset = paths::resolve(self.base, &m.file, &file_path)?;
-        let data = paths::read(&asset, &file_path)?;
+        let asset = paths::resolve(self.root, &m.file, &file_path)?;
+        let data = paths::read(self.root, &asset, &file_path)?;
         let in_file = |e: FileError| SceneError::Parse {
             path: file_path.clone(),
             file: m.file.clone(),

@@ -9,7 +9,7 @@
 use serde::Deserialize;
 
 pub use super::desc_values::{
-    ColorDesc, NumList, OrderedMap, ScalarDesc, TextureRefDesc, Triple, Version,
+    Channel, ColorDesc, NumList, OrderedMap, ScalarDesc, TextureRefDesc, Triple, Version,
 };
 
 /// `[x, y, z]`.

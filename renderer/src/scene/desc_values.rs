@@ -77,7 +77,7 @@ fn read_three<'de, A: SeqAccess<'de>>(mut seq: A, expecting: &str) -> Result<[f6
     Ok(out)
 }
 
-/// `{"texture": "file.png", "srgb": true, "scale": [1, 1]}`.
+/// `{"texture": "file.png", "srgb": true, "scale": [1, 1], "channel": "g"}`.
 #[derive(Debug, Clone, PartialEq, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TextureRefDesc {
@@ -88,6 +88,40 @@ pub struct TextureRefDesc {
     /// UV scale; default [1, 1].
     #[serde(default)]
     pub scale: Option<[f64; 2]>,
+    /// The one channel to read, as a grey value (default: the texels as stored; scalar fields
+    /// and masks then read red).
+    #[serde(default)]
+    pub channel: Option<Channel>,
+}
+
+/// A texture channel selected by `"channel"` (after sRGB decoding).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Deserialize)]
+pub enum Channel {
+    #[serde(rename = "r")]
+    R,
+    #[serde(rename = "g")]
+    G,
+    #[serde(rename = "b")]
+    B,
+    #[serde(rename = "a")]
+    A,
+    /// Rec. 709 luminance 0.2126 r + 0.7152 g + 0.0722 b (what Mitsuba 3 reads from an RGB
+    /// texture bound to a scalar parameter).
+    #[serde(rename = "luminance")]
+    Luminance,
+}
+
+impl Channel {
+    /// The selected value of one linear RGBA texel.
+    pub fn pick(self, t: [f32; 4]) -> f32 {
+        match self {
+            Channel::R => t[0],
+            Channel::G => t[1],
+            Channel::B => t[2],
+            Channel::A => t[3],
+            Channel::Luminance => 0.2126 * t[0] + 0.7152 * t[1] + 0.0722 * t[2],
+        }
+    }
 }
 
 /// A colour field: `[r, g, b]`, a number (grey) or a texture.

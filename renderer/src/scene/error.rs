@@ -33,6 +33,13 @@ pub enum SceneError {
         file: String,
         msg: String,
     },
+    /// An error in a scene file of another format (Mitsuba XML, glTF, pbrt, .scn; see
+    /// crate::import) at a line when one is known.
+    Import {
+        file: String,
+        line: Option<usize>,
+        msg: String,
+    },
     /// An error at a line of an OBJ or PLY file (`line` is None inside binary data).
     Parse {
         /// The JSON path of the field naming the file.
@@ -73,6 +80,10 @@ impl fmt::Display for SceneError {
             SceneError::Decode { path, file, msg } => {
                 write!(f, "{path}: cannot decode \"{file}\": {msg}")
             }
+            SceneError::Import { file, line, msg } => match line {
+                Some(line) => write!(f, "{file}:{line}: {msg}"),
+                None => write!(f, "{file}: {msg}"),
+            },
             SceneError::Parse {
                 path,
                 file,
@@ -90,7 +101,7 @@ impl SceneError {
     /// The JSON path of the offending value, when there is one (e.g. `objects[3].material`).
     pub fn path(&self) -> Option<&str> {
         let path = match self {
-            SceneError::SceneFile { .. } => return None,
+            SceneError::SceneFile { .. } | SceneError::Import { .. } => return None,
             SceneError::Syntax { path, .. }
             | SceneError::Invalid { path, .. }
             | SceneError::Io { path, .. }

@@ -179,7 +179,7 @@ mod tests {
     fn mat(json: &str) -> Result<Material, SceneError> {
         let d: MaterialDesc = serde_json::from_str(json).unwrap();
         let limits = Limits::default();
-        let mut cache = TextureCache::new(None, &limits);
+        let mut cache = TextureCache::new(crate::scene::paths::AssetRoot::dir(None), &limits);
         build("m", &d, &mut cache)
     }
 

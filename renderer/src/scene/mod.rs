@@ -12,18 +12,18 @@ pub mod types;
 pub use types::*;
 
 mod assemble;
-mod desc;
+pub(crate) mod desc;
 mod desc_tagged;
 mod desc_values;
 mod error;
 mod materials;
-mod mesh;
-mod obj;
-mod paths;
-mod ply;
+pub(crate) mod mesh;
+pub(crate) mod obj;
+pub(crate) mod paths;
+pub(crate) mod ply;
 mod ply_body;
-mod shapes;
-mod texture;
+pub(crate) mod shapes;
+pub(crate) mod texture;
 mod transform;
 mod validate;
 
@@ -34,7 +34,10 @@ mod tests_files;
 #[cfg(test)]
 mod tests_scene;
 
+use std::collections::BTreeMap;
 use std::path::Path;
+
+use paths::AssetRoot;
 
 pub use error::SceneError;
 pub use validate::INTEGRATORS;
@@ -93,5 +96,23 @@ pub fn load_str_with_limits(
     base_dir: Option<&Path>,
     limits: &Limits,
 ) -> Result<Scene, SceneError> {
-    assemble::load(json, base_dir, limits)
+    assemble::load(json, AssetRoot::dir(base_dir), limits)
+}
+
+/// Files held in memory, by relative path (`meshes/m0.ply`): an importer's meshes and embedded
+/// images (crate::import). The loader looks a path up here before the scene folder.
+pub type MemoryAssets = BTreeMap<String, Vec<u8>>;
+
+/// [`load_str_with_limits`] with files held in `memory` besides those under `base_dir`.
+pub fn load_str_with_assets(
+    json: &str,
+    base_dir: Option<&Path>,
+    memory: &MemoryAssets,
+    limits: &Limits,
+) -> Result<Scene, SceneError> {
+    let root = AssetRoot {
+        dir: base_dir,
+        memory: Some(memory),
+    };
+    assemble::load(json, root, limits)
 }

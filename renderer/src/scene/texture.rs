@@ -1,17 +1,19 @@
 //! Texture loading: PNG/JPEG/HDR through `image`, EXR through `exr`, decoded to linear RGBA f32
 //! (row 0 at the top). 8- and 16-bit channels are normalised; `srgb` applies the sRGB transfer
 //! function's inverse (IEC 61966-2-1) to colour channels, never to alpha. A file is decoded once
-//! per sRGB flag; references with another UV scale share the decoded texels.
+//! per sRGB flag; references with another UV scale share the decoded texels. A reference with a
+//! `channel` gets its own texture whose colour channels all hold that channel (alpha 1), so the
+//! GPU side, which reads red for scalars and masks, needs no per-reference channel.
 
 use std::collections::HashMap;
 use std::io::Cursor;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use glam::Vec2;
 
-use super::desc::TextureRefDesc;
+use super::desc::{Channel, TextureRefDesc};
 use super::error::{join_path, SceneError};
-use super::paths::{self, AssetPath};
+use super::paths::{self, AssetPath, AssetRoot};
 use super::{Limits, Texture};
 
 /// The sRGB decoding curve (sRGB-encoded value → linear).
@@ -50,19 +52,19 @@ impl Format {
 
 /// The scene's textures, de-duplicated as they are loaded.
 pub(crate) struct TextureCache<'a> {
-    base: Option<&'a Path>,
+    root: AssetRoot<'a>,
     limits: &'a Limits,
     pub textures: Vec<Texture>,
-    /// (file, srgb, scale bits) → index in `textures`.
-    by_key: HashMap<(PathBuf, bool, [u32; 2]), u32>,
-    /// (file, srgb) → an index whose texels can be shared.
-    decoded: HashMap<(PathBuf, bool), u32>,
+    /// (file, srgb, scale bits, channel) → index in `textures`.
+    by_key: HashMap<(PathBuf, bool, [u32; 2], Option<Channel>), u32>,
+    /// (file, srgb, channel) → an index whose texels can be shared.
+    decoded: HashMap<(PathBuf, bool, Option<Channel>), u32>,
 }
 
 impl<'a> TextureCache<'a> {
-    pub fn new(base: Option<&'a Path>, limits: &'a Limits) -> Self {
+    pub fn new(root: AssetRoot<'a>, limits: &'a Limits) -> Self {
         TextureCache {
-            base,
+            root,
             limits,
             textures: Vec::new(),
             by_key: HashMap::new(),
@@ -85,7 +87,7 @@ impl<'a> TextureCache<'a> {
                 s
             }
         };
-        self.load(&r.texture, r.srgb, scale, &join_path(path, "texture"))
+        self.load_channel(&r.texture, r.srgb, scale, r.channel, &join_path(path, "texture"))
     }
 
     /// Loads `rel` (written at `path`) with an explicit or default sRGB flag and a UV scale.
@@ -94,6 +96,18 @@ impl<'a> TextureCache<'a> {
         rel: &str,
         srgb: Option<bool>,
         scale: Vec2,
+        path: &str,
+    ) -> Result<u32, SceneError> {
+        self.load_channel(rel, srgb, scale, None, path)
+    }
+
+    /// [`TextureCache::load`] with one channel selected (None: all four as stored).
+    fn load_channel(
+        &mut self,
+        rel: &str,
+        srgb: Option<bool>,
+        scale: Vec2,
+        channel: Option<Channel>,
         path: &str,
     ) -> Result<u32, SceneError> {
         paths::check_relative(rel, path)?;
@@ -105,51 +119,64 @@ impl<'a> TextureCache<'a> {
                 ),
             ));
         };
-        let asset = paths::resolve(self.base, rel, path)?;
+        let asset = paths::resolve(self.root, rel, path)?;
         let srgb = srgb.unwrap_or(format.default_srgb());
         let key = (
             asset.canonical.clone(),
             srgb,
             [scale.x.to_bits(), scale.y.to_bits()],
+            channel,
         );
         if let Some(&i) = self.by_key.get(&key) {
             return Ok(i);
         }
-        let texture = match self.decoded.get(&(asset.canonical.clone(), srgb)) {
-            Some(&i) => {
-                let mut t = self.textures[i as usize].clone();
-                t.scale = scale;
-                t
-            }
-            None => {
-                let (width, height, texels) = decode(&asset, format, srgb, self.limits, path)?;
-                Texture {
+        // Texels already decoded for this file: with this channel (use as they are), or raw.
+        let exact = self.decoded.get(&(asset.canonical.clone(), srgb, channel));
+        let raw = self.decoded.get(&(asset.canonical.clone(), srgb, None));
+        let (mut texture, needs_channel) = match (exact, raw) {
+            (Some(&i), _) => (self.textures[i as usize].clone(), false),
+            (None, Some(&i)) => (self.textures[i as usize].clone(), channel.is_some()),
+            (None, None) => {
+                let bytes = paths::read(self.root, &asset, path)?;
+                let (width, height, texels) =
+                    decode(&bytes, &asset, format, srgb, self.limits, path)?;
+                let texture = Texture {
                     source: rel.to_string(),
                     width,
                     height,
                     texels,
                     scale,
-                }
+                };
+                (texture, channel.is_some())
             }
         };
+        texture.scale = scale;
+        if let (Some(c), true) = (channel, needs_channel) {
+            for t in &mut texture.texels {
+                let v = c.pick(*t);
+                *t = [v, v, v, 1.0];
+            }
+        }
         let index = u32::try_from(self.textures.len())
             .map_err(|_| SceneError::invalid(path, "too many textures"))?;
         self.textures.push(texture);
         self.by_key.insert(key, index);
-        self.decoded.entry((asset.canonical, srgb)).or_insert(index);
+        self.decoded
+            .entry((asset.canonical, srgb, channel))
+            .or_insert(index);
         Ok(index)
     }
 }
 
-/// Decodes a file to (width, height, linear RGBA texels).
+/// Decodes a file's bytes to (width, height, linear RGBA texels).
 fn decode(
+    bytes: &[u8],
     asset: &AssetPath,
     format: Format,
     srgb: bool,
     limits: &Limits,
     path: &str,
 ) -> Result<(u32, u32, Vec<[f32; 4]>), SceneError> {
-    let bytes = paths::read(asset, path)?;
     let fail = |msg: String| SceneError::Decode {
         path: path.to_string(),
         file: asset.shown.clone(),
@@ -172,12 +199,12 @@ fn decode(
     };
     let (w, h, mut texels) = match format {
         Format::Exr => {
-            let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(&bytes), false)
+            let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false)
                 .map_err(|e| fail(e.to_string()))?;
             for header in meta.headers.iter() {
                 check_size(header.layer_size.0 as u64, header.layer_size.1 as u64)?;
             }
-            decode_exr(&bytes).map_err(fail)?
+            decode_exr(bytes).map_err(fail)?
         }
         _ => {
             let image_format = match format {
@@ -185,11 +212,11 @@ fn decode(
                 Format::Jpeg => image::ImageFormat::Jpeg,
                 _ => image::ImageFormat::Hdr,
             };
-            let (w, h) = image::ImageReader::with_format(Cursor::new(&bytes), image_format)
+            let (w, h) = image::ImageReader::with_format(Cursor::new(bytes), image_format)
                 .into_dimensions()
                 .map_err(|e| fail(e.to_string()))?;
             check_size(w as u64, h as u64)?;
-            let mut reader = image::ImageReader::with_format(Cursor::new(&bytes), image_format);
+            let mut reader = image::ImageReader::with_format(Cursor::new(bytes), image_format);
             let mut image_limits = image::Limits::default();
             image_limits.max_alloc = Some((w as u64 * h as u64).saturating_mul(32) + (64 << 20));
             reader.limits(image_limits);
@@ -256,6 +283,7 @@ fn decode_exr(bytes: &[u8]) -> Result<(u32, u32, Vec<[f32; 4]>), String> {
 pub(crate) mod tests {
     use super::*;
     use crate::scene::paths::tests::temp_dir;
+    use std::path::Path;
 
     /// Writes a 2×1 8-bit RGBA PNG: (128, 0, 255, 255), (255, 255, 255, 128).
     pub(crate) fn write_png(path: &Path) {
@@ -269,7 +297,7 @@ pub(crate) mod tests {
         let dir = temp_dir("tex");
         write_png(&dir.join("a.png"));
         let limits = Limits::default();
-        let mut cache = TextureCache::new(Some(&dir), &limits);
+        let mut cache = TextureCache::new(AssetRoot::dir(Some(&dir)), &limits);
         let i = cache.load("a.png", None, Vec2::ONE, "p").unwrap();
         let t = &cache.textures[i as usize];
         assert_eq!((t.width, t.height), (2, 1));
@@ -298,6 +326,33 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn channels_become_grey_textures() {
+        let dir = temp_dir("channel");
+        write_png(&dir.join("a.png"));
+        let limits = Limits::default();
+        let mut cache = TextureCache::new(AssetRoot::dir(Some(&dir)), &limits);
+        let reference = |channel: &str| TextureRefDesc {
+            texture: "a.png".into(),
+            srgb: Some(false),
+            scale: None,
+            channel: serde_json::from_str(&format!("\"{channel}\"")).unwrap(),
+        };
+        let plain = cache.load("a.png", Some(false), Vec2::ONE, "p").unwrap();
+        let b = cache.load_ref(&reference("b"), "p").unwrap();
+        let a = cache.load_ref(&reference("a"), "p").unwrap();
+        let l = cache.load_ref(&reference("luminance"), "p").unwrap();
+        assert_eq!(cache.load_ref(&reference("b"), "p").unwrap(), b, "shared");
+        assert_eq!(cache.textures.len(), 4);
+        assert_eq!(cache.textures[plain as usize].texels[0][2], 1.0);
+        assert_eq!(cache.textures[b as usize].texels[0], [1.0, 1.0, 1.0, 1.0]);
+        let half = 128.0 / 255.0;
+        assert_eq!(cache.textures[a as usize].texels[1], [half, half, half, 1.0]);
+        let lum = 0.2126 * half + 0.0722;
+        assert!((cache.textures[l as usize].texels[0][0] - lum).abs() < 1e-6);
+        assert!(serde_json::from_str::<TextureRefDesc>(r#"{"texture": "a.png", "channel": "x"}"#).is_err());
+    }
+
+    #[test]
     fn exr_and_errors() {
         let dir = temp_dir("exr");
         exr::prelude::write_rgba_file(dir.join("e.exr"), 3, 2, |x, y| {
@@ -305,7 +360,7 @@ pub(crate) mod tests {
         })
         .unwrap();
         let limits = Limits::default();
-        let mut cache = TextureCache::new(Some(&dir), &limits);
+        let mut cache = TextureCache::new(AssetRoot::dir(Some(&dir)), &limits);
         let i = cache.load("e.exr", None, Vec2::ONE, "p").unwrap();
         let t = &cache.textures[i as usize];
         assert_eq!((t.width, t.height), (3, 2));
@@ -328,7 +383,7 @@ pub(crate) mod tests {
             max_texture_pixels: 5,
             ..Limits::default()
         };
-        let mut cache = TextureCache::new(Some(&dir), &small);
+        let mut cache = TextureCache::new(AssetRoot::dir(Some(&dir)), &small);
         let e = cache.load("e.exr", None, Vec2::ONE, "p").unwrap_err();
         assert!(e.to_string().contains("exceeds the limit"), "{e}");
     }
