@@ -8,6 +8,7 @@ pub mod compile;
 pub mod film;
 pub mod gpu;
 pub mod integrators;
+pub mod import;
 pub mod metrics;
 pub mod render;
 pub mod scene;

@@ -39,6 +39,7 @@ use std::path::Path;
 
 use paths::AssetRoot;
 
+pub(crate) use error::io_message;
 pub use error::SceneError;
 pub use validate::INTEGRATORS;
 

@@ -11,12 +11,14 @@ use super::error::{join_path, SceneError};
 use super::mesh::RawMesh;
 use super::validate::{direction, parallel};
 
-/// Unit-square UVs for the corners origin, +u, +u+v, +v.
+/// UVs for the corners origin, +u, +u+v, +v: Mitsuba's rectangle puts uv (s, t) at
+/// origin + s·eu + t·ev and reads t = 0 from a texture's top row; candela reads v = 1 there
+/// (texel row = (1 − v)·height), so the stored v is 1 − t.
 const QUAD_UVS: [Vec2; 4] = [
-    Vec2::new(0.0, 0.0),
-    Vec2::new(1.0, 0.0),
-    Vec2::new(1.0, 1.0),
     Vec2::new(0.0, 1.0),
+    Vec2::new(1.0, 1.0),
+    Vec2::new(1.0, 0.0),
+    Vec2::new(0.0, 0.0),
 ];
 
 /// Appends the parallelogram origin + s·eu + t·ev as two triangles facing eu × ev.
@@ -250,7 +252,7 @@ mod tests {
         for t in 0..2 {
             assert!((geometric_normal(&m, t) - front).length() < 1e-12);
         }
-        assert_eq!(m.uvs.as_ref().unwrap()[2], Vec2::ONE);
+        assert_eq!(m.uvs.as_ref().unwrap()[2], Vec2::X, "Mitsuba's t = 1 is candela's v = 0");
         assert_eq!(m.positions[2], DVec3::new(3.0, 0.0, 2.0));
         let d: QuadDesc = serde_json::from_str(
             r#"{"origin": [0, 0, 0], "edge_u": [1, 0, 0], "edge_v": [-2, 0, 0]}"#,

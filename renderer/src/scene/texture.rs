@@ -168,6 +168,31 @@ impl<'a> TextureCache<'a> {
     }
 }
 
+/// Decodes the texture file `rel` (written at `path`) as the loader would, without caching:
+/// (width, height, linear RGBA texels). Importers derive new textures from these.
+pub(crate) fn decode_file(
+    root: AssetRoot<'_>,
+    rel: &str,
+    srgb: Option<bool>,
+    limits: &Limits,
+    path: &str,
+) -> Result<(u32, u32, Vec<[f32; 4]>), SceneError> {
+    paths::check_relative(rel, path)?;
+    let format = Format::from_name(rel).ok_or_else(|| {
+        SceneError::invalid(path, format!("\"{rel}\": unsupported texture format"))
+    })?;
+    let asset = paths::resolve(root, rel, path)?;
+    let bytes = paths::read(root, &asset, path)?;
+    decode(
+        &bytes,
+        &asset,
+        format,
+        srgb.unwrap_or(format.default_srgb()),
+        limits,
+        path,
+    )
+}
+
 /// Decodes a file's bytes to (width, height, linear RGBA texels).
 fn decode(
     bytes: &[u8],

@@ -32,8 +32,14 @@ pub fn run_bench(
     progress: &mut dyn FnMut(&str),
 ) -> Result<BenchReport, BenchError> {
     // Step 1: scene, integrators, given reference, film size.
-    let scene = renderer::scene::load_file(&cfg.scene)
-        .map_err(|e| BenchError::Input(format!("{}: {e}", cfg.scene.display())))?;
+    let loaded = renderer::import::load_file(&cfg.scene, &cfg.import).map_err(|e| match e {
+        renderer::scene::SceneError::Import { .. } => BenchError::Input(e.to_string()),
+        e => BenchError::Input(format!("{}: {e}", cfg.scene.display())),
+    })?;
+    for w in &loaded.warnings {
+        progress(&format!("warning: {w}"));
+    }
+    let scene = loaded.scene;
     let options = integrator_options(&cfg.integrators)?;
     let given = match &cfg.reference {
         Some(path) => Some(read_exr(path).map_err(|e| BenchError::Input(e.to_string()))?),

@@ -56,6 +56,8 @@ pub struct BenchConfig {
     pub device: Option<String>,
     /// Where the reference is written when rendered (`DIR/reference.exr`).
     pub out_dir: PathBuf,
+    /// How a scene file of another format is imported.
+    pub import: renderer::import::ImportOptions,
 }
 
 /// Why a benchmark failed: bad input (exit 2) or anything else (exit 1).

@@ -18,7 +18,7 @@ use crate::benchmark::{
 /// Arguments of `candela bench`.
 #[derive(Debug, Args)]
 pub struct BenchArgs {
-    /// Scene file (JSON, see docs/scene-format.md).
+    /// Scene file: candela JSON (docs/scene-format.md) or any format of docs/import.md.
     pub scene: PathBuf,
     /// Reference image (EXR); default: render one with nee at --reference-spp.
     #[arg(long, value_name = "REF.exr")]
@@ -47,6 +47,8 @@ pub struct BenchArgs {
     /// Use the first Vulkan device whose name contains this text.
     #[arg(long)]
     pub device: Option<String>,
+    #[command(flatten)]
+    pub import: super::scene_file::ImportArgs,
 }
 
 /// Longest budget accepted, seconds.
@@ -107,6 +109,7 @@ fn config(a: &BenchArgs) -> Result<BenchConfig, CliError> {
         reference_spp: a.reference_spp,
         device: a.device.clone(),
         out_dir: a.out.clone(),
+        import: a.import.options()?,
     })
 }
 

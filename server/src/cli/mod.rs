@@ -2,7 +2,9 @@
 
 mod bench;
 mod compare;
+mod convert;
 mod render;
+mod scene_file;
 mod serve;
 
 use clap::{Parser, Subcommand};
@@ -50,6 +52,8 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Compare two images (EXR) with MSE, relMSE, PSNR, SSIM and FLIP.
     Compare(compare::CompareArgs),
+    /// Convert a scene: any format to candela JSON, or candela JSON to Mitsuba 3 XML.
+    Convert(convert::ConvertArgs),
     /// List the Vulkan devices candela can use.
     Devices {
         /// Print JSON.
@@ -64,6 +68,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Serve(a) => serve::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Compare(a) => compare::run(a),
+        Command::Convert(a) => convert::run(a),
         Command::Devices { json } => {
             let devices =
                 renderer::gpu::list_devices().map_err(|e| CliError::failure(e.to_string()))?;

@@ -19,7 +19,8 @@ const MAX_PIXELS: u64 = 64 * 1024 * 1024;
 
 #[derive(Debug, Args)]
 pub struct RenderArgs {
-    /// Scene file (JSON, see docs/scene-format.md).
+    /// Scene file: candela JSON (docs/scene-format.md), Mitsuba 3 XML, glTF, pbrt or .scn
+    /// (docs/import.md).
     pub scene: PathBuf,
     /// Output image: .exr (linear float RGB) or .png (exposure, tonemap, sRGB).
     #[arg(short, long)]
@@ -69,6 +70,8 @@ pub struct RenderArgs {
     /// Always build the acceleration structure; read and write no cache.
     #[arg(long)]
     pub no_accel_cache: bool,
+    #[command(flatten)]
+    pub import: super::scene_file::ImportArgs,
 }
 
 /// The per-user accel cache: $XDG_CACHE_HOME/candela/accel, else ~/.cache/candela/accel; None
@@ -149,8 +152,7 @@ fn check_args(a: &RenderArgs) -> Result<(), CliError> {
 pub fn run(a: RenderArgs) -> Result<(), CliError> {
     check_args(&a)?;
     // Step 1: the scene.
-    let scene = renderer::scene::load_file(&a.scene)
-        .map_err(|e| CliError::input(format!("{}: {e}", a.scene.display())))?;
+    let scene = super::scene_file::load_scene(&a.scene, &a.import)?;
     let name = a
         .integrator
         .clone()

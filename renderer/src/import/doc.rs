@@ -1,0 +1,235 @@
+//! The candela scene document an importer builds (docs/scene-format.md), as a JSON value, with
+//! the files it made held in memory (meshes as PLY, embedded or derived images) and, for each
+//! material, object and light, the place in the source it came from, so that an error the loader
+//! finds later can still name the source file and line.
+
+use std::collections::{BTreeMap, HashMap, HashSet};
+
+use serde_json::{json, Map, Value};
+
+use super::derived;
+use super::diag::Loc;
+use super::meshes;
+use crate::film::Image;
+use crate::scene::mesh::RawMesh;
+use crate::scene::paths::AssetRoot;
+use crate::scene::{Limits, MemoryAssets, SceneError};
+
+/// The folder name under which files held in memory are named (`_imported/mesh_3.ply`);
+/// `candela convert` renames it to `<output stem>_assets/`.
+pub const MEMORY_DIR: &str = "_imported";
+
+/// A scene document under construction.
+#[derive(Debug, Default)]
+pub(crate) struct Doc {
+    pub camera: Map<String, Value>,
+    pub film: Map<String, Value>,
+    pub render: Map<String, Value>,
+    pub environment: Option<Value>,
+    materials: Vec<(String, Value)>,
+    /// Serialised material → its name (identical materials are shared).
+    by_content: HashMap<String, String>,
+    names: HashSet<String>,
+    objects: Vec<Value>,
+    lights: Vec<Value>,
+    pub assets: MemoryAssets,
+    /// (JSON path prefix, source place) of what was added.
+    pub origins: Vec<(String, Loc)>,
+}
+
+impl Doc {
+    pub fn new() -> Self {
+        Doc::default()
+    }
+
+    /// Adds a material (or finds an identical one) under a name derived from `hint`; returns it.
+    pub fn material(&mut self, hint: &str, m: Value, loc: &Loc) -> String {
+        let key = m.to_string();
+        if let Some(name) = self.by_content.get(&key) {
+            return name.clone();
+        }
+        let base = clean_name(hint);
+        let mut name = base.clone();
+        let mut n = 2;
+        while self.names.contains(&name) {
+            name = format!("{base}_{n}");
+            n += 1;
+        }
+        self.names.insert(name.clone());
+        self.by_content.insert(key, name.clone());
+        self.origins.push((format!("materials.{name}"), loc.clone()));
+        self.materials.push((name.clone(), m));
+        name
+    }
+
+    /// The material named `name` (as added).
+    pub fn material_value(&self, name: &str) -> Option<&Value> {
+        self.materials.iter().find(|(n, _)| n == name).map(|(_, m)| m)
+    }
+
+    /// Adds an object.
+    pub fn object(&mut self, o: Value, loc: &Loc) {
+        self.origins
+            .push((format!("objects[{}]", self.objects.len()), loc.clone()));
+        self.objects.push(o);
+    }
+
+    /// Adds a light.
+    pub fn light(&mut self, l: Value, loc: &Loc) {
+        self.origins
+            .push((format!("lights[{}]", self.lights.len()), loc.clone()));
+        self.lights.push(l);
+    }
+
+    /// Number of objects so far.
+    pub fn object_count(&self) -> usize {
+        self.objects.len()
+    }
+
+    /// Holds a file in memory under `_imported/<hint>.<ext>` (made unique); returns that path.
+    pub fn file(&mut self, hint: &str, ext: &str, bytes: Vec<u8>) -> String {
+        let base = clean_name(hint);
+        let mut name = format!("{MEMORY_DIR}/{base}.{ext}");
+        let mut n = 2;
+        while self.assets.contains_key(&name) {
+            name = format!("{MEMORY_DIR}/{base}_{n}.{ext}");
+            n += 1;
+        }
+        self.assets.insert(name.clone(), bytes);
+        name
+    }
+
+    /// Holds a mesh in memory as PLY; returns a `mesh` object for it (no material yet). Flat
+    /// shading when the mesh has no normals (face normals, as glTF and pbrt require).
+    pub fn mesh_object(&mut self, hint: &str, mesh: &RawMesh) -> Value {
+        let smooth = mesh.normals.is_some();
+        let file = self.file(hint, "ply", meshes::to_ply(mesh));
+        json!({"type": "mesh", "file": file, "smooth": smooth})
+    }
+
+    /// A texture derived from `rel` (resolved against `dir` and the files held so far) by
+    /// applying `f` to each linear RGBA texel, held in memory as EXR; returns its path.
+    pub fn derived_texture(
+        &mut self,
+        dir: &std::path::Path,
+        rel: &str,
+        srgb: Option<bool>,
+        hint: &str,
+        f: impl Fn([f32; 4]) -> [f32; 3],
+    ) -> Result<String, SceneError> {
+        let root = AssetRoot {
+            dir: Some(dir),
+            memory: Some(&self.assets),
+        };
+        let image: Image = derived::derive(root, rel, srgb, &Limits::default(), f)?;
+        let bytes = crate::film::encode_exr(&image).map_err(|e| SceneError::Decode {
+            path: String::new(),
+            file: rel.to_string(),
+            msg: e.to_string(),
+        })?;
+        Ok(self.file(hint, "exr", bytes))
+    }
+
+    /// The finished document and its files.
+    pub fn finish(self) -> (Value, MemoryAssets, Vec<(String, Loc)>) {
+        let mut doc = Map::new();
+        doc.insert("version".into(), json!(1));
+        doc.insert("camera".into(), Value::Object(self.camera));
+        if !self.film.is_empty() {
+            doc.insert("film".into(), Value::Object(self.film));
+        }
+        let materials: Map<String, Value> = self.materials.into_iter().collect();
+        doc.insert("materials".into(), Value::Object(materials));
+        doc.insert("objects".into(), Value::Array(self.objects));
+        if !self.lights.is_empty() {
+            doc.insert("lights".into(), Value::Array(self.lights));
+        }
+        if let Some(e) = self.environment {
+            doc.insert("environment".into(), e);
+        }
+        if !self.render.is_empty() {
+            doc.insert("render".into(), Value::Object(self.render));
+        }
+        (Value::Object(doc), self.assets, self.origins)
+    }
+}
+
+/// A name usable as a material name and a file name: letters, digits, `_` and `-`.
+fn clean_name(hint: &str) -> String {
+    let s: String = hint
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .take(48)
+        .collect();
+    if s.is_empty() || s.starts_with(|c: char| c.is_ascii_digit() || c == '-') {
+        format!("m_{s}")
+    } else {
+        s
+    }
+}
+
+/// Walks every string of a document that names a file (`file`, `texture`) and maps it.
+pub(crate) fn map_file_names(v: &mut Value, f: &mut dyn FnMut(&str) -> Option<String>) {
+    match v {
+        Value::Object(m) => {
+            for (k, x) in m.iter_mut() {
+                match x {
+                    Value::String(s) if k == "file" || k == "texture" => {
+                        if let Some(new) = f(s) {
+                            *s = new;
+                        }
+                    }
+                    _ => map_file_names(x, f),
+                }
+            }
+        }
+        Value::Array(a) => a.iter_mut().for_each(|x| map_file_names(x, f)),
+        _ => {}
+    }
+}
+
+/// Every file name a document refers to, in order, once each.
+pub(crate) fn file_names(v: &Value) -> Vec<String> {
+    let mut v = v.clone();
+    let mut seen = BTreeMap::new();
+    let mut order = Vec::new();
+    map_file_names(&mut v, &mut |s| {
+        if seen.insert(s.to_string(), ()).is_none() {
+            order.push(s.to_string());
+        }
+        None
+    });
+    order
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Arc;
+
+    #[test]
+    fn materials_are_shared_and_named_uniquely() {
+        let file: Arc<str> = Arc::from("a.xml");
+        let loc = Loc::new(&file, Some(3));
+        let mut d = Doc::new();
+        let a = d.material("red wall", json!({"type": "diffuse"}), &loc);
+        let b = d.material("red wall", json!({"type": "diffuse"}), &loc);
+        let c = d.material("red wall", json!({"type": "diffuse", "reflectance": 1}), &loc);
+        assert_eq!((a.as_str(), b.as_str(), c.as_str()), ("red_wall", "red_wall", "red_wall_2"));
+        assert_eq!(clean_name("3d"), "m_3d");
+        let f1 = d.file("mesh", "ply", vec![1]);
+        let f2 = d.file("mesh", "ply", vec![2]);
+        assert_eq!((f1.as_str(), f2.as_str()), ("_imported/mesh.ply", "_imported/mesh_2.ply"));
+        d.object(json!({"type": "mesh", "file": f1, "material": a}), &loc);
+        let (doc, assets, origins) = d.finish();
+        assert_eq!(assets.len(), 2);
+        assert_eq!(origins.last().unwrap().0, "objects[0]");
+        assert_eq!(file_names(&doc), vec!["_imported/mesh.ply".to_string()]);
+    }
+}
