@@ -7,9 +7,9 @@
 //! below 3× the expected noise (half the seed-to-seed relMSE of each renderer, summed) plus 2e-4; mean
 //! FLIP below 0.1. Scenes Mitsuba cannot express are skipped with a message, never silently.
 
-use candela_tests::{mitsuba_available, render_mitsuba, render_scene, scene_path, scratch};
-use renderer::metrics::{downsample_box, flip, rel_mse, REL_MSE_FORMULA};
-use renderer::scene::Tonemap;
+use candela_tests::{
+    assert_matches_mitsuba, mitsuba_available, render_mitsuba, render_scene, scene_path, scratch,
+};
 
 const W: u32 = 32;
 const H: u32 = 32;
@@ -29,31 +29,11 @@ fn compare(name: &str) {
     let (c1, stats) = render_scene(&path, "nee", SPP_CANDELA, W, H, 11, None);
     let (c2, _) = render_scene(&path, "nee", SPP_CANDELA, W, H, 12, None);
     renderer::film::write_exr(&dir.join("candela.exr"), &c1).unwrap();
-    let block = |a, b| rel_mse(&downsample_box(a, 4), &downsample_box(b, 4)).unwrap();
-    let full = rel_mse(&c1, &mi).unwrap();
-    let blocked = block(&c1, &mi);
-    let noise_c = block(&c1, &c2) / 2.0;
-    let noise_m = block(&mi, &mi2) / 2.0;
-    let fl = flip(&c1, &mi, 0.0, Tonemap::Clamp).unwrap();
-    let (mc, mm) = (c1.mean(), mi.mean());
-    println!(
-        "{name} {W}x{H}: candela nee {SPP_CANDELA} spp ({:.2} Msamples/s on {}) vs Mitsuba {SPP_MITSUBA} spp: relMSE {full:.3e}, 4x4-block relMSE {blocked:.3e} (noise {:.3e}), FLIP {fl:.4}; means candela {mc:.4?} mitsuba {mm:.4?}; relMSE = {REL_MSE_FORMULA}",
-        stats.msamples_per_s, stats.device.name, noise_c + noise_m
+    let what = format!(
+        "candela nee {SPP_CANDELA} spp ({:.2} Msamples/s on {}) vs Mitsuba {SPP_MITSUBA} spp",
+        stats.msamples_per_s, stats.device.name
     );
-    for c in 0..3 {
-        if mm[c] > 1e-3 {
-            assert!(
-                (mc[c] / mm[c] - 1.0).abs() < 0.02,
-                "{name}: means differ: candela {mc:?} mitsuba {mm:?}"
-            );
-        }
-    }
-    assert!(
-        blocked < 3.0 * (noise_c + noise_m) + 2e-4,
-        "{name}: block relMSE {blocked:.3e} vs noise {:.3e}",
-        noise_c + noise_m
-    );
-    assert!(fl < 0.1, "{name}: FLIP {fl}");
+    assert_matches_mitsuba(name, [&c1, &c2], [&mi, &mi2], &what);
 }
 
 #[test]
