@@ -105,8 +105,17 @@ pub(crate) fn import(path: &Path, opts: &ImportOptions) -> ImportResult {
         .filter(|&c| tree.nodes[c].tag == "sensor")
         .collect();
     scene::sensor(&mut ctx, &sensors)?;
-    for &c in children.iter().filter(|&&c| tree.nodes[c].tag == "integrator") {
+    let integrators: Vec<usize> = children
+        .iter()
+        .copied()
+        .filter(|&c| tree.nodes[c].tag == "integrator")
+        .collect();
+    for &c in &integrators {
         scene::integrator(&mut ctx, c)?;
+    }
+    if integrators.is_empty() {
+        // Mitsuba's default integrator: path, unbounded depth.
+        ctx.doc.render.insert("max_depth".into(), serde_json::json!(-1));
     }
     // Step 2: everything else in document order.
     for &c in &children {
