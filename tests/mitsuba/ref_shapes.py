@@ -4,9 +4,11 @@ Each object becomes one Mitsuba shape, instantiated here (so ref_scene.py knows 
 with its material's BSDF and, for emissive materials, an `area` emitter. Raises Untranslatable
 (exit 2) or SceneError (exit 1).
 """
+import json
 import os
 import struct
 
+import drjit as dr
 import mitsuba as mi
 
 from ref_common import (SceneError, Untranslatable, add, check_fields, cross, dot, flat, length,
@@ -152,7 +154,24 @@ class Shapes:
             if len(names) != 1 or face_first:  # Mitsuba's obj plugin ignores usemtl
                 raise Untranslatable(f"{path}: mesh relies on OBJ usemtl ({len(names)} names)")
             mat = names.pop()
+        if ext == ".ply" and "texture" in json.dumps((self.scene.get("materials") or {}).get(mat)):
+            full = self.ply_flipped_v(full)
         return {"type": ext[1:], "filename": full, "face_normals": not smooth}, mat
+
+    def ply_flipped_v(self, full):
+        """Mitsuba's PLY loader puts v = 0 on a texture's top row, candela's on the bottom row:
+        a textured PLY is handed to Mitsuba as a copy with v → 1 - v."""
+        mesh = mi.load_dict({"type": "ply", "filename": full})
+        params = mi.traverse(mesh)
+        uv = params["vertex_texcoords"]
+        if len(uv) == 0:
+            return full
+        k = dr.arange(dr.scalar.ArrayXu, len(uv))
+        params["vertex_texcoords"] = dr.select(k % 2 == 1, 1.0 - uv, uv)
+        params.update()
+        out = os.path.join(self.tmp, f"flipped_{len(os.listdir(self.tmp))}.ply")
+        mesh.write_ply(out)
+        return out
 
     def triangles(self, o, path, i):
         pos = flat(o.get("positions"), 3, f"{path}.positions")

@@ -89,3 +89,31 @@ fn plastic_approximation_error_is_within_its_documented_bound() {
         "plastic: block relMSE {blocked:.3e}"
     );
 }
+
+/// `candela convert IN.json OUT.xml` must say what tests/mitsuba/ref_*.py says: Mitsuba renders
+/// the exported XML like the reference translator's scene (both Mitsuba, so only noise differs).
+#[test]
+fn exported_xml_renders_like_the_reference_translator() {
+    assert!(mitsuba_available(), "Mitsuba 3 is not installed");
+    const SPP: u32 = 1024;
+    for name in ["cornell", "textured_mesh", "envmap", "lights"] {
+        let json = candela_tests::scene_path(&format!("{name}.json"));
+        let dir = scratch(&format!("export_{name}"));
+        let mut imp = renderer::import::import_file(&json, &ImportOptions::default()).unwrap();
+        imp.doc["film"]["width"] = SIZE.into();
+        imp.doc["film"]["height"] = SIZE.into();
+        let xml = dir.join(format!("{name}.xml"));
+        renderer::import::mitsuba::export::write_xml(&imp, &xml).unwrap();
+        let xml_render = |seed: u64| {
+            render_mitsuba_xml(&xml, &dir.join(format!("xml{seed}.exr")), SPP, seed, &[])
+                .expect("mitsuba render of the exported XML")
+        };
+        let reference = |seed: u64| {
+            candela_tests::render_mitsuba(&json, &dir.join(format!("ref{seed}.exr")), SPP, SIZE, SIZE, seed, None)
+                .expect("mitsuba render through ref_scene.py")
+        };
+        let (x1, x2, r1, r2) = (xml_render(1), xml_render(2), reference(3), reference(4));
+        let what = format!("Mitsuba {SPP} spp of the exported XML vs of tests/mitsuba/ref_scene.py's translation");
+        assert_matches_mitsuba(&format!("{name} export"), [&x1, &x2], [&r1, &r2], &what);
+    }
+}

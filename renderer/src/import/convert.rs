@@ -53,35 +53,49 @@ pub fn materialize(
             .then(|| format!("{assets}/{}", key.strip_prefix(&prefix).unwrap_or(&key)))
     });
     // Step 2: the scene's own files, when the JSON goes to another folder.
-    let same = match (dir.canonicalize(), imp.base.canonicalize()) {
+    written.extend(copy_referenced(&imp.doc, &imp.base, dir, &imp.assets)?);
+    let text = serde_json::to_string_pretty(&doc).unwrap_or_default() + "\n";
+    Ok((text, written))
+}
+
+/// Copies the files `doc` names (other than those in `memory`) from `base` to `dir`, keeping
+/// their relative paths, unless `dir` is `base`; refuses to overwrite a different file.
+pub fn copy_referenced(
+    doc: &serde_json::Value,
+    base: &Path,
+    dir: &Path,
+    memory: &crate::scene::MemoryAssets,
+) -> Result<Vec<PathBuf>, ConvertError> {
+    let same = match (dir.canonicalize(), base.canonicalize()) {
         (Ok(a), Ok(b)) => a == b,
         _ => false,
     };
-    if !same {
-        for rel in file_names(&imp.doc) {
-            if imp.assets.contains_key(&crate::scene::paths::memory_key(&rel)) {
-                continue;
-            }
-            let (from, to) = (imp.base.join(&rel), dir.join(&rel));
-            if !from.is_file() {
-                continue; // the loader reports it
-            }
-            let data = std::fs::read(&from).map_err(|e| ConvertError::Copy {
-                from: from.display().to_string(),
-                to: to.display().to_string(),
-                msg: e.to_string(),
-            })?;
-            match std::fs::read(&to) {
-                Ok(existing) if existing == data => continue,
-                Ok(_) => return Err(ConvertError::WouldOverwrite(to.display().to_string())),
-                Err(_) => {}
-            }
-            write(&to, &data)?;
-            written.push(to);
-        }
+    let mut written = Vec::new();
+    if same {
+        return Ok(written);
     }
-    let text = serde_json::to_string_pretty(&doc).unwrap_or_default() + "\n";
-    Ok((text, written))
+    for rel in file_names(doc) {
+        if memory.contains_key(&crate::scene::paths::memory_key(&rel)) {
+            continue;
+        }
+        let (from, to) = (base.join(&rel), dir.join(&rel));
+        if !from.is_file() {
+            continue; // the loader reports it
+        }
+        let data = std::fs::read(&from).map_err(|e| ConvertError::Copy {
+            from: from.display().to_string(),
+            to: to.display().to_string(),
+            msg: e.to_string(),
+        })?;
+        match std::fs::read(&to) {
+            Ok(existing) if existing == data => continue,
+            Ok(_) => return Err(ConvertError::WouldOverwrite(to.display().to_string())),
+            Err(_) => {}
+        }
+        write(&to, &data)?;
+        written.push(to);
+    }
+    Ok(written)
 }
 
 /// Writes `imp` as candela JSON at `out` (its files beside it); returns every file written.

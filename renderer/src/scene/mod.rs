@@ -24,7 +24,7 @@ pub(crate) mod ply;
 mod ply_body;
 pub(crate) mod shapes;
 pub(crate) mod texture;
-mod transform;
+pub(crate) mod transform;
 mod validate;
 
 #[cfg(test)]
@@ -39,7 +39,7 @@ use std::path::Path;
 
 use paths::AssetRoot;
 
-pub(crate) use error::io_message;
+pub(crate) use error::{io_message, key_path};
 pub use error::SceneError;
 pub use validate::INTEGRATORS;
 
