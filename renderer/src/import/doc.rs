@@ -62,11 +62,6 @@ impl Doc {
         name
     }
 
-    /// The material named `name` (as added).
-    pub fn material_value(&self, name: &str) -> Option<&Value> {
-        self.materials.iter().find(|(n, _)| n == name).map(|(_, m)| m)
-    }
-
     /// Adds an object.
     pub fn object(&mut self, o: Value, loc: &Loc) {
         self.origins
@@ -79,11 +74,6 @@ impl Doc {
         self.origins
             .push((format!("lights[{}]", self.lights.len()), loc.clone()));
         self.lights.push(l);
-    }
-
-    /// Number of objects so far.
-    pub fn object_count(&self) -> usize {
-        self.objects.len()
     }
 
     /// Holds a file in memory under `_imported/<hint>.<ext>` (made unique); returns that path.

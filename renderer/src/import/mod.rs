@@ -18,6 +18,7 @@ pub mod convert;
 mod derived;
 mod diag;
 mod doc;
+mod files;
 pub mod gltf;
 mod meshes;
 pub mod mitsuba;

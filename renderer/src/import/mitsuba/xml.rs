@@ -9,10 +9,11 @@
 //! folder, then the scene's folder, and must stay inside the scene's folder.
 
 use std::collections::HashMap;
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use super::super::diag::Loc;
+use super::super::files::{resolve_in, to_slash};
 use crate::scene::SceneError;
 
 /// Deepest `<include>` nesting accepted (Mitsuba's default limit is 15).
@@ -62,55 +63,6 @@ impl Tree {
             .map(|p| to_slash(&p))
             .map_err(|msg| n.loc.error(msg))
     }
-}
-
-/// `a/b` with forward slashes.
-pub(crate) fn to_slash(p: &Path) -> String {
-    p.components()
-        .filter_map(|c| match c {
-            Component::Normal(s) => Some(s.to_string_lossy().into_owned()),
-            _ => None,
-        })
-        .collect::<Vec<_>>()
-        .join("/")
-}
-
-/// `name` (relative, `/` or `\` separated) against `dir` (relative to `scene_dir`), else against
-/// the scene's folder: the first that exists, else the first. Errors say why not.
-pub(crate) fn resolve_in(scene_dir: &Path, dir: &Path, name: &str) -> Result<PathBuf, String> {
-    if name.is_empty() {
-        return Err("empty file name".into());
-    }
-    let p = Path::new(name);
-    if p.is_absolute() || p.has_root() || name.starts_with(['/', '\\']) || name.contains(':') {
-        return Err(format!(
-            "\"{name}\": absolute paths are not allowed; give a path relative to the scene folder"
-        ));
-    }
-    let normalize = |start: &Path| -> Option<PathBuf> {
-        let mut out: Vec<String> = to_slash(start).split('/').filter(|s| !s.is_empty()).map(String::from).collect();
-        for part in name.split(['/', '\\']) {
-            match part {
-                "" | "." => {}
-                ".." => {
-                    out.pop()?;
-                }
-                p => out.push(p.to_string()),
-            }
-        }
-        Some(out.iter().collect())
-    };
-    let here = normalize(dir);
-    let top = normalize(Path::new(""));
-    let candidates: Vec<PathBuf> = [here, top].into_iter().flatten().collect();
-    if candidates.is_empty() {
-        return Err(format!("\"{name}\" leaves the scene folder"));
-    }
-    Ok(candidates
-        .iter()
-        .find(|c| scene_dir.join(c).exists())
-        .unwrap_or(&candidates[0])
-        .clone())
 }
 
 /// Parses `path` (the scene file) with `params` (`-D name=value`).
