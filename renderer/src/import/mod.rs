@@ -24,6 +24,8 @@ mod meshes;
 pub mod mitsuba;
 pub mod pbrt;
 pub mod scn;
+#[cfg(test)]
+pub(crate) mod test_util;
 mod xform;
 
 use std::path::{Path, PathBuf};

@@ -8,9 +8,9 @@ use std::path::{Path, PathBuf};
 use base64::Engine as _;
 use serde_json::{json, Value};
 
+use crate::import::test_util::assert_same_scene;
 use crate::import::{import_file, load_file, ImportOptions};
 use crate::scene::paths::tests::temp_dir;
-use crate::scene::Scene;
 
 fn grad_png() -> Vec<u8> {
     std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/import/mitsuba/grad.png")).unwrap()
@@ -163,33 +163,6 @@ pub(crate) fn equivalent_json(dir: &Path) -> PathBuf {
     path
 }
 
-/// Field-by-field equality of two loaded scenes (texels included).
-pub(crate) fn assert_same(a: &Scene, b: &Scene) {
-    let c = (&a.camera, &b.camera);
-    assert_eq!((c.0.position, c.0.up, c.0.fov_y), (c.1.position, c.1.up, c.1.fov_y));
-    assert!((c.0.look_at - c.1.look_at).length() < 1e-12);
-    assert_eq!((a.film.width, a.film.height), (b.film.width, b.film.height));
-    assert_eq!(a.materials, b.materials);
-    assert_eq!(a.textures.len(), b.textures.len());
-    for (s, t) in a.textures.iter().zip(&b.textures) {
-        assert_eq!((s.width, s.height, s.scale, &s.texels), (t.width, t.height, t.scale, &t.texels));
-    }
-    assert_eq!(a.meshes.len(), b.meshes.len());
-    for (m, n) in a.meshes.iter().zip(&b.meshes) {
-        assert_eq!(m.indices, n.indices);
-        assert_eq!(m.materials, n.materials);
-        for (p, q) in m.positions.iter().zip(&n.positions) {
-            assert!((*p - *q).length() < 1e-12, "{p} vs {q}");
-        }
-        assert_eq!(m.normals, n.normals);
-        assert_eq!(m.uvs, n.uvs);
-    }
-    assert_eq!(a.lights.len(), b.lights.len());
-    for (l, m) in a.lights.iter().zip(&b.lights) {
-        assert_eq!(format!("{l:?}"), format!("{m:?}"));
-    }
-}
-
 #[test]
 fn every_form_loads_to_the_equivalent_json_scene() {
     let (dir, forms) = write_forms();
@@ -197,7 +170,7 @@ fn every_form_loads_to_the_equivalent_json_scene() {
     for path in forms {
         let loaded = load_file(&path, &ImportOptions::default()).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
-        assert_same(&loaded.scene, &reference);
+        assert_same_scene(&loaded.scene, &reference);
     }
 }
 

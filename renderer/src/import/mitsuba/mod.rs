@@ -33,6 +33,8 @@ use crate::scene::{Limits, SceneError};
 use props::Plugin;
 use xml::Tree;
 
+pub(crate) use tables::conductor as named_conductor;
+
 
 /// A converted BSDF.
 #[derive(Debug, Clone)]
