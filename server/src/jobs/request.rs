@@ -43,6 +43,9 @@ pub struct JobRequest {
     /// `"grid"` or `{"type": "grid", "grid_resolution": 64}` (default: the scene's
     /// `render.accel`, else `"bvh"`).
     pub accel: Option<Value>,
+    /// For an uploaded scene file of another format (Mitsuba XML, glTF, pbrt, .scn): import what
+    /// candela cannot express as `warning` events and skip it, instead of refusing the scene.
+    pub lenient: Option<bool>,
 }
 
 /// Where the scene comes from besides the request's own fields.

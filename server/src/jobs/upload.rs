@@ -1,12 +1,16 @@
 //! Scene uploads (`multipart/form-data` on `POST /api/jobs`): a `job` part (the JSON settings,
-//! as the JSON body but without `scene`/`scene_name`), then either a `scene` part (the scene
-//! JSON) plus one part per asset file, named by its path relative to the scene (`-F
+//! as the JSON body but without `scene`/`scene_name`), then either a `scene` part (the scene:
+//! candela JSON, or a file of another format of docs/import.md, recognised by its file name or
+//! content) plus one part per asset file, named by its path relative to the scene (`-F
 //! assets/wood.png=@wood.png`), or an `archive` part: a .tar, .tar.gz or .zip of the scene
-//! folder with `scene.json` at its root (or inside its single top-level folder).
+//! folder with `scene.json` — or one scene file of another format — at its root (or inside its
+//! single top-level folder).
 //!
 //! Everything is unpacked into a fresh folder under `<data>/tmp`, with every path checked (no
 //! absolute paths, no `..`, no links) and the total size and file count limited, before the
-//! scene is loaded; the folder is removed on any failure.
+//! scene is loaded; the folder is removed on any failure. A scene of another format is imported
+//! there (`import_scene`) and stored as the candela JSON it means, with the meshes and images it
+//! held inline written beside it, so a job's scene is always candela JSON.
 
 use std::io::{Read, Write};
 use std::path::{Component, Path, PathBuf};
@@ -35,8 +39,10 @@ impl Drop for TempDir {
 pub struct Upload {
     /// The `job` part (defaults when absent).
     pub job: JobRequest,
-    /// The scene JSON text.
+    /// The scene JSON text (imported when the upload was another format).
     pub scene_json: String,
+    /// The importer's warnings (`--lenient`), one line each.
+    pub warnings: Vec<String>,
     /// The scene's base folder (inside `_root`).
     pub base: PathBuf,
     /// The temporary folder holding everything; removed on drop.
@@ -158,11 +164,9 @@ pub async fn read_multipart(
                 job = Some(parse_request(&bytes)?);
             }
             "scene" => {
+                let file_name = field.file_name().map(str::to_string);
                 let bytes = field.bytes().await.map_err(multipart_error)?;
-                let text = String::from_utf8(bytes.to_vec()).map_err(|_| {
-                    ApiError::invalid("scene", "scene: the scene part is not UTF-8 text")
-                })?;
-                scene = Some(text);
+                scene = Some(scene_part(file_name.as_deref(), bytes.to_vec(), &files, &mut budget)?);
             }
             "archive" => {
                 if has_archive {
@@ -195,7 +199,7 @@ pub async fn read_multipart(
         }
         let (limits, files2, budget_used) =
             (limits.clone(), files.clone(), (budget.files, budget.bytes));
-        let (json, dir) = tokio::task::spawn_blocking(move || {
+        let (found, dir) = tokio::task::spawn_blocking(move || {
             let mut b = Budget {
                 limits: &limits,
                 files: budget_used.0,
@@ -206,21 +210,104 @@ pub async fn read_multipart(
         })
         .await
         .map_err(ApiError::internal)??;
-        scene = Some(json);
+        scene = Some(found);
         base = dir;
     }
-    let scene_json = scene.ok_or_else(|| {
+    let scene = scene.ok_or_else(|| {
         ApiError::invalid(
             "scene",
             "scene: missing: an upload needs a scene part or an archive part with scene.json",
         )
     })?;
+    // Step 3: a scene of another format becomes candela JSON in the upload's folder.
+    let job = job.unwrap_or_default();
+    let (scene_json, warnings) = match scene {
+        SceneFile::Json(text) => (text, Vec::new()),
+        SceneFile::Other(path) => {
+            let (lenient, base2, limits) = (job.lenient.unwrap_or(false), base.clone(), limits.clone());
+            tokio::task::spawn_blocking(move || import_scene(&path, &base2, lenient, limits))
+                .await
+                .map_err(ApiError::internal)??
+        }
+    };
     Ok(Upload {
-        job: job.unwrap_or_default(),
+        job,
         scene_json,
+        warnings,
         base,
         _root: root,
     })
+}
+
+/// The uploaded scene: JSON text, or a file of another format (saved in the upload's folder).
+#[derive(Debug)]
+enum SceneFile {
+    Json(String),
+    Other(PathBuf),
+}
+
+/// A `scene` part: candela JSON stays text; another format (by the part's file name, else by
+/// content) is saved into `files` under its file name, to be imported with the assets.
+fn scene_part(
+    file_name: Option<&str>,
+    bytes: Vec<u8>,
+    files: &Path,
+    budget: &mut Budget<'_>,
+) -> Result<SceneFile, ApiError> {
+    use renderer::import::Format;
+    let named = file_name.and_then(|n| Path::new(n).file_name().map(PathBuf::from));
+    let format = match &named {
+        Some(n) => Format::detect(n, &bytes),
+        None => Format::sniff(&bytes).unwrap_or(Format::Json),
+    };
+    if format == Format::Json {
+        let text = String::from_utf8(bytes)
+            .map_err(|_| ApiError::invalid("scene", "scene: the scene part is not UTF-8 text"))?;
+        return Ok(SceneFile::Json(text));
+    }
+    let ext = match format {
+        Format::Mitsuba => "xml",
+        Format::Gltf if bytes.starts_with(b"glTF") => "glb",
+        Format::Gltf => "gltf",
+        Format::Pbrt => "pbrt",
+        _ => "scn",
+    };
+    let name = named
+        .filter(|n| renderer::import::Format::from_extension(n) == Some(format))
+        .and_then(|n| n.to_str().and_then(safe_relative))
+        .unwrap_or_else(|| PathBuf::from(format!("scene.{ext}")));
+    budget.add_file()?;
+    budget.add_bytes(bytes.len() as u64)?;
+    let path = files.join(name);
+    std::fs::write(&path, bytes).map_err(ApiError::internal)?;
+    Ok(SceneFile::Other(path))
+}
+
+/// Imports the scene file `path` into candela JSON whose assets live in `base` (the files it held
+/// inline are written there, under `<stem>_assets/`). Bad input is 422 naming the file and line.
+fn import_scene(
+    path: &Path,
+    base: &Path,
+    lenient: bool,
+    limits: RequestLimits,
+) -> Result<(String, Vec<String>), ApiError> {
+    let opts = renderer::import::ImportOptions {
+        lenient,
+        limits: limits.scene_limits(),
+        ..Default::default()
+    };
+    let bad = |e: renderer::scene::SceneError| super::request::scene_error(&e, "scene");
+    let imported = renderer::import::import_file(path, &opts).map_err(bad)?;
+    let assets = renderer::import::convert::assets_dir_name(path);
+    let (text, _) = renderer::import::convert::materialize(&imported, base, &assets)
+        .map_err(ApiError::internal)?;
+    let warnings = imported.warnings.iter().map(|w| {
+        // Name the file as the client knows it: relative to the upload.
+        let s = w.to_string();
+        let prefix = format!("{}/", base.display());
+        s.strip_prefix(&prefix).map(str::to_string).unwrap_or(s)
+    });
+    Ok((text, warnings.collect()))
 }
 
 /// The RFC 5987 form of a part's name (`name*=utf-8''assets%2Fwood.png`), which some clients
@@ -257,28 +344,67 @@ fn percent_decode(s: &str) -> Option<String> {
     String::from_utf8(out).ok()
 }
 
-/// `scene.json` at the root of `dir`, or inside its only top-level folder.
-fn find_scene(dir: &Path) -> Result<(String, PathBuf), ApiError> {
-    let read = |d: &Path| std::fs::read(d.join("scene.json")).ok();
+/// The scene file at the root of `dir` (or inside its only top-level folder): `scene.json`,
+/// else `scene.<ext>` of another format, else the only file of another format there.
+fn find_scene(dir: &Path) -> Result<(SceneFile, PathBuf), ApiError> {
     let mut base = dir.to_path_buf();
-    let mut bytes = read(dir);
-    if bytes.is_none() {
+    let mut found = scene_in(dir)?;
+    if found.is_none() {
         let entries: Vec<PathBuf> = std::fs::read_dir(dir)
             .map_err(ApiError::internal)?
             .filter_map(|e| e.ok().map(|e| e.path()))
             .collect();
         if let [only] = entries.as_slice() {
             if only.is_dir() {
-                bytes = read(only);
+                found = scene_in(only)?;
                 base = only.clone();
             }
         }
     }
-    let bytes =
-        bytes.ok_or_else(|| ApiError::invalid("archive", "archive: no scene.json at its root"))?;
-    let text = String::from_utf8(bytes)
-        .map_err(|_| ApiError::invalid("archive", "archive: scene.json is not UTF-8 text"))?;
-    Ok((text, base))
+    let found = found.ok_or_else(|| {
+        ApiError::invalid(
+            "archive",
+            "archive: no scene at its root (scene.json, or one .xml, .gltf, .glb, .pbrt or .scn file)",
+        )
+    })?;
+    Ok((found, base))
+}
+
+/// The scene file directly inside `dir`, if one can be told.
+fn scene_in(dir: &Path) -> Result<Option<SceneFile>, ApiError> {
+    use renderer::import::Format;
+    if let Ok(bytes) = std::fs::read(dir.join("scene.json")) {
+        let text = String::from_utf8(bytes)
+            .map_err(|_| ApiError::invalid("archive", "archive: scene.json is not UTF-8 text"))?;
+        return Ok(Some(SceneFile::Json(text)));
+    }
+    let mut candidates: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(ApiError::internal)?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_file())
+        .filter(|p| matches!(Format::from_extension(p), Some(f) if f != Format::Json))
+        .collect();
+    candidates.sort();
+    let named_scene: Vec<&PathBuf> = candidates
+        .iter()
+        .filter(|p| p.file_stem().is_some_and(|s| s == "scene"))
+        .collect();
+    match (named_scene.as_slice(), candidates.as_slice()) {
+        ([one], _) => Ok(Some(SceneFile::Other((*one).clone()))),
+        ([], [one]) => Ok(Some(SceneFile::Other(one.clone()))),
+        ([], []) => Ok(None),
+        _ => Err(ApiError::invalid(
+            "archive",
+            format!(
+                "archive: several scene files at its root ({}); name the scene scene.<ext>",
+                candidates
+                    .iter()
+                    .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        )),
+    }
 }
 
 fn bad_archive(msg: impl std::fmt::Display) -> ApiError {

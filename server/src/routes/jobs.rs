@@ -150,11 +150,13 @@ pub async fn create(
         .and_then(|v| v.to_str().ok())
         .is_some_and(|ct| ct.starts_with("multipart/form-data"));
     let (builtin, cfg) = (st.config.builtin_dir(), st.config.clone());
+    let mut import_warnings: Vec<String> = Vec::new();
     let (new_job, upload) = if is_multipart {
         let mp = Multipart::from_request(req, &st)
             .await
             .map_err(|e| ApiError::bad_request(format!("upload: {}", e.body_text())))?;
         let mut up = read_multipart(mp, limits, &st.config.tmp_dir()).await?;
+        import_warnings = std::mem::take(&mut up.warnings);
         let input = SceneInput::Uploaded {
             json: up.scene_json.clone(),
             dir: up.base.clone(),
@@ -215,6 +217,9 @@ pub async fn create(
     })
     .await
     .map_err(ApiError::internal)??;
+    for w in &import_warnings {
+        let _ = st.store.append_event(rec.id, "warning", json!({"message": w}));
+    }
     st.shared
         .jobs_submitted
         .fetch_add(1, std::sync::atomic::Ordering::Relaxed);

@@ -248,3 +248,11 @@ fn without_a_camera_one_frames_the_scene() {
     assert!(loaded.warnings[0].msg.contains("no camera"));
     assert!(loaded.scene.camera.position.z > 0.0);
 }
+
+#[test]
+fn the_committed_example_loads_to_its_json_equivalent() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/import/gltf");
+    let loaded = load_file(&dir.join("scene.gltf"), &ImportOptions::default()).unwrap();
+    let reference = crate::scene::load_file(&dir.join("scene.json")).unwrap();
+    assert_same_scene(&loaded.scene, &reference);
+}
