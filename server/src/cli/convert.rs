@@ -25,7 +25,26 @@ pub struct ConvertArgs {
 /// Runs `candela convert`.
 pub fn run(a: ConvertArgs) -> Result<(), CliError> {
     let opts = a.import.options()?;
+    // Step 1: what is asked, before any work.
     let out_format = Format::from_extension(&a.output);
+    let in_format = renderer::import::detect_file(&a.input)
+        .map_err(|e| CliError::input(scene_error(&a.input, &e)))?;
+    match (out_format, in_format) {
+        (Some(Format::Json), _) | (Some(Format::Mitsuba), Format::Json) => {}
+        (Some(Format::Mitsuba), other) => {
+            return Err(CliError::input(format!(
+                "{}: Mitsuba XML is written from candela JSON scenes; convert the {} scene to .json first",
+                a.input.display(),
+                other.name()
+            )))
+        }
+        _ => {
+            return Err(CliError::input(format!(
+                "{}: the output must end in .json (candela) or .xml (Mitsuba 3)",
+                a.output.display()
+            )))
+        }
+    }
     let imported = renderer::import::import_file(&a.input, &opts)
         .map_err(|e| CliError::input(scene_error(&a.input, &e)))?;
     print_warnings(&imported.warnings);
@@ -46,23 +65,8 @@ pub fn run(a: ConvertArgs) -> Result<(), CliError> {
             })?;
             written
         }
-        Some(Format::Mitsuba) => {
-            if imported.format != Format::Json {
-                return Err(CliError::input(format!(
-                    "{}: Mitsuba XML is written from candela JSON scenes; convert the {} scene to .json first",
-                    a.input.display(),
-                    imported.format.name()
-                )));
-            }
-            mitsuba::export::write_xml(&imported, &a.output)
-                .map_err(|e| CliError::input(scene_error(&a.input, &e)))?
-        }
-        _ => {
-            return Err(CliError::input(format!(
-                "{}: the output must end in .json (candela) or .xml (Mitsuba 3)",
-                a.output.display()
-            )))
-        }
+        _ => mitsuba::export::write_xml(&imported, &a.output)
+            .map_err(|e| CliError::input(scene_error(&a.input, &e)))?,
     };
     for path in written {
         println!("wrote {}", path.display());
