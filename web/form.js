@@ -189,6 +189,14 @@ export async function buildJobRequest() {
       const input = $('scene-file');
       const file = input.files[0];
       if (!file) throw { field: input, message: 'Choose a scene file.' };
+      if (!/\.json$/i.test(file.name)) {
+        // Another format (docs/import.md): the server imports it; its files go by their names.
+        const form = new FormData();
+        form.append('job', new Blob([JSON.stringify(settings)], { type: 'application/json' }), 'job.json');
+        form.append('scene', file, file.name);
+        for (const a of $('asset-files').files) form.append(a.name, a, a.name);
+        return { body: form };
+      }
       const text = await file.text();
       parseSceneText(text, file.name); // fail early with a clear message
       const assets = [...$('asset-files').files];

@@ -30,7 +30,7 @@ class Textures:
         self.scene_dir = scene_dir
 
     def _tex(self, t, path, default_srgb):
-        check_fields(t, path, {"texture", "srgb", "scale"}, required=("texture",))
+        check_fields(t, path, {"texture", "srgb", "scale", "channel"}, required=("texture",))
         full = resolve(self.scene_dir, t["texture"], f"{path}.texture")
         srgb = t.get("srgb", default_srgb)
         if not isinstance(srgb, bool):
@@ -40,27 +40,39 @@ class Textures:
         if len(s) != 2:
             raise SceneError(f"{path}.scale: expected [su, sv]")
         su, sv = num(s[0], f"{path}.scale[0]"), num(s[1], f"{path}.scale[1]")
-        return full, srgb, mi.ScalarTransform3f().scale([su, sv])
+        channel = t.get("channel")
+        if channel not in (None, "r", "g", "b", "a", "luminance"):
+            raise SceneError(f"{path}.channel: expected r, g, b, a or luminance")
+        return full, srgb, mi.ScalarTransform3f().scale([su, sv]), channel
 
     def color(self, v, path):
-        """Colour field: number / [r,g,b] → `rgb`; texture → `bitmap` (bilinear, repeat)."""
+        """Colour field: number / [r,g,b] → `rgb`; texture → `bitmap` (bilinear, repeat); a
+        texture with a `channel` → a one-channel bitmap of that channel (grey)."""
         if not is_texture(v):
             return {"type": "rgb", "value": rgb(v, path)}
-        full, srgb, to_uv = self._tex(v, path, True)
+        full, srgb, to_uv, channel = self._tex(v, path, True)
+        if channel is not None:
+            r, w, h, to_uv = self.red(v, path, default_srgb=True)
+            return {"type": "bitmap", "bitmap": mi.Bitmap(dr.scalar.TensorXf(r, (h, w, 1))),
+                    "raw": True, "filter_type": "bilinear", "wrap_mode": "repeat", "to_uv": to_uv}
         return {"type": "bitmap", "filename": full, "raw": not srgb, "filter_type": "bilinear",
                 "wrap_mode": "repeat", "to_uv": to_uv}
 
     def red(self, v, path, default_srgb=False):
-        """A texture's red channel, linear → (drjit.scalar.ArrayXf, width, height, to_uv)."""
-        full, srgb, to_uv = self._tex(v, path, default_srgb)
+        """The channel a scalar reads (`channel`, default red), linear →
+        (drjit.scalar.ArrayXf, width, height, to_uv)."""
+        full, srgb, to_uv, channel = self._tex(v, path, default_srgb)
         bmp = mi.Bitmap(full)
         if not srgb:
             bmp.set_srgb_gamma(False)  # raw: take stored values as they are
-        bmp = bmp.convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32, False)
+        bmp = bmp.convert(mi.Bitmap.PixelFormat.RGBA, mi.Struct.Type.Float32, False)
         data = dr.scalar.TensorXf(bmp).array
         w, h = bmp.width(), bmp.height()
-        r = dr.gather(dr.scalar.ArrayXf, data, dr.arange(dr.scalar.ArrayXu, w * h) * 3)
-        return r, w, h, to_uv
+        base = dr.arange(dr.scalar.ArrayXu, w * h) * 4
+        pick = lambda k: dr.gather(dr.scalar.ArrayXf, data, base + k)
+        if channel == "luminance":
+            return 0.2126 * pick(0) + 0.7152 * pick(1) + 0.0722 * pick(2), w, h, to_uv
+        return pick({"r": 0, "g": 1, "b": 2, "a": 3}[channel or "r"]), w, h, to_uv
 
     def scalar(self, v, path, fn=None):
         """Scalar field: number → float; texture → one-channel `bitmap` of fn(red channel)."""
