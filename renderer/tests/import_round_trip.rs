@@ -50,7 +50,11 @@ fn close3(a: DVec3, b: DVec3, tol: f64) -> bool {
 }
 
 fn same_texture(a: &Texture, b: &Texture, what: &str) {
-    assert_eq!((a.width, a.height, a.scale), (b.width, b.height, b.scale), "{what}");
+    assert_eq!(
+        (a.width, a.height, a.scale),
+        (b.width, b.height, b.scale),
+        "{what}"
+    );
     for (x, y) in a.texels.iter().zip(&b.texels) {
         for c in 0..3 {
             assert!((x[c] - y[c]).abs() < 2e-5, "{what}: texel {x:?} vs {y:?}");
@@ -85,9 +89,18 @@ impl Pair<'_> {
             }
             (ScalarParam::Texture(i), ScalarParam::Texture(j)) => {
                 let (s, t) = (&self.a.textures[*i as usize], &self.b.textures[*j as usize]);
-                assert_eq!((s.width, s.height, s.scale), (t.width, t.height, t.scale), "{what}");
+                assert_eq!(
+                    (s.width, s.height, s.scale),
+                    (t.width, t.height, t.scale),
+                    "{what}"
+                );
                 for (p, q) in s.texels.iter().zip(&t.texels) {
-                    assert!((p[0] - q[0]).abs() < 2e-5, "{what}: red {} vs {}", p[0], q[0]);
+                    assert!(
+                        (p[0] - q[0]).abs() < 2e-5,
+                        "{what}: red {} vs {}",
+                        p[0],
+                        q[0]
+                    );
                 }
             }
             _ => panic!("{what}: {x:?} vs {y:?}"),
@@ -96,7 +109,10 @@ impl Pair<'_> {
 
     fn material(&self, x: &Material, y: &Material, what: &str) {
         assert_eq!(x.two_sided, y.two_sided, "{what}.two_sided");
-        assert!((x.emission - y.emission).abs().max_element() < 1e-6, "{what}.emission");
+        assert!(
+            (x.emission - y.emission).abs().max_element() < 1e-6,
+            "{what}.emission"
+        );
         match (&x.alpha_mask, &y.alpha_mask) {
             (None, None) => {}
             (Some(i), Some(j)) => {
@@ -113,8 +129,18 @@ impl Pair<'_> {
                 self.color(p, q, what)
             }
             (
-                K::Conductor { reflectance: r1, roughness: g1, anisotropy: a1, eta_k: e1 },
-                K::Conductor { reflectance: r2, roughness: g2, anisotropy: a2, eta_k: e2 },
+                K::Conductor {
+                    reflectance: r1,
+                    roughness: g1,
+                    anisotropy: a1,
+                    eta_k: e1,
+                },
+                K::Conductor {
+                    reflectance: r2,
+                    roughness: g2,
+                    anisotropy: a2,
+                    eta_k: e2,
+                },
             ) => {
                 self.color(r1, r2, what);
                 self.scalar(g1, g2, what);
@@ -122,14 +148,28 @@ impl Pair<'_> {
                 match (e1, e2) {
                     (None, None) => {}
                     (Some((e, k)), Some((f, l))) => {
-                        assert!((*e - *f).abs().max_element() < 1e-6 && (*k - *l).abs().max_element() < 1e-6, "{what}.eta/k")
+                        assert!(
+                            (*e - *f).abs().max_element() < 1e-6
+                                && (*k - *l).abs().max_element() < 1e-6,
+                            "{what}.eta/k"
+                        )
                     }
                     _ => panic!("{what}.eta_k"),
                 }
             }
             (
-                K::Dielectric { ior: i1, roughness: g1, transmittance: t1, reflectance: r1 },
-                K::Dielectric { ior: i2, roughness: g2, transmittance: t2, reflectance: r2 },
+                K::Dielectric {
+                    ior: i1,
+                    roughness: g1,
+                    transmittance: t1,
+                    reflectance: r1,
+                },
+                K::Dielectric {
+                    ior: i2,
+                    roughness: g2,
+                    transmittance: t2,
+                    reflectance: r2,
+                },
             ) => {
                 assert!((i1 - i2).abs() < 1e-6, "{what}.ior");
                 self.scalar(g1, g2, what);
@@ -137,10 +177,55 @@ impl Pair<'_> {
                 self.color(r1, r2, what);
             }
             (K::Principled { .. }, K::Principled { .. }) => {
-                let (K::Principled { base_color: c1, metallic: m1, roughness: g1, specular: s1, spec_tint: st1, anisotropic: a1, sheen: sh1, sheen_tint: sht1, spec_trans: tr1, ior: i1, subsurface: ss1, clearcoat: cc1, clearcoat_gloss: cg1 },
-                     K::Principled { base_color: c2, metallic: m2, roughness: g2, specular: s2, spec_tint: st2, anisotropic: a2, sheen: sh2, sheen_tint: sht2, spec_trans: tr2, ior: i2, subsurface: ss2, clearcoat: cc2, clearcoat_gloss: cg2 }) = (&x.kind, &y.kind) else { unreachable!() };
+                let (
+                    K::Principled {
+                        base_color: c1,
+                        metallic: m1,
+                        roughness: g1,
+                        specular: s1,
+                        spec_tint: st1,
+                        anisotropic: a1,
+                        sheen: sh1,
+                        sheen_tint: sht1,
+                        spec_trans: tr1,
+                        ior: i1,
+                        subsurface: ss1,
+                        clearcoat: cc1,
+                        clearcoat_gloss: cg1,
+                    },
+                    K::Principled {
+                        base_color: c2,
+                        metallic: m2,
+                        roughness: g2,
+                        specular: s2,
+                        spec_tint: st2,
+                        anisotropic: a2,
+                        sheen: sh2,
+                        sheen_tint: sht2,
+                        spec_trans: tr2,
+                        ior: i2,
+                        subsurface: ss2,
+                        clearcoat: cc2,
+                        clearcoat_gloss: cg2,
+                    },
+                ) = (&x.kind, &y.kind)
+                else {
+                    unreachable!()
+                };
                 self.color(c1, c2, what);
-                for (p, q) in [(m1, m2), (g1, g2), (s1, s2), (st1, st2), (a1, a2), (sh1, sh2), (sht1, sht2), (tr1, tr2), (ss1, ss2), (cc1, cc2), (cg1, cg2)] {
+                for (p, q) in [
+                    (m1, m2),
+                    (g1, g2),
+                    (s1, s2),
+                    (st1, st2),
+                    (a1, a2),
+                    (sh1, sh2),
+                    (sht1, sht2),
+                    (tr1, tr2),
+                    (ss1, ss2),
+                    (cc1, cc2),
+                    (cg1, cg2),
+                ] {
                     self.scalar(p, q, what);
                 }
                 match (i1, i2) {
@@ -160,14 +245,24 @@ impl Pair<'_> {
         assert!(close3(ca.position, cb.position, 1e-9));
         let dir = |c: &renderer::scene::Camera| (c.look_at - c.position).normalize();
         assert!(close3(dir(ca), dir(cb), 1e-9));
-        assert!(close3(dir(ca).cross(ca.up).normalize(), dir(cb).cross(cb.up).normalize(), 1e-9));
+        assert!(close3(
+            dir(ca).cross(ca.up).normalize(),
+            dir(cb).cross(cb.up).normalize(),
+            1e-9
+        ));
         assert!(close(ca.fov_y, cb.fov_y, 1e-9));
         assert!(close(ca.aperture_radius, cb.aperture_radius, 1e-12));
         if ca.aperture_radius > 0.0 {
             assert!(close(ca.focus_distance, cb.focus_distance, 1e-9));
         }
-        assert_eq!((a.film.width, a.film.height, a.film.filter), (b.film.width, b.film.height, b.film.filter));
-        assert_eq!((a.render.max_depth, a.render.spp), (b.render.max_depth, b.render.spp));
+        assert_eq!(
+            (a.film.width, a.film.height, a.film.filter),
+            (b.film.width, b.film.height, b.film.filter)
+        );
+        assert_eq!(
+            (a.render.max_depth, a.render.spp),
+            (b.render.max_depth, b.render.spp)
+        );
         // Geometry, in order, with the material of every triangle by content.
         assert_eq!(a.meshes.len(), b.meshes.len());
         for (i, (m, n)) in a.meshes.iter().zip(&b.meshes).enumerate() {
@@ -177,18 +272,46 @@ impl Pair<'_> {
             }
             match (&m.normals, &n.normals) {
                 (None, None) => {}
-                (Some(x), Some(y)) => assert!(x.iter().zip(y).all(|(p, q)| (*p - *q).abs().max_element() < 1e-5), "mesh {i} normals"),
-                _ => panic!("mesh {i} ({}): normals {} vs {}", m.name, m.normals.is_some(), n.normals.is_some()),
+                (Some(x), Some(y)) => assert!(
+                    x.iter()
+                        .zip(y)
+                        .all(|(p, q)| (*p - *q).abs().max_element() < 1e-5),
+                    "mesh {i} normals"
+                ),
+                _ => panic!(
+                    "mesh {i} ({}): normals {} vs {}",
+                    m.name,
+                    m.normals.is_some(),
+                    n.normals.is_some()
+                ),
             }
-            let textured = |s: &Scene, mat: u32| format!("{:?}", s.materials[mat as usize]).contains("Texture(");
-            if textured(a, m.materials[0]) || m.materials.iter().any(|&t| a.materials[t as usize].alpha_mask.is_some()) {
+            let textured = |s: &Scene, mat: u32| {
+                format!("{:?}", s.materials[mat as usize]).contains("Texture(")
+            };
+            if textured(a, m.materials[0])
+                || m.materials
+                    .iter()
+                    .any(|&t| a.materials[t as usize].alpha_mask.is_some())
+            {
                 let (x, y) = (m.uvs.as_ref().unwrap(), n.uvs.as_ref().unwrap());
-                assert!(x.iter().zip(y).all(|(p, q)| (*p - *q).abs().max_element() < 1e-6), "mesh {i} uvs");
+                assert!(
+                    x.iter()
+                        .zip(y)
+                        .all(|(p, q)| (*p - *q).abs().max_element() < 1e-6),
+                    "mesh {i} uvs"
+                );
             }
             let mut seen = std::collections::HashSet::new();
             for (t, (&p, &q)) in m.materials.iter().zip(&n.materials).enumerate() {
                 if seen.insert((p, q)) {
-                    self.material(&a.materials[p as usize], &b.materials[q as usize], &format!("mesh {i} triangle {t} material {}", a.material_names[p as usize]));
+                    self.material(
+                        &a.materials[p as usize],
+                        &b.materials[q as usize],
+                        &format!(
+                            "mesh {i} triangle {t} material {}",
+                            a.material_names[p as usize]
+                        ),
+                    );
                 }
             }
         }
@@ -196,36 +319,113 @@ impl Pair<'_> {
         for (s, t) in a.spheres.iter().zip(&b.spheres) {
             assert!(close3(s.center, t.center, 1e-9) && close(s.radius, t.radius, 1e-9));
             assert_eq!(s.flip_normals, t.flip_normals);
-            self.material(&a.materials[s.material as usize], &b.materials[t.material as usize], "sphere");
+            self.material(
+                &a.materials[s.material as usize],
+                &b.materials[t.material as usize],
+                "sphere",
+            );
         }
         assert_eq!(a.lights.len(), b.lights.len());
         for (l, m) in a.lights.iter().zip(&b.lights) {
             let (p, q) = (format!("{l:?}"), format!("{m:?}"));
-            assert_eq!(std::mem::discriminant(l), std::mem::discriminant(m), "{p} vs {q}");
+            assert_eq!(
+                std::mem::discriminant(l),
+                std::mem::discriminant(m),
+                "{p} vs {q}"
+            );
             use renderer::scene::Light as L;
             match (l, m) {
-                (L::Point { position: p1, intensity: i1 }, L::Point { position: p2, intensity: i2 }) => {
-                    assert!(close3(*p1, *p2, 1e-9) && (*i1 - *i2).abs().max_element() < 1e-6, "{p} vs {q}")
+                (
+                    L::Point {
+                        position: p1,
+                        intensity: i1,
+                    },
+                    L::Point {
+                        position: p2,
+                        intensity: i2,
+                    },
+                ) => {
+                    assert!(
+                        close3(*p1, *p2, 1e-9) && (*i1 - *i2).abs().max_element() < 1e-6,
+                        "{p} vs {q}"
+                    )
                 }
-                (L::Spot { position: p1, direction: d1, intensity: i1, cutoff_angle: c1, beam_width: b1 }, L::Spot { position: p2, direction: d2, intensity: i2, cutoff_angle: c2, beam_width: b2 }) => {
-                    assert!(close3(*p1, *p2, 1e-9) && close3(*d1, *d2, 1e-9) && (*i1 - *i2).abs().max_element() < 1e-6, "{p} vs {q}");
-                    assert!((c1 - c2).abs() < 1e-5 && (b1 - b2).abs() < 1e-5, "{p} vs {q}");
+                (
+                    L::Spot {
+                        position: p1,
+                        direction: d1,
+                        intensity: i1,
+                        cutoff_angle: c1,
+                        beam_width: b1,
+                    },
+                    L::Spot {
+                        position: p2,
+                        direction: d2,
+                        intensity: i2,
+                        cutoff_angle: c2,
+                        beam_width: b2,
+                    },
+                ) => {
+                    assert!(
+                        close3(*p1, *p2, 1e-9)
+                            && close3(*d1, *d2, 1e-9)
+                            && (*i1 - *i2).abs().max_element() < 1e-6,
+                        "{p} vs {q}"
+                    );
+                    assert!(
+                        (c1 - c2).abs() < 1e-5 && (b1 - b2).abs() < 1e-5,
+                        "{p} vs {q}"
+                    );
                 }
-                (L::Directional { direction: d1, irradiance: i1 }, L::Directional { direction: d2, irradiance: i2 }) => {
-                    assert!(close3(*d1, *d2, 1e-9) && (*i1 - *i2).abs().max_element() < 1e-6, "{p} vs {q}")
+                (
+                    L::Directional {
+                        direction: d1,
+                        irradiance: i1,
+                    },
+                    L::Directional {
+                        direction: d2,
+                        irradiance: i2,
+                    },
+                ) => {
+                    assert!(
+                        close3(*d1, *d2, 1e-9) && (*i1 - *i2).abs().max_element() < 1e-6,
+                        "{p} vs {q}"
+                    )
                 }
                 _ => unreachable!(),
             }
         }
         match (&a.environment, &b.environment) {
             (None, None) => {}
-            (Some(Environment::Constant { radiance: r }), Some(Environment::Constant { radiance: s })) => {
+            (
+                Some(Environment::Constant { radiance: r }),
+                Some(Environment::Constant { radiance: s }),
+            ) => {
                 assert!((*r - *s).abs().max_element() < 1e-6)
             }
-            (Some(Environment::Map { texture: t, scale: s, rotate_y: r }), Some(Environment::Map { texture: u, scale: v, rotate_y: w })) => {
-                assert!((s - v).abs() < 1e-6 && ((r - w + 540.0).rem_euclid(360.0) - 180.0).abs() < 1e-3, "env {s} {r} vs {v} {w}");
+            (
+                Some(Environment::Map {
+                    texture: t,
+                    scale: s,
+                    rotate_y: r,
+                }),
+                Some(Environment::Map {
+                    texture: u,
+                    scale: v,
+                    rotate_y: w,
+                }),
+            ) => {
+                assert!(
+                    (s - v).abs() < 1e-6
+                        && ((r - w + 540.0).rem_euclid(360.0) - 180.0).abs() < 1e-3,
+                    "env {s} {r} vs {v} {w}"
+                );
                 let (t, u) = (&a.textures[*t as usize], &b.textures[*u as usize]);
-                assert_eq!((t.width, 2 * t.height + 1), (u.width, u.height), "resampled to Mitsuba's rows");
+                assert_eq!(
+                    (t.width, 2 * t.height + 1),
+                    (u.width, u.height),
+                    "resampled to Mitsuba's rows"
+                );
             }
             (x, y) => panic!("environment {x:?} vs {y:?}"),
         }
@@ -234,11 +434,24 @@ impl Pair<'_> {
 
 #[test]
 fn repository_scenes_survive_json_to_xml_to_json() {
-    for name in ["cornell", "lights", "furnace", "envmap", "textured_mesh", "thinlens", "mirror_glass"] {
+    for name in [
+        "cornell",
+        "lights",
+        "furnace",
+        "envmap",
+        "textured_mesh",
+        "thinlens",
+        "mirror_glass",
+    ] {
         let dir = scratch(&format!("round_trip_{name}"));
         let (a, b) = round_trip(&repo().join(format!("scenes/{name}.json")), &dir);
         Pair { a: &a, b: &b }.check();
-        println!("{name}: round trip kept the scene ({} meshes, {} spheres, {} materials)", a.meshes.len(), a.spheres.len(), a.materials.len());
+        println!(
+            "{name}: round trip kept the scene ({} meshes, {} spheres, {} materials)",
+            a.meshes.len(),
+            a.spheres.len(),
+            a.materials.len()
+        );
     }
 }
 
@@ -282,7 +495,11 @@ fn textures_channels_masks_and_inline_meshes_survive_the_round_trip() {
         "environment": {"type": "constant", "radiance": [0.1, 0.2, 0.3]},
         "render": {"max_depth": 5, "spp": 32}
     });
-    std::fs::write(dir.join("features.json"), serde_json::to_string_pretty(&scene).unwrap()).unwrap();
+    std::fs::write(
+        dir.join("features.json"),
+        serde_json::to_string_pretty(&scene).unwrap(),
+    )
+    .unwrap();
     let (a, b) = round_trip(&dir.join("features.json"), &dir);
     Pair { a: &a, b: &b }.check();
 }
@@ -291,15 +508,27 @@ fn textures_channels_masks_and_inline_meshes_survive_the_round_trip() {
 fn what_mitsuba_cannot_express_is_refused_with_its_json_path() {
     let dir = scratch("round_trip_refused");
     for (materials, needle) in [
-        (serde_json::json!({"m": {"type": "phong"}}), "materials.m: phong"),
-        (serde_json::json!({"m": {"type": "principled", "subsurface": 0.5}}), "materials.m.subsurface"),
-        (serde_json::json!({"m": {"type": "principled", "specular": 0.9, "ior": 1.5}}), "specular and ior disagree"),
+        (
+            serde_json::json!({"m": {"type": "phong"}}),
+            "materials.m: phong",
+        ),
+        (
+            serde_json::json!({"m": {"type": "principled", "subsurface": 0.5}}),
+            "materials.m.subsurface",
+        ),
+        (
+            serde_json::json!({"m": {"type": "principled", "specular": 0.9, "ior": 1.5}}),
+            "specular and ior disagree",
+        ),
     ] {
         let scene = serde_json::json!({"version": 1, "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0]},
             "materials": materials, "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"}]});
         std::fs::write(dir.join("s.json"), scene.to_string()).unwrap();
         let imp = import_file(&dir.join("s.json"), &ImportOptions::default()).unwrap();
         let e = write_xml(&imp, &dir.join("s.xml")).unwrap_err().to_string();
-        assert!(e.contains(needle) && e.contains("Mitsuba 3 cannot express this exactly"), "{e}");
+        assert!(
+            e.contains(needle) && e.contains("Mitsuba 3 cannot express this exactly"),
+            "{e}"
+        );
     }
 }

@@ -141,6 +141,11 @@ pub fn render_mitsuba(
     if let Some(d) = max_depth {
         cmd.args(["--max-depth", &d.to_string()]);
     }
+    run_mitsuba_script(cmd, out)
+}
+
+/// Runs a tests/mitsuba script that writes `out`, and reads the image back.
+fn run_mitsuba_script(mut cmd: Command, out: &Path) -> anyhow::Result<Image> {
     let o = cmd.output()?;
     anyhow::ensure!(
         o.status.success(),
@@ -171,14 +176,7 @@ pub fn render_mitsuba_xml(
     for (k, v) in defines {
         cmd.arg("-D").arg(format!("{k}={v}"));
     }
-    let o = cmd.output()?;
-    anyhow::ensure!(
-        o.status.success(),
-        "mitsuba failed ({}): {}",
-        o.status,
-        String::from_utf8_lossy(&o.stderr)
-    );
-    Ok(renderer::film::read_exr(out)?)
+    run_mitsuba_script(cmd, out)
 }
 
 /// The verdict of every Mitsuba comparison: candela's two renders (different seeds) against

@@ -11,7 +11,8 @@ const SIZE: u32 = 16;
 const SPP: u32 = 16;
 
 fn render(path: &std::path::Path) -> Image {
-    let loaded = load_file(path, &ImportOptions::default()).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let loaded = load_file(path, &ImportOptions::default())
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     render_loaded(&loaded.scene, "nee", SPP, SIZE, SIZE, 7, None).0
 }
 
@@ -27,25 +28,44 @@ fn max_difference(a: &Image, b: &Image) -> f32 {
 fn imports_render_like_their_json_equivalents_and_convert_round_trips() {
     let _ = gpu();
     for (source, json) in [
-        ("tests/import/gltf/scene.gltf", "tests/import/gltf/scene.json"),
-        ("tests/import/pbrt/scene.pbrt", "tests/import/pbrt/scene.json"),
-        ("tests/import/scn/cornell.scn", "tests/import/scn/cornell.json"),
+        (
+            "tests/import/gltf/scene.gltf",
+            "tests/import/gltf/scene.json",
+        ),
+        (
+            "tests/import/pbrt/scene.pbrt",
+            "tests/import/pbrt/scene.json",
+        ),
+        (
+            "tests/import/scn/cornell.scn",
+            "tests/import/scn/cornell.json",
+        ),
     ] {
         let (src, reference) = (repo_root().join(source), repo_root().join(json));
         let a = render(&src);
         let b = render(&reference);
         let mean = a.mean();
-        assert!(mean.iter().sum::<f64>() > 1e-2, "{source}: a black image {mean:?}");
+        assert!(
+            mean.iter().sum::<f64>() > 1e-2,
+            "{source}: a black image {mean:?}"
+        );
         let d = max_difference(&a, &b);
         println!("{source}: {SIZE}x{SIZE} {SPP} spp nee: largest pixel difference to {json}: {d:e} (means {mean:.4?})");
         assert_eq!(d, 0.0, "{source} renders unlike {json}");
         // `candela convert` writes JSON (meshes in <stem>_assets/) that renders the same.
-        let dir = scratch(&format!("convert_{}", src.file_stem().unwrap().to_string_lossy()));
+        let dir = scratch(&format!(
+            "convert_{}",
+            src.file_stem().unwrap().to_string_lossy()
+        ));
         let out = dir.join("converted.json");
         let o = run_candela(&["convert", src.to_str().unwrap(), out.to_str().unwrap()]);
         assert!(o.status.success(), "convert {source}: {}", text(&o.stderr));
         assert!(text(&o.stdout).contains("wrote"), "{}", text(&o.stdout));
         let c = render(&out);
-        assert_eq!(max_difference(&a, &c), 0.0, "{source}: the converted JSON renders differently");
+        assert_eq!(
+            max_difference(&a, &c),
+            0.0,
+            "{source}: the converted JSON renders differently"
+        );
     }
 }

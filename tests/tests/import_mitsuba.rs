@@ -31,8 +31,14 @@ fn render_both(name: &str) -> ([Image; 2], [Image; 2], String) {
     let res = SIZE.to_string();
     let defines = [("res", res.as_str())];
     let mi = |seed: u64| {
-        render_mitsuba_xml(&path, &dir.join(format!("mitsuba{seed}.exr")), SPP_MITSUBA, seed, &defines)
-            .expect("mitsuba render")
+        render_mitsuba_xml(
+            &path,
+            &dir.join(format!("mitsuba{seed}.exr")),
+            SPP_MITSUBA,
+            seed,
+            &defines,
+        )
+        .expect("mitsuba render")
     };
     let opts = ImportOptions {
         params: vec![("res".into(), res.clone())],
@@ -109,11 +115,21 @@ fn exported_xml_renders_like_the_reference_translator() {
                 .expect("mitsuba render of the exported XML")
         };
         let reference = |seed: u64| {
-            candela_tests::render_mitsuba(&json, &dir.join(format!("ref{seed}.exr")), SPP, SIZE, SIZE, seed, None)
-                .expect("mitsuba render through ref_scene.py")
+            candela_tests::render_mitsuba(
+                &json,
+                &dir.join(format!("ref{seed}.exr")),
+                SPP,
+                SIZE,
+                SIZE,
+                seed,
+                None,
+            )
+            .expect("mitsuba render through ref_scene.py")
         };
         let (x1, x2, r1, r2) = (xml_render(1), xml_render(2), reference(3), reference(4));
-        let what = format!("Mitsuba {SPP} spp of the exported XML vs of tests/mitsuba/ref_scene.py's translation");
+        let what = format!(
+            "Mitsuba {SPP} spp of the exported XML vs of tests/mitsuba/ref_scene.py's translation"
+        );
         assert_matches_mitsuba(&format!("{name} export"), [&x1, &x2], [&r1, &r2], &what);
     }
 }

@@ -204,28 +204,55 @@ fn scenes_of_other_formats_are_imported_on_upload() {
     let s = Server::start(&dir.join("data"), &[]);
 
     // Mitsuba XML as the scene part (recognised by its file name), assets as parts.
-    let files = import_files("mitsuba", &["lights.xml", "grad.png", "mask.png", "quad_uv.ply", "pyramid.serialized", "tile.obj"]);
-    let mut form = Form::new()
-        .part("job", job_part())
-        .part("scene", Part::bytes(files[0].1.clone()).file_name("lights.xml"));
+    let files = import_files(
+        "mitsuba",
+        &[
+            "lights.xml",
+            "grad.png",
+            "mask.png",
+            "quad_uv.ply",
+            "pyramid.serialized",
+            "tile.obj",
+        ],
+    );
+    let mut form = Form::new().part("job", job_part()).part(
+        "scene",
+        Part::bytes(files[0].1.clone()).file_name("lights.xml"),
+    );
     for (name, bytes) in &files[1..] {
-        form = form.part(name.clone(), Part::bytes(bytes.clone()).file_name(name.clone()));
+        form = form.part(
+            name.clone(),
+            Part::bytes(bytes.clone()).file_name(name.clone()),
+        );
     }
     finishes(&s, upload(&s, form));
 
     // pbrt in a .tar.gz: scene.pbrt is chosen over more.pbrt, which it includes.
-    let files = import_files("pbrt", &["scene.pbrt", "more.pbrt", "grad.png", "quad_uv.ply"]);
-    let entries: Vec<(String, &[u8])> = files.iter().map(|(n, b)| (n.clone(), b.as_slice())).collect();
-    finishes(&s, upload(&s, archive_form(tar_gz(&entries), "pbrt.tar.gz")));
+    let files = import_files(
+        "pbrt",
+        &["scene.pbrt", "more.pbrt", "grad.png", "quad_uv.ply"],
+    );
+    let entries: Vec<(String, &[u8])> = files
+        .iter()
+        .map(|(n, b)| (n.clone(), b.as_slice()))
+        .collect();
+    finishes(
+        &s,
+        upload(&s, archive_form(tar_gz(&entries), "pbrt.tar.gz")),
+    );
 
     // .scn in a .zip (the only scene file at its root), glTF as a lone scene part.
     let files = import_files("scn", &["cornell.scn", "box.obj", "grad.png"]);
-    let entries: Vec<(String, &[u8])> = files.iter().map(|(n, b)| (n.clone(), b.as_slice())).collect();
+    let entries: Vec<(String, &[u8])> = files
+        .iter()
+        .map(|(n, b)| (n.clone(), b.as_slice()))
+        .collect();
     finishes(&s, upload(&s, archive_form(zip(&entries), "scn.zip")));
     let gltf = import_files("gltf", &["scene.gltf"]);
-    let form = Form::new()
-        .part("job", job_part())
-        .part("scene", Part::bytes(gltf[0].1.clone()).file_name("scene.gltf"));
+    let form = Form::new().part("job", job_part()).part(
+        "scene",
+        Part::bytes(gltf[0].1.clone()).file_name("scene.gltf"),
+    );
     finishes(&s, upload(&s, form));
 
     // Unsupported: refused with the file and line, or imported with warning events (lenient).
@@ -234,9 +261,16 @@ fn scenes_of_other_formats_are_imported_on_upload() {
         .part("job", job_part())
         .part("scene", Part::text(xml).file_name("hair.xml"));
     let (st, e) = upload(&s, form);
-    assert_eq!((st, e["error"]["code"].as_str()), (422, Some("invalid_scene")), "{e}");
+    assert_eq!(
+        (st, e["error"]["code"].as_str()),
+        (422, Some("invalid_scene")),
+        "{e}"
+    );
     let msg = e["error"]["message"].as_str().unwrap();
-    assert!(msg.contains("hair.xml:3: bsdf \"hair\" is not supported"), "{e}");
+    assert!(
+        msg.contains("hair.xml:3: bsdf \"hair\" is not supported"),
+        "{e}"
+    );
     let job = json!({"spp": 2, "width": 16, "height": 12, "lenient": true}).to_string();
     let form = Form::new()
         .part("job", Part::text(job))
@@ -251,13 +285,28 @@ fn scenes_of_other_formats_are_imported_on_upload() {
         .filter_map(|e| e.data["message"].as_str())
         .collect();
     assert!(
-        warnings.iter().any(|w| w.starts_with("hair.xml:3: bsdf \"hair\" is not supported")),
+        warnings
+            .iter()
+            .any(|w| w.starts_with("hair.xml:3: bsdf \"hair\" is not supported")),
         "{warnings:?}"
     );
 
     // Ambiguous archives are refused.
-    let two = zip(&[("a.xml".into(), xml.as_bytes()), ("b.xml".into(), xml.as_bytes())]);
+    let two = zip(&[
+        ("a.xml".into(), xml.as_bytes()),
+        ("b.xml".into(), xml.as_bytes()),
+    ]);
     let (st, e) = upload(&s, archive_form(two, "two.zip"));
-    assert_eq!((st, e["error"]["path"].as_str()), (422, Some("archive")), "{e}");
-    assert!(e["error"]["message"].as_str().unwrap().contains("several scene files"), "{e}");
+    assert_eq!(
+        (st, e["error"]["path"].as_str()),
+        (422, Some("archive")),
+        "{e}"
+    );
+    assert!(
+        e["error"]["message"]
+            .as_str()
+            .unwrap()
+            .contains("several scene files"),
+        "{e}"
+    );
 }

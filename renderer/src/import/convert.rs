@@ -14,7 +14,11 @@ pub enum ConvertError {
     #[error("cannot write \"{path}\": {msg}")]
     Write { path: String, msg: String },
     #[error("cannot copy \"{from}\" to \"{to}\": {msg}")]
-    Copy { from: String, to: String, msg: String },
+    Copy {
+        from: String,
+        to: String,
+        msg: String,
+    },
     #[error("\"{0}\" exists and differs from the scene's file of that name; convert into another folder")]
     WouldOverwrite(String),
 }

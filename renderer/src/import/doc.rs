@@ -57,7 +57,8 @@ impl Doc {
         }
         self.names.insert(name.clone());
         self.by_content.insert(key, name.clone());
-        self.origins.push((format!("materials.{name}"), loc.clone()));
+        self.origins
+            .push((format!("materials.{name}"), loc.clone()));
         self.materials.push((name.clone(), m));
         name
     }
@@ -210,12 +211,22 @@ mod tests {
         let mut d = Doc::new();
         let a = d.material("red wall", json!({"type": "diffuse"}), &loc);
         let b = d.material("red wall", json!({"type": "diffuse"}), &loc);
-        let c = d.material("red wall", json!({"type": "diffuse", "reflectance": 1}), &loc);
-        assert_eq!((a.as_str(), b.as_str(), c.as_str()), ("red_wall", "red_wall", "red_wall_2"));
+        let c = d.material(
+            "red wall",
+            json!({"type": "diffuse", "reflectance": 1}),
+            &loc,
+        );
+        assert_eq!(
+            (a.as_str(), b.as_str(), c.as_str()),
+            ("red_wall", "red_wall", "red_wall_2")
+        );
         assert_eq!(clean_name("3d"), "m_3d");
         let f1 = d.file("mesh", "ply", vec![1]);
         let f2 = d.file("mesh", "ply", vec![2]);
-        assert_eq!((f1.as_str(), f2.as_str()), ("_imported/mesh.ply", "_imported/mesh_2.ply"));
+        assert_eq!(
+            (f1.as_str(), f2.as_str()),
+            ("_imported/mesh.ply", "_imported/mesh_2.ply")
+        );
         d.object(json!({"type": "mesh", "file": f1, "material": a}), &loc);
         let (doc, assets, origins) = d.finish();
         assert_eq!(assets.len(), 2);

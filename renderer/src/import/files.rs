@@ -29,7 +29,11 @@ pub(crate) fn resolve_in(scene_dir: &Path, dir: &Path, name: &str) -> Result<Pat
         ));
     }
     let normalize = |start: &Path| -> Option<PathBuf> {
-        let mut out: Vec<String> = to_slash(start).split('/').filter(|s| !s.is_empty()).map(String::from).collect();
+        let mut out: Vec<String> = to_slash(start)
+            .split('/')
+            .filter(|s| !s.is_empty())
+            .map(String::from)
+            .collect();
         for part in name.split(['/', '\\']) {
             match part {
                 "" | "." => {}
@@ -61,10 +65,22 @@ mod tests {
     #[test]
     fn names_stay_inside_the_scene_folder() {
         let here = std::env::temp_dir();
-        assert_eq!(resolve_in(&here, Path::new("sub"), "../a.png").unwrap(), PathBuf::from("a.png"));
-        assert_eq!(to_slash(&resolve_in(&here, Path::new("sub"), "t\\b.png").unwrap()), "sub/t/b.png");
-        assert!(resolve_in(&here, Path::new(""), "../a.png").unwrap_err().contains("leaves"));
-        assert!(resolve_in(&here, Path::new(""), "/etc/passwd").unwrap_err().contains("absolute"));
-        assert!(resolve_in(&here, Path::new(""), "C:/x.png").unwrap_err().contains("absolute"));
+        assert_eq!(
+            resolve_in(&here, Path::new("sub"), "../a.png").unwrap(),
+            PathBuf::from("a.png")
+        );
+        assert_eq!(
+            to_slash(&resolve_in(&here, Path::new("sub"), "t\\b.png").unwrap()),
+            "sub/t/b.png"
+        );
+        assert!(resolve_in(&here, Path::new(""), "../a.png")
+            .unwrap_err()
+            .contains("leaves"));
+        assert!(resolve_in(&here, Path::new(""), "/etc/passwd")
+            .unwrap_err()
+            .contains("absolute"));
+        assert!(resolve_in(&here, Path::new(""), "C:/x.png")
+            .unwrap_err()
+            .contains("absolute"));
     }
 }

@@ -3,9 +3,26 @@
 //! when every coordinate is an f32, else `double`), plus the edits importers need: reversed
 //! winding, mirrored texture v, and winding turned to face the shading normals.
 
+use std::path::Path;
+
 use glam::DVec3;
 
-use crate::scene::mesh::RawMesh;
+use crate::scene::mesh::{FileError, RawMesh};
+
+/// The bytes of a mesh file the scene names (`rel` inside `dir`), or a message naming it as
+/// `shown`.
+pub fn read_file(dir: &Path, rel: &str, shown: &str) -> Result<Vec<u8>, String> {
+    std::fs::read(dir.join(rel))
+        .map_err(|e| format!("cannot read \"{shown}\": {}", crate::scene::io_message(&e)))
+}
+
+/// An error inside mesh file `shown`: `shown:LINE: msg` (no line inside binary data).
+pub fn file_error(shown: &str, e: FileError) -> String {
+    match e.line {
+        Some(l) => format!("{shown}:{l}: {}", e.msg),
+        None => format!("{shown}: {}", e.msg),
+    }
+}
 
 /// The mesh as a binary little-endian PLY file.
 pub fn to_ply(mesh: &RawMesh) -> Vec<u8> {

@@ -85,18 +85,36 @@ impl Format {
         }
         if text.starts_with('{') {
             let v: Value = serde_json::from_slice(bytes).ok()?;
-            return Some(if v.get("asset").is_some_and(|a| a.get("version").is_some()) {
-                Format::Gltf
-            } else if v.get("entities").is_some() || v.get("default_material").is_some() {
-                Format::Scn
-            } else {
-                Format::Json
-            });
+            return Some(
+                if v.get("asset").is_some_and(|a| a.get("version").is_some()) {
+                    Format::Gltf
+                } else if v.get("entities").is_some() || v.get("default_material").is_some() {
+                    Format::Scn
+                } else {
+                    Format::Json
+                },
+            );
         }
         const PBRT: &[&str] = &[
-            "LookAt", "Camera", "WorldBegin", "Film", "Sampler", "Integrator", "Shape",
-            "AttributeBegin", "Include", "Import", "Transform", "Translate", "Scale", "Rotate",
-            "MakeNamedMaterial", "Material", "LightSource", "Option", "ColorSpace",
+            "LookAt",
+            "Camera",
+            "WorldBegin",
+            "Film",
+            "Sampler",
+            "Integrator",
+            "Shape",
+            "AttributeBegin",
+            "Include",
+            "Import",
+            "Transform",
+            "Translate",
+            "Scale",
+            "Rotate",
+            "MakeNamedMaterial",
+            "Material",
+            "LightSource",
+            "Option",
+            "ColorSpace",
         ];
         let first = text
             .lines()
@@ -281,15 +299,33 @@ mod tests {
 
     #[test]
     fn formats_by_extension_and_content() {
-        assert_eq!(Format::from_extension(Path::new("a/B.GLB")), Some(Format::Gltf));
-        assert_eq!(Format::from_extension(Path::new("a.xml")), Some(Format::Mitsuba));
+        assert_eq!(
+            Format::from_extension(Path::new("a/B.GLB")),
+            Some(Format::Gltf)
+        );
+        assert_eq!(
+            Format::from_extension(Path::new("a.xml")),
+            Some(Format::Mitsuba)
+        );
         assert_eq!(Format::from_extension(Path::new("a.txt")), None);
         assert_eq!(Format::sniff(b"glTF\x02\0\0\0"), Some(Format::Gltf));
-        assert_eq!(Format::sniff(b"  <?xml version=\"1.0\"?><scene/>"), Some(Format::Mitsuba));
-        assert_eq!(Format::sniff(br#"{"asset": {"version": "2.0"}}"#), Some(Format::Gltf));
-        assert_eq!(Format::sniff(br#"{"version": 1, "camera": {}}"#), Some(Format::Json));
+        assert_eq!(
+            Format::sniff(b"  <?xml version=\"1.0\"?><scene/>"),
+            Some(Format::Mitsuba)
+        );
+        assert_eq!(
+            Format::sniff(br#"{"asset": {"version": "2.0"}}"#),
+            Some(Format::Gltf)
+        );
+        assert_eq!(
+            Format::sniff(br#"{"version": 1, "camera": {}}"#),
+            Some(Format::Json)
+        );
         assert_eq!(Format::sniff(br#"{"entities": []}"#), Some(Format::Scn));
-        assert_eq!(Format::sniff(b"# a pbrt file\nLookAt 0 0 5  0 0 0  0 1 0\n"), Some(Format::Pbrt));
+        assert_eq!(
+            Format::sniff(b"# a pbrt file\nLookAt 0 0 5  0 0 0  0 1 0\n"),
+            Some(Format::Pbrt)
+        );
         assert_eq!(Format::sniff(b"hello"), None);
         assert_eq!(Format::detect(Path::new("x"), b"hello"), Format::Json);
     }

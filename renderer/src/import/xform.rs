@@ -142,12 +142,17 @@ mod tests {
         );
         let c = camera_frame(&m, DVec3::Z, DVec3::Y).unwrap();
         assert_eq!(c.position, origin);
-        assert_eq!(c.look_at, DVec3::new(0.0, 0.0, 4.0), "one unit along the view");
+        assert_eq!(
+            c.look_at,
+            DVec3::new(0.0, 0.0, 4.0),
+            "one unit along the view"
+        );
         // Mitsuba's image right is local −x.
         assert!(!mirrors_image(&m, -DVec3::X, DVec3::Z, DVec3::Y));
         let mirrored = m * DMat4::from_scale(DVec3::new(-1.0, 1.0, 1.0));
         assert!(mirrors_image(&mirrored, -DVec3::X, DVec3::Z, DVec3::Y));
-        let sheared = DMat4::from_cols(DVec4::X, DVec4::new(0.0, 1.0, 1.0, 0.0), DVec4::Z, DVec4::W);
+        let sheared =
+            DMat4::from_cols(DVec4::X, DVec4::new(0.0, 1.0, 1.0, 0.0), DVec4::Z, DVec4::W);
         assert_eq!(
             camera_frame(&sheared, DVec3::Z, DVec3::Y),
             Err(FrameError::NotRigid)

@@ -42,11 +42,7 @@ pub(crate) fn parse(json: &str) -> Result<SceneDesc, SceneError> {
 }
 
 /// Loads a scene from JSON text; see `scene::load_str_with_limits`.
-pub(crate) fn load(
-    json: &str,
-    root: AssetRoot<'_>,
-    limits: &Limits,
-) -> Result<Scene, SceneError> {
+pub(crate) fn load(json: &str, root: AssetRoot<'_>, limits: &Limits) -> Result<Scene, SceneError> {
     let desc = parse(json)?;
     let _version_checked = desc.version;
     let camera = validate::camera(&desc.camera)?;

@@ -39,8 +39,8 @@ use std::path::Path;
 
 use paths::AssetRoot;
 
-pub(crate) use error::{io_message, key_path};
 pub use error::SceneError;
+pub(crate) use error::{io_message, key_path};
 pub use validate::INTEGRATORS;
 
 /// Limits applied during load: absurd sizes are errors, not allocations.

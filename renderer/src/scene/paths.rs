@@ -192,7 +192,9 @@ pub(crate) mod tests {
             e.to_string(),
             "objects[0].file: cannot read \"missing.obj\": No such file or directory"
         );
-        let e = resolve(AssetRoot::dir(None), "a.obj", "p").unwrap_err().to_string();
+        let e = resolve(AssetRoot::dir(None), "a.obj", "p")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("no folder"), "{e}");
     }
 
@@ -217,7 +219,10 @@ pub(crate) mod tests {
         };
         assert!(resolve(no_dir, "sub/m.ply", "p").is_ok());
         assert!(resolve(no_dir, "other.ply", "p").is_err());
-        assert!(resolve(no_dir, "../m.ply", "p").is_err(), "escapes are refused first");
+        assert!(
+            resolve(no_dir, "../m.ply", "p").is_err(),
+            "escapes are refused first"
+        );
     }
 
     #[cfg(unix)]

@@ -252,7 +252,11 @@ mod tests {
         for t in 0..2 {
             assert!((geometric_normal(&m, t) - front).length() < 1e-12);
         }
-        assert_eq!(m.uvs.as_ref().unwrap()[2], Vec2::X, "Mitsuba's t = 1 is candela's v = 0");
+        assert_eq!(
+            m.uvs.as_ref().unwrap()[2],
+            Vec2::X,
+            "Mitsuba's t = 1 is candela's v = 0"
+        );
         assert_eq!(m.positions[2], DVec3::new(3.0, 0.0, 2.0));
         let d: QuadDesc = serde_json::from_str(
             r#"{"origin": [0, 0, 0], "edge_u": [1, 0, 0], "edge_v": [-2, 0, 0]}"#,

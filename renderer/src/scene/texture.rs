@@ -87,7 +87,13 @@ impl<'a> TextureCache<'a> {
                 s
             }
         };
-        self.load_channel(&r.texture, r.srgb, scale, r.channel, &join_path(path, "texture"))
+        self.load_channel(
+            &r.texture,
+            r.srgb,
+            scale,
+            r.channel,
+            &join_path(path, "texture"),
+        )
     }
 
     /// Loads `rel` (written at `path`) with an explicit or default sRGB flag and a UV scale.
@@ -371,10 +377,16 @@ pub(crate) mod tests {
         assert_eq!(cache.textures[plain as usize].texels[0][2], 1.0);
         assert_eq!(cache.textures[b as usize].texels[0], [1.0, 1.0, 1.0, 1.0]);
         let half = 128.0 / 255.0;
-        assert_eq!(cache.textures[a as usize].texels[1], [half, half, half, 1.0]);
+        assert_eq!(
+            cache.textures[a as usize].texels[1],
+            [half, half, half, 1.0]
+        );
         let lum = 0.2126 * half + 0.0722;
         assert!((cache.textures[l as usize].texels[0][0] - lum).abs() < 1e-6);
-        assert!(serde_json::from_str::<TextureRefDesc>(r#"{"texture": "a.png", "channel": "x"}"#).is_err());
+        assert!(
+            serde_json::from_str::<TextureRefDesc>(r#"{"texture": "a.png", "channel": "x"}"#)
+                .is_err()
+        );
     }
 
     #[test]

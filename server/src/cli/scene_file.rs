@@ -29,11 +29,7 @@ impl ImportArgs {
         for d in &self.define {
             match d.split_once('=') {
                 Some((k, v)) if !k.is_empty() => params.push((k.to_string(), v.to_string())),
-                _ => {
-                    return Err(CliError::input(format!(
-                        "-D {d}: expected NAME=VALUE"
-                    )))
-                }
+                _ => return Err(CliError::input(format!("-D {d}: expected NAME=VALUE"))),
             }
         }
         Ok(ImportOptions {

@@ -166,7 +166,12 @@ pub async fn read_multipart(
             "scene" => {
                 let file_name = field.file_name().map(str::to_string);
                 let bytes = field.bytes().await.map_err(multipart_error)?;
-                scene = Some(scene_part(file_name.as_deref(), bytes.to_vec(), &files, &mut budget)?);
+                scene = Some(scene_part(
+                    file_name.as_deref(),
+                    bytes.to_vec(),
+                    &files,
+                    &mut budget,
+                )?);
             }
             "archive" => {
                 if has_archive {
@@ -224,7 +229,8 @@ pub async fn read_multipart(
     let (scene_json, warnings) = match scene {
         SceneFile::Json(text) => (text, Vec::new()),
         SceneFile::Other(path) => {
-            let (lenient, base2, limits) = (job.lenient.unwrap_or(false), base.clone(), limits.clone());
+            let (lenient, base2, limits) =
+                (job.lenient.unwrap_or(false), base.clone(), limits.clone());
             tokio::task::spawn_blocking(move || import_scene(&path, &base2, lenient, limits))
                 .await
                 .map_err(ApiError::internal)??

@@ -218,7 +218,9 @@ pub async fn create(
     .await
     .map_err(ApiError::internal)??;
     for w in &import_warnings {
-        let _ = st.store.append_event(rec.id, "warning", json!({"message": w}));
+        let _ = st
+            .store
+            .append_event(rec.id, "warning", json!({"message": w}));
     }
     st.shared
         .jobs_submitted

@@ -23,7 +23,9 @@ pub(super) fn material(ctx: &mut Ctx, m: &::gltf::Material) -> Result<String, Sc
     let (path, hint) = match m.index() {
         Some(i) => (
             format!("materials[{i}]"),
-            m.name().map(String::from).unwrap_or_else(|| format!("material_{i}")),
+            m.name()
+                .map(String::from)
+                .unwrap_or_else(|| format!("material_{i}")),
         ),
         None => ("the default material".into(), "default".into()),
     };
@@ -33,7 +35,12 @@ pub(super) fn material(ctx: &mut Ctx, m: &::gltf::Material) -> Result<String, Sc
     Ok(name)
 }
 
-fn convert(ctx: &mut Ctx, m: &::gltf::Material, path: &str, hint: &str) -> Result<Value, SceneError> {
+fn convert(
+    ctx: &mut Ctx,
+    m: &::gltf::Material,
+    path: &str,
+    hint: &str,
+) -> Result<Value, SceneError> {
     let pbr = m.pbr_metallic_roughness();
     let mut out = Map::new();
     out.insert("type".into(), json!("principled"));
@@ -41,9 +48,19 @@ fn convert(ctx: &mut Ctx, m: &::gltf::Material, path: &str, hint: &str) -> Resul
     let [r, g, b, a] = pbr.base_color_factor().map(|x| x as f64);
     let base = match pbr.base_color_texture() {
         None => Some(grey_or_rgb([r, g, b])),
-        Some(info) => texture(ctx, &info, &format!("{path}.pbrMetallicRoughness.baseColorTexture"), &format!("{hint}_base_color"), Texel::Rgb([r, g, b]), None)?,
+        Some(info) => texture(
+            ctx,
+            &info,
+            &format!("{path}.pbrMetallicRoughness.baseColorTexture"),
+            &format!("{hint}_base_color"),
+            Texel::Rgb([r, g, b]),
+            None,
+        )?,
     };
-    out.insert("base_color".into(), base.unwrap_or_else(|| grey_or_rgb([r, g, b])));
+    out.insert(
+        "base_color".into(),
+        base.unwrap_or_else(|| grey_or_rgb([r, g, b])),
+    );
     let (metallic, roughness) = (pbr.metallic_factor() as f64, pbr.roughness_factor() as f64);
     match pbr.metallic_roughness_texture() {
         None => {
@@ -52,8 +69,22 @@ fn convert(ctx: &mut Ctx, m: &::gltf::Material, path: &str, hint: &str) -> Resul
         }
         Some(info) => {
             let p = format!("{path}.pbrMetallicRoughness.metallicRoughnessTexture");
-            let mt = texture(ctx, &info, &p, &format!("{hint}_metallic"), Texel::Channel(2, metallic), Some(false))?;
-            let rt = texture(ctx, &info, &p, &format!("{hint}_roughness"), Texel::Channel(1, roughness), Some(false))?;
+            let mt = texture(
+                ctx,
+                &info,
+                &p,
+                &format!("{hint}_metallic"),
+                Texel::Channel(2, metallic),
+                Some(false),
+            )?;
+            let rt = texture(
+                ctx,
+                &info,
+                &p,
+                &format!("{hint}_roughness"),
+                Texel::Channel(1, roughness),
+                Some(false),
+            )?;
             out.insert("metallic".into(), mt.unwrap_or(json!(metallic)));
             out.insert("roughness".into(), rt.unwrap_or(json!(roughness)));
         }
@@ -66,7 +97,14 @@ fn convert(ctx: &mut Ctx, m: &::gltf::Material, path: &str, hint: &str) -> Resul
         let f = t.transmission_factor() as f64;
         let v = match t.transmission_texture() {
             None => Some(json!(f)),
-            Some(info) => texture(ctx, &info, &format!("{path}.extensions.KHR_materials_transmission.transmissionTexture"), &format!("{hint}_transmission"), Texel::Channel(0, f), Some(false))?,
+            Some(info) => texture(
+                ctx,
+                &info,
+                &format!("{path}.extensions.KHR_materials_transmission.transmissionTexture"),
+                &format!("{hint}_transmission"),
+                Texel::Channel(0, f),
+                Some(false),
+            )?,
         };
         if let Some(v) = v.filter(|v| v != &json!(0.0)) {
             out.insert("spec_trans".into(), v);
@@ -167,7 +205,11 @@ fn texture(
         scale = [su, sv];
     }
     if set != 0 {
-        ctx.report.unsupported(&at, &format!("texture coordinate set {set} is not supported (only TEXCOORD_0)"), "the texture is ignored")?;
+        ctx.report.unsupported(
+            &at,
+            &format!("texture coordinate set {set} is not supported (only TEXCOORD_0)"),
+            "the texture is ignored",
+        )?;
         return Ok(None);
     }
     let tex = info.texture();
@@ -205,11 +247,13 @@ fn texture(
         }
     } else {
         let dir = ctx.dir.clone();
-        let derived = ctx.doc.derived_texture(&dir, &file, srgb, hint, move |t| match texel {
-            Texel::Rgb(f) => [t[0] * f[0] as f32, t[1] * f[1] as f32, t[2] * f[2] as f32],
-            Texel::Channel(c, f) => [t[c] * f as f32; 3],
-            Texel::Mask(a, cutoff) => [if t[3] as f64 * a >= cutoff { 1.0 } else { 0.0 }; 3],
-        })?;
+        let derived = ctx
+            .doc
+            .derived_texture(&dir, &file, srgb, hint, move |t| match texel {
+                Texel::Rgb(f) => [t[0] * f[0] as f32, t[1] * f[1] as f32, t[2] * f[2] as f32],
+                Texel::Channel(c, f) => [t[c] * f as f32; 3],
+                Texel::Mask(a, cutoff) => [if t[3] as f64 * a >= cutoff { 1.0 } else { 0.0 }; 3],
+            })?;
         r.insert("texture".into(), json!(derived));
     }
     if scale != [1.0, 1.0] {
@@ -230,7 +274,10 @@ fn image_file(ctx: &mut Ctx, image: &::gltf::Image) -> Result<Option<String>, Sc
         "image/jpeg" => Some("jpg"),
         _ => None,
     };
-    let hint = image.name().map(String::from).unwrap_or_else(|| format!("image{}", image.index()));
+    let hint = image
+        .name()
+        .map(String::from)
+        .unwrap_or_else(|| format!("image{}", image.index()));
     let file = match image.source() {
         ::gltf::image::Source::View { view, mime_type } => match ext_of_mime(mime_type) {
             Some(ext) => {
@@ -260,7 +307,11 @@ fn image_file(ctx: &mut Ctx, image: &::gltf::Image) -> Result<Option<String>, Sc
         }
     };
     if file.is_none() {
-        ctx.report.unsupported(&at, "only PNG and JPEG images are supported", "the texture is ignored")?;
+        ctx.report.unsupported(
+            &at,
+            "only PNG and JPEG images are supported",
+            "the texture is ignored",
+        )?;
     }
     ctx.images.insert(image.index(), file.clone());
     Ok(file)

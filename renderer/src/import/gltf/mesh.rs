@@ -36,7 +36,10 @@ fn build(
     use ::gltf::mesh::Mode;
     let at = ctx.at(path);
     let mode = prim.mode();
-    if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+    if !matches!(
+        mode,
+        Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+    ) {
         ctx.report.unsupported(
             &at,
             &format!("primitive mode {mode:?} is not supported (triangles, strips and fans are)"),
@@ -54,15 +57,17 @@ fn build(
             .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))
             .collect();
         let n = positions.len();
-        let normals: Option<Vec<DVec3>> = reader
-            .read_normals()
-            .map(|it| it.map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)).collect());
+        let normals: Option<Vec<DVec3>> = reader.read_normals().map(|it| {
+            it.map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))
+                .collect()
+        });
         let uvs: Option<Vec<Vec2>> = reader
             .read_tex_coords(0)
             .map(|t| t.into_f32().map(|[u, v]| Vec2::new(u, 1.0 - v)).collect());
-        let white = reader
-            .read_colors(0)
-            .is_none_or(|c| c.into_rgba_f32().all(|[r, g, b, _]| r >= 0.999 && g >= 0.999 && b >= 0.999));
+        let white = reader.read_colors(0).is_none_or(|c| {
+            c.into_rgba_f32()
+                .all(|[r, g, b, _]| r >= 0.999 && g >= 0.999 && b >= 0.999)
+        });
         let list: Vec<u32> = match reader.read_indices() {
             Some(i) => i.into_u32().collect(),
             None => (0..n as u32).collect(),
@@ -70,7 +75,9 @@ fn build(
         if let Some(&bad) = list.iter().find(|&&i| i as usize >= n) {
             return Err(at.error(format!("index {bad} out of range ({n} vertices)")));
         }
-        if normals.as_ref().is_some_and(|v| v.len() != n) || uvs.as_ref().is_some_and(|v| v.len() != n) {
+        if normals.as_ref().is_some_and(|v| v.len() != n)
+            || uvs.as_ref().is_some_and(|v| v.len() != n)
+        {
             return Err(at.error("attribute counts differ from POSITION's"));
         }
         let indices = triangles(&list, mode);
@@ -92,11 +99,8 @@ fn build(
         )
     };
     if !white {
-        ctx.report.unsupported(
-            &at,
-            "vertex colours (COLOR_0) are not supported",
-            "ignored",
-        )?;
+        ctx.report
+            .unsupported(&at, "vertex colours (COLOR_0) are not supported", "ignored")?;
     }
     if raw.indices.is_empty() {
         return Ok(None);
@@ -139,8 +143,14 @@ mod tests {
 
     #[test]
     fn strips_and_fans() {
-        assert_eq!(triangles(&[0, 1, 2, 3], Mode::TriangleStrip), vec![[0, 1, 2], [2, 1, 3]]);
-        assert_eq!(triangles(&[0, 1, 2, 3], Mode::TriangleFan), vec![[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(
+            triangles(&[0, 1, 2, 3], Mode::TriangleStrip),
+            vec![[0, 1, 2], [2, 1, 3]]
+        );
+        assert_eq!(
+            triangles(&[0, 1, 2, 3], Mode::TriangleFan),
+            vec![[0, 1, 2], [0, 2, 3]]
+        );
         assert_eq!(triangles(&[0, 1, 2, 3], Mode::Triangles), vec![[0, 1, 2]]);
     }
 }

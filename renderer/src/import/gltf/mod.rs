@@ -85,8 +85,8 @@ pub(crate) fn import(path: &Path, opts: &ImportOptions) -> ImportResult {
     } else {
         (bytes, None)
     };
-    let mut root: ::gltf::json::Root = ::gltf::json::deserialize::from_slice(&json_bytes)
-        .map_err(|e| {
+    let mut root: ::gltf::json::Root =
+        ::gltf::json::deserialize::from_slice(&json_bytes).map_err(|e| {
             Loc::new(&file, Some(e.line()))
                 .error(format!("glTF JSON error at column {}: {e}", e.column()))
         })?;
@@ -100,7 +100,8 @@ pub(crate) fn import(path: &Path, opts: &ImportOptions) -> ImportResult {
             )?;
         }
     }
-    root.extensions_required.retain(|e| SUPPORTED.contains(&e.as_str()));
+    root.extensions_required
+        .retain(|e| SUPPORTED.contains(&e.as_str()));
     for ext in &root.extensions_used {
         if !SUPPORTED.contains(&ext.as_str()) && !root.extensions_required.contains(ext) {
             report.warn(&whole, format!("extension {ext} is not supported: ignored"));
@@ -131,7 +132,10 @@ pub(crate) fn import(path: &Path, opts: &ImportOptions) -> ImportResult {
         primitives: HashMap::new(),
     };
     // Step 3: the scene's nodes.
-    let scene = match document.default_scene().or_else(|| document.scenes().next()) {
+    let scene = match document
+        .default_scene()
+        .or_else(|| document.scenes().next())
+    {
         Some(s) => s,
         None => return Err(whole.error("the file has no scene")),
     };
@@ -150,12 +154,16 @@ pub(crate) fn import(path: &Path, opts: &ImportOptions) -> ImportResult {
             if let Some(a) = aspect {
                 let w = (FILM_HEIGHT * a).round().max(1.0);
                 ctx.doc.film.insert("width".into(), json!(w as u64));
-                ctx.doc.film.insert("height".into(), json!(FILM_HEIGHT as u64));
+                ctx.doc
+                    .film
+                    .insert("height".into(), json!(FILM_HEIGHT as u64));
             }
         }
         None => {
-            ctx.report
-                .warn(&whole, "no camera: one is placed in front of the scene (+Z), framing it");
+            ctx.report.warn(
+                &whole,
+                "no camera: one is placed in front of the scene (+Z), framing it",
+            );
             ctx.doc.camera = framing_camera(walk.bounds);
         }
     }
@@ -211,7 +219,9 @@ pub(crate) fn read_uri(uri: &str, dir: &Path) -> Result<Vec<u8>, String> {
 /// A file URI as a path relative to the glTF's folder (which it may not leave).
 pub(crate) fn relative_uri(uri: &str, dir: &Path) -> Result<PathBuf, String> {
     if uri.contains("://") {
-        return Err(format!("\"{uri}\": only files beside the glTF and data URIs are supported"));
+        return Err(format!(
+            "\"{uri}\": only files beside the glTF and data URIs are supported"
+        ));
     }
     let decoded = percent_encoding::percent_decode_str(uri)
         .decode_utf8()
@@ -227,30 +237,54 @@ struct Walk {
 }
 
 impl Walk {
-    fn node(&mut self, ctx: &mut Ctx, node: &::gltf::Node, parent: &DMat4) -> Result<(), SceneError> {
+    fn node(
+        &mut self,
+        ctx: &mut Ctx,
+        node: &::gltf::Node,
+        parent: &DMat4,
+    ) -> Result<(), SceneError> {
         let path = format!("nodes[{}]", node.index());
         self.depth += 1;
         if self.depth > 256 {
-            return Err(ctx.at(&path).error("nodes nested more than 256 deep (a cycle?)"));
+            return Err(ctx
+                .at(&path)
+                .error("nodes nested more than 256 deep (a cycle?)"));
         }
         let local = node.transform().matrix();
         let m = *parent * DMat4::from_cols_array_2d(&local.map(|c| c.map(|x| x as f64)));
         if node.skin().is_some() {
-            ctx.report.unsupported(&ctx.at(&path), "skinning is not supported", "the mesh is placed in its bind pose")?;
+            ctx.report.unsupported(
+                &ctx.at(&path),
+                "skinning is not supported",
+                "the mesh is placed in its bind pose",
+            )?;
         }
-        if let Some(w) = node.weights().or_else(|| node.mesh().and_then(|mesh| mesh.weights())) {
+        if let Some(w) = node
+            .weights()
+            .or_else(|| node.mesh().and_then(|mesh| mesh.weights()))
+        {
             if w.iter().any(|&x| x != 0.0) {
-                ctx.report.unsupported(&ctx.at(&path), "morph target weights are not supported", "the base shape is used")?;
+                ctx.report.unsupported(
+                    &ctx.at(&path),
+                    "morph target weights are not supported",
+                    "the base shape is used",
+                )?;
             }
         }
         if let Some(mesh) = node.mesh() {
             for prim in mesh.primitives() {
-                let Some(mut o) = mesh::primitive(ctx, &mesh, &prim)? else { continue };
+                let Some(mut o) = mesh::primitive(ctx, &mesh, &prim)? else {
+                    continue;
+                };
                 if let Some(t) = transform_value(&m) {
                     o["transform"] = t;
                 }
                 self.grow(ctx, &mesh, &prim, &m);
-                let loc = ctx.at(&format!("meshes[{}].primitives[{}]", mesh.index(), prim.index()));
+                let loc = ctx.at(&format!(
+                    "meshes[{}].primitives[{}]",
+                    mesh.index(),
+                    prim.index()
+                ));
                 ctx.doc.object(o, &loc);
             }
         }
@@ -281,21 +315,37 @@ impl Walk {
         }
     }
 
-    fn camera(&mut self, ctx: &mut Ctx, cam: &::gltf::Camera, m: &DMat4, path: &str) -> Result<(), SceneError> {
+    fn camera(
+        &mut self,
+        ctx: &mut Ctx,
+        cam: &::gltf::Camera,
+        m: &DMat4,
+        path: &str,
+    ) -> Result<(), SceneError> {
         let at = ctx.at(&format!("cameras[{}]", cam.index()));
         if self.camera.is_some() {
             ctx.report.warn(&at, "only the first camera is used");
             return Ok(());
         }
         let ::gltf::camera::Projection::Perspective(p) = cam.projection() else {
-            return ctx.report.unsupported(&at, "an orthographic camera is not supported", "skipped");
+            return ctx.report.unsupported(
+                &at,
+                "an orthographic camera is not supported",
+                "skipped",
+            );
         };
         // glTF cameras look down −Z with +Y up and +X to the right of the image.
         if mirrors_image(m, DVec3::X, -DVec3::Z, DVec3::Y) {
-            return ctx.report.unsupported(&ctx.at(path), "a camera under a mirroring transform is not supported", "skipped");
+            return ctx.report.unsupported(
+                &ctx.at(path),
+                "a camera under a mirroring transform is not supported",
+                "skipped",
+            );
         }
-        let frame = camera_frame(m, -DVec3::Z, DVec3::Y)
-            .map_err(|_| ctx.at(path).error("the camera's transform is not a rotation, translation and uniform scale"))?;
+        let frame = camera_frame(m, -DVec3::Z, DVec3::Y).map_err(|_| {
+            ctx.at(path)
+                .error("the camera's transform is not a rotation, translation and uniform scale")
+        })?;
         let mut c = camera_value(&frame);
         c.insert("fov_y".into(), json!((p.yfov() as f64).to_degrees()));
         self.camera = Some((c, p.aspect_ratio().map(|a| a as f64)));
@@ -304,9 +354,16 @@ impl Walk {
 }
 
 /// A KHR_lights_punctual light at world transform `m`.
-fn light_of(ctx: &mut Ctx, light: &::gltf::khr_lights_punctual::Light, m: &DMat4) -> Result<(), SceneError> {
+fn light_of(
+    ctx: &mut Ctx,
+    light: &::gltf::khr_lights_punctual::Light,
+    m: &DMat4,
+) -> Result<(), SceneError> {
     use ::gltf::khr_lights_punctual::Kind;
-    let at = ctx.at(&format!("extensions.KHR_lights_punctual.lights[{}]", light.index()));
+    let at = ctx.at(&format!(
+        "extensions.KHR_lights_punctual.lights[{}]",
+        light.index()
+    ));
     // Photometric (cd, lux) → radiometric (W/sr, W/m²) at 683 lm/W, per unit of colour.
     let scale = light.intensity() as f64 / LM_PER_W;
     let c = light.color().map(|x| x as f64 * scale);
@@ -318,8 +375,13 @@ fn light_of(ctx: &mut Ctx, light: &::gltf::khr_lights_punctual::Light, m: &DMat4
     let dir = dir.normalize();
     let v = match light.kind() {
         Kind::Point => json!({"type": "point", "position": position.to_array(), "intensity": c}),
-        Kind::Directional => json!({"type": "directional", "direction": dir.to_array(), "irradiance": c}),
-        Kind::Spot { inner_cone_angle, outer_cone_angle } => {
+        Kind::Directional => {
+            json!({"type": "directional", "direction": dir.to_array(), "irradiance": c})
+        }
+        Kind::Spot {
+            inner_cone_angle,
+            outer_cone_angle,
+        } => {
             let outer = (outer_cone_angle as f64).to_degrees();
             let inner = (inner_cone_angle as f64).to_degrees().min(outer);
             json!({"type": "spot", "position": position.to_array(), "look_at": (position + dir).to_array(),
@@ -339,7 +401,10 @@ fn framing_camera((lo, hi): (DVec3, DVec3)) -> serde_json::Map<String, Value> {
     };
     let distance = radius / (20f64.to_radians()).sin();
     let mut c = serde_json::Map::new();
-    c.insert("position".into(), json!((center + DVec3::Z * distance).to_array()));
+    c.insert(
+        "position".into(),
+        json!((center + DVec3::Z * distance).to_array()),
+    );
     c.insert("look_at".into(), json!(center.to_array()));
     c.insert("fov_y".into(), json!(40.0));
     c

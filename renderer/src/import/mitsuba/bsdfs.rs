@@ -81,7 +81,11 @@ impl Ctx<'_> {
                         }
                         *a
                     }
-                    _ => return Err(p.loc.error("bsdf \"twosided\" needs one or two nested BSDFs")),
+                    _ => {
+                        return Err(p
+                            .loc
+                            .error("bsdf \"twosided\" needs one or two nested BSDFs"))
+                    }
                 };
                 if two_sided {
                     return Err(p.loc.error("bsdf \"twosided\" nested in another twosided"));
@@ -142,7 +146,10 @@ impl Ctx<'_> {
             "bumpmap" | "normalmap" => {
                 self.report.unsupported(
                     &p.loc,
-                    &format!("{} is not supported (candela has no bump or normal mapping)", p.what()),
+                    &format!(
+                        "{} is not supported (candela has no bump or normal mapping)",
+                        p.what()
+                    ),
                     "its nested BSDF is used without it",
                 )?;
                 p.ignore(&["scale"]);
@@ -161,7 +168,11 @@ impl Ctx<'_> {
                     &format!("{} is not supported", p.what()),
                     "a diffuse 0.5",
                 )?;
-                return Ok(Ctx::default_bsdf().value.as_object().cloned().unwrap_or_default());
+                return Ok(Ctx::default_bsdf()
+                    .value
+                    .as_object()
+                    .cloned()
+                    .unwrap_or_default());
             }
         }
         p.finish(&mut self.report)?;
@@ -188,7 +199,7 @@ impl Ctx<'_> {
                 p.loc_of("material").error(format!(
                     "{}: unknown material \"{name}\" (Mitsuba 3's names: {})",
                     p.what(),
-                    tables::CONDUCTORS.iter().map(|c| c.0).collect::<Vec<_>>().join(", ")
+                    tables::conductor_names()
                 ))
             })?),
             (None, e, k) => {
@@ -256,7 +267,10 @@ impl Ctx<'_> {
             if c != [1.0; 3] {
                 self.report.unsupported(
                     &p.loc_of("specular_reflectance"),
-                    &format!("{}: specular_reflectance other than 1 is not supported", p.what()),
+                    &format!(
+                        "{}: specular_reflectance other than 1 is not supported",
+                        p.what()
+                    ),
                     "ignored",
                 )?;
             }
@@ -296,9 +310,10 @@ impl Ctx<'_> {
                     .error("bsdf \"principled\": give either \"specular\" or \"eta\", not both"))
             }
             (true, false) => {
-                let eta = p
-                    .float("eta")?
-                    .ok_or_else(|| p.loc_of("eta").error("bsdf \"principled\": eta must be a number"))?;
+                let eta = p.float("eta")?.ok_or_else(|| {
+                    p.loc_of("eta")
+                        .error("bsdf \"principled\": eta must be a number")
+                })?;
                 m.insert("ior".into(), json!(eta));
             }
             _ => {}
@@ -312,8 +327,15 @@ impl Ctx<'_> {
     }
 
     /// `distribution`, `alpha` / `alpha_u` + `alpha_v` → roughness (and conductor anisotropy).
-    fn roughness(&mut self, p: &Plugin, m: &mut Map<String, Value>, field: &str) -> Result<(), SceneError> {
-        let dist = p.string("distribution")?.unwrap_or_else(|| "beckmann".into());
+    fn roughness(
+        &mut self,
+        p: &Plugin,
+        m: &mut Map<String, Value>,
+        field: &str,
+    ) -> Result<(), SceneError> {
+        let dist = p
+            .string("distribution")?
+            .unwrap_or_else(|| "beckmann".into());
         if dist != "ggx" {
             self.report.unsupported(
                 &p.loc_of("distribution"),
@@ -339,7 +361,11 @@ impl Ctx<'_> {
                         m.insert(field.into(), v);
                     }
                 }
-                Some(_) => return Err(p.loc_of("alpha").error("alpha must be a float or a texture")),
+                Some(_) => {
+                    return Err(p
+                        .loc_of("alpha")
+                        .error("alpha must be a float or a texture"))
+                }
             },
             (Some(PValue::Float(u)), Some(PValue::Float(v))) => {
                 let alpha = (u * v).max(0.0).sqrt();
@@ -348,7 +374,8 @@ impl Ctx<'_> {
                     // candela (Mitsuba principled's mapping): aspect = √(1 − 0.9 a),
                     // alpha_u = alpha / aspect, alpha_v = alpha · aspect.
                     let ratio = v / u;
-                    let ok = m.get("type") == Some(&json!("conductor")) && ratio >= 0.1 && ratio <= 1.0;
+                    let ok =
+                        m.get("type") == Some(&json!("conductor")) && (0.1..=1.0).contains(&ratio);
                     if ok {
                         m.insert("anisotropy".into(), json!((1.0 - ratio) / 0.9));
                     } else {
@@ -382,10 +409,15 @@ impl Ctx<'_> {
         };
         let rel = tex["texture"].as_str().unwrap_or_default().to_string();
         let srgb = tex.get("srgb").and_then(Value::as_bool);
-        let hint = format!("{}_roughness", self.tree.nodes[p.node].attr("id").unwrap_or("bsdf"));
+        let hint = format!(
+            "{}_roughness",
+            self.tree.nodes[p.node].attr("id").unwrap_or("bsdf")
+        );
         let dir = self.tree.scene_dir.clone();
         let file = self.doc.derived_texture(&dir, &rel, srgb, &hint, |t| {
-            let r = (0.2126 * t[0] + 0.7152 * t[1] + 0.0722 * t[2]).max(0.0).sqrt();
+            let r = (0.2126 * t[0] + 0.7152 * t[1] + 0.0722 * t[2])
+                .max(0.0)
+                .sqrt();
             [r, r, r]
         })?;
         let mut out = json!({"texture": file});
@@ -413,10 +445,12 @@ impl Ctx<'_> {
                     p.loc_of(name).error(format!(
                         "{}: unknown IOR name \"{s}\" (Mitsuba's names: {})",
                         p.what(),
-                        tables::IORS.iter().map(|i| i.0).collect::<Vec<_>>().join(", ")
+                        tables::ior_names()
                     ))
                 }),
-                _ => Err(p.loc_of(name).error(format!("{name} must be a number or an IOR name"))),
+                _ => Err(p
+                    .loc_of(name)
+                    .error(format!("{name} must be a number or an IOR name"))),
             }
         };
         let (int, ext) = (ior("int_ior", default_int)?, ior("ext_ior", "air")?);
@@ -427,7 +461,13 @@ impl Ctx<'_> {
     }
 
     /// Copies colour parameter `name` to candela field `field` when given.
-    fn put_color(&mut self, p: &Plugin, m: &mut Map<String, Value>, name: &str, field: &str) -> Result<(), SceneError> {
+    fn put_color(
+        &mut self,
+        p: &Plugin,
+        m: &mut Map<String, Value>,
+        name: &str,
+        field: &str,
+    ) -> Result<(), SceneError> {
         if let Some(c) = p.color(name)? {
             if let Some(v) = self.color_value(p, name, c)? {
                 m.insert(field.into(), v);
@@ -436,7 +476,12 @@ impl Ctx<'_> {
         Ok(())
     }
 
-    fn color_value(&mut self, _p: &Plugin, _name: &str, c: ColorSrc) -> Result<Option<Value>, SceneError> {
+    fn color_value(
+        &mut self,
+        _p: &Plugin,
+        _name: &str,
+        c: ColorSrc,
+    ) -> Result<Option<Value>, SceneError> {
         match c {
             ColorSrc::Const(c) => Ok(Some(rgb_value(c))),
             ColorSrc::Texture(t) => self.texture(t, Use::Color),
@@ -444,15 +489,20 @@ impl Ctx<'_> {
     }
 
     /// Copies scalar parameter `name` (float or texture) to candela field `field` when given.
-    fn put_scalar(&mut self, p: &Plugin, m: &mut Map<String, Value>, name: &str, field: &str) -> Result<(), SceneError> {
+    fn put_scalar(
+        &mut self,
+        p: &Plugin,
+        m: &mut Map<String, Value>,
+        name: &str,
+        field: &str,
+    ) -> Result<(), SceneError> {
         let v = match p.color(name)? {
             None => return Ok(()),
             Some(ColorSrc::Const(c)) if c[0] == c[1] && c[1] == c[2] => Some(json!(c[0])),
             Some(ColorSrc::Const(_)) => {
-                return Err(p.loc_of(name).error(format!(
-                    "{}: \"{name}\" must be a single number",
-                    p.what()
-                )))
+                return Err(p
+                    .loc_of(name)
+                    .error(format!("{}: \"{name}\" must be a single number", p.what())))
             }
             Some(ColorSrc::Texture(t)) => self.texture(t, Use::Scalar)?,
         };
@@ -505,16 +555,25 @@ impl Ctx<'_> {
             if w != "repeat" {
                 self.report.unsupported(
                     &p.loc_of("wrap_mode"),
-                    &format!("texture \"bitmap\": wrap_mode \"{w}\" is not supported (candela repeats)"),
+                    &format!(
+                        "texture \"bitmap\": wrap_mode \"{w}\" is not supported (candela repeats)"
+                    ),
                     "repeat",
                 )?;
             }
         }
         let to_uv = p.transform("to_uv")?;
         let (su, sv) = (to_uv.x_axis.x, to_uv.y_axis.y);
-        let pure_scale = to_uv.x_axis.y == 0.0 && to_uv.y_axis.x == 0.0 && to_uv.w_axis.x == 0.0 && to_uv.w_axis.y == 0.0;
-        let (su, sv) = (su * p.float("uscale")?.unwrap_or(1.0), sv * p.float("vscale")?.unwrap_or(1.0));
-        let offset = p.float("uoffset")?.unwrap_or(0.0) != 0.0 || p.float("voffset")?.unwrap_or(0.0) != 0.0;
+        let pure_scale = to_uv.x_axis.y == 0.0
+            && to_uv.y_axis.x == 0.0
+            && to_uv.w_axis.x == 0.0
+            && to_uv.w_axis.y == 0.0;
+        let (su, sv) = (
+            su * p.float("uscale")?.unwrap_or(1.0),
+            sv * p.float("vscale")?.unwrap_or(1.0),
+        );
+        let offset =
+            p.float("uoffset")?.unwrap_or(0.0) != 0.0 || p.float("voffset")?.unwrap_or(0.0) != 0.0;
         if !pure_scale || offset {
             self.report.unsupported(
                 &p.loc_of("to_uv"),

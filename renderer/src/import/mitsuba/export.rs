@@ -85,7 +85,10 @@ impl El {
     }
     /// `<transform name=><matrix value="16 row-major"/></transform>`.
     pub fn matrix(self, name: &str, m: &glam::DMat4) -> Self {
-        let v: Vec<String> = crate::import::xform::row_major(m).iter().map(|&x| num(x)).collect();
+        let v: Vec<String> = crate::import::xform::row_major(m)
+            .iter()
+            .map(|&x| num(x))
+            .collect();
         self.child(
             El::new("transform")
                 .attr("name", name)
@@ -152,7 +155,10 @@ impl Export<'_> {
 
 /// A scene construct Mitsuba cannot express exactly.
 pub(crate) fn untranslatable(path: &str, what: &str) -> SceneError {
-    SceneError::invalid(path, format!("{what}: Mitsuba 3 cannot express this exactly"))
+    SceneError::invalid(
+        path,
+        format!("{what}: Mitsuba 3 cannot express this exactly"),
+    )
 }
 
 /// Writes the candela JSON scene `imp` as Mitsuba XML at `out` (and its files beside it);
@@ -173,8 +179,9 @@ pub fn write_xml(imp: &Imported, out: &Path) -> Result<Vec<PathBuf>, SceneError>
     };
     let xml = to_xml(&mut ex)?;
     // Step 2: the scene's own files, when the XML goes to another folder, then ours.
-    let mut written = crate::import::convert::copy_referenced(&imp.doc, &imp.base, &dir, &imp.assets)
-        .map_err(|e| SceneError::invalid("", e.to_string()))?;
+    let mut written =
+        crate::import::convert::copy_referenced(&imp.doc, &imp.base, &dir, &imp.assets)
+            .map_err(|e| SceneError::invalid("", e.to_string()))?;
     let write = |path: &Path, bytes: &[u8]| -> Result<(), SceneError> {
         if let Some(parent) = path.parent() {
             std::fs::create_dir_all(parent)
@@ -208,10 +215,13 @@ pub(crate) fn to_xml(ex: &mut Export) -> Result<String, SceneError> {
     let max_depth = render["max_depth"].as_i64().unwrap_or(6);
     let spp = render["spp"].as_u64().unwrap_or(256);
     root.push(
-        El::plugin("integrator", if parts.uses_mask { "volpath" } else { "path" })
-            .integer("max_depth", max_depth)
-            .integer("rr_depth", 5)
-            .boolean("hide_emitters", false),
+        El::plugin(
+            "integrator",
+            if parts.uses_mask { "volpath" } else { "path" },
+        )
+        .integer("max_depth", max_depth)
+        .integer("rr_depth", 5)
+        .boolean("hide_emitters", false),
     );
     root.push(sensor(ex, spp)?);
     // Step 3: materials (defined once, referenced by id), shapes, lights, environment.
@@ -250,7 +260,11 @@ fn sensor(ex: &Export, spp: u64) -> Result<El, SceneError> {
         .attr("up", vec3(cam.up));
     let mut s = El::plugin(
         "sensor",
-        if cam.aperture_radius > 0.0 { "thinlens" } else { "perspective" },
+        if cam.aperture_radius > 0.0 {
+            "thinlens"
+        } else {
+            "perspective"
+        },
     )
     .float("fov", cam.fov_y)
     .string("fov_axis", "y")
@@ -262,15 +276,17 @@ fn sensor(ex: &Export, spp: u64) -> Result<El, SceneError> {
             .float("aperture_radius", cam.aperture_radius)
             .float("focus_distance", cam.focus_distance);
     }
-    Ok(s.child(El::plugin("sampler", "independent").integer("sample_count", spp as i64))
-        .child(
-            El::plugin("film", "hdrfilm")
-                .integer("width", film.width as i64)
-                .integer("height", film.height as i64)
-                .string("pixel_format", "rgb")
-                .string("component_format", "float32")
-                .child(filter),
-        ))
+    Ok(
+        s.child(El::plugin("sampler", "independent").integer("sample_count", spp as i64))
+            .child(
+                El::plugin("film", "hdrfilm")
+                    .integer("width", film.width as i64)
+                    .integer("height", film.height as i64)
+                    .string("pixel_format", "rgb")
+                    .string("component_format", "float32")
+                    .child(filter),
+            ),
+    )
 }
 
 /// `x, y, z`.
@@ -310,7 +326,10 @@ fn light(l: &crate::scene::Light) -> El {
     use crate::scene::Light;
     let rgb = |v: glam::Vec3| [v.x as f64, v.y as f64, v.z as f64];
     match l {
-        Light::Point { position, intensity } => El::plugin("emitter", "point")
+        Light::Point {
+            position,
+            intensity,
+        } => El::plugin("emitter", "point")
             .point("position", *position)
             .rgb("intensity", rgb(*intensity)),
         Light::Spot {
@@ -321,7 +340,11 @@ fn light(l: &crate::scene::Light) -> El {
             beam_width,
         } => {
             // Mitsuba's spot shines along local +z.
-            let up = if direction.y.abs() < 0.9 { DVec3::Y } else { DVec3::X };
+            let up = if direction.y.abs() < 0.9 {
+                DVec3::Y
+            } else {
+                DVec3::X
+            };
             El::plugin("emitter", "spot")
                 .child(
                     El::new("transform").attr("name", "to_world").child(
@@ -372,7 +395,11 @@ fn environment(ex: &mut Export, env: &Environment) -> Result<El, SceneError> {
                 let rb = (j / 2).min(h - 1);
                 let a = t.texels[(ra * w + x) as usize];
                 let b = t.texels[(rb * w + x) as usize];
-                [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])]
+                [
+                    0.5 * (a[0] + b[0]),
+                    0.5 * (a[1] + b[1]),
+                    0.5 * (a[2] + b[2]),
+                ]
             });
             let file = ex.exr("environment.exr", &img)?;
             Ok(El::plugin("emitter", "envmap")

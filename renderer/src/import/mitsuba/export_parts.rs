@@ -88,8 +88,9 @@ impl Parts {
                 el.boolean("face_normals", !smooth)
             }
             "triangles" => {
-                let t: TrianglesDesc = serde_json::from_value(strip(o, &["type", "material", "transform"]))
-                    .map_err(|e| SceneError::invalid(&path, e.to_string()))?;
+                let t: TrianglesDesc =
+                    serde_json::from_value(strip(o, &["type", "material", "transform"]))
+                        .map_err(|e| SceneError::invalid(&path, e.to_string()))?;
                 let mut raw = shapes::triangles(&t, &path, usize::MAX)?;
                 flip_v(&mut raw);
                 let has_normals = raw.normals.is_some();
@@ -122,10 +123,16 @@ impl Parts {
             }
             "box" => {
                 let (lo, hi) = (vec3(&o["min"]), vec3(&o["max"]));
-                let m = DMat4::from_translation(0.5 * (lo + hi)) * DMat4::from_scale(0.5 * (hi - lo));
+                let m =
+                    DMat4::from_translation(0.5 * (lo + hi)) * DMat4::from_scale(0.5 * (hi - lo));
                 El::plugin("shape", "cube").matrix("to_world", &(xf * m))
             }
-            other => return Err(untranslatable(&format!("{path}.type"), &format!("object type \"{other}\""))),
+            other => {
+                return Err(untranslatable(
+                    &format!("{path}.type"),
+                    &format!("object type \"{other}\""),
+                ))
+            }
         };
         if matches!(kind, "mesh" | "triangles") && xf != DMat4::IDENTITY {
             shape = shape.matrix("to_world", &xf);
@@ -145,18 +152,26 @@ impl Parts {
     fn define(&mut self, ex: &mut Export, name: &str) -> Result<Option<[f64; 3]>, SceneError> {
         let m = ex.doc["materials"][name].clone();
         let path = crate::scene::key_path("materials", name);
-        let emission = m.get("emission").map(|e| color3(e)).filter(|e| e.iter().any(|&x| x != 0.0));
+        let emission = m
+            .get("emission")
+            .map(color3)
+            .filter(|e| e.iter().any(|&x| x != 0.0));
         if self.defined.insert(name.to_string()) {
             let mut bsdf = self.bsdf(ex, &m, &path)?;
             let kind = m["type"].as_str().unwrap_or("");
             let transmissive = kind == "dielectric"
-                || (kind == "principled" && m.get("spec_trans").is_some_and(|v| v != &Value::from(0) && v != &Value::from(0.0)));
+                || (kind == "principled"
+                    && m.get("spec_trans")
+                        .is_some_and(|v| v != &Value::from(0) && v != &Value::from(0.0)));
             if m["two_sided"].as_bool().unwrap_or(true) && !transmissive {
                 bsdf = El::plugin("bsdf", "twosided").child(bsdf);
             }
             if let Some(mask) = m.get("alpha_mask") {
                 if emission.is_some() {
-                    return Err(untranslatable(&path, "emission with alpha_mask (Mitsuba's area emitter ignores the mask)"));
+                    return Err(untranslatable(
+                        &path,
+                        "emission with alpha_mask (Mitsuba's area emitter ignores the mask)",
+                    ));
                 }
                 self.uses_mask = true;
                 let opacity = self.mask(ex, mask, &format!("{path}.alpha_mask"), name)?;
@@ -180,19 +195,27 @@ impl Parts {
                 let rough = m.get("roughness").cloned().unwrap_or(Value::from(0.0));
                 let a = m.get("anisotropy").cloned().unwrap_or(Value::from(0.0));
                 if a.is_object() {
-                    return Err(untranslatable(&format!("{path}.anisotropy"), "a textured anisotropy"));
+                    return Err(untranslatable(
+                        &format!("{path}.anisotropy"),
+                        "a textured anisotropy",
+                    ));
                 }
                 let a = a.as_f64().unwrap_or(0.0);
                 let mut b = if rough.as_f64() == Some(0.0) {
                     El::plugin("bsdf", "conductor")
                 } else if a == 0.0 {
-                    El::plugin("bsdf", "roughconductor").string("distribution", "ggx").child(
-                        self.scalar(ex, &rough, "alpha", path, &tag, |x| x * x)?,
-                    )
+                    El::plugin("bsdf", "roughconductor")
+                        .string("distribution", "ggx")
+                        .child(self.scalar(ex, &rough, "alpha", path, &tag, |x| x * x)?)
                 } else {
                     // candela's anisotropy is Mitsuba principled's mapping: aspect = √(1 − 0.9a),
                     // alpha_u = alpha / aspect, alpha_v = alpha · aspect, alpha = roughness².
-                    let r = rough.as_f64().ok_or_else(|| untranslatable(&format!("{path}.roughness"), "a textured roughness with anisotropy"))?;
+                    let r = rough.as_f64().ok_or_else(|| {
+                        untranslatable(
+                            &format!("{path}.roughness"),
+                            "a textured roughness with anisotropy",
+                        )
+                    })?;
                     let aspect = (1.0 - 0.9 * a).sqrt();
                     El::plugin("bsdf", "roughconductor")
                         .string("distribution", "ggx")
@@ -203,7 +226,14 @@ impl Parts {
                     (Some(e), Some(k)) => b = b.rgb("eta", color3(e)).rgb("k", color3(k)),
                     _ => b = b.string("material", "none"),
                 }
-                let r = self.color(ex, m.get("reflectance"), 1.0, "specular_reflectance", path, &tag)?;
+                let r = self.color(
+                    ex,
+                    m.get("reflectance"),
+                    1.0,
+                    "specular_reflectance",
+                    path,
+                    &tag,
+                )?;
                 b.child(r)
             }
             "dielectric" => {
@@ -215,46 +245,108 @@ impl Parts {
                         .string("distribution", "ggx")
                         .child(self.scalar(ex, &rough, "alpha", path, &tag, |x| x * x)?)
                 };
-                let t = self.color(ex, m.get("transmittance"), 1.0, "specular_transmittance", path, &tag)?;
-                let r = self.color(ex, m.get("reflectance"), 1.0, "specular_reflectance", path, &tag)?;
-                b.float("int_ior", f("ior", 1.5)).float("ext_ior", 1.0).child(t).child(r)
+                let t = self.color(
+                    ex,
+                    m.get("transmittance"),
+                    1.0,
+                    "specular_transmittance",
+                    path,
+                    &tag,
+                )?;
+                let r = self.color(
+                    ex,
+                    m.get("reflectance"),
+                    1.0,
+                    "specular_reflectance",
+                    path,
+                    &tag,
+                )?;
+                b.float("int_ior", f("ior", 1.5))
+                    .float("ext_ior", 1.0)
+                    .child(t)
+                    .child(r)
             }
             "principled" => self.principled(ex, m, path, &tag)?,
             "phong" => return Err(untranslatable(path, "phong (no Mitsuba 3 equivalent)")),
-            other => return Err(untranslatable(&format!("{path}.type"), &format!("material type \"{other}\""))),
+            other => {
+                return Err(untranslatable(
+                    &format!("{path}.type"),
+                    &format!("material type \"{other}\""),
+                ))
+            }
         })
     }
 
-    fn principled(&mut self, ex: &mut Export, m: &Value, path: &str, tag: &str) -> Result<El, SceneError> {
+    fn principled(
+        &mut self,
+        ex: &mut Export,
+        m: &Value,
+        path: &str,
+        tag: &str,
+    ) -> Result<El, SceneError> {
         let ss = m.get("subsurface").cloned().unwrap_or(Value::from(0.0));
         if ss.as_f64() != Some(0.0) {
-            return Err(untranslatable(&format!("{path}.subsurface"), "principled subsurface"));
+            return Err(untranslatable(
+                &format!("{path}.subsurface"),
+                "principled subsurface",
+            ));
         }
         for k in ["spec_trans", "specular", "ior"] {
             if m.get(k).is_some_and(Value::is_object) {
-                return Err(untranslatable(&format!("{path}.{k}"), "a textured specular / ior / spec_trans"));
+                return Err(untranslatable(
+                    &format!("{path}.{k}"),
+                    "a textured specular / ior / spec_trans",
+                ));
             }
         }
         let mut b = El::plugin("bsdf", "principled")
             .child(self.color(ex, m.get("base_color"), 0.8, "base_color", path, tag)?)
-            .child(self.scalar(ex, m.get("roughness").unwrap_or(&Value::from(0.5)), "roughness", path, tag, |x| x)?)
-            .child(self.scalar(ex, m.get("clearcoat_gloss").unwrap_or(&Value::from(1.0)), "clearcoat_gloss", path, tag, |x| x)?);
+            .child(self.scalar(
+                ex,
+                m.get("roughness").unwrap_or(&Value::from(0.5)),
+                "roughness",
+                path,
+                tag,
+                |x| x,
+            )?)
+            .child(self.scalar(
+                ex,
+                m.get("clearcoat_gloss").unwrap_or(&Value::from(1.0)),
+                "clearcoat_gloss",
+                path,
+                tag,
+                |x| x,
+            )?);
         // Mitsuba switches these lobes on by presence: pass them only when they matter.
-        for (key, default) in [("metallic", 0.0), ("spec_tint", 0.0), ("anisotropic", 0.0), ("sheen", 0.0), ("sheen_tint", 0.5), ("spec_trans", 0.0), ("clearcoat", 0.0)] {
+        for (key, default) in [
+            ("metallic", 0.0),
+            ("spec_tint", 0.0),
+            ("anisotropic", 0.0),
+            ("sheen", 0.0),
+            ("sheen_tint", 0.5),
+            ("spec_trans", 0.0),
+            ("clearcoat", 0.0),
+        ] {
             let v = m.get(key).cloned().unwrap_or(Value::from(default));
             if v.is_object() || v.as_f64() != Some(0.0) {
                 b = b.child(self.scalar(ex, &v, key, path, tag, |x| x)?);
             }
         }
         // Mitsuba has one Fresnel parameter: `eta` or `specular`.
-        let (spec, ior) = (m.get("specular").and_then(Value::as_f64), m.get("ior").and_then(Value::as_f64));
+        let (spec, ior) = (
+            m.get("specular").and_then(Value::as_f64),
+            m.get("ior").and_then(Value::as_f64),
+        );
         Ok(match (spec, ior) {
             (Some(s), None) => b.float("specular", s),
             (s, eta) => {
                 let eta = eta.unwrap_or(1.5);
                 if let Some(s) = s {
                     if (s - ((eta - 1.0) / (eta + 1.0)).powi(2) / 0.08).abs() > 1e-4 {
-                        return Err(untranslatable(path, "specular and ior disagree (Mitsuba derives one from the other)"));
+                        return Err(untranslatable(
+                            path,
+                            "specular and ior disagree (Mitsuba derives one from the other)",
+                        ));
                     }
                 }
                 b.float("eta", eta)
@@ -264,14 +356,29 @@ impl Parts {
 
     /// A colour field: `<rgb>` or a bitmap (a derived grey EXR when a channel is selected or an
     /// EXR/HDR is decoded as sRGB).
-    fn color(&mut self, ex: &mut Export, v: Option<&Value>, default: f64, name: &str, path: &str, tag: &str) -> Result<El, SceneError> {
+    fn color(
+        &mut self,
+        ex: &mut Export,
+        v: Option<&Value>,
+        default: f64,
+        name: &str,
+        path: &str,
+        tag: &str,
+    ) -> Result<El, SceneError> {
         let v = match v {
-            None => return Ok(El::new("rgb").attr("name", name).attr("value", num(default))),
+            None => {
+                return Ok(El::new("rgb")
+                    .attr("name", name)
+                    .attr("value", num(default)))
+            }
             Some(v) => v,
         };
         if !v.is_object() {
             let c = color3(v);
-            return Ok(El::new("rgb").attr("name", name).attr("value", format!("{}, {}, {}", num(c[0]), num(c[1]), num(c[2]))));
+            return Ok(El::new("rgb").attr("name", name).attr(
+                "value",
+                format!("{}, {}, {}", num(c[0]), num(c[1]), num(c[2])),
+            ));
         }
         let t = texture_ref(v, path, name)?;
         let ext = crate::scene::paths::extension(&t.texture);
@@ -282,40 +389,78 @@ impl Parts {
         }
         let c = t.channel;
         let file = self.derived(ex, &t, &format!("{tag}_{name}"), path, move |x| match c {
-            Some(c) => { let v = c.pick(x); [v, v, v] }
+            Some(c) => {
+                let v = c.pick(x);
+                [v, v, v]
+            }
             None => [x[0], x[1], x[2]],
         })?;
         Ok(bitmap(name, &file, true, "bilinear", t.scale))
     }
 
     /// A scalar field through `f`: `<float>` or a grey EXR of f(channel) per texel.
-    fn scalar(&mut self, ex: &mut Export, v: &Value, name: &str, path: &str, tag: &str, f: ValueFn) -> Result<El, SceneError> {
+    fn scalar(
+        &mut self,
+        ex: &mut Export,
+        v: &Value,
+        name: &str,
+        path: &str,
+        tag: &str,
+        f: ValueFn,
+    ) -> Result<El, SceneError> {
         if !v.is_object() {
-            return Ok(El::new("float").attr("name", name).attr("value", num(f(v.as_f64().unwrap_or(0.0) as f32) as f64)));
+            return Ok(El::new("float")
+                .attr("name", name)
+                .attr("value", num(f(v.as_f64().unwrap_or(0.0) as f32) as f64)));
         }
         let t = texture_ref(v, path, name)?;
         let c = t.channel.unwrap_or(Channel::R);
-        let file = self.derived(ex, &t, &format!("{tag}_{name}"), path, move |x| { let v = f(c.pick(x)); [v, v, v] })?;
+        let file = self.derived(ex, &t, &format!("{tag}_{name}"), path, move |x| {
+            let v = f(c.pick(x));
+            [v, v, v]
+        })?;
         Ok(bitmap(name, &file, true, "bilinear", t.scale))
     }
 
     /// An alpha mask: Mitsuba's `mask` blends, candela cuts at 0.5; nearest filtering of a binary
     /// mask cuts at texel edges as candela's bilinear-then-0.5 does (ref_materials.py `mask`).
-    fn mask(&mut self, ex: &mut Export, v: &Value, path: &str, tag: &str) -> Result<El, SceneError> {
+    fn mask(
+        &mut self,
+        ex: &mut Export,
+        v: &Value,
+        path: &str,
+        tag: &str,
+    ) -> Result<El, SceneError> {
         let t = texture_ref(v, path, "")?;
         let c = t.channel.unwrap_or(Channel::R);
         let root = AssetRoot::dir(Some(ex.base));
         let (w, h, texels) = decode_file(root, &t.texture, t.srgb, &Default::default(), path)?;
-        if texels.iter().any(|x| { let v = c.pick(*x); v != 0.0 && v != 1.0 }) {
-            return Err(untranslatable(path, "a non-binary alpha mask (Mitsuba's mask blends, candela cuts at 0.5)"));
+        if texels.iter().any(|x| {
+            let v = c.pick(*x);
+            v != 0.0 && v != 1.0
+        }) {
+            return Err(untranslatable(
+                path,
+                "a non-binary alpha mask (Mitsuba's mask blends, candela cuts at 0.5)",
+            ));
         }
-        let img = Image::from_fn(w, h, |x, y| { let v = c.pick(texels[(y * w + x) as usize]); [v, v, v] });
+        let img = Image::from_fn(w, h, |x, y| {
+            let v = c.pick(texels[(y * w + x) as usize]);
+            [v, v, v]
+        });
         let file = ex.exr(&format!("{tag}_mask.exr"), &img)?;
         Ok(bitmap("opacity", &file, true, "nearest", t.scale))
     }
 
     /// A texture decoded as candela decodes it, mapped per texel, written as EXR.
-    fn derived(&mut self, ex: &mut Export, t: &TextureRefDesc, name: &str, path: &str, f: impl Fn([f32; 4]) -> [f32; 3]) -> Result<String, SceneError> {
+    fn derived(
+        &mut self,
+        ex: &mut Export,
+        t: &TextureRefDesc,
+        name: &str,
+        path: &str,
+        f: impl Fn([f32; 4]) -> [f32; 3],
+    ) -> Result<String, SceneError> {
         let root = AssetRoot::dir(Some(ex.base));
         let img = crate::import::derived::derive(root, &t.texture, t.srgb, &Default::default(), f)
             .map_err(|e| SceneError::invalid(path, e.to_string()))?;
@@ -325,7 +470,8 @@ impl Parts {
 
 /// `{"texture": ...}` read as the loader reads it.
 fn texture_ref(v: &Value, path: &str, name: &str) -> Result<TextureRefDesc, SceneError> {
-    serde_json::from_value(v.clone()).map_err(|e| SceneError::invalid(format!("{path}.{name}"), e.to_string()))
+    serde_json::from_value(v.clone())
+        .map_err(|e| SceneError::invalid(format!("{path}.{name}"), e.to_string()))
 }
 
 /// `<texture type="bitmap" name=...>`.
@@ -347,7 +493,15 @@ fn bitmap(name: &str, file: &str, raw: bool, filter: &str, scale: Option<[f64; 2
 }
 
 fn clean(s: &str) -> String {
-    s.chars().map(|c| if c.is_ascii_alphanumeric() || c == '_' || c == '-' { c } else { '_' }).collect()
+    s.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
 }
 
 /// A JSON `[x, y, z]`.

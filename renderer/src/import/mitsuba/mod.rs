@@ -35,7 +35,6 @@ use xml::Tree;
 
 pub(crate) use tables::conductor as named_conductor;
 
-
 /// A converted BSDF.
 #[derive(Debug, Clone)]
 pub(crate) struct Mat {
@@ -117,7 +116,9 @@ pub(crate) fn import(path: &Path, opts: &ImportOptions) -> ImportResult {
     }
     if integrators.is_empty() {
         // Mitsuba's default integrator: path, unbounded depth.
-        ctx.doc.render.insert("max_depth".into(), serde_json::json!(-1));
+        ctx.doc
+            .render
+            .insert("max_depth".into(), serde_json::json!(-1));
     }
     // Step 2: everything else in document order.
     for &c in &children {

@@ -91,7 +91,9 @@ impl<'t> Plugin<'t> {
         for &c in &n.children {
             let child = &tree.nodes[c];
             let name = child.attr("name").map(str::to_string);
-            let value = if is_object_tag(&child.tag) || (child.tag == "spectrum" && child.attr("type").is_some()) {
+            let value = if is_object_tag(&child.tag)
+                || (child.tag == "spectrum" && child.attr("type").is_some())
+            {
                 PValue::Object(c)
             } else if child.tag == "ref" {
                 let id = child
@@ -109,9 +111,7 @@ impl<'t> Plugin<'t> {
             match (name, value) {
                 (None, PValue::Object(o)) => p.unnamed.push((o, Cell::new(false))),
                 (None, _) => {
-                    return Err(child
-                        .loc
-                        .error(format!("<{}> needs a \"name\"", child.tag)))
+                    return Err(child.loc.error(format!("<{}> needs a \"name\"", child.tag)))
                 }
                 (Some(name), value) => {
                     if p.props.iter().any(|q| q.name == name) {
@@ -271,11 +271,7 @@ impl<'t> Plugin<'t> {
         for p in self.props.iter().filter(|p| !p.used.get()) {
             report.unsupported(
                 &p.loc,
-                &format!(
-                    "{}: parameter \"{}\" is not supported",
-                    self.what(),
-                    p.name
-                ),
+                &format!("{}: parameter \"{}\" is not supported", self.what(), p.name),
                 "ignored",
             )?;
         }
@@ -400,10 +396,10 @@ fn xyz(n: &super::xml::Node, default: f64) -> Result<[f64; 3], SceneError> {
     let mut out = [default; 3];
     for (i, k) in ["x", "y", "z"].iter().enumerate() {
         if let Some(s) = n.attr(k) {
-            out[i] = s
-                .trim()
-                .parse()
-                .map_err(|_| n.loc.error(format!("could not parse floating point value \"{s}\"")))?;
+            out[i] = s.trim().parse().map_err(|_| {
+                n.loc
+                    .error(format!("could not parse floating point value \"{s}\""))
+            })?;
         }
     }
     Ok(out)
@@ -416,10 +412,9 @@ fn vec_attr(n: &super::xml::Node, key: &str) -> Result<Option<DVec3>, SceneError
     };
     match numbers(s, &n.loc, "vector")?.as_slice() {
         [x, y, z] => Ok(Some(DVec3::new(*x, *y, *z))),
-        v => Err(n.loc.error(format!(
-            "expected 3 values in \"{key}\", got {}",
-            v.len()
-        ))),
+        v => Err(n
+            .loc
+            .error(format!("expected 3 values in \"{key}\", got {}", v.len()))),
     }
 }
 
@@ -474,7 +469,8 @@ fn transform(tree: &Tree, node: usize) -> Result<DMat4, SceneError> {
                 let target = vec_attr(n, "target")?
                     .ok_or_else(|| n.loc.error("<lookat> needs \"target\""))?;
                 let up = vec_attr(n, "up")?.unwrap_or(DVec3::ZERO);
-                look_at(origin, target, up).ok_or_else(|| n.loc.error("invalid lookat transformation"))?
+                look_at(origin, target, up)
+                    .ok_or_else(|| n.loc.error("invalid lookat transformation"))?
             }
             other => {
                 return Err(n

@@ -51,21 +51,30 @@ pub(crate) fn sensor(ctx: &mut Ctx, sensors: &[usize]) -> Result<(), SceneError>
             &root.loc,
             "no <sensor>: Mitsuba's default camera (at the origin, looking down +Z, 50 mm lens, 768×576 film)",
         );
-        ctx.doc.camera = camera_value(&camera_frame(&DMat4::IDENTITY, DVec3::Z, DVec3::Y).expect("identity"));
-        ctx.doc.camera.insert("fov_y".into(), json!(fov_y(&Fov::Diagonal(focal_fov(50.0)), 768.0, 576.0)));
+        ctx.doc.camera =
+            camera_value(&camera_frame(&DMat4::IDENTITY, DVec3::Z, DVec3::Y).expect("identity"));
+        ctx.doc.camera.insert(
+            "fov_y".into(),
+            json!(fov_y(&Fov::Diagonal(focal_fov(50.0)), 768.0, 576.0)),
+        );
         film_defaults(ctx);
         return Ok(());
     };
     for &extra in &sensors[1..] {
         let loc = ctx.tree.nodes[extra].loc.clone();
-        ctx.report
-            .warn(&loc, "only the first <sensor> is used (Mitsuba renders sensor 0)");
+        ctx.report.warn(
+            &loc,
+            "only the first <sensor> is used (Mitsuba renders sensor 0)",
+        );
     }
     let p = Plugin::new(ctx.tree, s)?;
     if !matches!(p.ty.as_str(), "perspective" | "thinlens") {
         ctx.report.unsupported(
             &p.loc,
-            &format!("{} is not supported (candela has perspective and thin-lens cameras)", p.what()),
+            &format!(
+                "{} is not supported (candela has perspective and thin-lens cameras)",
+                p.what()
+            ),
             "a perspective camera with its transform and fov",
         )?;
     }
@@ -135,9 +144,9 @@ pub(crate) fn sensor(ctx: &mut Ctx, sensors: &[usize]) -> Result<(), SceneError>
     // Step 4: lens and what does not change the image.
     let far = p.float("far_clip")?.unwrap_or(1e4);
     if p.ty == "thinlens" {
-        let radius = p.float("aperture_radius")?.ok_or_else(|| {
-            p.loc.error("sensor \"thinlens\" needs \"aperture_radius\"")
-        })?;
+        let radius = p
+            .float("aperture_radius")?
+            .ok_or_else(|| p.loc.error("sensor \"thinlens\" needs \"aperture_radius\""))?;
         camera.insert("aperture_radius".into(), json!(radius));
         camera.insert(
             "focus_distance".into(),
@@ -149,7 +158,10 @@ pub(crate) fn sensor(ctx: &mut Ctx, sensors: &[usize]) -> Result<(), SceneError>
         if p.float(key)?.is_some_and(|x| x != 0.0) {
             ctx.report.unsupported(
                 &p.loc_of(key),
-                &format!("{}: \"{key}\" (an off-centre image) is not supported", p.what()),
+                &format!(
+                    "{}: \"{key}\" (an off-centre image) is not supported",
+                    p.what()
+                ),
                 "ignored",
             )?;
         }
@@ -287,7 +299,9 @@ fn sampler(ctx: &mut Ctx, node: usize) -> Result<(), SceneError> {
     }
     let spp = p.int("sample_count")?.unwrap_or(4);
     if spp < 1 {
-        return Err(p.loc_of("sample_count").error("sample_count must be at least 1"));
+        return Err(p
+            .loc_of("sample_count")
+            .error("sample_count must be at least 1"));
     }
     // candela's own sampler; these only shape Mitsuba's sample patterns.
     p.ignore(&["seed", "jitter", "strength", "scramble_seed", "dimension"]);
@@ -308,7 +322,10 @@ pub(crate) fn integrator(ctx: &mut Ctx, node: usize) -> Result<(), SceneError> {
         _ => {
             ctx.report.unsupported(
                 &p.loc,
-                &format!("{} is not supported (path, volpath and direct are)", p.what()),
+                &format!(
+                    "{} is not supported (path, volpath and direct are)",
+                    p.what()
+                ),
                 "a path tracer (nee)",
             )?;
             p.ignore(&["max_depth", "rr_depth", "hide_emitters"]);
@@ -382,9 +399,9 @@ pub(crate) fn emitter(ctx: &mut Ctx, node: usize) -> Result<(), SceneError> {
         "directional" => {
             let direction = match (p.vec3("direction")?, p.has("to_world")) {
                 (Some(_), true) => {
-                    return Err(loc.error(
-                        "emitter \"directional\": give direction or to_world, not both",
-                    ))
+                    return Err(
+                        loc.error("emitter \"directional\": give direction or to_world, not both")
+                    )
                 }
                 (Some(d), false) => ctx.vector(d),
                 (None, _) => ctx.to_world(&p, "to_world")?.transform_vector3(DVec3::Z),
@@ -399,7 +416,11 @@ pub(crate) fn emitter(ctx: &mut Ctx, node: usize) -> Result<(), SceneError> {
         "constant" => {
             let radiance = const_color(ctx, &p, "radiance", 1.0)?;
             p.finish(&mut ctx.report)?;
-            set_environment(ctx, &loc, json!({"type": "constant", "radiance": rgb_value(radiance)}))?;
+            set_environment(
+                ctx,
+                &loc,
+                json!({"type": "constant", "radiance": rgb_value(radiance)}),
+            )?;
         }
         "envmap" => {
             let env = envmap(ctx, &p)?;
@@ -409,9 +430,8 @@ pub(crate) fn emitter(ctx: &mut Ctx, node: usize) -> Result<(), SceneError> {
             }
         }
         "area" => {
-            return Err(loc.error(
-                "emitter \"area\" must be nested in a <shape> (it emits from that shape)",
-            ))
+            return Err(loc
+                .error("emitter \"area\" must be nested in a <shape> (it emits from that shape)"))
         }
         _ => {
             ctx.report.unsupported(
@@ -450,7 +470,9 @@ fn envmap(ctx: &mut Ctx, p: &Plugin) -> Result<Option<Value>, SceneError> {
     p.ignore(&["mis_compensation", "filter_type"]);
     if p.has("bitmap") {
         p.get("bitmap");
-        return Err(p.loc.error("emitter \"envmap\": an in-memory \"bitmap\" is not supported"));
+        return Err(p
+            .loc
+            .error("emitter \"envmap\": an in-memory \"bitmap\" is not supported"));
     }
     if ctx.world != DMat4::IDENTITY {
         ctx.report.unsupported(
@@ -477,7 +499,9 @@ fn envmap(ctx: &mut Ctx, p: &Plugin) -> Result<Option<Value>, SceneError> {
     // R_y(θ) maps x to (cos θ, 0, −sin θ).
     let theta = (-x.z).atan2(x.x).to_degrees();
     let rotate_y = theta + 180.0;
-    Ok(Some(json!({"type": "map", "file": rel, "scale": scale, "rotate_y": rotate_y})))
+    Ok(Some(
+        json!({"type": "map", "file": rel, "scale": scale, "rotate_y": rotate_y}),
+    ))
 }
 
 #[cfg(test)]
@@ -488,7 +512,10 @@ mod tests {
     fn fields_of_view() {
         // Mitsuba's default: 50 mm on 768 × 576 is x_fov 38.1848 (printed by Mitsuba 3.9.1).
         let fy = fov_y(&Fov::Diagonal(focal_fov(50.0)), 768.0, 576.0);
-        let fx = 2.0 * ((fy.to_radians() / 2.0).tan() * 768.0 / 576.0).atan().to_degrees();
+        let fx = 2.0
+            * ((fy.to_radians() / 2.0).tan() * 768.0 / 576.0)
+                .atan()
+                .to_degrees();
         assert!((fx - 38.1848).abs() < 1e-3, "{fx}");
         assert!((fov_y(&Fov::X(90.0), 200.0, 100.0) - 53.130102).abs() < 1e-5);
         assert_eq!(fov_y(&Fov::Y(30.0), 200.0, 100.0), 30.0);

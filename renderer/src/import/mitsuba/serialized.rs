@@ -60,7 +60,11 @@ pub(crate) fn parse(data: &[u8], index: i64, max_triangles: usize) -> Result<Raw
     let vec3s = |z: &mut Body<'_>| -> Result<Vec<DVec3>, String> {
         let mut out = Vec::with_capacity(nv.min(1 << 20));
         for _ in 0..nv {
-            out.push(DVec3::new(z.real(double)?, z.real(double)?, z.real(double)?));
+            out.push(DVec3::new(
+                z.real(double)?,
+                z.real(double)?,
+                z.real(double)?,
+            ));
         }
         Ok(out)
     };
@@ -88,7 +92,11 @@ pub(crate) fn parse(data: &[u8], index: i64, max_triangles: usize) -> Result<Raw
     for _ in 0..nt {
         let mut t = [0u32; 3];
         for i in &mut t {
-            let v = if nv > u32::MAX as usize { z.u64()? } else { z.u32()? as u64 };
+            let v = if nv > u32::MAX as usize {
+                z.u64()?
+            } else {
+                z.u32()? as u64
+            };
             if v >= nv as u64 {
                 return Err(format!("vertex index {v} out of range ({nv} vertices)"));
             }
@@ -112,16 +120,29 @@ fn mesh_offset(data: &[u8], index: i64) -> Result<usize, String> {
         .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as i64)
         .ok_or("truncated file")?;
     if index < 0 || index >= count {
-        return Err(format!("shape_index {index} out of range (the file holds {count} meshes)"));
+        return Err(format!(
+            "shape_index {index} out of range (the file holds {count} meshes)"
+        ));
     }
-    let version = data.get(2..4).map(|b| u16::from_le_bytes([b[0], b[1]])).unwrap_or(0);
+    let version = data
+        .get(2..4)
+        .map(|b| u16::from_le_bytes([b[0], b[1]]))
+        .unwrap_or(0);
     let at = |width: usize| n.checked_sub(4 + width * (count - index) as usize);
     let offset = if version == 4 {
         let i = at(8).ok_or("truncated offset table")?;
-        u64::from_le_bytes(data[i..i + 8].try_into().map_err(|_| "truncated offset table")?) as usize
+        u64::from_le_bytes(
+            data[i..i + 8]
+                .try_into()
+                .map_err(|_| "truncated offset table")?,
+        ) as usize
     } else {
         let i = at(4).ok_or("truncated offset table")?;
-        u32::from_le_bytes(data[i..i + 4].try_into().map_err(|_| "truncated offset table")?) as usize
+        u32::from_le_bytes(
+            data[i..i + 4]
+                .try_into()
+                .map_err(|_| "truncated offset table")?,
+        ) as usize
     };
     if offset >= n {
         return Err("mesh offset beyond the end of the file".into());
@@ -223,6 +244,8 @@ pub(crate) mod tests {
         assert!(parse(&file, 2, 10).unwrap_err().contains("out of range"));
         assert!(parse(&file[..20], 0, 10).unwrap_err().contains("truncated"));
         assert!(parse(&file, 0, 0).unwrap_err().contains("exceed the limit"));
-        assert!(parse(b"nope", 0, 10).unwrap_err().contains("not a Mitsuba serialized"));
+        assert!(parse(b"nope", 0, 10)
+            .unwrap_err()
+            .contains("not a Mitsuba serialized"));
     }
 }

@@ -14,10 +14,10 @@ use super::props::{ColorSrc, Plugin};
 use super::scene::rgb_value;
 use super::{serialized, Ctx, Mat};
 use crate::import::diag::Loc;
-use crate::import::meshes::{flip_orientation, flip_v};
+use crate::import::meshes::{file_error, flip_orientation, flip_v, read_file};
 use crate::import::xform::{instance, transform_value};
 use crate::scene::desc::BoxDesc;
-use crate::scene::mesh::RawMesh;
+use crate::scene::mesh::{FileError, RawMesh};
 use crate::scene::{obj, ply, shapes, SceneError};
 
 /// Sides of the polygon standing in for a disk.
@@ -39,7 +39,15 @@ fn objects(ctx: &mut Ctx, node: usize, outer: &DMat4) -> Result<Vec<(Value, Loc)
     if p.ty == "instance" {
         return instance_objects(ctx, &p, outer);
     }
-    let known = ["obj", "ply", "serialized", "rectangle", "cube", "sphere", "disk"];
+    let known = [
+        "obj",
+        "ply",
+        "serialized",
+        "rectangle",
+        "cube",
+        "sphere",
+        "disk",
+    ];
     if !known.contains(&p.ty.as_str()) {
         ctx.report.unsupported(
             &loc,
@@ -68,18 +76,33 @@ fn objects(ctx: &mut Ctx, node: usize, outer: &DMat4) -> Result<Vec<(Value, Loc)
     // Step 2: geometry.
     let to_world = *outer * p.transform("to_world")?;
     if !(to_world.determinant().abs() > 0.0 && to_world.is_finite()) {
-        return Err(p.loc_of("to_world").error(format!("{}: to_world is not invertible", p.what())));
+        return Err(p
+            .loc_of("to_world")
+            .error(format!("{}: to_world is not invertible", p.what())));
     }
     let flip = p.bool("flip_normals")?.unwrap_or(false);
     let mut o = match p.ty.as_str() {
         "rectangle" => {
             // A mirror along z keeps the points and turns the front (exactly Mitsuba's flip).
-            let m = if flip { to_world * DMat4::from_scale(DVec3::new(1.0, 1.0, -1.0)) } else { to_world };
-            placed(json!({"type": "quad", "origin": [-1, -1, 0], "edge_u": [2, 0, 0], "edge_v": [0, 2, 0]}), &m)
+            let m = if flip {
+                to_world * DMat4::from_scale(DVec3::new(1.0, 1.0, -1.0))
+            } else {
+                to_world
+            };
+            placed(
+                json!({"type": "quad", "origin": [-1, -1, 0], "edge_u": [2, 0, 0], "edge_v": [0, 2, 0]}),
+                &m,
+            )
         }
-        "cube" if !flip => placed(json!({"type": "box", "min": [-1, -1, -1], "max": [1, 1, 1]}), &to_world),
+        "cube" if !flip => placed(
+            json!({"type": "box", "min": [-1, -1, -1], "max": [1, 1, 1]}),
+            &to_world,
+        ),
         "cube" => {
-            let b = BoxDesc { min: [-1.0; 3], max: [1.0; 3] };
+            let b = BoxDesc {
+                min: [-1.0; 3],
+                max: [1.0; 3],
+            };
             let mut mesh = shapes::cube(&b, "cube").map_err(|e| loc.error(e.to_string()))?;
             flip_orientation(&mut mesh);
             let o = ctx.doc.mesh_object("cube", &mesh);
@@ -137,7 +160,10 @@ fn area_emitter(ctx: &mut Ctx, p: &Plugin) -> Result<Option<[f64; 3]>, SceneErro
     if ep.ty != "area" {
         ctx.report.unsupported(
             &ep.loc,
-            &format!("{} attached to a shape is not supported (area is)", ep.what()),
+            &format!(
+                "{} attached to a shape is not supported (area is)",
+                ep.what()
+            ),
             "skipped",
         )?;
         return Ok(None);
@@ -159,7 +185,12 @@ fn area_emitter(ctx: &mut Ctx, p: &Plugin) -> Result<Option<[f64; 3]>, SceneErro
 }
 
 /// The scene material for `mat` with `emission`.
-fn material_name(ctx: &mut Ctx, mat: &Mat, emission: Option<[f64; 3]>, loc: &Loc) -> Result<String, SceneError> {
+fn material_name(
+    ctx: &mut Ctx,
+    mat: &Mat,
+    emission: Option<[f64; 3]>,
+    loc: &Loc,
+) -> Result<String, SceneError> {
     let mut value = mat.value.clone();
     let mut hint = mat.hint.clone();
     if let Some(e) = emission.filter(|e| e.iter().any(|&x| x != 0.0)) {
@@ -180,10 +211,20 @@ fn material_name(ctx: &mut Ctx, mat: &Mat, emission: Option<[f64; 3]>, loc: &Loc
 }
 
 /// A sphere: center and radius through the transform (which must be a similarity).
-fn sphere(ctx: &mut Ctx, p: &Plugin, m: &DMat4, flip: bool, mat: &Mat) -> Result<Value, SceneError> {
+fn sphere(
+    ctx: &mut Ctx,
+    p: &Plugin,
+    m: &DMat4,
+    flip: bool,
+    mat: &Mat,
+) -> Result<Value, SceneError> {
     let center = p.vec3("center")?.unwrap_or(DVec3::ZERO);
     let radius = p.float("radius")?.unwrap_or(1.0);
-    let cols = [m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate()];
+    let cols = [
+        m.x_axis.truncate(),
+        m.y_axis.truncate(),
+        m.z_axis.truncate(),
+    ];
     let s = (cols[0].length() + cols[1].length() + cols[2].length()) / 3.0;
     let similar = cols.iter().all(|c| (c.length() - s).abs() <= 1e-6 * s)
         && (0..3).all(|i| (0..i).all(|j| cols[i].dot(cols[j]).abs() <= 1e-6 * s * s));
@@ -193,7 +234,10 @@ fn sphere(ctx: &mut Ctx, p: &Plugin, m: &DMat4, flip: bool, mat: &Mat) -> Result
         ));
     }
     // candela's sphere keeps no frame: its uv and tangent follow the world axes.
-    let turned = cols.iter().enumerate().any(|(i, c)| (c[i] - s).abs() > 1e-9 * s);
+    let turned = cols
+        .iter()
+        .enumerate()
+        .any(|(i, c)| (c[i] - s).abs() > 1e-9 * s);
     if turned && (mat.textured() || mat.value.get("anisotropic").is_some()) {
         ctx.report.unsupported(
             &p.loc_of("to_world"),
@@ -209,7 +253,13 @@ fn sphere(ctx: &mut Ctx, p: &Plugin, m: &DMat4, flip: bool, mat: &Mat) -> Result
 }
 
 /// obj / ply / serialized.
-fn mesh(ctx: &mut Ctx, p: &Plugin, to_world: &DMat4, flip: bool, textured: bool) -> Result<Value, SceneError> {
+fn mesh(
+    ctx: &mut Ctx,
+    p: &Plugin,
+    to_world: &DMat4,
+    flip: bool,
+    textured: bool,
+) -> Result<Value, SceneError> {
     let name = p
         .string("filename")?
         .ok_or_else(|| p.loc.error(format!("{} needs \"filename\"", p.what())))?;
@@ -218,27 +268,23 @@ fn mesh(ctx: &mut Ctx, p: &Plugin, to_world: &DMat4, flip: bool, textured: bool)
     let flip_tex = p.ty == "obj" && !p.bool("flip_tex_coords")?.unwrap_or(true);
     let index = p.int("shape_index")?;
     if p.ty != "serialized" && index.is_some() {
-        return Err(p.loc_of("shape_index").error("shape_index applies to serialized files only"));
+        return Err(p
+            .loc_of("shape_index")
+            .error("shape_index applies to serialized files only"));
     }
     let rewrite = flip || flip_tex || p.ty == "serialized" || (p.ty == "ply" && textured);
     let mut o = if !rewrite {
         json!({"type": "mesh", "file": rel})
     } else {
-        let full = ctx.tree.scene_dir.join(&rel);
-        let bytes = std::fs::read(&full).map_err(|e| {
-            p.loc_of("filename").error(format!("cannot read \"{name}\": {}", crate::scene::io_message(&e)))
-        })?;
-        let in_file = |line: Option<usize>, msg: String| {
-            p.loc_of("filename").error(match line {
-                Some(l) => format!("{name}:{l}: {msg}"),
-                None => format!("{name}: {msg}"),
-            })
-        };
+        let floc = p.loc_of("filename");
+        let bytes = read_file(&ctx.tree.scene_dir, &rel, &name).map_err(|m| floc.error(m))?;
+        let in_file = |e: FileError| floc.error(file_error(&name, e));
         let max = ctx.limits.max_triangles;
         let mut raw: RawMesh = match p.ty.as_str() {
-            "obj" => obj::parse(&bytes, max).map_err(|e| in_file(e.line, e.msg))?.raw,
-            "ply" => ply::parse(&bytes, max).map_err(|e| in_file(e.line, e.msg))?,
-            _ => serialized::parse(&bytes, index.unwrap_or(0), max).map_err(|e| in_file(None, e))?,
+            "obj" => obj::parse(&bytes, max).map_err(in_file)?.raw,
+            "ply" => ply::parse(&bytes, max).map_err(in_file)?,
+            _ => serialized::parse(&bytes, index.unwrap_or(0), max)
+                .map_err(|e| floc.error(format!("{name}: {e}")))?,
         };
         // candela reads v = 1 on the top texel row; Mitsuba's PLY and serialized (and OBJ without
         // flip_tex_coords) put v = 0 there.
@@ -271,7 +317,8 @@ fn disk_mesh() -> RawMesh {
     };
     for i in 0..=n {
         let phi = i as f64 * step;
-        m.positions.push(DVec3::new(r * phi.cos(), r * phi.sin(), 0.0));
+        m.positions
+            .push(DVec3::new(r * phi.cos(), r * phi.sin(), 0.0));
         if let Some(uvs) = &mut m.uvs {
             uvs.push(Vec2::new(1.0, (i as f64 / n as f64) as f32));
         }
@@ -283,24 +330,38 @@ fn disk_mesh() -> RawMesh {
 }
 
 /// `instance`: the referenced shapegroup's objects placed by the instance's transform.
-fn instance_objects(ctx: &mut Ctx, p: &Plugin, outer: &DMat4) -> Result<Vec<(Value, Loc)>, SceneError> {
+fn instance_objects(
+    ctx: &mut Ctx,
+    p: &Plugin,
+    outer: &DMat4,
+) -> Result<Vec<(Value, Loc)>, SceneError> {
     let mut refs = p.children("shape");
     refs.extend(p.object("shapegroup")?);
     let [group] = refs.as_slice() else {
-        return Err(p.loc.error("shape \"instance\" needs one <ref> to a shapegroup"));
+        return Err(p
+            .loc
+            .error("shape \"instance\" needs one <ref> to a shapegroup"));
     };
     let g = *group;
     if ctx.tree.nodes[g].attr("type") != Some("shapegroup") {
-        return Err(p.loc.error("shape \"instance\" must refer to a shape \"shapegroup\""));
+        return Err(p
+            .loc
+            .error("shape \"instance\" must refer to a shape \"shapegroup\""));
     }
     if !ctx.groups.contains_key(&g) {
         let gp = Plugin::new(ctx.tree, g)?;
         let mut members = Vec::new();
         for s in gp.children("shape") {
             if ctx.tree.nodes[s].attr("type") == Some("instance") {
-                return Err(ctx.tree.nodes[s].loc.error("a shapegroup cannot contain instances"));
+                return Err(ctx.tree.nodes[s]
+                    .loc
+                    .error("a shapegroup cannot contain instances"));
             }
-            members.extend(objects(ctx, s, &DMat4::IDENTITY)?.into_iter().map(|(o, _)| o));
+            members.extend(
+                objects(ctx, s, &DMat4::IDENTITY)?
+                    .into_iter()
+                    .map(|(o, _)| o),
+            );
         }
         gp.finish(&mut ctx.report)?;
         ctx.groups.insert(g, members);

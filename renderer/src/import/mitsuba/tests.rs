@@ -31,7 +31,9 @@ fn import_body(body: &str, lenient: bool) -> Result<Imported, String> {
 /// The error of `body` (strict) must contain each needle and name `s.xml:LINE`; with --lenient
 /// the scene imports, loads and warns.
 fn refused(body: &str, line: usize, needles: &[&str]) {
-    let e = import_body(body, false).err().unwrap_or_else(|| panic!("accepted: {body}"));
+    let e = import_body(body, false)
+        .err()
+        .unwrap_or_else(|| panic!("accepted: {body}"));
     assert!(e.contains(&format!("s.xml:{line}: ")), "{e}");
     for n in needles {
         assert!(e.contains(n), "{n:?} not in: {e}");
@@ -52,18 +54,36 @@ fn cornell_imports_as_expected_and_loads() {
     let imp = import_file(&dir().join("cornell.xml"), &ImportOptions::default()).unwrap();
     assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
     let d = &imp.doc;
-    assert_eq!(d["film"], json!({"width": 128, "height": 128, "filter": {"type": "gaussian", "stddev": 0.5}}));
-    assert_eq!(d["render"], json!({"integrator": "nee", "max_depth": 6, "spp": 64}));
+    assert_eq!(
+        d["film"],
+        json!({"width": 128, "height": 128, "filter": {"type": "gaussian", "stddev": 0.5}})
+    );
+    assert_eq!(
+        d["render"],
+        json!({"integrator": "nee", "max_depth": 6, "spp": 64})
+    );
     assert_eq!(d["camera"]["position"], json!([0.0, 0.0, 3.9]));
-    assert_eq!(d["camera"]["fov_y"], json!(39.3077), "square film: fov x = fov y");
+    assert_eq!(
+        d["camera"]["fov_y"],
+        json!(39.3077),
+        "square film: fov x = fov y"
+    );
     // twosided → candela's default; the bare principled is one-sided.
-    assert_eq!(material(&imp, "white"), json!({"type": "diffuse", "reflectance": [0.885809, 0.698859, 0.666422]}));
+    assert_eq!(
+        material(&imp, "white"),
+        json!({"type": "diffuse", "reflectance": [0.885809, 0.698859, 0.666422]})
+    );
     assert_eq!(material(&imp, "blue")["two_sided"], json!(false));
-    assert_eq!(material(&imp, "white_emitter")["emission"], json!([18.387, 13.9873, 6.75357]));
+    assert_eq!(
+        material(&imp, "white_emitter")["emission"],
+        json!([18.387, 13.9873, 6.75357])
+    );
     let cu = material(&imp, "roughconductor");
     assert_eq!(cu["eta"], json!([0.20100547, 0.9237495, 1.1022154]));
     assert!((cu["roughness"].as_f64().unwrap() - 0.15f64.sqrt()).abs() < 1e-12);
-    assert!((material(&imp, "dielectric")["ior"].as_f64().unwrap() - 1.5046 / 1.000277).abs() < 1e-9);
+    assert!(
+        (material(&imp, "dielectric")["ior"].as_f64().unwrap() - 1.5046 / 1.000277).abs() < 1e-9
+    );
     // 6 rectangles, a cube, two spheres, and 2 instances × 2 shapes.
     let objects = d["objects"].as_array().unwrap();
     assert_eq!(objects.len(), 13);
@@ -83,35 +103,68 @@ fn lights_scene_mirrors_and_rewrites_what_candela_reads_differently() {
     assert_eq!(d["lights"][0]["position"], json!([-1.5, 3.0, 2.0]));
     let objects = d["objects"].as_array().unwrap();
     // The textured PLY and the serialized mesh are held in memory; the OBJ is referenced.
-    assert!(objects[1]["file"].as_str().unwrap().starts_with("_imported/quad_uv"));
-    assert!(objects[2]["file"].as_str().unwrap().starts_with("_imported/pyramid"));
+    assert!(objects[1]["file"]
+        .as_str()
+        .unwrap()
+        .starts_with("_imported/quad_uv"));
+    assert!(objects[2]["file"]
+        .as_str()
+        .unwrap()
+        .starts_with("_imported/pyramid"));
     assert_eq!(objects[2]["smooth"], json!(false));
     assert_eq!(objects[3]["file"], json!("tile.obj"));
     assert_eq!(imp.assets.len(), 2);
     let mask = &d["materials"][objects[3]["material"].as_str().unwrap()];
-    assert_eq!(mask["alpha_mask"], json!({"texture": "mask.png", "channel": "luminance"}));
+    assert_eq!(
+        mask["alpha_mask"],
+        json!({"texture": "mask.png", "channel": "luminance"})
+    );
     let ply_mat = &d["materials"][objects[1]["material"].as_str().unwrap()];
-    assert_eq!(ply_mat["roughness"], json!({"texture": "grad.png", "channel": "luminance"}));
-    assert_eq!(d["environment"], json!({"type": "constant", "radiance": [0.08, 0.1, 0.14]}));
+    assert_eq!(
+        ply_mat["roughness"],
+        json!({"texture": "grad.png", "channel": "luminance"})
+    );
+    assert_eq!(
+        d["environment"],
+        json!({"type": "constant", "radiance": [0.08, 0.1, 0.14]})
+    );
     let scene = imp.load(&Default::default()).unwrap();
     // The PLY's v was flipped: Mitsuba's v = 0 (top row) is candela's v = 1.
-    let ply = scene.meshes.iter().find(|m| m.name.contains("quad_uv")).unwrap();
+    let ply = scene
+        .meshes
+        .iter()
+        .find(|m| m.name.contains("quad_uv"))
+        .unwrap();
     assert_eq!(ply.uvs.as_ref().unwrap()[0], glam::Vec2::new(0.0, 1.0));
 }
 
 #[test]
 fn unsupported_plugins_are_named_with_file_and_line() {
     let sphere = |bsdf: &str| format!("<shape type=\"sphere\">\n{bsdf}\n</shape>");
-    refused(&sphere("<bsdf type=\"hair\"/>"), 3, &["bsdf \"hair\" is not supported"]);
-    refused(&sphere("<bsdf type=\"thindielectric\"/>"), 3, &["bsdf \"thindielectric\""]);
+    refused(
+        &sphere("<bsdf type=\"hair\"/>"),
+        3,
+        &["bsdf \"hair\" is not supported"],
+    );
+    refused(
+        &sphere("<bsdf type=\"thindielectric\"/>"),
+        3,
+        &["bsdf \"thindielectric\""],
+    );
     refused(
         &sphere("<bsdf type=\"bumpmap\"><texture type=\"bitmap\"><string name=\"filename\" value=\"grad.png\"/></texture><bsdf type=\"diffuse\"/></bsdf>"),
         3,
         &["bumpmap", "no bump or normal mapping"],
     );
-    refused(&sphere("<bsdf type=\"roughconductor\"/>"), 3, &["distribution \"beckmann\""]);
     refused(
-        &sphere("<bsdf type=\"diffuse\"><texture type=\"checkerboard\" name=\"reflectance\"/></bsdf>"),
+        &sphere("<bsdf type=\"roughconductor\"/>"),
+        3,
+        &["distribution \"beckmann\""],
+    );
+    refused(
+        &sphere(
+            "<bsdf type=\"diffuse\"><texture type=\"checkerboard\" name=\"reflectance\"/></bsdf>",
+        ),
         3,
         &["texture \"checkerboard\""],
     );
@@ -120,10 +173,22 @@ fn unsupported_plugins_are_named_with_file_and_line() {
         3,
         &["constant opacity"],
     );
-    refused(&sphere("<bsdf type=\"diffuse\">\n<float name=\"shininess\" value=\"2\"/></bsdf>"), 4, &["parameter \"shininess\""]);
-    refused("<shape type=\"cylinder\"/>", 2, &["shape \"cylinder\" is not supported"]);
+    refused(
+        &sphere("<bsdf type=\"diffuse\">\n<float name=\"shininess\" value=\"2\"/></bsdf>"),
+        4,
+        &["parameter \"shininess\""],
+    );
+    refused(
+        "<shape type=\"cylinder\"/>",
+        2,
+        &["shape \"cylinder\" is not supported"],
+    );
     refused("<emitter type=\"sunsky\"/>", 2, &["emitter \"sunsky\""]);
-    refused("<medium type=\"homogeneous\"/>", 2, &["<medium type=\"homogeneous\">"]);
+    refused(
+        "<medium type=\"homogeneous\"/>",
+        2,
+        &["<medium type=\"homogeneous\">"],
+    );
     refused(
         "<shape type=\"sphere\"><emitter type=\"area\"><texture type=\"bitmap\" name=\"radiance\"><string name=\"filename\" value=\"grad.png\"/></texture></emitter></shape>",
         2,
@@ -190,20 +255,42 @@ fn materials_map_exactly() {
     let a = material(&imp, "aniso");
     assert!((a["roughness"].as_f64().unwrap() - 0.04f64.sqrt().sqrt()).abs() < 1e-12);
     assert!((a["anisotropy"].as_f64().unwrap() - (1.0 - 0.25) / 0.9).abs() < 1e-12);
-    assert_eq!(material(&imp, "mirror"), json!({"type": "conductor", "two_sided": false}));
+    assert_eq!(
+        material(&imp, "mirror"),
+        json!({"type": "conductor", "two_sided": false})
+    );
     let f = material(&imp, "frosted");
-    assert_eq!((f["ior"].as_f64(), f["roughness"].as_f64()), (Some(1.33), Some(0.3)));
+    assert_eq!(
+        (f["ior"].as_f64(), f["roughness"].as_f64()),
+        (Some(1.33), Some(0.3))
+    );
     let p = material(&imp, "p");
     assert_eq!(p["ior"], json!(1.4));
-    assert!(p.get("two_sided").is_none(), "transmissive principled stays two-sided");
-    assert_eq!(p["base_color"], json!({"texture": "grad.png", "srgb": false, "scale": [2.0, 4.0]}));
+    assert!(
+        p.get("two_sided").is_none(),
+        "transmissive principled stays two-sided"
+    );
+    assert_eq!(
+        p["base_color"],
+        json!({"texture": "grad.png", "srgb": false, "scale": [2.0, 4.0]})
+    );
     let t = material(&imp, "tex");
     let file = t["roughness"]["texture"].as_str().unwrap();
-    assert!(file.starts_with("_imported/") && file.ends_with(".exr"), "{file}");
+    assert!(
+        file.starts_with("_imported/") && file.ends_with(".exr"),
+        "{file}"
+    );
     let scene = imp.load(&Default::default()).unwrap();
     // √alpha per texel: the derived texture's texels square back to the source's luminance.
     let derived = scene.textures.iter().find(|x| x.source == file).unwrap();
-    let src = crate::scene::texture::decode_file(crate::scene::paths::AssetRoot::dir(Some(&dir())), "grad.png", None, &Default::default(), "t").unwrap();
+    let src = crate::scene::texture::decode_file(
+        crate::scene::paths::AssetRoot::dir(Some(&dir())),
+        "grad.png",
+        None,
+        &Default::default(),
+        "t",
+    )
+    .unwrap();
     let l = |t: [f32; 4]| 0.2126 * t[0] + 0.7152 * t[1] + 0.0722 * t[2];
     assert!((derived.texels[5][0].powi(2) - l(src.2[5])).abs() < 1e-5);
 }
@@ -213,6 +300,10 @@ fn missing_sensor_and_old_versions() {
     let imp = import_body("<shape type=\"sphere\"/>", false).unwrap();
     assert!(imp.warnings[0].msg.contains("no <sensor>"));
     assert_eq!(imp.doc["film"]["width"], json!(768));
-    assert_eq!(imp.doc["render"]["max_depth"], json!(-1), "Mitsuba's path default");
+    assert_eq!(
+        imp.doc["render"]["max_depth"],
+        json!(-1),
+        "Mitsuba's path default"
+    );
     imp.load(&Default::default()).unwrap();
 }

@@ -152,10 +152,16 @@ impl Builder {
             Loc::new(shown, Some(e.pos().row as usize)).error(format!("XML syntax error: {e}"))
         })?;
         let root = doc.root_element();
-        let loc = Loc::new(shown, Some(doc.text_pos_at(root.range().start).row as usize));
+        let loc = Loc::new(
+            shown,
+            Some(doc.text_pos_at(root.range().start).row as usize),
+        );
         let version = match root.attribute("version") {
             Some(v) => parse_version(v).ok_or_else(|| {
-                loc.error(format!("invalid version number \"{v}\" in <{}>", root.tag_name().name()))
+                loc.error(format!(
+                    "invalid version number \"{v}\" in <{}>",
+                    root.tag_name().name()
+                ))
             })?,
             None => {
                 return Err(loc.error(format!(
@@ -173,7 +179,10 @@ impl Builder {
         };
         let is_scene = root.tag_name().name() == "scene";
         let ids = self.element(&ctx, root, None)?;
-        let i = ids.first().copied().ok_or_else(|| loc.error("empty root element"))?;
+        let i = ids
+            .first()
+            .copied()
+            .ok_or_else(|| loc.error("empty root element"))?;
         Ok(if is_scene {
             Parsed::Scene(i)
         } else {
@@ -220,7 +229,9 @@ impl Builder {
                     return Err(loc.error(format!("alias source id \"{id}\" not found")));
                 };
                 if self.ids.insert(alias.clone(), target).is_some() {
-                    return Err(loc.error(format!("alias destination id \"{alias}\" already exists")));
+                    return Err(
+                        loc.error(format!("alias destination id \"{alias}\" already exists"))
+                    );
                 }
                 return Ok(Vec::new());
             }
@@ -243,7 +254,11 @@ impl Builder {
             .iter()
             .find(|(k, _)| k == "type")
             .map(|(_, v)| v.clone());
-        if let Some(id) = attrs.iter().find(|(k, _)| k == "id").map(|(_, v)| v.clone()) {
+        if let Some(id) = attrs
+            .iter()
+            .find(|(k, _)| k == "id")
+            .map(|(_, v)| v.clone())
+        {
             if is_object_tag(&tag) || tag == "scene" {
                 if let Some(&prev) = self.ids.get(&id) {
                     return Err(loc.error(format!(
@@ -425,21 +440,41 @@ mod tests {
         assert_eq!(t.nodes[root.children[2]].attr("value"), Some("a$b"));
         let t = parse(&dir.join("s.xml"), &[("spp".into(), "64".into())]).unwrap();
         let sampler = &t.nodes[t.nodes[t.root].children[1]];
-        assert_eq!(t.nodes[sampler.children[0]].attr("value"), Some("64"), "-D wins");
+        assert_eq!(
+            t.nodes[sampler.children[0]].attr("value"),
+            Some("64"),
+            "-D wins"
+        );
 
-        std::fs::write(dir.join("u.xml"), "<scene version=\"3.0.0\">\n\n<float name=\"a\" value=\"$nope\"/></scene>").unwrap();
+        std::fs::write(
+            dir.join("u.xml"),
+            "<scene version=\"3.0.0\">\n\n<float name=\"a\" value=\"$nope\"/></scene>",
+        )
+        .unwrap();
         let e = parse(&dir.join("u.xml"), &[]).unwrap_err().to_string();
         assert!(e.ends_with("u.xml:3: undefined parameter $nope"), "{e}");
         std::fs::write(dir.join("d.xml"), "<scene version=\"3.0.0\"><bsdf type=\"diffuse\" id=\"a\"/>\n<bsdf type=\"diffuse\" id=\"a\"/></scene>").unwrap();
         let e = parse(&dir.join("d.xml"), &[]).unwrap_err().to_string();
         assert!(e.contains("d.xml:2: duplicate id \"a\""), "{e}");
-        std::fs::write(dir.join("esc.xml"), "<scene version=\"3.0.0\"><include filename=\"../x.xml\"/></scene>").unwrap();
+        std::fs::write(
+            dir.join("esc.xml"),
+            "<scene version=\"3.0.0\"><include filename=\"../x.xml\"/></scene>",
+        )
+        .unwrap();
         let e = parse(&dir.join("esc.xml"), &[]).unwrap_err().to_string();
         assert!(e.contains("leaves the scene folder"), "{e}");
-        std::fs::write(dir.join("cyc.xml"), "<scene version=\"3.0.0\"><include filename=\"cyc.xml\"/></scene>").unwrap();
+        std::fs::write(
+            dir.join("cyc.xml"),
+            "<scene version=\"3.0.0\"><include filename=\"cyc.xml\"/></scene>",
+        )
+        .unwrap();
         let e = parse(&dir.join("cyc.xml"), &[]).unwrap_err().to_string();
         assert!(e.contains("nested more than"), "{e}");
-        std::fs::write(dir.join("bad.xml"), "<scene version=\"3.0.0\">\n<bsdf>\n</scene>").unwrap();
+        std::fs::write(
+            dir.join("bad.xml"),
+            "<scene version=\"3.0.0\">\n<bsdf>\n</scene>",
+        )
+        .unwrap();
         let e = parse(&dir.join("bad.xml"), &[]).unwrap_err().to_string();
         assert!(e.contains("bad.xml:3: XML syntax error"), "{e}");
         std::fs::write(dir.join("old.xml"), "<scene version=\"0.5.0\"><integrator type=\"path\"><integer name=\"maxDepth\" value=\"3\"/></integrator></scene>").unwrap();

@@ -21,14 +21,23 @@ use crate::scene::SceneError;
 const GLASSES: &[(&str, f64)] = &[("glass-BK7", 1.5046)];
 
 /// A `Material` / `MakeNamedMaterial` of type `ty`.
-pub(super) fn material(ctx: &mut Ctx, ty: &str, p: &Params, loc: &Loc, hint: &str) -> Result<Mat, SceneError> {
+pub(super) fn material(
+    ctx: &mut Ctx,
+    ty: &str,
+    p: &Params,
+    loc: &Loc,
+    hint: &str,
+) -> Result<Mat, SceneError> {
     p.ignore(&["type"]);
     let what = format!("material \"{ty}\"");
     let mut m = Map::new();
     match ty {
         "diffuse" => {
             m.insert("type".into(), json!("diffuse"));
-            m.insert("reflectance".into(), color(ctx, p, "reflectance", 0.5, loc)?);
+            m.insert(
+                "reflectance".into(),
+                color(ctx, p, "reflectance", 0.5, loc)?,
+            );
         }
         "conductor" => conductor(ctx, p, &mut m, loc)?,
         "dielectric" => {
@@ -54,30 +63,53 @@ pub(super) fn material(ctx: &mut Ctx, ty: &str, p: &Params, loc: &Loc, hint: &st
     for key in ["normalmap", "displacement"] {
         if p.has(key) {
             p.ignore(&[key]);
-            ctx.report.unsupported(&p.loc(key, loc), &format!("{what}: \"{key}\" is not supported"), "ignored")?;
+            ctx.report.unsupported(
+                &p.loc(key, loc),
+                &format!("{what}: \"{key}\" is not supported"),
+                "ignored",
+            )?;
         }
     }
     p.finish(&mut ctx.report, &what)?;
-    Ok(Mat { value: Value::Object(m), hint: hint.to_string() })
+    Ok(Mat {
+        value: Value::Object(m),
+        hint: hint.to_string(),
+    })
 }
 
 /// conductor: η/k (RGB, named metals, or from `reflectance`) and roughness.
-fn conductor(ctx: &mut Ctx, p: &Params, m: &mut Map<String, Value>, loc: &Loc) -> Result<(), SceneError> {
+fn conductor(
+    ctx: &mut Ctx,
+    p: &Params,
+    m: &mut Map<String, Value>,
+    loc: &Loc,
+) -> Result<(), SceneError> {
     m.insert("type".into(), json!("conductor"));
-    let rgb_or_named = |ctx: &mut Ctx, name: &str, default: &str| -> Result<Option<[f64; 3]>, SceneError> {
+    let rgb_or_named = |ctx: &mut Ctx,
+                        name: &str,
+                        default: &str|
+     -> Result<Option<[f64; 3]>, SceneError> {
         let ploc = p.loc(name, loc);
-        let s = p.spectrum(name)?.unwrap_or_else(|| Spectrum::Named(default.into()));
+        let s = p
+            .spectrum(name)?
+            .unwrap_or_else(|| Spectrum::Named(default.into()));
         Ok(match s {
             Spectrum::Rgb(c) => Some(c),
             Spectrum::Named(n) => {
                 let metal = n.strip_prefix("metal-").and_then(|r| r.rsplit_once('-'));
-                match metal.and_then(|(el, part)| named_conductor(el).map(|(e, k)| if part == "k" { k } else { e })) {
+                match metal.and_then(|(el, part)| {
+                    named_conductor(el).map(|(e, k)| if part == "k" { k } else { e })
+                }) {
                     Some(c) => {
                         ctx.report.warn(&ploc, format!("spectrum \"{n}\" is replaced by Mitsuba 3's RGB values for the same metal (docs/import.md)"));
                         Some(c)
                     }
                     None => {
-                        ctx.report.unsupported(&ploc, &format!("named spectrum \"{n}\" is not supported"), "copper")?;
+                        ctx.report.unsupported(
+                            &ploc,
+                            &format!("named spectrum \"{n}\" is not supported"),
+                            "copper",
+                        )?;
                         named_conductor("Cu").map(|(e, k)| if name == "k" { k } else { e })
                     }
                 }
@@ -93,9 +125,19 @@ fn conductor(ctx: &mut Ctx, p: &Params, m: &mut Map<String, Value>, loc: &Loc) -
         match p.spectrum("reflectance")? {
             Some(Spectrum::Rgb(r)) => {
                 m.insert("eta".into(), json!(1.0));
-                m.insert("k".into(), json!(r.map(|x| { let x = x.clamp(0.0, 0.9999); 2.0 * x.sqrt() / (1.0 - x).sqrt() })));
+                m.insert(
+                    "k".into(),
+                    json!(r.map(|x| {
+                        let x = x.clamp(0.0, 0.9999);
+                        2.0 * x.sqrt() / (1.0 - x).sqrt()
+                    })),
+                );
             }
-            _ => ctx.report.unsupported(&p.loc("reflectance", loc), "material \"conductor\": only an RGB reflectance is supported", "ignored")?,
+            _ => ctx.report.unsupported(
+                &p.loc("reflectance", loc),
+                "material \"conductor\": only an RGB reflectance is supported",
+                "ignored",
+            )?,
         }
         p.ignore(&["eta", "k"]);
     } else {
@@ -121,12 +163,20 @@ fn eta(ctx: &mut Ctx, p: &Params, loc: &Loc) -> Result<f64, SceneError> {
                 g.1
             }
             None => {
-                ctx.report.unsupported(&ploc, &format!("named spectrum \"{n}\" is not supported"), "IOR 1.5")?;
+                ctx.report.unsupported(
+                    &ploc,
+                    &format!("named spectrum \"{n}\" is not supported"),
+                    "IOR 1.5",
+                )?;
                 1.5
             }
         },
         Some(_) => {
-            ctx.report.unsupported(&ploc, "a textured or varying eta is not supported", "IOR 1.5")?;
+            ctx.report.unsupported(
+                &ploc,
+                "a textured or varying eta is not supported",
+                "IOR 1.5",
+            )?;
             1.5
         }
     })
@@ -134,7 +184,13 @@ fn eta(ctx: &mut Ctx, p: &Params, loc: &Loc) -> Result<f64, SceneError> {
 
 /// `roughness` or `uroughness` / `vroughness` with `remaproughness` → candela roughness
 /// (and anisotropy for conductors).
-fn roughness(ctx: &mut Ctx, p: &Params, m: &mut Map<String, Value>, loc: &Loc, conductor: bool) -> Result<(), SceneError> {
+fn roughness(
+    ctx: &mut Ctx,
+    p: &Params,
+    m: &mut Map<String, Value>,
+    loc: &Loc,
+    conductor: bool,
+) -> Result<(), SceneError> {
     let remap = p.bool("remaproughness")?.unwrap_or(true);
     // pbrt's TrowbridgeReitz alpha, then candela's roughness = √alpha.
     let to_candela = move |x: f64| (if remap { x.max(0.0).sqrt() } else { x.max(0.0) }).sqrt();
@@ -148,7 +204,11 @@ fn roughness(ctx: &mut Ctx, p: &Params, m: &mut Map<String, Value>, loc: &Loc, c
             Some(FloatParam::Texture(t)) => {
                 let file = t["texture"].as_str().unwrap_or_default().to_string();
                 let dir = ctx.scene_dir.clone();
-                let derived = ctx.doc.derived_texture(&dir, &file, Some(false), "roughness", move |x| [to_candela(x[0] as f64) as f32; 3])?;
+                let derived =
+                    ctx.doc
+                        .derived_texture(&dir, &file, Some(false), "roughness", move |x| {
+                            [to_candela(x[0] as f64) as f32; 3]
+                        })?;
                 let mut r = json!({"texture": derived});
                 if let Some(s) = t.get("scale") {
                     r["scale"] = s.clone();
@@ -163,7 +223,11 @@ fn roughness(ctx: &mut Ctx, p: &Params, m: &mut Map<String, Value>, loc: &Loc, c
         float_or_texture(ctx, p, "uroughness", loc)?.unwrap_or(FloatParam::Const(0.0)),
         float_or_texture(ctx, p, "vroughness", loc)?.unwrap_or(FloatParam::Const(0.0)),
     ) else {
-        return ctx.report.unsupported(loc, "textured uroughness / vroughness are not supported", "ignored");
+        return ctx.report.unsupported(
+            loc,
+            "textured uroughness / vroughness are not supported",
+            "ignored",
+        );
     };
     let (au, av) = (to_candela(ur).powi(2), to_candela(vr).powi(2));
     let alpha = (au * av).sqrt();
@@ -185,7 +249,12 @@ enum FloatParam {
     Texture(Value),
 }
 
-fn float_or_texture(ctx: &mut Ctx, p: &Params, name: &str, loc: &Loc) -> Result<Option<FloatParam>, SceneError> {
+fn float_or_texture(
+    ctx: &mut Ctx,
+    p: &Params,
+    name: &str,
+    loc: &Loc,
+) -> Result<Option<FloatParam>, SceneError> {
     Ok(match p.spectrum(name)? {
         None => None,
         Some(Spectrum::Rgb([x, ..])) => Some(FloatParam::Const(x)),
@@ -194,14 +263,28 @@ fn float_or_texture(ctx: &mut Ctx, p: &Params, name: &str, loc: &Loc) -> Result<
                 Value::Number(n) => Some(FloatParam::Const(n.as_f64().unwrap_or(0.0))),
                 v => Some(FloatParam::Texture(v.clone())),
             },
-            _ => return Err(p.loc(name, loc).error(format!("\"{name}\": no float texture \"{t}\""))),
+            _ => {
+                return Err(p
+                    .loc(name, loc)
+                    .error(format!("\"{name}\": no float texture \"{t}\"")))
+            }
         },
-        Some(_) => return Err(p.loc(name, loc).error(format!("\"{name}\" must be a float or a float texture"))),
+        Some(_) => {
+            return Err(p
+                .loc(name, loc)
+                .error(format!("\"{name}\" must be a float or a float texture")))
+        }
     })
 }
 
 /// A colour parameter: RGB, a constant spectrum, or a spectrum texture.
-fn color(ctx: &mut Ctx, p: &Params, name: &str, default: f64, loc: &Loc) -> Result<Value, SceneError> {
+fn color(
+    ctx: &mut Ctx,
+    p: &Params,
+    name: &str,
+    default: f64,
+    loc: &Loc,
+) -> Result<Value, SceneError> {
     let ploc = p.loc(name, loc);
     Ok(match p.spectrum(name)? {
         None => json!(default),
@@ -211,22 +294,41 @@ fn color(ctx: &mut Ctx, p: &Params, name: &str, default: f64, loc: &Loc) -> Resu
             None => return Err(ploc.error(format!("\"{name}\": no texture \"{t}\""))),
         },
         Some(Spectrum::Named(n)) => {
-            ctx.report.unsupported(&ploc, &format!("named spectrum \"{n}\" for \"{name}\" is not supported"), &format!("{default}"))?;
+            ctx.report.unsupported(
+                &ploc,
+                &format!("named spectrum \"{n}\" for \"{name}\" is not supported"),
+                &format!("{default}"),
+            )?;
             json!(default)
         }
         Some(Spectrum::Other(what)) => {
-            ctx.report.unsupported(&ploc, &format!("{what} for \"{name}\" is not supported"), &format!("{default}"))?;
+            ctx.report.unsupported(
+                &ploc,
+                &format!("{what} for \"{name}\" is not supported"),
+                &format!("{default}"),
+            )?;
             json!(default)
         }
     })
 }
 
 /// `Texture "name" "spectrum"|"float" "class" params`.
-pub(super) fn texture(ctx: &mut Ctx, name: &str, kind: &str, class: &str, p: &Params, loc: &Loc) -> Result<(), SceneError> {
+pub(super) fn texture(
+    ctx: &mut Ctx,
+    name: &str,
+    kind: &str,
+    class: &str,
+    p: &Params,
+    loc: &Loc,
+) -> Result<(), SceneError> {
     let float = match kind {
         "float" => true,
         "spectrum" | "color" => false,
-        other => return Err(loc.error(format!("Texture \"{name}\": type must be \"spectrum\" or \"float\", got \"{other}\""))),
+        other => {
+            return Err(loc.error(format!(
+                "Texture \"{name}\": type must be \"spectrum\" or \"float\", got \"{other}\""
+            )))
+        }
     };
     let what = format!("texture \"{class}\"");
     let value = match class {
@@ -235,7 +337,11 @@ pub(super) fn texture(ctx: &mut Ctx, name: &str, kind: &str, class: &str, p: &Pa
             match v {
                 Spectrum::Rgb(c) if float => json!(c[0]),
                 Spectrum::Rgb(c) => json!(c),
-                _ => return Err(p.loc("value", loc).error("texture \"constant\": value must be a number or RGB")),
+                _ => {
+                    return Err(p
+                        .loc("value", loc)
+                        .error("texture \"constant\": value must be a number or RGB"))
+                }
             }
         }
         "imagemap" => match image_texture(ctx, name, float, p, loc)? {
@@ -243,7 +349,11 @@ pub(super) fn texture(ctx: &mut Ctx, name: &str, kind: &str, class: &str, p: &Pa
             None => return Ok(()),
         },
         _ => {
-            ctx.report.unsupported(loc, &format!("{what} is not supported (imagemap and constant are)"), "skipped")?;
+            ctx.report.unsupported(
+                loc,
+                &format!("{what} is not supported (imagemap and constant are)"),
+                "skipped",
+            )?;
             p.ignore_all();
             return Ok(());
         }
@@ -253,12 +363,24 @@ pub(super) fn texture(ctx: &mut Ctx, name: &str, kind: &str, class: &str, p: &Pa
     Ok(())
 }
 
-fn image_texture(ctx: &mut Ctx, name: &str, float: bool, p: &Params, loc: &Loc) -> Result<Option<Value>, SceneError> {
-    let file = p.string("filename")?.ok_or_else(|| loc.error("texture \"imagemap\" needs \"string filename\""))?;
+fn image_texture(
+    ctx: &mut Ctx,
+    name: &str,
+    float: bool,
+    p: &Params,
+    loc: &Loc,
+) -> Result<Option<Value>, SceneError> {
+    let file = p
+        .string("filename")?
+        .ok_or_else(|| loc.error("texture \"imagemap\" needs \"string filename\""))?;
     let rel = ctx.file(&file, &p.loc("filename", loc))?;
     let ext = rel.rsplit('.').next().unwrap_or("").to_ascii_lowercase();
     if !matches!(ext.as_str(), "png" | "jpg" | "jpeg" | "exr" | "hdr") {
-        ctx.report.unsupported(&p.loc("filename", loc), &format!("texture \"imagemap\": \"{file}\" is not a PNG, JPEG, EXR or HDR image"), "skipped")?;
+        ctx.report.unsupported(
+            &p.loc("filename", loc),
+            &format!("texture \"imagemap\": \"{file}\" is not a PNG, JPEG, EXR or HDR image"),
+            "skipped",
+        )?;
         return Ok(None);
     }
     let srgb = match p.string("encoding")?.as_deref() {
@@ -266,35 +388,65 @@ fn image_texture(ctx: &mut Ctx, name: &str, float: bool, p: &Params, loc: &Loc) 
         Some("sRGB") => Some(true),
         Some("linear") => Some(false),
         Some(other) => {
-            ctx.report.unsupported(&p.loc("encoding", loc), &format!("texture encoding \"{other}\" is not supported"), "the format's default")?;
+            ctx.report.unsupported(
+                &p.loc("encoding", loc),
+                &format!("texture encoding \"{other}\" is not supported"),
+                "the format's default",
+            )?;
             None
         }
     };
     for (key, ok) in [("mapping", "uv"), ("wrap", "repeat")] {
         if let Some(v) = p.string(key)? {
             if v != ok {
-                ctx.report.unsupported(&p.loc(key, loc), &format!("texture \"imagemap\": {key} \"{v}\" is not supported"), ok)?;
+                ctx.report.unsupported(
+                    &p.loc(key, loc),
+                    &format!("texture \"imagemap\": {key} \"{v}\" is not supported"),
+                    ok,
+                )?;
             }
         }
     }
     if p.num("udelta")?.unwrap_or(0.0) != 0.0 || p.num("vdelta")?.unwrap_or(0.0) != 0.0 {
-        ctx.report.unsupported(loc, "texture \"imagemap\": udelta / vdelta are not supported", "ignored")?;
+        ctx.report.unsupported(
+            loc,
+            "texture \"imagemap\": udelta / vdelta are not supported",
+            "ignored",
+        )?;
     }
     p.ignore(&["filter", "maxanisotropy"]);
     // pbrt flips t before its top-row-first lookup: row = (1 − vscale·v)·H, exactly candela's rule.
-    let scale = [p.num("uscale")?.unwrap_or(1.0), p.num("vscale")?.unwrap_or(1.0)];
-    let (k, invert) = (p.num("scale")?.unwrap_or(1.0), p.bool("invert")?.unwrap_or(false));
+    let scale = [
+        p.num("uscale")?.unwrap_or(1.0),
+        p.num("vscale")?.unwrap_or(1.0),
+    ];
+    let (k, invert) = (
+        p.num("scale")?.unwrap_or(1.0),
+        p.bool("invert")?.unwrap_or(false),
+    );
     let mut out = Map::new();
     if float || k != 1.0 || invert {
         // pbrt reads a float texture as the mean of the channels, then scales and inverts.
         let dir = ctx.scene_dir.clone();
         let f = move |t: [f32; 4]| {
-            let x = if float { (t[0] + t[1] + t[2]) / 3.0 } else { 0.0 };
+            let x = if float {
+                (t[0] + t[1] + t[2]) / 3.0
+            } else {
+                0.0
+            };
             let g = |c: f32| {
                 let v = c * k as f32;
-                if invert { (1.0 - v).max(0.0) } else { v }
+                if invert {
+                    (1.0 - v).max(0.0)
+                } else {
+                    v
+                }
             };
-            if float { [g(x); 3] } else { [g(t[0]), g(t[1]), g(t[2])] }
+            if float {
+                [g(x); 3]
+            } else {
+                [g(t[0]), g(t[1]), g(t[2])]
+            }
         };
         let derived = ctx.doc.derived_texture(&dir, &rel, srgb, name, f)?;
         out.insert("texture".into(), json!(derived));
@@ -317,13 +469,21 @@ fn radiance(ctx: &mut Ctx, p: &Params, name: &str, loc: &Loc) -> Result<[f64; 3]
         None => [1.0; 3],
         Some(Spectrum::Rgb(c)) => c,
         Some(other) => {
-            ctx.report.unsupported(&ploc, &format!("\"{name}\" {other:?} is not supported (RGB and constant spectra are)"), "white")?;
+            ctx.report.unsupported(
+                &ploc,
+                &format!("\"{name}\" {other:?} is not supported (RGB and constant spectra are)"),
+                "white",
+            )?;
             [1.0; 3]
         }
     };
     if p.has("power") {
         p.num("power")?;
-        ctx.report.unsupported(&p.loc("power", loc), "light \"power\" is not supported (give the radiance or intensity)", "ignored")?;
+        ctx.report.unsupported(
+            &p.loc("power", loc),
+            "light \"power\" is not supported (give the radiance or intensity)",
+            "ignored",
+        )?;
     }
     let s = p.num("scale")?.unwrap_or(1.0);
     Ok(c.map(|x| x * s))
@@ -336,7 +496,11 @@ pub(super) fn light(ctx: &mut Ctx, ty: &str, p: &Params, loc: &Loc) -> Result<()
         Ok(match p.nums(name)? {
             None => DVec3::from_array(d),
             Some(v) if v.len() == 3 => DVec3::new(v[0], v[1], v[2]),
-            Some(_) => return Err(p.loc(name, loc).error(format!("\"{name}\" must be 3 numbers"))),
+            Some(_) => {
+                return Err(p
+                    .loc(name, loc)
+                    .error(format!("\"{name}\" must be 3 numbers")))
+            }
         })
     };
     let what = format!("LightSource \"{ty}\"");
@@ -344,11 +508,17 @@ pub(super) fn light(ctx: &mut Ctx, ty: &str, p: &Params, loc: &Loc) -> Result<()
         "point" => {
             let i = radiance(ctx, p, "I", loc)?;
             let pos = m.transform_point3(pt("from", [0.0; 3])?);
-            ctx.doc.light(json!({"type": "point", "position": pos.to_array(), "intensity": i}), loc);
+            ctx.doc.light(
+                json!({"type": "point", "position": pos.to_array(), "intensity": i}),
+                loc,
+            );
         }
         "spot" => {
             let i = radiance(ctx, p, "I", loc)?;
-            let (from, to) = (m.transform_point3(pt("from", [0.0; 3])?), m.transform_point3(pt("to", [0.0, 0.0, 1.0])?));
+            let (from, to) = (
+                m.transform_point3(pt("from", [0.0; 3])?),
+                m.transform_point3(pt("to", [0.0, 0.0, 1.0])?),
+            );
             let cone = p.num("coneangle")?.unwrap_or(30.0);
             let delta = p.num("conedelta")?.unwrap_or(5.0);
             ctx.report.warn(loc, "spot light: pbrt's smoothstep falloff becomes candela's linear falloff over the same angles");
@@ -358,7 +528,10 @@ pub(super) fn light(ctx: &mut Ctx, ty: &str, p: &Params, loc: &Loc) -> Result<()
         "distant" => {
             let l = radiance(ctx, p, "L", loc)?;
             let d = m.transform_vector3(pt("to", [0.0, 0.0, 1.0])? - pt("from", [0.0; 3])?);
-            ctx.doc.light(json!({"type": "directional", "direction": d.to_array(), "irradiance": l}), loc);
+            ctx.doc.light(
+                json!({"type": "directional", "direction": d.to_array(), "irradiance": l}),
+                loc,
+            );
         }
         "infinite" => {
             if p.has("filename") {
@@ -368,14 +541,22 @@ pub(super) fn light(ctx: &mut Ctx, ty: &str, p: &Params, loc: &Loc) -> Result<()
             } else {
                 let l = radiance(ctx, p, "L", loc)?;
                 if ctx.doc.environment.is_some() {
-                    ctx.report.unsupported(loc, "a second infinite light is not supported", "skipped")?;
+                    ctx.report.unsupported(
+                        loc,
+                        "a second infinite light is not supported",
+                        "skipped",
+                    )?;
                 } else {
                     ctx.doc.environment = Some(json!({"type": "constant", "radiance": l}));
                 }
             }
         }
         _ => {
-            ctx.report.unsupported(loc, &format!("{what} is not supported (point, spot, distant and infinite are)"), "skipped")?;
+            ctx.report.unsupported(
+                loc,
+                &format!("{what} is not supported (point, spot, distant and infinite are)"),
+                "skipped",
+            )?;
             p.ignore_all();
         }
     }
@@ -385,15 +566,27 @@ pub(super) fn light(ctx: &mut Ctx, ty: &str, p: &Params, loc: &Loc) -> Result<()
 /// `AreaLightSource "diffuse"`: emission for the shapes that follow in this attribute block.
 pub(super) fn area_light(ctx: &mut Ctx, ty: &str, p: &Params, loc: &Loc) -> Result<(), SceneError> {
     if ty != "diffuse" {
-        return ctx.report.unsupported(loc, &format!("AreaLightSource \"{ty}\" is not supported (diffuse is)"), "skipped");
+        return ctx.report.unsupported(
+            loc,
+            &format!("AreaLightSource \"{ty}\" is not supported (diffuse is)"),
+            "skipped",
+        );
     }
     let l = radiance(ctx, p, "L", loc)?;
     if p.bool("twosided")? == Some(true) {
-        ctx.report.unsupported(&p.loc("twosided", loc), "a two-sided area light is not supported (candela's emitters emit from the front)", "front side only")?;
+        ctx.report.unsupported(
+            &p.loc("twosided", loc),
+            "a two-sided area light is not supported (candela's emitters emit from the front)",
+            "front side only",
+        )?;
     }
     if p.has("filename") {
         p.string("filename")?;
-        ctx.report.unsupported(&p.loc("filename", loc), "an image area light is not supported", "ignored")?;
+        ctx.report.unsupported(
+            &p.loc("filename", loc),
+            "an image area light is not supported",
+            "ignored",
+        )?;
     }
     p.finish(&mut ctx.report, "AreaLightSource \"diffuse\"")?;
     ctx.gs.area = Some((l, loc.clone()));

@@ -121,7 +121,7 @@ pub(crate) fn import(path: &Path, opts: &ImportOptions) -> ImportResult {
     if !ctx.in_world {
         ctx.world_begin(&Loc::file(&file))?;
     }
-    if let Some((_, (_, loc, _))) = ctx.stack.iter().enumerate().last() {
+    if let Some((_, loc, _)) = ctx.stack.last() {
         return Err(loc.error("AttributeBegin without AttributeEnd"));
     }
     let Ctx { doc, report, .. } = ctx;
@@ -142,7 +142,13 @@ impl Ctx {
         Ok(())
     }
 
-    fn directive(&mut self, name: &str, t: &mut Tokens, loc: &Loc, depth: usize) -> Result<(), SceneError> {
+    fn directive(
+        &mut self,
+        name: &str,
+        t: &mut Tokens,
+        loc: &Loc,
+        depth: usize,
+    ) -> Result<(), SceneError> {
         let ctm = self.gs.ctm;
         match name {
             "Identity" => self.gs.ctm = DMat4::IDENTITY,
@@ -157,13 +163,19 @@ impl Ctx {
             "Rotate" => {
                 let v = numbers(t, 4, loc)?;
                 let axis = DVec3::new(v[1], v[2], v[3]);
-                let axis = axis.try_normalize().ok_or_else(|| loc.error("Rotate: zero axis"))?;
+                let axis = axis
+                    .try_normalize()
+                    .ok_or_else(|| loc.error("Rotate: zero axis"))?;
                 self.gs.ctm = ctm * DMat4::from_axis_angle(axis, v[0].to_radians());
             }
             "LookAt" => {
                 let v = numbers(t, 9, loc)?;
-                let m = look_at(DVec3::new(v[0], v[1], v[2]), DVec3::new(v[3], v[4], v[5]), DVec3::new(v[6], v[7], v[8]))
-                    .ok_or_else(|| loc.error("LookAt: the eye, target and up vector are degenerate"))?;
+                let m = look_at(
+                    DVec3::new(v[0], v[1], v[2]),
+                    DVec3::new(v[3], v[4], v[5]),
+                    DVec3::new(v[6], v[7], v[8]),
+                )
+                .ok_or_else(|| loc.error("LookAt: the eye, target and up vector are degenerate"))?;
                 self.gs.ctm = ctm * m;
             }
             "Transform" | "ConcatTransform" => {
@@ -180,15 +192,22 @@ impl Ctx {
                 let n = string(t, loc)?;
                 match self.named_cs.get(&n) {
                     Some(m) => self.gs.ctm = *m,
-                    None => self.report.warn(loc, format!("CoordSysTransform: no coordinate system \"{n}\": ignored")),
+                    None => self.report.warn(
+                        loc,
+                        format!("CoordSysTransform: no coordinate system \"{n}\": ignored"),
+                    ),
                 }
             }
             "ReverseOrientation" => self.gs.reverse = !self.gs.reverse,
             "AttributeBegin" | "TransformBegin" => {
-                self.stack.push((self.gs.clone(), loc.clone(), name == "TransformBegin"));
+                self.stack
+                    .push((self.gs.clone(), loc.clone(), name == "TransformBegin"));
             }
             "AttributeEnd" | "TransformEnd" => {
-                let (saved, _, only_ctm) = self.stack.pop().ok_or_else(|| loc.error(format!("{name} without a matching begin")))?;
+                let (saved, _, only_ctm) = self
+                    .stack
+                    .pop()
+                    .ok_or_else(|| loc.error(format!("{name} without a matching begin")))?;
                 if only_ctm {
                     self.gs.ctm = saved.ctm;
                 } else {
@@ -200,23 +219,38 @@ impl Ctx {
                 for _ in 0..n {
                     t.next()?;
                 }
-                self.report.unsupported(loc, &format!("{name} (motion blur) is not supported"), "ignored")?;
+                self.report.unsupported(
+                    loc,
+                    &format!("{name} (motion blur) is not supported"),
+                    "ignored",
+                )?;
             }
             "Option" => {
                 let p = params::read(t)?;
                 p.ignore_all();
-                self.report.warn(loc, "Option: rendering options are ignored");
+                self.report
+                    .warn(loc, "Option: rendering options are ignored");
             }
             "ColorSpace" => {
                 let n = string(t, loc)?;
                 if n != "srgb" {
-                    self.report.unsupported(loc, &format!("ColorSpace \"{n}\" is not supported (candela renders linear sRGB)"), "srgb")?;
+                    self.report.unsupported(
+                        loc,
+                        &format!(
+                            "ColorSpace \"{n}\" is not supported (candela renders linear sRGB)"
+                        ),
+                        "srgb",
+                    )?;
                 }
             }
             "Attribute" => {
                 let target = string(t, loc)?;
                 let _ = params::read(t)?;
-                self.report.unsupported(loc, &format!("Attribute \"{target}\" (parameter defaults) is not supported"), "ignored")?;
+                self.report.unsupported(
+                    loc,
+                    &format!("Attribute \"{target}\" (parameter defaults) is not supported"),
+                    "ignored",
+                )?;
             }
             "Camera" | "Film" | "Sampler" | "PixelFilter" | "Integrator" | "Accelerator" => {
                 let ty = string(t, loc)?;
@@ -229,7 +263,11 @@ impl Ctx {
             "MakeNamedMedium" => {
                 let n = string(t, loc)?;
                 let _ = params::read(t)?;
-                self.report.unsupported(loc, &format!("MakeNamedMedium \"{n}\": participating media are not supported"), "ignored")?;
+                self.report.unsupported(
+                    loc,
+                    &format!("MakeNamedMedium \"{n}\": participating media are not supported"),
+                    "ignored",
+                )?;
             }
             "MediumInterface" => {
                 let a = string(t, loc)?;
@@ -238,7 +276,11 @@ impl Ctx {
                     _ => a.clone(),
                 };
                 if !a.is_empty() || !b.is_empty() {
-                    self.report.unsupported(loc, "MediumInterface: participating media are not supported", "ignored")?;
+                    self.report.unsupported(
+                        loc,
+                        "MediumInterface: participating media are not supported",
+                        "ignored",
+                    )?;
                 }
             }
             "WorldBegin" => self.world_begin(loc)?,
@@ -246,14 +288,21 @@ impl Ctx {
             "Include" | "Import" => {
                 let n = string(t, loc)?;
                 if depth + 1 > MAX_INCLUDE_DEPTH {
-                    return Err(loc.error(format!("{name} nested more than {MAX_INCLUDE_DEPTH} deep (a cycle?)")));
+                    return Err(loc.error(format!(
+                        "{name} nested more than {MAX_INCLUDE_DEPTH} deep (a cycle?)"
+                    )));
                 }
-                let rel = resolve_in(&self.scene_dir, Path::new(""), &n).map_err(|m| loc.error(format!("{name}: {m}")))?;
+                let rel = resolve_in(&self.scene_dir, Path::new(""), &n)
+                    .map_err(|m| loc.error(format!("{name}: {m}")))?;
                 let full = self.scene_dir.join(&rel);
                 if n.ends_with(".gz") {
-                    return Err(loc.error(format!("{name} \"{n}\": compressed files are not supported")));
+                    return Err(loc.error(format!(
+                        "{name} \"{n}\": compressed files are not supported"
+                    )));
                 }
-                let text = std::fs::read(&full).map_err(|e| loc.error(format!("{name} \"{n}\": {}", crate::scene::io_message(&e))))?;
+                let text = std::fs::read(&full).map_err(|e| {
+                    loc.error(format!("{name} \"{n}\": {}", crate::scene::io_message(&e)))
+                })?;
                 let shown: Arc<str> = Arc::from(self.shown_dir.join(&rel).display().to_string());
                 let mut inner = Tokens::new(text, shown);
                 self.run(&mut inner, depth + 1)?;
@@ -272,17 +321,17 @@ impl Ctx {
             "MakeNamedMaterial" => {
                 let n = string(t, loc)?;
                 let p = params::read(t)?;
-                let ty = p.string("type")?.ok_or_else(|| loc.error(format!("MakeNamedMaterial \"{n}\" needs \"string type\"")))?;
+                let ty = p.string("type")?.ok_or_else(|| {
+                    loc.error(format!("MakeNamedMaterial \"{n}\" needs \"string type\""))
+                })?;
                 let m = materials::material(self, &ty, &p, loc, &n)?;
                 self.named_materials.insert(n, m);
             }
             "NamedMaterial" => {
                 let n = string(t, loc)?;
-                self.gs.material = self
-                    .named_materials
-                    .get(&n)
-                    .cloned()
-                    .ok_or_else(|| loc.error(format!("NamedMaterial: no material \"{n}\" was made")))?;
+                self.gs.material = self.named_materials.get(&n).cloned().ok_or_else(|| {
+                    loc.error(format!("NamedMaterial: no material \"{n}\" was made"))
+                })?;
             }
             "Texture" => {
                 let n = string(t, loc)?;
@@ -311,14 +360,23 @@ impl Ctx {
                 self.defining = Some((n, Vec::new(), loc.clone()));
             }
             "ObjectEnd" => {
-                let (n, objects, _) = self.defining.take().ok_or_else(|| loc.error("ObjectEnd without ObjectBegin"))?;
+                let (n, objects, _) = self
+                    .defining
+                    .take()
+                    .ok_or_else(|| loc.error("ObjectEnd without ObjectBegin"))?;
                 self.instances.insert(n, objects);
-                let (saved, _, _) = self.stack.pop().ok_or_else(|| loc.error("ObjectEnd without ObjectBegin"))?;
+                let (saved, _, _) = self
+                    .stack
+                    .pop()
+                    .ok_or_else(|| loc.error("ObjectEnd without ObjectBegin"))?;
                 self.gs = saved;
             }
             "ObjectInstance" => {
                 let n = string(t, loc)?;
-                let group = self.instances.get(&n).ok_or_else(|| loc.error(format!("ObjectInstance: no object \"{n}\"")))?;
+                let group = self
+                    .instances
+                    .get(&n)
+                    .ok_or_else(|| loc.error(format!("ObjectInstance: no object \"{n}\"")))?;
                 let placed = super::xform::instance(group, &(self.world * ctm));
                 for o in placed {
                     self.doc.object(o, loc);
@@ -349,7 +407,11 @@ impl Ctx {
             }
             "Film" => {
                 if !matches!(ty, "rgb" | "gbuffer" | "spectral") {
-                    self.report.unsupported(loc, &format!("{what} is not supported"), "read as an rgb film")?;
+                    self.report.unsupported(
+                        loc,
+                        &format!("{what} is not supported"),
+                        "read as an rgb film",
+                    )?;
                 }
                 let w = p.num("xresolution")?.unwrap_or(1280.0);
                 let h = p.num("yresolution")?.unwrap_or(720.0);
@@ -362,32 +424,68 @@ impl Ctx {
                 for key in ["cropwindow", "pixelbounds"] {
                     if p.has(key) {
                         p.nums(key)?;
-                        self.report.unsupported(&p.loc(key, loc), &format!("{what}: \"{key}\" is not supported"), "the whole image is rendered")?;
+                        self.report.unsupported(
+                            &p.loc(key, loc),
+                            &format!("{what}: \"{key}\" is not supported"),
+                            "the whole image is rendered",
+                        )?;
                     }
                 }
-                if p.num("iso")?.is_some_and(|x| x != 100.0) || p.num("whitebalance")?.is_some_and(|x| x != 0.0) {
-                    self.report.unsupported(loc, &format!("{what}: iso other than 100 and white balance are not supported"), "ignored")?;
+                if p.num("iso")?.is_some_and(|x| x != 100.0)
+                    || p.num("whitebalance")?.is_some_and(|x| x != 0.0)
+                {
+                    self.report.unsupported(
+                        loc,
+                        &format!("{what}: iso other than 100 and white balance are not supported"),
+                        "ignored",
+                    )?;
                 }
                 if p.string("sensor")?.is_some_and(|s| s != "cie1931") {
-                    self.report.unsupported(&p.loc("sensor", loc), &format!("{what}: sensor curves are not supported"), "ignored")?;
+                    self.report.unsupported(
+                        &p.loc("sensor", loc),
+                        &format!("{what}: sensor curves are not supported"),
+                        "ignored",
+                    )?;
                 }
-                p.ignore(&["filename", "savefp16", "maxcomponentvalue", "diagonal", "exposuretime"]);
+                p.ignore(&[
+                    "filename",
+                    "savefp16",
+                    "maxcomponentvalue",
+                    "diagonal",
+                    "exposuretime",
+                ]);
             }
             "Sampler" => {
                 let spp = p.num("pixelsamples")?.unwrap_or(16.0);
                 if spp < 1.0 {
-                    return Err(p.loc("pixelsamples", loc).error("pixelsamples must be at least 1"));
+                    return Err(p
+                        .loc("pixelsamples", loc)
+                        .error("pixelsamples must be at least 1"));
                 }
                 self.doc.render.insert("spp".into(), json!(spp as u64));
-                p.ignore(&["seed", "dimensions", "jitter", "randomization", "xsamples", "ysamples"]);
+                p.ignore(&[
+                    "seed",
+                    "dimensions",
+                    "jitter",
+                    "randomization",
+                    "xsamples",
+                    "ysamples",
+                ]);
             }
             "PixelFilter" => {
                 self.saw_filter = true;
                 let f = match ty {
                     "box" => {
-                        let r = (p.num("xradius")?.unwrap_or(0.5), p.num("yradius")?.unwrap_or(0.5));
+                        let r = (
+                            p.num("xradius")?.unwrap_or(0.5),
+                            p.num("yradius")?.unwrap_or(0.5),
+                        );
                         if r != (0.5, 0.5) {
-                            self.report.unsupported(loc, "PixelFilter \"box\": a radius other than 0.5 is not supported", "radius 0.5")?;
+                            self.report.unsupported(
+                                loc,
+                                "PixelFilter \"box\": a radius other than 0.5 is not supported",
+                                "radius 0.5",
+                            )?;
                         }
                         json!("box")
                     }
@@ -396,7 +494,11 @@ impl Ctx {
                         json!({"type": "gaussian", "stddev": p.num("sigma")?.unwrap_or(0.5)})
                     }
                     _ => {
-                        self.report.unsupported(loc, &format!("{what} is not supported (box and gaussian are)"), "the box filter")?;
+                        self.report.unsupported(
+                            loc,
+                            &format!("{what} is not supported (box and gaussian are)"),
+                            "the box filter",
+                        )?;
                         p.ignore(&["xradius", "yradius", "B", "C", "tau", "sigma"]);
                         json!("box")
                     }
@@ -410,14 +512,29 @@ impl Ctx {
                     "path" | "volpath" => "nee",
                     "bdpt" => "bdpt",
                     _ => {
-                        self.report.unsupported(loc, &format!("{what} is not supported (path, volpath and bdpt are)"), "a path tracer (nee)")?;
+                        self.report.unsupported(
+                            loc,
+                            &format!("{what} is not supported (path, volpath and bdpt are)"),
+                            "a path tracer (nee)",
+                        )?;
                         "nee"
                     }
                 };
                 // pbrt's maxdepth counts bounces after the camera ray: candela's (Mitsuba's) + 1.
-                self.doc.render.insert("integrator".into(), json!(integrator));
-                self.doc.render.insert("max_depth".into(), json!(depth as i64 + 1));
-                p.ignore(&["regularize", "lightsampler", "visualizestrategies", "visualizeweights", "samplelights", "samplebsdf"]);
+                self.doc
+                    .render
+                    .insert("integrator".into(), json!(integrator));
+                self.doc
+                    .render
+                    .insert("max_depth".into(), json!(depth as i64 + 1));
+                p.ignore(&[
+                    "regularize",
+                    "lightsampler",
+                    "visualizestrategies",
+                    "visualizeweights",
+                    "samplelights",
+                    "samplebsdf",
+                ]);
             }
             _ => {
                 p.ignore_all();
@@ -433,32 +550,64 @@ impl Ctx {
         }
         self.in_world = true;
         let (w, h) = self.film;
-        let (ty, p, cloc, c2w) = self.camera.take().unwrap_or_else(|| ("perspective".into(), Params::default(), loc.clone(), DMat4::IDENTITY));
+        let (ty, p, cloc, c2w) = self.camera.take().unwrap_or_else(|| {
+            (
+                "perspective".into(),
+                Params::default(),
+                loc.clone(),
+                DMat4::IDENTITY,
+            )
+        });
         if ty != "perspective" {
-            self.report.unsupported(&cloc, &format!("Camera \"{ty}\" is not supported"), "a perspective camera")?;
+            self.report.unsupported(
+                &cloc,
+                &format!("Camera \"{ty}\" is not supported"),
+                "a perspective camera",
+            )?;
         }
         if mirrors_image(&c2w, DVec3::X, DVec3::Z, DVec3::Y) {
             self.world = DMat4::from_scale(DVec3::new(-1.0, 1.0, 1.0));
         }
-        let frame = camera_frame(&(self.world * c2w), DVec3::Z, DVec3::Y)
-            .map_err(|_| cloc.error("the camera transform is not a rotation, translation and uniform scale"))?;
+        let frame = camera_frame(&(self.world * c2w), DVec3::Z, DVec3::Y).map_err(|_| {
+            cloc.error("the camera transform is not a rotation, translation and uniform scale")
+        })?;
         let mut cam = camera_value(&frame);
         // pbrt's fov spans the shorter image axis.
         let fov = p.num("fov")?.unwrap_or(90.0);
-        let fov_y = if w >= h { fov } else { 2.0 * ((fov.to_radians() / 2.0).tan() * h / w).atan().to_degrees() };
+        let fov_y = if w >= h {
+            fov
+        } else {
+            2.0 * ((fov.to_radians() / 2.0).tan() * h / w).atan().to_degrees()
+        };
         cam.insert("fov_y".into(), json!(fov_y));
         let lens = p.num("lensradius")?.unwrap_or(0.0);
         if lens > 0.0 {
             cam.insert("aperture_radius".into(), json!(lens));
-            cam.insert("focus_distance".into(), json!(p.num("focaldistance")?.unwrap_or(1e6)));
+            cam.insert(
+                "focus_distance".into(),
+                json!(p.num("focaldistance")?.unwrap_or(1e6)),
+            );
         } else {
             p.num("focaldistance")?;
         }
-        if p.has("screenwindow") || p.num("frameaspectratio")?.is_some_and(|a| (a - w / h).abs() > 1e-6) {
+        if p.has("screenwindow")
+            || p.num("frameaspectratio")?
+                .is_some_and(|a| (a - w / h).abs() > 1e-6)
+        {
             p.nums("screenwindow")?;
-            self.report.unsupported(&cloc, "Camera: screenwindow / frameaspectratio other than the film's are not supported", "ignored")?;
+            self.report.unsupported(
+                &cloc,
+                "Camera: screenwindow / frameaspectratio other than the film's are not supported",
+                "ignored",
+            )?;
         }
-        p.ignore(&["shutteropen", "shutterclose", "lensfile", "aperturediameter", "focusdistance"]);
+        p.ignore(&[
+            "shutteropen",
+            "shutterclose",
+            "lensfile",
+            "aperturediameter",
+            "focusdistance",
+        ]);
         p.finish(&mut self.report, &format!("Camera \"{ty}\""))?;
         self.doc.camera = cam;
         if !self.doc.film.contains_key("width") {
@@ -467,7 +616,9 @@ impl Ctx {
         }
         if !self.saw_filter {
             // pbrt-v4's default pixel filter.
-            self.doc.film.insert("filter".into(), json!({"type": "gaussian", "stddev": 0.5}));
+            self.doc
+                .film
+                .insert("filter".into(), json!({"type": "gaussian", "stddev": 0.5}));
         }
         if !self.saw_integrator {
             // pbrt-v4's default integrator: volpath, maxdepth 5.
@@ -492,7 +643,12 @@ fn look_at(eye: DVec3, target: DVec3, up: DVec3) -> Option<DMat4> {
     let dir = (target - eye).try_normalize()?;
     let right = up.try_normalize()?.cross(dir).try_normalize()?;
     let new_up = dir.cross(right);
-    let world_from_camera = DMat4::from_cols(right.extend(0.0), new_up.extend(0.0), dir.extend(0.0), eye.extend(1.0));
+    let world_from_camera = DMat4::from_cols(
+        right.extend(0.0),
+        new_up.extend(0.0),
+        dir.extend(0.0),
+        eye.extend(1.0),
+    );
     Some(world_from_camera.inverse())
 }
 
@@ -505,13 +661,25 @@ fn numbers(t: &mut Tokens, n: usize, loc: &Loc) -> Result<Vec<f64>, SceneError> 
     }
     while out.len() < n {
         match t.next()? {
-            Some(tokens::Token { tok: Tok::Word(w), line }) => {
-                out.push(w.parse().map_err(|_| t.loc(line).error(format!("\"{w}\" is not a number")))?)
-            }
+            Some(tokens::Token {
+                tok: Tok::Word(w),
+                line,
+            }) => out.push(
+                w.parse()
+                    .map_err(|_| t.loc(line).error(format!("\"{w}\" is not a number")))?,
+            ),
             _ => return Err(loc.error(format!("expected {n} numbers"))),
         }
     }
-    if bracketed && !matches!(t.next()?, Some(tokens::Token { tok: Tok::Close, .. })) {
+    if bracketed
+        && !matches!(
+            t.next()?,
+            Some(tokens::Token {
+                tok: Tok::Close,
+                ..
+            })
+        )
+    {
         return Err(loc.error(format!("expected ] after {n} numbers")));
     }
     Ok(out)
@@ -520,7 +688,9 @@ fn numbers(t: &mut Tokens, n: usize, loc: &Loc) -> Result<Vec<f64>, SceneError> 
 /// One quoted string.
 fn string(t: &mut Tokens, loc: &Loc) -> Result<String, SceneError> {
     match t.next()? {
-        Some(tokens::Token { tok: Tok::Str(s), .. }) => Ok(s),
+        Some(tokens::Token {
+            tok: Tok::Str(s), ..
+        }) => Ok(s),
         _ => Err(loc.error("expected a quoted string")),
     }
 }

@@ -47,8 +47,7 @@ pub(crate) struct Params {
 /// Reads parameters until the next directive.
 pub(crate) fn read(t: &mut Tokens) -> Result<Params, SceneError> {
     let mut list: Vec<Param> = Vec::new();
-    loop {
-        let Some(tok) = t.peek()? else { break };
+    while let Some(tok) = t.peek()? {
         let Tok::Str(decl) = &tok.tok else { break };
         let (decl, line) = (decl.clone(), tok.line);
         t.next()?;
@@ -63,7 +62,10 @@ pub(crate) fn read(t: &mut Tokens) -> Result<Params, SceneError> {
                 Tok::Str(s) => PV::Str(s),
                 Tok::Word(w) if w == "true" => PV::Bool(true),
                 Tok::Word(w) if w == "false" => PV::Bool(false),
-                Tok::Word(w) => PV::Num(w.parse().map_err(|_| loc.error(format!("\"{w}\" is not a number")))?),
+                Tok::Word(w) => PV::Num(
+                    w.parse()
+                        .map_err(|_| loc.error(format!("\"{w}\" is not a number")))?,
+                ),
                 _ => return Err(loc.error("unexpected bracket")),
             })
         };
@@ -113,7 +115,10 @@ impl Params {
 
     /// The place of `name`, else `fallback`.
     pub fn loc(&self, name: &str, fallback: &Loc) -> Loc {
-        self.list.iter().find(|p| p.name == name).map_or_else(|| fallback.clone(), |p| p.loc.clone())
+        self.list
+            .iter()
+            .find(|p| p.name == name)
+            .map_or_else(|| fallback.clone(), |p| p.loc.clone())
     }
 
     /// Whether `name` is given (not marked read).
@@ -123,7 +128,9 @@ impl Params {
 
     /// Numbers of `name` (integers and floats).
     pub fn nums(&self, name: &str) -> Result<Option<Vec<f64>>, SceneError> {
-        let Some(p) = self.find(name) else { return Ok(None) };
+        let Some(p) = self.find(name) else {
+            return Ok(None);
+        };
         p.values
             .iter()
             .map(|v| match v {
@@ -150,7 +157,9 @@ impl Params {
 
     /// One string.
     pub fn string(&self, name: &str) -> Result<Option<String>, SceneError> {
-        let Some(p) = self.find(name) else { return Ok(None) };
+        let Some(p) = self.find(name) else {
+            return Ok(None);
+        };
         match p.values.as_slice() {
             [PV::Str(s)] => Ok(Some(s.clone())),
             _ => Err(p.loc.error(format!("\"{name}\" must be one string"))),
@@ -159,7 +168,9 @@ impl Params {
 
     /// One boolean.
     pub fn bool(&self, name: &str) -> Result<Option<bool>, SceneError> {
-        let Some(p) = self.find(name) else { return Ok(None) };
+        let Some(p) = self.find(name) else {
+            return Ok(None);
+        };
         match p.values.as_slice() {
             [PV::Bool(b)] => Ok(Some(*b)),
             _ => Err(p.loc.error(format!("\"{name}\" must be true or false"))),
@@ -168,15 +179,24 @@ impl Params {
 
     /// A spectrum-valued parameter (`rgb`, `spectrum`, `blackbody`, `float`, `texture`).
     pub fn spectrum(&self, name: &str) -> Result<Option<Spectrum>, SceneError> {
-        let Some(p) = self.find(name) else { return Ok(None) };
-        let nums: Vec<f64> = p.values.iter().filter_map(|v| if let PV::Num(x) = v { Some(*x) } else { None }).collect();
-        let bad = || p.loc.error(format!("\"{} {name}\": unexpected values", p.ty));
+        let Some(p) = self.find(name) else {
+            return Ok(None);
+        };
+        let nums: Vec<f64> = p
+            .values
+            .iter()
+            .filter_map(|v| if let PV::Num(x) = v { Some(*x) } else { None })
+            .collect();
+        let bad = || {
+            p.loc
+                .error(format!("\"{} {name}\": unexpected values", p.ty))
+        };
         Ok(Some(match (p.ty.as_str(), p.values.as_slice()) {
             ("rgb" | "color", _) if nums.len() == 3 => Spectrum::Rgb([nums[0], nums[1], nums[2]]),
             ("float", _) if nums.len() == 1 => Spectrum::Rgb([nums[0]; 3]),
             ("texture", [PV::Str(s)]) => Spectrum::Texture(s.clone()),
             ("spectrum", [PV::Str(s)]) => Spectrum::Named(s.clone()),
-            ("spectrum", _) if nums.len() >= 2 && nums.len() % 2 == 0 => {
+            ("spectrum", _) if nums.len() >= 2 && nums.len().is_multiple_of(2) => {
                 let values: Vec<f64> = nums.chunks(2).map(|c| c[1]).collect();
                 if values.iter().all(|&v| v == values[0]) {
                     Spectrum::Rgb([values[0]; 3])
@@ -184,7 +204,9 @@ impl Params {
                     Spectrum::Other("a tabulated spectrum that varies with wavelength".into())
                 }
             }
-            ("blackbody", _) if nums.len() == 1 => Spectrum::Other(format!("blackbody {} K", nums[0])),
+            ("blackbody", _) if nums.len() == 1 => {
+                Spectrum::Other(format!("blackbody {} K", nums[0]))
+            }
             _ => return Err(bad()),
         }))
     }
@@ -208,7 +230,11 @@ impl Params {
     /// Reports every parameter nobody read (unsupported; ignored under --lenient).
     pub fn finish(&self, report: &mut Report, what: &str) -> Result<(), SceneError> {
         for p in self.list.iter().filter(|p| !p.used.get()) {
-            report.unsupported(&p.loc, &format!("{what}: parameter \"{} {}\" is not supported", p.ty, p.name), "ignored")?;
+            report.unsupported(
+                &p.loc,
+                &format!("{what}: parameter \"{} {}\" is not supported", p.ty, p.name),
+                "ignored",
+            )?;
         }
         Ok(())
     }
@@ -228,17 +254,32 @@ mod tests {
     fn typed_values() {
         let p = params("\"float fov\" [45] \"rgb L\" [1 2 3] \"bool twosided\" \"true\" \"spectrum eta\" \"glass-BK7\" \"integer indices\" [0 1 2] \"spectrum k\" [400 2 700 2] Shape");
         assert_eq!(p.num("fov").unwrap(), Some(45.0));
-        assert_eq!(p.spectrum("L").unwrap(), Some(Spectrum::Rgb([1.0, 2.0, 3.0])));
+        assert_eq!(
+            p.spectrum("L").unwrap(),
+            Some(Spectrum::Rgb([1.0, 2.0, 3.0]))
+        );
         assert_eq!(p.bool("twosided").unwrap(), Some(true));
-        assert_eq!(p.spectrum("eta").unwrap(), Some(Spectrum::Named("glass-BK7".into())));
+        assert_eq!(
+            p.spectrum("eta").unwrap(),
+            Some(Spectrum::Named("glass-BK7".into()))
+        );
         assert_eq!(p.nums("indices").unwrap(), Some(vec![0.0, 1.0, 2.0]));
         assert_eq!(p.spectrum("k").unwrap(), Some(Spectrum::Rgb([2.0; 3])));
         let mut t = Tokens::new(b"\"blah\" 2".to_vec(), Arc::from("p.pbrt"));
-        assert!(read(&mut t).unwrap_err().to_string().contains("must be \"TYPE NAME\""));
+        assert!(read(&mut t)
+            .unwrap_err()
+            .to_string()
+            .contains("must be \"TYPE NAME\""));
         let mut r = Report::new(false);
         let p = params("\"float a\" [1] \"float b\" 2");
         p.num("a").unwrap();
-        let e = p.finish(&mut r, "shape \"sphere\"").unwrap_err().to_string();
-        assert!(e.contains("p.pbrt:1: shape \"sphere\": parameter \"float b\" is not supported"), "{e}");
+        let e = p
+            .finish(&mut r, "shape \"sphere\"")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("p.pbrt:1: shape \"sphere\": parameter \"float b\" is not supported"),
+            "{e}"
+        );
     }
 }

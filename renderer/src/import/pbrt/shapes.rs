@@ -10,7 +10,7 @@ use serde_json::{json, Value};
 use super::params::Params;
 use super::Ctx;
 use crate::import::diag::Loc;
-use crate::import::meshes::{face_shading_normals, flip_orientation};
+use crate::import::meshes::{face_shading_normals, file_error, flip_orientation, read_file};
 use crate::import::xform::transform_value;
 use crate::scene::mesh::RawMesh;
 use crate::scene::{ply, SceneError};
@@ -31,12 +31,20 @@ pub(super) fn shape(ctx: &mut Ctx, ty: &str, p: &Params, loc: &Loc) -> Result<()
                 || p.num("zmax")?.is_some_and(|z| z < r)
                 || p.num("phimax")?.is_some_and(|f| f < 360.0);
             if partial {
-                ctx.report.unsupported(loc, "a partial sphere (zmin, zmax, phimax) is not supported", "the whole sphere")?;
+                ctx.report.unsupported(
+                    loc,
+                    "a partial sphere (zmin, zmax, phimax) is not supported",
+                    "the whole sphere",
+                )?;
             }
             Some(json!({"type": "sphere", "center": [0, 0, 0], "radius": r}))
         }
         _ => {
-            ctx.report.unsupported(loc, &format!("{what} is not supported (trianglemesh, plymesh and sphere are)"), "skipped")?;
+            ctx.report.unsupported(
+                loc,
+                &format!("{what} is not supported (trianglemesh, plymesh and sphere are)"),
+                "skipped",
+            )?;
             None
         }
     };
@@ -46,7 +54,11 @@ pub(super) fn shape(ctx: &mut Ctx, ty: &str, p: &Params, loc: &Loc) -> Result<()
     };
     if p.has("alpha") {
         p.ignore(&["alpha"]);
-        ctx.report.unsupported(&p.loc("alpha", loc), &format!("{what}: \"alpha\" cut-outs are not supported"), "ignored")?;
+        ctx.report.unsupported(
+            &p.loc("alpha", loc),
+            &format!("{what}: \"alpha\" cut-outs are not supported"),
+            "ignored",
+        )?;
     }
     p.ignore(&["S", "faceIndices", "emissionfilename"]);
     p.finish(&mut ctx.report, &what)?;
@@ -69,7 +81,9 @@ pub(super) fn shape(ctx: &mut Ctx, ty: &str, p: &Params, loc: &Loc) -> Result<()
         None => ctx.world * ctx.gs.ctm,
     };
     if ty == "sphere" {
-        let s = similarity_scale(&m).ok_or_else(|| loc.error("a sphere under a non-uniform scale or shear is not supported"))?;
+        let s = similarity_scale(&m).ok_or_else(|| {
+            loc.error("a sphere under a non-uniform scale or shear is not supported")
+        })?;
         // pbrt's sphere faces outwards under any transform; ReverseOrientation turns it inwards.
         if ctx.gs.reverse {
             o["flip_normals"] = json!(true);
@@ -95,7 +109,11 @@ pub(super) fn shape(ctx: &mut Ctx, ty: &str, p: &Params, loc: &Loc) -> Result<()
 
 /// The uniform scale of a similarity transform, else None.
 fn similarity_scale(m: &DMat4) -> Option<f64> {
-    let c = [m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate()];
+    let c = [
+        m.x_axis.truncate(),
+        m.y_axis.truncate(),
+        m.z_axis.truncate(),
+    ];
     let s = (c[0].length() + c[1].length() + c[2].length()) / 3.0;
     let ok = c.iter().all(|v| (v.length() - s).abs() <= 1e-6 * s)
         && (0..3).all(|i| (0..i).all(|j| c[i].dot(c[j]).abs() <= 1e-6 * s * s));
@@ -104,18 +122,26 @@ fn similarity_scale(m: &DMat4) -> Option<f64> {
 
 /// A trianglemesh's P / N / uv / indices.
 fn triangle_mesh(ctx: &Ctx, p: &Params, loc: &Loc) -> Result<RawMesh, SceneError> {
-    let pos = p.nums("P")?.ok_or_else(|| loc.error("shape \"trianglemesh\" needs \"point3 P\""))?;
+    let pos = p
+        .nums("P")?
+        .ok_or_else(|| loc.error("shape \"trianglemesh\" needs \"point3 P\""))?;
     if pos.len() % 3 != 0 {
-        return Err(p.loc("P", loc).error("\"P\" must hold 3 numbers per vertex"));
+        return Err(p
+            .loc("P", loc)
+            .error("\"P\" must hold 3 numbers per vertex"));
     }
     let n = pos.len() / 3;
     let idx = match p.nums("indices")? {
         Some(i) => i,
         None if n == 3 => vec![0.0, 1.0, 2.0],
-        None => return Err(loc.error("shape \"trianglemesh\" needs \"integer indices\" (unless it has exactly 3 vertices)")),
+        None => return Err(loc.error(
+            "shape \"trianglemesh\" needs \"integer indices\" (unless it has exactly 3 vertices)",
+        )),
     };
     if idx.len() % 3 != 0 {
-        return Err(p.loc("indices", loc).error("\"indices\" must hold 3 numbers per triangle"));
+        return Err(p
+            .loc("indices", loc)
+            .error("\"indices\" must hold 3 numbers per triangle"));
     }
     if idx.len() / 3 > ctx.limits.max_triangles {
         return Err(loc.error(format!("more than {} triangles", ctx.limits.max_triangles)));
@@ -125,24 +151,47 @@ fn triangle_mesh(ctx: &Ctx, p: &Params, loc: &Loc) -> Result<RawMesh, SceneError
         let mut tri = [0u32; 3];
         for (k, &i) in t.iter().enumerate() {
             if !(i >= 0.0 && (i as usize) < n && i.fract() == 0.0) {
-                return Err(p.loc("indices", loc).error(format!("index {i} out of range ({n} vertices)")));
+                return Err(p
+                    .loc("indices", loc)
+                    .error(format!("index {i} out of range ({n} vertices)")));
             }
             tri[k] = i as u32;
         }
         indices.push(tri);
     }
-    let triples = |v: Vec<f64>| v.chunks(3).map(|c| DVec3::new(c[0], c[1], c[2])).collect::<Vec<_>>();
+    let triples = |v: Vec<f64>| {
+        v.chunks(3)
+            .map(|c| DVec3::new(c[0], c[1], c[2]))
+            .collect::<Vec<_>>()
+    };
     let normals = match p.nums("N")? {
         Some(v) if v.len() == pos.len() => Some(triples(v)),
-        Some(_) => return Err(p.loc("N", loc).error("\"N\" must hold one normal per vertex")),
+        Some(_) => {
+            return Err(p
+                .loc("N", loc)
+                .error("\"N\" must hold one normal per vertex"))
+        }
         None => None,
     };
     let uvs = match p.nums("uv")? {
-        Some(v) if v.len() == 2 * n => Some(v.chunks(2).map(|c| Vec2::new(c[0] as f32, c[1] as f32)).collect()),
-        Some(_) => return Err(p.loc("uv", loc).error("\"uv\" must hold one point2 per vertex")),
+        Some(v) if v.len() == 2 * n => Some(
+            v.chunks(2)
+                .map(|c| Vec2::new(c[0] as f32, c[1] as f32))
+                .collect(),
+        ),
+        Some(_) => {
+            return Err(p
+                .loc("uv", loc)
+                .error("\"uv\" must hold one point2 per vertex"))
+        }
         None => None,
     };
-    Ok(RawMesh { positions: triples(pos), normals, uvs, indices })
+    Ok(RawMesh {
+        positions: triples(pos),
+        normals,
+        uvs,
+        indices,
+    })
 }
 
 /// A mesh turned as pbrt turns it, held in memory.
@@ -157,28 +206,36 @@ fn oriented(ctx: &mut Ctx, mut raw: RawMesh, hint: &str) -> Value {
 
 /// plymesh: the file as it is when nothing needs turning, else read and held in memory.
 fn plymesh(ctx: &mut Ctx, p: &Params, loc: &Loc) -> Result<Option<Value>, SceneError> {
-    let name = p.string("filename")?.ok_or_else(|| loc.error("shape \"plymesh\" needs \"string filename\""))?;
+    let name = p
+        .string("filename")?
+        .ok_or_else(|| loc.error("shape \"plymesh\" needs \"string filename\""))?;
     let floc = p.loc("filename", loc);
     if name.ends_with(".gz") {
-        ctx.report.unsupported(&floc, "compressed .ply.gz meshes are not supported", "skipped")?;
+        ctx.report.unsupported(
+            &floc,
+            "compressed .ply.gz meshes are not supported",
+            "skipped",
+        )?;
         return Ok(None);
     }
     if p.has("displacement") {
         p.ignore(&["displacement", "edgelength"]);
-        ctx.report.unsupported(&floc, "shape \"plymesh\": displacement is not supported", "ignored")?;
+        ctx.report.unsupported(
+            &floc,
+            "shape \"plymesh\": displacement is not supported",
+            "ignored",
+        )?;
     }
     let rel = ctx.file(&name, &floc)?;
-    let bytes = std::fs::read(ctx.scene_dir.join(&rel))
-        .map_err(|e| floc.error(format!("cannot read \"{name}\": {}", crate::scene::io_message(&e))))?;
-    let raw = ply::parse(&bytes, ctx.limits.max_triangles).map_err(|e| {
-        floc.error(match e.line {
-            Some(l) => format!("{name}:{l}: {}", e.msg),
-            None => format!("{name}: {}", e.msg),
-        })
-    })?;
+    let bytes = read_file(&ctx.scene_dir, &rel, &name).map_err(|m| floc.error(m))?;
+    let raw = ply::parse(&bytes, ctx.limits.max_triangles)
+        .map_err(|e| floc.error(file_error(&name, e)))?;
     if raw.normals.is_none() && !ctx.gs.reverse {
         return Ok(Some(json!({"type": "mesh", "file": rel, "smooth": false})));
     }
-    let stem = std::path::Path::new(&rel).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "plymesh".into());
+    let stem = std::path::Path::new(&rel)
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "plymesh".into());
     Ok(Some(oriented(ctx, raw, &stem)))
 }

@@ -27,7 +27,10 @@ fn import_text(text: &str, lenient: bool) -> Result<crate::import::Imported, Str
     let d = temp_dir("pbrt");
     std::fs::copy(dir().join("grad.png"), d.join("grad.png")).unwrap();
     std::fs::write(d.join("s.pbrt"), text).unwrap();
-    let opts = ImportOptions { lenient, ..Default::default() };
+    let opts = ImportOptions {
+        lenient,
+        ..Default::default()
+    };
     import_file(&d.join("s.pbrt"), &opts).map_err(|e| e.to_string())
 }
 
@@ -44,8 +47,15 @@ fn a_standard_pbrt_camera_mirrors_the_scene() {
     // Portrait film: pbrt's fov is horizontal.
     let fov = imp.doc["camera"]["fov_y"].as_f64().unwrap();
     assert!((fov - 2.0 * (15f64.to_radians().tan() * 2.0).atan().to_degrees()).abs() < 1e-9);
-    assert_eq!(imp.doc["render"], json!({"integrator": "nee", "max_depth": 6}), "pbrt's defaults");
-    assert_eq!(imp.doc["film"]["filter"], json!({"type": "gaussian", "stddev": 0.5}));
+    assert_eq!(
+        imp.doc["render"],
+        json!({"integrator": "nee", "max_depth": 6}),
+        "pbrt's defaults"
+    );
+    assert_eq!(
+        imp.doc["film"]["filter"],
+        json!({"type": "gaussian", "stddev": 0.5})
+    );
     imp.load(&Default::default()).unwrap();
 }
 
@@ -57,14 +67,36 @@ fn float_textures_and_roughness_remapping() {
     )
     .unwrap();
     let m = &imp.doc["materials"]["conductor"];
-    assert!(m["roughness"]["texture"].as_str().unwrap().ends_with(".exr"));
-    assert!(imp.warnings.iter().any(|w| w.msg.contains("metal-Cu")), "the default copper");
+    assert!(m["roughness"]["texture"]
+        .as_str()
+        .unwrap()
+        .ends_with(".exr"));
+    assert!(
+        imp.warnings.iter().any(|w| w.msg.contains("metal-Cu")),
+        "the default copper"
+    );
     let scene = imp.load(&Default::default()).unwrap();
-    let src = crate::scene::texture::decode_file(crate::scene::paths::AssetRoot::dir(Some(&dir())), "grad.png", None, &Default::default(), "t").unwrap();
-    let crate::scene::MaterialKind::Conductor { roughness: crate::scene::ScalarParam::Texture(t), .. } = scene.materials[0].kind else { panic!() };
+    let src = crate::scene::texture::decode_file(
+        crate::scene::paths::AssetRoot::dir(Some(&dir())),
+        "grad.png",
+        None,
+        &Default::default(),
+        "t",
+    )
+    .unwrap();
+    let crate::scene::MaterialKind::Conductor {
+        roughness: crate::scene::ScalarParam::Texture(t),
+        ..
+    } = scene.materials[0].kind
+    else {
+        panic!()
+    };
     let texel = scene.textures[t as usize].texels[9][0];
     let pbrt = 0.5 * (src.2[9][0] + src.2[9][1] + src.2[9][2]) / 3.0;
-    assert!((texel.powi(4) - pbrt).abs() < 1e-5, "candela roughness = pbrt roughness^(1/4)");
+    assert!(
+        (texel.powi(4) - pbrt).abs() < 1e-5,
+        "candela roughness = pbrt roughness^(1/4)"
+    );
 }
 
 #[test]

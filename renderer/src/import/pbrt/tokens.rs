@@ -122,7 +122,10 @@ impl Tokens {
                         other => s.push(other),
                     }
                 }
-                Tok::Str(String::from_utf8(s).map_err(|_| self.loc(line).error("string is not UTF-8"))?)
+                Tok::Str(
+                    String::from_utf8(s)
+                        .map_err(|_| self.loc(line).error("string is not UTF-8"))?,
+                )
             }
             _ => {
                 let start = self.pos;
@@ -160,6 +163,9 @@ mod tests {
         assert_eq!(all[13], (Tok::Word("-3e-1".into()), 3));
         assert_eq!(all.last().unwrap().0, Tok::Str("a\"b".into()));
         let mut bad = Tokens::new(b"\n\"open".to_vec(), Arc::from("b.pbrt"));
-        assert_eq!(bad.next().unwrap_err().to_string(), "b.pbrt:2: unterminated string");
+        assert_eq!(
+            bad.next().unwrap_err().to_string(),
+            "b.pbrt:2: unterminated string"
+        );
     }
 }

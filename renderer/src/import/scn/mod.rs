@@ -21,6 +21,7 @@ use serde_json::{json, Map, Value};
 use super::diag::{Loc, Report};
 use super::doc::Doc;
 use super::files::{resolve_in, to_slash};
+use super::meshes::{file_error, read_file};
 use super::xform::transform_value;
 use super::{ImportOptions, ImportResult};
 use crate::scene::{obj, SceneError};
@@ -72,11 +73,24 @@ impl Ctx {
     }
 
     /// Unknown keys of `obj` at `path` are unsupported (ignored under --lenient).
-    fn known(&mut self, obj: &Map<String, Value>, path: &str, known: &[&str]) -> Result<(), SceneError> {
+    fn known(
+        &mut self,
+        obj: &Map<String, Value>,
+        path: &str,
+        known: &[&str],
+    ) -> Result<(), SceneError> {
         for k in obj.keys() {
             if !known.contains(&k.as_str()) {
-                let p = if path.is_empty() { k.clone() } else { format!("{path}.{k}") };
-                self.report.unsupported(&self.at(&p), &format!("field \"{k}\" is not supported"), "ignored")?;
+                let p = if path.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{path}.{k}")
+                };
+                self.report.unsupported(
+                    &self.at(&p),
+                    &format!("field \"{k}\" is not supported"),
+                    "ignored",
+                )?;
             }
         }
         Ok(())
@@ -90,7 +104,10 @@ fn number(v: &Value, loc: &Loc) -> Result<f64, SceneError> {
 
 /// `[x, y, z]` at `path`.
 fn vec3(v: &Value, loc: &Loc) -> Result<DVec3, SceneError> {
-    match v.as_array().map(|a| a.iter().map(Value::as_f64).collect::<Option<Vec<f64>>>()) {
+    match v
+        .as_array()
+        .map(|a| a.iter().map(Value::as_f64).collect::<Option<Vec<f64>>>())
+    {
         Some(Some(a)) if a.len() == 3 => Ok(DVec3::new(a[0], a[1], a[2])),
         _ => Err(loc.error("expected [x, y, z]")),
     }
@@ -118,7 +135,10 @@ pub(crate) fn import(path: &Path, opts: &ImportOptions) -> ImportResult {
     // Step 1: film, depth, camera.
     let (w, h) = match top.get("resolution") {
         None => (1280, 720),
-        Some(v) => match v.as_array().map(|a| a.iter().map(Value::as_u64).collect::<Option<Vec<u64>>>()) {
+        Some(v) => match v
+            .as_array()
+            .map(|a| a.iter().map(Value::as_u64).collect::<Option<Vec<u64>>>())
+        {
             Some(Some(r)) if r.len() == 2 => (r[0], r[1]),
             _ => return Err(ctx.at("resolution").error("expected [width, height]")),
         },
@@ -128,7 +148,10 @@ pub(crate) fn import(path: &Path, opts: &ImportOptions) -> ImportResult {
     // The thesis counts path segments, as Mitsuba's max_depth does.
     let depth = match top.get("maxdepth") {
         None => 5,
-        Some(v) => v.as_i64().filter(|d| *d >= 1).ok_or_else(|| ctx.at("maxdepth").error("expected a positive integer"))?,
+        Some(v) => v
+            .as_i64()
+            .filter(|d| *d >= 1)
+            .ok_or_else(|| ctx.at("maxdepth").error("expected a positive integer"))?,
     };
     ctx.doc.render.insert("integrator".into(), json!("nee"));
     ctx.doc.render.insert("max_depth".into(), json!(depth));
@@ -144,8 +167,11 @@ pub(crate) fn import(path: &Path, opts: &ImportOptions) -> ImportResult {
     }
     if !ctx.materials.contains_key("default_material") {
         let value = defaults();
-        let name = ctx.doc.material("default_material", value.clone(), &ctx.at("materials"));
-        ctx.materials.insert("default_material".into(), (name, value));
+        let name = ctx
+            .doc
+            .material("default_material", value.clone(), &ctx.at("materials"));
+        ctx.materials
+            .insert("default_material".into(), (name, value));
     }
     let entities = match top.get("entities") {
         None => Vec::new(),
@@ -168,16 +194,31 @@ fn camera(ctx: &mut Ctx, v: Option<&Value>) -> Result<(), SceneError> {
         Some(_) => return Err(ctx.at("camera").error("expected an object")),
     };
     ctx.known(c, "camera", CAMERA)?;
-    let get = |k: &str, d: DVec3| c.get(k).map_or(Ok(d), |v| vec3(v, &ctx.at(&format!("camera.{k}"))));
+    let get = |k: &str, d: DVec3| {
+        c.get(k)
+            .map_or(Ok(d), |v| vec3(v, &ctx.at(&format!("camera.{k}"))))
+    };
     let position = get("position", DVec3::ZERO)?;
     let look_at = get("lookat", DVec3::new(0.0, 0.0, 2.0))?;
-    let fov = c.get("fov").map_or(Ok(45.0), |v| number(v, &ctx.at("camera.fov")))?;
-    ctx.doc.camera.insert("position".into(), json!(position.to_array()));
-    ctx.doc.camera.insert("look_at".into(), json!(look_at.to_array()));
+    let fov = c
+        .get("fov")
+        .map_or(Ok(45.0), |v| number(v, &ctx.at("camera.fov")))?;
+    ctx.doc
+        .camera
+        .insert("position".into(), json!(position.to_array()));
+    ctx.doc
+        .camera
+        .insert("look_at".into(), json!(look_at.to_array()));
     ctx.doc.camera.insert("fov_y".into(), json!(fov));
     // The thesis jitters each primary ray by a Gaussian of this standard deviation (pixels).
-    let aa = c.get("antialiasing_radius").map_or(Ok(0.15), |v| number(v, &ctx.at("camera.antialiasing_radius")))?;
-    let filter = if aa > 0.0 { json!({"type": "gaussian", "stddev": aa}) } else { json!("box") };
+    let aa = c.get("antialiasing_radius").map_or(Ok(0.15), |v| {
+        number(v, &ctx.at("camera.antialiasing_radius"))
+    })?;
+    let filter = if aa > 0.0 {
+        json!({"type": "gaussian", "stddev": aa})
+    } else {
+        json!("box")
+    };
     ctx.doc.film.insert("filter".into(), filter);
     Ok(())
 }
@@ -194,18 +235,33 @@ fn material(ctx: &mut Ctx, i: usize, m: &Value) -> Result<(), SceneError> {
     let Some(m) = m.as_object() else {
         return Err(ctx.at(&path).error("expected an object"));
     };
-    let mut known: Vec<&str> = vec!["name", "color", "emission", "opacity", "ior", "anisotropic_direction", "tiling"];
+    let mut known: Vec<&str> = vec![
+        "name",
+        "color",
+        "emission",
+        "opacity",
+        "ior",
+        "anisotropic_direction",
+        "tiling",
+    ];
     known.extend(SCALARS.iter().map(|s| s.0));
     known.extend(TEXTURES);
     ctx.known(m, &path, &known)?;
     let name = m
         .get("name")
         .and_then(Value::as_str)
-        .ok_or_else(|| ctx.at(&format!("{path}.name")).error("missing (a material needs a \"name\")"))?
+        .ok_or_else(|| {
+            ctx.at(&format!("{path}.name"))
+                .error("missing (a material needs a \"name\")")
+        })?
         .to_string();
     let mut out = defaults();
     let file = ctx.file.clone();
-    let num = |k: &str| m.get(k).map(|v| number(v, &at_of(&file, &format!("{path}.{k}")))).transpose();
+    let num = |k: &str| {
+        m.get(k)
+            .map(|v| number(v, &at_of(&file, &format!("{path}.{k}"))))
+            .transpose()
+    };
     if let Some(c) = m.get("color") {
         out["base_color"] = json!(vec3(c, &ctx.at(&format!("{path}.color")))?.to_array());
     }
@@ -234,7 +290,11 @@ fn material(ctx: &mut Ctx, i: usize, m: &Value) -> Result<(), SceneError> {
     }
     if let Some(d) = m.get("anisotropic_direction") {
         if vec3(d, &ctx.at(&format!("{path}.anisotropic_direction")))? != DVec3::X {
-            ctx.report.unsupported(&ctx.at(&format!("{path}.anisotropic_direction")), "an anisotropy direction is not supported (candela's follows the uv tangent)", "ignored")?;
+            ctx.report.unsupported(
+                &ctx.at(&format!("{path}.anisotropic_direction")),
+                "an anisotropy direction is not supported (candela's follows the uv tangent)",
+                "ignored",
+            )?;
         }
     }
     let tiling = num("tiling")?.unwrap_or(1.0);
@@ -245,12 +305,20 @@ fn material(ctx: &mut Ctx, i: usize, m: &Value) -> Result<(), SceneError> {
 }
 
 /// The material's textures (red channel for scalars, after sRGB decoding as the thesis does).
-fn textures(ctx: &mut Ctx, m: &Map<String, Value>, path: &str, tiling: f64, out: &mut Value) -> Result<(), SceneError> {
+fn textures(
+    ctx: &mut Ctx,
+    m: &Map<String, Value>,
+    path: &str,
+    tiling: f64,
+    out: &mut Value,
+) -> Result<(), SceneError> {
     for key in TEXTURES {
         let Some(v) = m.get(*key) else { continue };
         let at = ctx.at(&format!("{path}.{key}"));
         let name = v.as_str().ok_or_else(|| at.error("expected a file name"))?;
-        let rel = resolve_in(&ctx.dir, Path::new(""), name).map(|p| to_slash(&p)).map_err(|e| at.error(e))?;
+        let rel = resolve_in(&ctx.dir, Path::new(""), name)
+            .map(|p| to_slash(&p))
+            .map_err(|e| at.error(e))?;
         let mut tex = json!({"texture": rel});
         if tiling != 1.0 {
             if tiling.fract() != 0.0 {
@@ -285,41 +353,96 @@ fn entity(ctx: &mut Ctx, i: usize, e: &Value) -> Result<(), SceneError> {
     };
     let file = ctx.file.clone();
     let at = |k: &str| at_of(&file, &format!("{path}.{k}"));
-    let ty = e.get("type").and_then(Value::as_str).ok_or_else(|| at("type").error("missing (\"mesh\" or \"sphere\")"))?;
+    let ty = e
+        .get("type")
+        .and_then(Value::as_str)
+        .ok_or_else(|| at("type").error("missing (\"mesh\" or \"sphere\")"))?;
     let get = |k: &str, d: DVec3| e.get(k).map_or(Ok(d), |v| vec3(v, &at(k)));
-    let (position, rotation, scale) = (get("position", DVec3::ZERO)?, get("rotation", DVec3::ZERO)?, get("scale", DVec3::ONE)?);
+    let (position, rotation, scale) = (
+        get("position", DVec3::ZERO)?,
+        get("rotation", DVec3::ZERO)?,
+        get("scale", DVec3::ONE)?,
+    );
     let material_of = |ctx: &Ctx, k: &str| -> Result<Option<String>, SceneError> {
         match e.get(k) {
             None => Ok(None),
             Some(v) => {
-                let n = v.as_str().ok_or_else(|| ctx.at(&format!("{path}.{k}")).error("expected a material name"))?;
+                let n = v.as_str().ok_or_else(|| {
+                    ctx.at(&format!("{path}.{k}"))
+                        .error("expected a material name")
+                })?;
                 ctx.materials
                     .get(n)
                     .map(|(c, _)| Some(c.clone()))
-                    .ok_or_else(|| ctx.at(&format!("{path}.{k}")).error(format!("no material \"{n}\"")))
+                    .ok_or_else(|| {
+                        ctx.at(&format!("{path}.{k}"))
+                            .error(format!("no material \"{n}\""))
+                    })
             }
         }
     };
     let loc = ctx.at(&path);
     match ty {
         "sphere" => {
-            ctx.known(e, &path, &["type", "position", "rotation", "scale", "radius", "material", "inverted_normal", "anisotropic_direction"])?;
-            let radius = e.get("radius").map(|v| number(v, &at("radius"))).transpose()?.ok_or_else(|| at("radius").error("missing"))?;
-            let material = material_of(ctx, "material")?.ok_or_else(|| at("material").error("missing (a sphere needs a material)"))?;
+            ctx.known(
+                e,
+                &path,
+                &[
+                    "type",
+                    "position",
+                    "rotation",
+                    "scale",
+                    "radius",
+                    "material",
+                    "inverted_normal",
+                    "anisotropic_direction",
+                ],
+            )?;
+            let radius = e
+                .get("radius")
+                .map(|v| number(v, &at("radius")))
+                .transpose()?
+                .ok_or_else(|| at("radius").error("missing"))?;
+            let material = material_of(ctx, "material")?
+                .ok_or_else(|| at("material").error("missing (a sphere needs a material)"))?;
             let mut o = json!({"type": "sphere", "center": position.to_array(), "radius": radius, "material": material});
-            if e.get("inverted_normal").and_then(Value::as_i64).is_some_and(|n| n < 0) {
+            if e.get("inverted_normal")
+                .and_then(Value::as_i64)
+                .is_some_and(|n| n < 0)
+            {
                 o["flip_normals"] = json!(true);
             }
-            if e.get("anisotropic_direction").is_some_and(|d| d != &json!([0, 0, 0]) && d != &json!([0.0, 0.0, 0.0])) {
-                ctx.report.unsupported(&at("anisotropic_direction"), "an anisotropy direction is not supported", "ignored")?;
+            if e.get("anisotropic_direction")
+                .is_some_and(|d| d != &json!([0, 0, 0]) && d != &json!([0.0, 0.0, 0.0]))
+            {
+                ctx.report.unsupported(
+                    &at("anisotropic_direction"),
+                    "an anisotropy direction is not supported",
+                    "ignored",
+                )?;
             }
             ctx.doc.object(o, &loc);
         }
         "mesh" => {
-            ctx.known(e, &path, &["type", "position", "rotation", "scale", "file", "material", "default_material"])?;
+            ctx.known(
+                e,
+                &path,
+                &[
+                    "type",
+                    "position",
+                    "rotation",
+                    "scale",
+                    "file",
+                    "material",
+                    "default_material",
+                ],
+            )?;
             let Some(file) = e.get("file").and_then(Value::as_str) else {
                 // The thesis skips a mesh without a file.
-                ctx.report.warn(&loc, "a mesh without \"file\" is skipped (as the thesis does)");
+                ctx.report.warn(
+                    &loc,
+                    "a mesh without \"file\" is skipped (as the thesis does)",
+                );
                 return Ok(());
             };
             // glm: translate · scale · rotate x · rotate y · rotate z (radians).
@@ -336,7 +459,11 @@ fn entity(ctx: &mut Ctx, i: usize, e: &Value) -> Result<(), SceneError> {
             mesh(ctx, &path, file, replace, &fallback, &m)?;
         }
         other => {
-            ctx.report.unsupported(&at("type"), &format!("entity type \"{other}\" is not supported (mesh and sphere are)"), "skipped")?;
+            ctx.report.unsupported(
+                &at("type"),
+                &format!("entity type \"{other}\" is not supported (mesh and sphere are)"),
+                "skipped",
+            )?;
         }
     }
     Ok(())
@@ -344,19 +471,24 @@ fn entity(ctx: &mut Ctx, i: usize, e: &Value) -> Result<(), SceneError> {
 
 /// An OBJ entity: the file as it is when its usemtl names are all scene materials (or
 /// `material` replaces them), else split into one mesh per resolved material.
-fn mesh(ctx: &mut Ctx, path: &str, file: &str, replace: Option<String>, fallback: &str, m: &DMat4) -> Result<(), SceneError> {
+fn mesh(
+    ctx: &mut Ctx,
+    path: &str,
+    file: &str,
+    replace: Option<String>,
+    fallback: &str,
+    m: &DMat4,
+) -> Result<(), SceneError> {
     let at = ctx.at(&format!("{path}.file"));
-    let rel = resolve_in(&ctx.dir, Path::new(""), file).map(|p| to_slash(&p)).map_err(|e| at.error(e))?;
+    let rel = resolve_in(&ctx.dir, Path::new(""), file)
+        .map(|p| to_slash(&p))
+        .map_err(|e| at.error(e))?;
     if !rel.to_ascii_lowercase().ends_with(".obj") {
         return Err(at.error(format!("\"{file}\": the thesis loads OBJ meshes only")));
     }
-    let bytes = std::fs::read(ctx.dir.join(&rel)).map_err(|e| at.error(format!("cannot read \"{file}\": {}", crate::scene::io_message(&e))))?;
-    let parsed = obj::parse(&bytes, ctx.limits.max_triangles).map_err(|e| {
-        at.error(match e.line {
-            Some(l) => format!("{file}:{l}: {}", e.msg),
-            None => format!("{file}: {}", e.msg),
-        })
-    })?;
+    let bytes = read_file(&ctx.dir, &rel, file).map_err(|m| at.error(m))?;
+    let parsed =
+        obj::parse(&bytes, ctx.limits.max_triangles).map_err(|e| at.error(file_error(file, e)))?;
     // The thesis computes face normals for an OBJ without normals.
     let smooth = parsed.raw.normals.is_some();
     let place = |mut o: Value| {
@@ -367,7 +499,10 @@ fn mesh(ctx: &mut Ctx, path: &str, file: &str, replace: Option<String>, fallback
     };
     let loc = ctx.at(path);
     if let Some(material) = replace {
-        ctx.doc.object(place(json!({"type": "mesh", "file": rel, "smooth": smooth, "material": material})), &loc);
+        ctx.doc.object(
+            place(json!({"type": "mesh", "file": rel, "smooth": smooth, "material": material})),
+            &loc,
+        );
         return Ok(());
     }
     // Step 1: each triangle's material by the thesis's rules.
@@ -398,7 +533,10 @@ fn mesh(ctx: &mut Ctx, path: &str, file: &str, replace: Option<String>, fallback
     let direct = parsed.triangle_names.iter().all(|n| n.is_some())
         && by_name.iter().all(|(n, r)| &parsed.names[*n as usize] == r);
     if direct {
-        ctx.doc.object(place(json!({"type": "mesh", "file": rel, "smooth": smooth})), &loc);
+        ctx.doc.object(
+            place(json!({"type": "mesh", "file": rel, "smooth": smooth})),
+            &loc,
+        );
         return Ok(());
     }
     let mut groups: Vec<String> = resolved.clone();
@@ -406,8 +544,18 @@ fn mesh(ctx: &mut Ctx, path: &str, file: &str, replace: Option<String>, fallback
     let mut seen = std::collections::HashSet::new();
     for g in groups.into_iter().filter(|g| seen.insert(g.clone())) {
         let mut part = parsed.raw.clone();
-        part.indices = parsed.raw.indices.iter().zip(&resolved).filter(|(_, r)| **r == g).map(|(t, _)| *t).collect();
-        let stem = Path::new(&rel).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        part.indices = parsed
+            .raw
+            .indices
+            .iter()
+            .zip(&resolved)
+            .filter(|(_, r)| **r == g)
+            .map(|(t, _)| *t)
+            .collect();
+        let stem = Path::new(&rel)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
         let mut o = ctx.doc.mesh_object(&format!("{stem}_{g}"), &part);
         o["smooth"] = json!(smooth);
         o["material"] = json!(g);
