@@ -5,9 +5,13 @@
 
 pub mod accel;
 pub mod compile;
+pub mod error;
 pub mod film;
 pub mod gpu;
 pub mod integrators;
+pub mod layout;
 pub mod metrics;
+pub mod prepare;
 pub mod render;
 pub mod scene;
+pub mod upload;

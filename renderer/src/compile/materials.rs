@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 
-use super::layout::{mat, GpuMaterial, GpuTexture, NONE};
+use crate::layout::{mat, GpuMaterial, GpuTexture, NONE};
 use crate::scene::{ColorParam, Material, MaterialKind, ScalarParam, Texture};
 
 fn color(p: &ColorParam) -> [f32; 4] {

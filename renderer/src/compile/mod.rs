@@ -1,10 +1,9 @@
 //! Scene compilation: a loaded `Scene` (f64, world space) becomes the flat, camera-relative f32
-//! buffers of `layout`, a BVH, a light table and the feature set its kernels are specialised for.
+//! buffers of `crate::layout`, a BVH, a light table and the feature set its kernels are specialised for.
 //!
 //! Precision: every position is `world − camera` computed in f64 and only then rounded to f32,
 //! so a scene translated by 1e5 units renders exactly like one at the origin.
 
-pub mod layout;
 mod lights;
 mod materials;
 
@@ -15,8 +14,8 @@ use glam::{DVec3, Vec3};
 
 use crate::accel::grid::Grid;
 use crate::accel::{self, AccelError, AccelInfo, AccelOptions, PrimBounds};
+use crate::layout::*;
 use crate::scene::{Environment, Filter, Light, Scene};
-use layout::*;
 pub use lights::{alias_table, luminance};
 
 /// What the scene uses; each flag becomes a `#define` of the same name for the kernels, and

@@ -4,18 +4,16 @@
 //! `render` drives a session to an spp or wall-time budget.
 
 mod session;
-mod upload;
 
+pub use crate::error::RenderError;
 pub use session::{PassStats, Progress, RenderSession, LLVMPIPE_MAX_DISPATCHES};
-pub use upload::{as_bindings, upload_scene};
 
 use std::time::Duration;
 
 use serde::Serialize;
 
-use crate::compile::CompileError;
 use crate::film::Image;
-use crate::gpu::{DeviceInfo, GpuError};
+use crate::gpu::DeviceInfo;
 use crate::integrators::IntegratorOptions;
 
 /// What to render and for how long.
@@ -81,16 +79,6 @@ pub struct RenderStats {
     /// The integrator's own statistics (stage timings, memory), where it has any.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub details: Option<serde_json::Value>,
-}
-
-#[derive(Debug, thiserror::Error)]
-pub enum RenderError {
-    #[error(transparent)]
-    Gpu(#[from] GpuError),
-    #[error(transparent)]
-    Compile(#[from] CompileError),
-    #[error("{0}")]
-    Invalid(String),
 }
 
 /// Renders to the budget and returns the image (radiance per pixel) and what happened.

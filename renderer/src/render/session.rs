@@ -5,13 +5,13 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use super::upload::{as_bindings, upload_scene};
 use super::{RenderError, RenderStats};
-use crate::compile::layout::{binding, GpuPush, GpuStats};
 use crate::compile::CompiledScene;
 use crate::film::Image;
 use crate::gpu::{compile_glsl, Binding, Buffer, BufferUsage, ComputePipeline, GpuContext};
-use crate::integrators::{ExtraBuffer, Integrator, IntegratorOptions};
+use crate::integrators::{ExtraBuffer, Integrator, IntegratorInfo, IntegratorOptions};
+use crate::layout::{binding, GpuPush, GpuStats};
+use crate::upload::{as_bindings, upload_scene};
 
 /// Timing of one pass.
 #[derive(Debug, Clone, Copy)]
@@ -61,6 +61,8 @@ fn pass_chunks(push: &GpuPush, limit: u32) -> Vec<GpuPush> {
 /// A progressive render on one device.
 pub struct RenderSession {
     ctx: Arc<GpuContext>,
+    /// The integrator's registry entry (name, pass kernel).
+    entry: &'static IntegratorInfo,
     integrator: Box<dyn Integrator>,
     pipeline: ComputePipeline,
     // Scene buffers are kept alive for the pipeline's descriptor set.
@@ -135,7 +137,7 @@ impl RenderSession {
             defines.push(("ACCEL_GRID".to_string(), "1".to_string()));
         }
         defines.extend(integrator.defines());
-        let spirv = compile_glsl(integrator.kernel(), &defines)?;
+        let spirv = compile_glsl(options.info().kernel, &defines)?;
         let mut bindings = as_bindings(&scene_buffers);
         bindings.push(Binding {
             index: binding::ACCUM,
@@ -153,7 +155,7 @@ impl RenderSession {
         }
         let pipeline = ComputePipeline::new(
             ctx,
-            integrator.kernel(),
+            options.info().kernel,
             &spirv,
             &bindings,
             std::mem::size_of::<GpuPush>() as u32,
@@ -164,6 +166,7 @@ impl RenderSession {
         ctx.check_validation()?;
         Ok(RenderSession {
             ctx: ctx.clone(),
+            entry: options.info(),
             integrator,
             pipeline,
             _scene: scene_buffers.into_iter().map(|(_, b)| b).collect(),
@@ -374,7 +377,7 @@ impl RenderSession {
         let samples = self.spp as f64 * self.width as f64 * self.height as f64;
         RenderStats {
             device: self.ctx.info.clone(),
-            integrator: self.integrator.name().to_string(),
+            integrator: self.entry.name.to_string(),
             width: self.width,
             height: self.height,
             spp: self.spp,

@@ -37,7 +37,6 @@ mod tests_scene;
 use std::path::Path;
 
 pub use error::SceneError;
-pub use validate::INTEGRATORS;
 
 /// Limits applied during load: absurd sizes are errors, not allocations.
 #[derive(Debug, Clone, PartialEq, Eq)]

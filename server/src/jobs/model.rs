@@ -273,6 +273,18 @@ pub fn rfc3339(t: f64) -> String {
     )
 }
 
+/// A job to insert.
+#[derive(Debug, Clone)]
+pub struct NewJob {
+    pub name: String,
+    pub priority: u32,
+    pub settings: JobSettings,
+    /// The scene JSON text.
+    pub scene: String,
+    pub scene_name: Option<String>,
+    pub source: SceneSource,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

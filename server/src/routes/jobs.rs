@@ -15,10 +15,10 @@ use tokio::sync::broadcast::error::RecvError;
 
 use super::extract::{JobIdPath, QueryMap};
 use crate::api_error::ApiError;
-use crate::app::AppState;
 use crate::jobs::model::{JobId, JobRecord, JobState, MAX_PRIORITY};
 use crate::jobs::request::{parse_object, parse_request, prepare, SceneInput};
 use crate::jobs::upload::read_multipart;
+use crate::state::AppState;
 use crate::store::{JobPaths, Transition};
 
 /// A boolean query parameter: true/1/yes, false/0/no/empty.

@@ -9,19 +9,7 @@ use serde_json::{json, Value};
 
 use super::events::append_in;
 use super::{Store, StoreError};
-use crate::jobs::model::{now_s, JobId, JobRecord, JobSettings, JobState, SceneSource};
-
-/// A job to insert.
-#[derive(Debug, Clone)]
-pub struct NewJob {
-    pub name: String,
-    pub priority: u32,
-    pub settings: JobSettings,
-    /// The scene JSON text.
-    pub scene: String,
-    pub scene_name: Option<String>,
-    pub source: SceneSource,
-}
+use crate::jobs::model::{now_s, JobId, JobRecord, JobState, NewJob, SceneSource};
 
 /// A state change and what comes with it.
 #[derive(Debug, Default)]
