@@ -18,7 +18,7 @@ use serde_json::{json, Value};
 pub type JobId = i64;
 
 /// Where a job is in its life.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum JobState {
     /// Waiting for its first pass (or for a free slot after a resume).
@@ -61,6 +61,11 @@ impl JobState {
     /// Parses a name written by [`JobState::as_str`].
     pub fn parse(s: &str) -> Option<JobState> {
         JobState::ALL.into_iter().find(|st| st.as_str() == s)
+    }
+
+    /// Queued, running and paused: the jobs that count against the queue's limit.
+    pub fn is_unfinished(self) -> bool {
+        !self.is_terminal()
     }
 
     /// Done, failed and canceled never change again.

@@ -39,11 +39,22 @@ pub struct JobRequest {
     pub height: Option<u32>,
     pub exposure: Option<f32>,
     pub tonemap: Option<String>,
-    /// `{"job": ID}`: a done job's image to compute progress metrics against.
-    pub reference: Option<Value>,
+    /// `{"job": ID}` (a done job's image) or `{"file": NAME}` (an uploaded EXR) to compute
+    /// progress metrics against.
+    pub reference: Option<ReferenceSpec>,
     /// `"grid"` or `{"type": "grid", "grid_resolution": 64}` (default: the scene's
     /// `render.accel`, else `"bvh"`).
     pub accel: Option<Value>,
+}
+
+/// A job's reference image: exactly one of `job` (a done job of the same film size) and `file`
+/// (an uploaded EXR). Other fields are kept to be refused as a whole (`reference: expected ...`).
+#[derive(Debug, Clone, PartialEq, Default, Deserialize)]
+pub struct ReferenceSpec {
+    pub job: Option<crate::jobs::model::JobId>,
+    pub file: Option<String>,
+    #[serde(flatten)]
+    pub other: serde_json::Map<String, Value>,
 }
 
 /// Where the scene comes from besides the request's own fields.

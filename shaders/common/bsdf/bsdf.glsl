@@ -14,13 +14,10 @@
 #include "common/math.glsl"
 #include "common/sampling.glsl"
 
-#define MAT_DIFFUSE 0u
-#define MAT_CONDUCTOR 1u
-#define MAT_DIELECTRIC 2u
-#define MAT_PRINCIPLED 3u
-#define MAT_PHONG 4u
-#define MATF_TWO_SIDED 1u   // reflection is two-sided (Mitsuba twosided wrapper)
-#define MATF_HAS_ETA_K 2u   // conductor: c1 = eta, c2 = k given; otherwise Fresnel = 1
+// MAT_* (material types) and MATF_* (MATF_TWO_SIDED: reflection is two-sided, Mitsuba's
+// twosided wrapper; MATF_HAS_ETA_K: conductor c1 = eta, c2 = k given, else Fresnel = 1) come
+// from the Rust side (renderer/src/layout.rs, `mat`).
+#include "common/constants.glsl"
 #define TRANSPORT_RADIANCE 0u
 #define TRANSPORT_IMPORTANCE 1u
 #define BSDF_DELTA 1u          // sampled lobe is perfectly specular (pdf is a discrete probability)
