@@ -28,6 +28,8 @@ mod transform;
 mod validate;
 
 #[cfg(test)]
+mod tests_docs;
+#[cfg(test)]
 mod tests_errors;
 #[cfg(test)]
 mod tests_files;
