@@ -61,7 +61,10 @@ pub struct RenderStats {
     pub bvh_depth: usize,
     pub bvh_build_s: f64,
     pub setup_s: f64,
-    pub features: crate::compile::FeatureSet,
+    /// The features the kernels were compiled for (`spheres`, `mat_diffuse`, ...).
+    pub features: Vec<&'static str>,
+    /// "specialized" (to the scene's features) or "generic" (every feature).
+    pub kernels: crate::compile::KernelMode,
     /// The acceleration structure: "bvh" or "grid".
     pub accel: String,
     /// Seconds to obtain it: its build, or loading it from the cache on a hit.

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::{RenderError, RenderStats};
-use crate::compile::CompiledScene;
+use crate::compile::{CompiledScene, KernelMode};
 use crate::film::Image;
 use crate::gpu::{compile_glsl, Binding, Buffer, BufferUsage, ComputePipeline, GpuContext};
 use crate::integrators::{ExtraBuffer, Integrator, IntegratorInfo, IntegratorOptions};
@@ -95,6 +95,7 @@ struct SceneInfo {
     bvh_depth: usize,
     bvh_build: Duration,
     features: crate::compile::FeatureSet,
+    kernels: KernelMode,
     accel: crate::accel::AccelInfo,
 }
 
@@ -106,6 +107,25 @@ impl RenderSession {
         options: &IntegratorOptions,
         scene_max_depth: Option<i32>,
         seed: u64,
+    ) -> Result<Self, RenderError> {
+        Self::with_kernels(
+            ctx,
+            scene,
+            options,
+            scene_max_depth,
+            seed,
+            KernelMode::Specialized,
+        )
+    }
+
+    /// [`Self::new`] with a choice of kernels: specialised to the scene's features, or generic.
+    pub fn with_kernels(
+        ctx: &Arc<GpuContext>,
+        scene: &CompiledScene,
+        options: &IntegratorOptions,
+        scene_max_depth: Option<i32>,
+        seed: u64,
+        kernels: KernelMode,
     ) -> Result<Self, RenderError> {
         let start = Instant::now();
         let mut integrator = options.build(scene_max_depth);
@@ -131,8 +151,10 @@ impl RenderSession {
             ctx.fill_zero(&b)?;
             extra.push((e, b));
         }
-        // Step 3: the kernel, specialised for the scene's features (and the integrator's own).
-        let mut defines = scene.features.defines();
+        // Step 3: the kernel, specialised for the scene's features (or generic), and the
+        // integrator's own defines.
+        let features = scene.features.for_mode(kernels);
+        let mut defines = features.defines();
         if scene.grid.is_some() {
             defines.push(("ACCEL_GRID".to_string(), "1".to_string()));
         }
@@ -196,7 +218,8 @@ impl RenderSession {
                 bvh_nodes: scene.nodes.len(),
                 bvh_depth: scene.bvh_depth,
                 bvh_build: scene.bvh_build_time,
-                features: scene.features,
+                features,
+                kernels,
                 accel: scene.accel.clone(),
             },
         })
@@ -397,7 +420,8 @@ impl RenderSession {
             bvh_depth: self.info.bvh_depth,
             bvh_build_s: self.info.bvh_build.as_secs_f64(),
             setup_s: self.setup.as_secs_f64(),
-            features: self.info.features,
+            features: self.info.features.names(),
+            kernels: self.info.kernels,
             accel: self.info.accel.kind.name().to_string(),
             accel_build_s: self.info.accel.build_time.as_secs_f64(),
             accel_bytes: self.info.accel.bytes,

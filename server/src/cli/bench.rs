@@ -47,6 +47,9 @@ pub struct BenchArgs {
     /// Use the first Vulkan device whose name contains this text.
     #[arg(long)]
     pub device: Option<String>,
+    /// Kernels: "specialized" to what the scene uses (default) or "generic".
+    #[arg(long, value_name = "MODE", value_parser = super::parse_kernels, default_value = "specialized")]
+    pub kernels: renderer::compile::KernelMode,
 }
 
 /// Longest budget accepted, seconds.
@@ -101,6 +104,7 @@ fn config(a: &BenchArgs) -> Result<BenchConfig, CliError> {
         width: a.width,
         height: a.height,
         reference_spp: a.reference_spp,
+        kernels: a.kernels,
         out_dir: a.out.clone(),
     })
 }

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use renderer::accel::{AccelKind, AccelRequest};
+use renderer::compile::KernelMode;
 use renderer::integrators::{IntegratorOptions, DEFAULT_INTEGRATOR};
 use renderer::prepare::{prepare, FilmLimits, PrepareOptions};
 use renderer::render::{render, Budget, RenderStats};
@@ -63,6 +64,10 @@ pub struct RenderArgs {
     /// Always build the acceleration structure; read and write no cache.
     #[arg(long)]
     pub no_accel_cache: bool,
+    /// Kernels: "specialized" to what the scene uses (default), or "generic" (every feature
+    /// compiled in; for comparison).
+    #[arg(long, value_name = "MODE", value_parser = super::parse_kernels, default_value = "specialized")]
+    pub kernels: KernelMode,
 }
 
 /// The per-user accel cache: $XDG_CACHE_HOME/candela/accel, else ~/.cache/candela/accel; None
@@ -168,6 +173,7 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
                 grid_resolution: a.grid_resolution,
             },
             cache: cache.as_deref(),
+            kernels: a.kernels,
         },
     )
     .map_err(|e| CliError::input(format!("{}: {e}", a.scene.display())))?;
@@ -240,6 +246,11 @@ fn print_report(stats: &RenderStats, output: &std::path::Path) {
             .ok()
             .and_then(|v| v.as_str().map(String::from))
             .unwrap_or_default()
+    );
+    println!(
+        "kernels     {}: {}",
+        stats.kernels.name(),
+        stats.features.join(", ")
     );
     println!("dropped     {} NaN/Inf samples", stats.dropped_samples);
     println!("wrote       {}", output.display());
