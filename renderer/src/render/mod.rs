@@ -61,6 +61,13 @@ pub struct RenderStats {
     pub bvh_depth: usize,
     pub bvh_build_s: f64,
     pub setup_s: f64,
+    /// Of `setup_s`: building the pass kernel (compiling it, or the in-process cache, and the
+    /// pipeline).
+    pub kernel_s: f64,
+    /// The pass kernel as the driver compiled it (VK_KHR_pipeline_executable_properties, e.g.
+    /// NVIDIA's "Register Count"); empty where the driver does not report it.
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub kernel_stats: std::collections::BTreeMap<String, f64>,
     /// The features the kernels were compiled for (`spheres`, `mat_diffuse`, ...).
     pub features: Vec<&'static str>,
     /// "specialized" (to the scene's features) or "generic" (every feature).

@@ -81,6 +81,8 @@ pub struct RenderSession {
     elapsed: Duration,
     gpu_time: Duration,
     setup: Duration,
+    /// Building the pass kernel: GLSL → SPIR-V (or the in-process cache) and the pipeline.
+    kernel_time: Duration,
     info: SceneInfo,
     flags: u32,
     /// Most dispatches a pass is split into ([`LLVMPIPE_MAX_DISPATCHES`] on llvmpipe, else 1).
@@ -159,6 +161,7 @@ impl RenderSession {
             defines.push(("ACCEL_GRID".to_string(), "1".to_string()));
         }
         defines.extend(integrator.defines());
+        let kernel_start = Instant::now();
         let spirv = compile_glsl(options.info().kernel, &defines)?;
         let mut bindings = as_bindings(&scene_buffers);
         bindings.push(Binding {
@@ -182,6 +185,7 @@ impl RenderSession {
             &bindings,
             std::mem::size_of::<GpuPush>() as u32,
         )?;
+        let kernel_time = kernel_start.elapsed();
         // Step 4: the integrator's own stages (buffers, pipelines, scene-only work).
         integrator.setup(ctx, scene, &bindings, &defines)?;
         drop(bindings);
@@ -205,6 +209,7 @@ impl RenderSession {
             elapsed: Duration::ZERO,
             gpu_time: Duration::ZERO,
             setup: start.elapsed(),
+            kernel_time,
             flags: 0,
             split_limit: if ctx.info.name.contains("llvmpipe") {
                 LLVMPIPE_MAX_DISPATCHES
@@ -420,6 +425,8 @@ impl RenderSession {
             bvh_depth: self.info.bvh_depth,
             bvh_build_s: self.info.bvh_build.as_secs_f64(),
             setup_s: self.setup.as_secs_f64(),
+            kernel_s: self.kernel_time.as_secs_f64(),
+            kernel_stats: self.pipeline.statistics().into_iter().collect(),
             features: self.info.features.names(),
             kernels: self.info.kernels,
             accel: self.info.accel.kind.name().to_string(),
