@@ -16,7 +16,7 @@ if [ -x .carry/base/candela ]; then
     for integ in nee pt bdpt; do
       for build in base main; do
         .carry/$build/candela render scenes/cornell.json -o /tmp/c.exr --integrator $integ \
-          --width 1280 --height 720 --max-depth 6 --time 3 --no-accel-cache --json \
+          --width 1280 --height 720 --max-depth 6 --warmup 1 --time 3 --no-accel-cache --json \
           | python3 -c "import json,sys; d=json.load(sys.stdin); d['build']='$build'; print(json.dumps(d))" \
           >> "$out/cornell.jsonl"
       done

@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """Specialised against generic kernels (issue 19): for every project scene and integrator,
 `candela render --kernels specialized|generic --json` at one film size and time budget, each in a
-fresh process (so `kernel_s` is a cold compile). Prints a markdown table: Msamples/s of each, their
+fresh process with an empty driver shader cache (so `kernel_s` is a cold compile) and after an
+untimed warm-up (`--warmup`: a long cold compile lets the GPU idle down, and the first fraction of
+a second then runs at low clocks). Prints a markdown table: Msamples/s of each, their
 ratio, kernel build seconds of each, and the driver's statistics of the pass kernel where it
 reports them (VK_KHR_pipeline_executable_properties, e.g. NVIDIA's register count), plus the
 number of distinct kernel variants the scenes need. Writes every report as JSON lines to
@@ -15,6 +17,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 
 INTEGRATORS = ["pt", "nee", "bdpt", "whitted", "deferred", "vct"]
 
@@ -22,8 +25,10 @@ INTEGRATORS = ["pt", "nee", "bdpt", "whitted", "deferred", "vct"]
 def render(args, scene, integrator, kernels):
     cmd = [args.candela, "render", scene, "-o", "/tmp/kernels.exr", "--integrator", integrator,
            "--kernels", kernels, "--time", str(args.time), "--width", str(args.width),
-           "--height", str(args.height), "--no-accel-cache", "--json"]
-    r = subprocess.run(cmd, capture_output=True, text=True)
+           "--height", str(args.height), "--warmup", str(args.warmup), "--no-accel-cache", "--json"]
+    # Every run compiles cold: a fresh, empty NVIDIA driver shader cache.
+    env = dict(os.environ, __GL_SHADER_DISK_CACHE_PATH=tempfile.mkdtemp(prefix="nvcache"))
+    r = subprocess.run(cmd, capture_output=True, text=True, env=env)
     if r.returncode != 0:
         print(f"FAILED {' '.join(cmd)}: {r.stderr.strip()}", file=sys.stderr)
         return None
@@ -43,6 +48,8 @@ def main():
     ap.add_argument("--candela", default=".carry/candela")
     ap.add_argument("--out", default=os.environ.get("OUT", "/tmp"))
     ap.add_argument("--time", type=float, default=1.0)
+    ap.add_argument("--warmup", type=float, default=0.5,
+                    help="untimed seconds first (GPU clocks ramp up after a cold compile)")
     ap.add_argument("--width", type=int, default=1280)
     ap.add_argument("--height", type=int, default=720)
     ap.add_argument("--scenes", default="scenes/*.json")

@@ -32,6 +32,11 @@ pub struct RenderArgs {
     /// Render for this many seconds instead of a sample count.
     #[arg(long)]
     pub time: Option<f64>,
+    /// Benchmarking: render this many seconds first, untimed and discarded, so that the timed
+    /// render starts on a GPU already at its working clocks (after a cold kernel compile the
+    /// device may have idled down).
+    #[arg(long, value_name = "SECONDS")]
+    pub warmup: Option<f64>,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -86,6 +91,13 @@ pub fn default_accel_cache() -> Option<PathBuf> {
 fn check_args(a: &RenderArgs) -> Result<(), CliError> {
     if a.spp == Some(0) {
         return Err(CliError::input("--spp: must be at least 1"));
+    }
+    if let Some(w) = a.warmup {
+        if !(w.is_finite() && (0.0..=3600.0).contains(&w)) {
+            return Err(CliError::input(format!(
+                "--warmup: must be a number of seconds in [0, 3600], got {w}"
+            )));
+        }
     }
     if let Some(t) = a.time {
         if !(t.is_finite() && t > 0.0 && t <= 7.0 * 86400.0) {
@@ -182,6 +194,11 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
     let mut session = prepared
         .session(&ctx, &options, a.seed)
         .map_err(|e| CliError::failure(e.to_string()))?;
+    if let Some(w) = a.warmup {
+        render(&mut session, Budget::Time(w))
+            .and_then(|_| session.reset(a.seed))
+            .map_err(|e| CliError::failure(format!("warm-up: {e}")))?;
+    }
     let (image, stats) =
         render(&mut session, budget).map_err(|e| CliError::failure(e.to_string()))?;
     // Step 4: the image and the report.
