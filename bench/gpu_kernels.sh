@@ -15,8 +15,12 @@ if [ -x .carry/base/candela ]; then
   for rep in 1 2; do
     for integ in nee pt bdpt; do
       for build in base main; do
+        # Builds without --warmup get a 1-second render first, in its own process.
+        if .carry/$build/candela render --help | grep -q -- --warmup; then warm="--warmup 1"; else
+          warm=""; .carry/$build/candela render scenes/cornell.json -o /tmp/c.exr --integrator $integ \
+            --width 1280 --height 720 --max-depth 6 --time 1 --no-accel-cache > /dev/null; fi
         .carry/$build/candela render scenes/cornell.json -o /tmp/c.exr --integrator $integ \
-          --width 1280 --height 720 --max-depth 6 --warmup 1 --time 3 --no-accel-cache --json \
+          --width 1280 --height 720 --max-depth 6 $warm --time 3 --no-accel-cache --json \
           | python3 -c "import json,sys; d=json.load(sys.stdin); d['build']='$build'; print(json.dumps(d))" \
           >> "$out/cornell.jsonl"
       done
