@@ -2,7 +2,7 @@
 // to the right of a divider moved by mouse, touch or keyboard).
 
 import { $, el } from './util.js';
-import { state, jobIntegrator, jobName, jobSpp } from './state.js';
+import { on, state, jobIntegrator, jobName, jobSpp } from './state.js';
 import { ImageSlot, availHeight, fitBox } from './images.js';
 import { renderJobs } from './jobs.js';
 import { fitViewImage, pngUrl } from './viewer.js';
@@ -150,6 +150,11 @@ export function setAbPos(pos) {
 }
 
 export function initAb() {
+  on('jobs-rendered', renderAbOptions);
+  on('jobs-refreshed', () => refreshAbImages());
+  on('set-ab', setAb);
+  on('job-selected', () => showTab('single'));
+  on('tone-changed', () => refreshAbImages(true));
   for (const side of ['a', 'b']) {
     $(`ab-${side}`).addEventListener('change', (e) => {
       state.ab[side] = e.target.value;

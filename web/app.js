@@ -9,7 +9,7 @@
 import { $, STORE, debounce } from './util.js';
 import { checkHealth, getToken } from './api.js';
 import { state } from './state.js';
-import { initForm, loadScenes } from './form.js';
+import { initForm, loadIntegrators, loadScenes } from './form.js';
 import { refreshJobs } from './jobs.js';
 import { download, fitViewImage, initTone, initViewer, selectJob } from './viewer.js';
 import { initAb, initTabs, layoutAb } from './ab.js';
@@ -47,6 +47,7 @@ function afterTokenChange() {
   $('token-box').open = false;
   checkHealth();
   loadScenes();
+  loadIntegrators();
   refreshJobs();
   if (state.selected) selectJob(state.selected, { force: true });
 }
@@ -75,6 +76,7 @@ function init() {
 
   checkHealth();
   loadScenes();
+  loadIntegrators();
   refreshJobs();
   const m = /^#job=(.+)$/.exec(location.hash);
   if (m) selectJob(decodeURIComponent(m[1]));

@@ -39,6 +39,37 @@ export async function loadScenes() {
   describeScene();
 }
 
+/** The integrator list from GET /api/integrators (the server's registry): one option each, the
+ * server's default selected, and the chosen one's options described under the options field. */
+export async function loadIntegrators() {
+  let res;
+  try {
+    res = await api('/api/integrators');
+  } catch (err) {
+    if (err.status !== 401) showSubmitError(`Could not list the integrators: ${err.describe()}`);
+    return;
+  }
+  state.integrators = (res && res.integrators) || [];
+  const sel = $('integrator');
+  const prev = sel.value || res.default;
+  sel.replaceChildren(
+    ...state.integrators.map((i) => el('option', { value: i.name, text: `${i.name}: ${i.summary}` })),
+  );
+  if (state.integrators.some((i) => i.name === prev)) sel.value = prev;
+  describeIntegrator();
+}
+
+/** The chosen integrator's options, as a hint and as the options field's placeholder. */
+export function describeIntegrator() {
+  const i = (state.integrators || []).find((x) => x.name === $('integrator').value);
+  const fields = (i && i.options) || [];
+  $('integrator-desc').textContent = fields.length
+    ? `Options: ${fields.map((f) => `${f.name} (${f.kind}): ${f.help}`).join('; ')}`
+    : '';
+  const first = fields[0];
+  $('integrator-options').placeholder = first ? `e.g. {"${first.name}": …}` : 'no options';
+}
+
 export function describeScene() {
   const s = state.scenes.find((x) => x.name === $('scene-name').value);
   const bits = [];
@@ -255,6 +286,7 @@ export function initForm() {
   for (const r of document.querySelectorAll('input[name="source"]')) r.addEventListener('change', showSourcePane);
   showSourcePane();
   $('scene-name').addEventListener('change', describeScene);
+  $('integrator').addEventListener('change', describeIntegrator);
   $('load-example-json').addEventListener('click', loadExampleJson);
   for (const r of document.querySelectorAll('input[name="budget"]')) {
     r.addEventListener('change', () => {

@@ -4,10 +4,8 @@
 import { $, TERMINAL, el } from './util.js';
 import { api, checkHealth, setServerStatus } from './api.js';
 import {
-  state, jobBudgetText, jobFraction, jobId, jobIntegrator, jobLinks, jobName, jobProgress, jobResolution,
+  emit, state, jobBudgetText, jobFraction, jobId, jobIntegrator, jobLinks, jobName, jobProgress, jobResolution,
 } from './state.js';
-import { renderViewHeader, selectJob, syncSelectedFromList } from './viewer.js';
-import { refreshAbImages, renderAbOptions, setAb } from './ab.js';
 
 // ---------------------------------------------------------------------------------------------
 // Job list
@@ -56,8 +54,7 @@ export async function refreshJobs() {
       checkHealth();
     }
     renderJobs();
-    syncSelectedFromList();
-    refreshAbImages();
+    emit('jobs-refreshed');
   } catch (err) {
     if (err.status !== 401) setServerStatus(`Job list: ${err.describe()}`, 'bad');
   } finally {
@@ -85,8 +82,8 @@ export function renderJobs() {
   for (const li of rows.values()) li.remove();
   $('jobs-empty').hidden = state.order.length > 0;
   $('jobs-empty').textContent = $('state-filter').value ? 'No jobs in this state.' : 'No jobs yet.';
-  renderAbOptions();
   renderReferenceOptions();
+  emit('jobs-rendered');
 }
 
 /** The submit form's reference selector: every done job (keeps the current choice). */
@@ -109,7 +106,7 @@ export function renderJobRow(id) {
 
 export function buildJobRow(id) {
   const li = el('li', { class: 'job', 'data-id': id });
-  const open = el('button', { class: 'job-open', type: 'button', onclick: () => selectJob(id) },
+  const open = el('button', { class: 'job-open', type: 'button', onclick: () => emit('open-job', id) },
     el('span', { class: 'job-name' }), el('span', { class: 'job-meta' }));
   const badge = el('span', { class: 'badge job-state' });
   const progress = el('progress', { class: 'job-progress', max: '1' });
@@ -123,8 +120,8 @@ export function buildJobRow(id) {
   const pause = el('button', { class: 'job-pause secondary small', type: 'button', onclick: () => pauseResume(id) });
   const cancel = el('button', { class: 'job-cancel danger small', type: 'button', onclick: () => cancelJob(id) });
   cancel.textContent = 'Cancel';
-  const setA = el('button', { class: 'job-set-a secondary small', type: 'button', text: 'A', onclick: () => setAb('a', id) });
-  const setB = el('button', { class: 'job-set-b secondary small', type: 'button', text: 'B', onclick: () => setAb('b', id) });
+  const setA = el('button', { class: 'job-set-a secondary small', type: 'button', text: 'A', onclick: () => emit('set-ab', 'a', id) });
+  const setB = el('button', { class: 'job-set-b secondary small', type: 'button', text: 'B', onclick: () => emit('set-ab', 'b', id) });
   li.append(
     el('div', { class: 'job-top' }, open, badge),
     el('div', { class: 'job-mid' }, progress, budget),
@@ -194,7 +191,7 @@ export async function jobAction(id, fn) {
     if (job && job.id != null) upsertJob(job);
     if (errP) errP.hidden = true;
     renderJobs();
-    if (state.selected === id && job && job.id != null) renderViewHeader(job);
+    if (job && job.id != null) emit('job-changed', job);
   } catch (err) {
     if (errP) {
       errP.textContent = err.describe ? err.describe() : String(err);

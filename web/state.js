@@ -11,6 +11,7 @@ export const state = {
   jobs: new Map(), // id -> job (as last listed)
   order: [], // ids, newest first
   scenes: [], // built-in example scenes
+  integrators: [], // the server's integrator registry (GET /api/integrators)
   selected: null, // id of the job in the viewer
   stream: null, // EventStream of the selected job
   live: null, // latest progress of the selected job from SSE
@@ -19,6 +20,32 @@ export const state = {
   ab: { a: '', b: '', pos: 50 },
   unauthorized: false,
 };
+
+// ---------------------------------------------------------------------------------------------
+// Events between modules
+// ---------------------------------------------------------------------------------------------
+// Modules import in one direction (jobs → viewer → ab → form → app); a lower module tells the
+// higher ones what happened through these named events, which they subscribe to in their init:
+//   'jobs-rendered'         the job list was redrawn (ab: refresh the A/B selectors)
+//   'jobs-refreshed'        the list was fetched again (viewer: sync the selected job; ab: images)
+//   'open-job' (id)         a row asks to be shown in the viewer (viewer)
+//   'set-ab' (side, id)     a row asks to be compared as A or B (ab)
+//   'job-changed' (job)     a job was updated by a control in the list (viewer: its header)
+//   'job-selected' (id)     the viewer shows another job (ab: switch to the single view)
+//   'tone-changed'          exposure or tonemap changed (ab: reload its images)
+
+const listeners = new Map();
+
+/** Calls `fn(...args)` whenever `name` is emitted. */
+export function on(name, fn) {
+  if (!listeners.has(name)) listeners.set(name, []);
+  listeners.get(name).push(fn);
+}
+
+/** Tells every subscriber of `name`. */
+export function emit(name, ...args) {
+  for (const fn of listeners.get(name) || []) fn(...args);
+}
 
 // ---------------------------------------------------------------------------------------------
 // Job field accessors (tolerant of small differences in the server's JSON)

@@ -4,12 +4,11 @@
 import { $, STORE, TERMINAL, debounce, el, fmtDuration, fmtNum, fmtSi } from './util.js';
 import { EventStream, api, authHeaders, getToken, toApiError, withQuery } from './api.js';
 import {
-  state, elapsedOf, jobFraction, jobId, jobLinks, jobName, jobNumbers, jobProgress, jobSettings, jobSpp,
+  emit, on, state, elapsedOf, jobFraction, jobId, jobLinks, jobName, jobNumbers, jobProgress, jobSettings, jobSpp,
   jobHasReference,
 } from './state.js';
 import { ImageSlot, availHeight, fitBox } from './images.js';
 import { refreshJobs, renderJobRow, renderJobs, upsertJob } from './jobs.js';
-import { refreshAbImages, showTab } from './ab.js';
 import { metricsChart } from './chart.js';
 
 // ---------------------------------------------------------------------------------------------
@@ -60,7 +59,7 @@ export function selectJob(id, { force = false } = {}) {
   $('stage-placeholder').textContent = 'Loading…';
   $('view-message').textContent = '';
   history.replaceState(null, '', `#job=${encodeURIComponent(id)}`);
-  showTab('single');
+  emit('job-selected', id);
   renderJobs();
 
   if (known) renderViewHeader(known);
@@ -228,8 +227,13 @@ export function fitViewImage() {
 }
 
 /** Refits the image whenever the stage's width changes (window resize, the error chart shown or
- *  hidden beside it). */
+ *  hidden beside it), and follows the job list's events. */
 export function initViewer() {
+  on('open-job', (id) => selectJob(id));
+  on('jobs-refreshed', syncSelectedFromList);
+  on('job-changed', (job) => {
+    if (state.selected === jobId(job)) renderViewHeader(job);
+  });
   let lastWidth = 0;
   new ResizeObserver(() => {
     const w = $('stage').clientWidth;
@@ -302,7 +306,7 @@ export const applyTone = debounce(() => {
     viewSlot.load(pngUrl(job, state.snapshotUrl), { spp, job: jobId(job) });
   }
   updateDownloads();
-  refreshAbImages(true);
+  emit('tone-changed');
 }, 150);
 
 export function initTone() {

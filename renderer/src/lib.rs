@@ -5,10 +5,14 @@
 
 pub mod accel;
 pub mod compile;
+pub mod error;
 pub mod film;
 pub mod gpu;
 pub mod import;
 pub mod integrators;
+pub mod layout;
 pub mod metrics;
+pub mod prepare;
 pub mod render;
 pub mod scene;
+pub mod upload;

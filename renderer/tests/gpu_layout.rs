@@ -7,10 +7,10 @@ use std::mem::size_of;
 use std::sync::Arc;
 
 use bytemuck::Pod;
-use renderer::compile::layout::*;
 use renderer::gpu::{
     compile_glsl, Binding, Buffer, BufferUsage, ComputePipeline, GpuContext, GpuOptions,
 };
+use renderer::layout::*;
 
 /// A T whose 32-bit words are start, start+1, ...
 fn counting<T: Pod>(start: u32) -> T {

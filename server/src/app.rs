@@ -1,10 +1,9 @@
-//! The HTTP application: shared state, the `app(state) -> Router` factory (every route of the
+//! The HTTP application: the `app(state) -> Router` factory (every route of the
 //! API, the metrics, the embedded web viewer), bearer-token authentication, JSON fallbacks for
 //! unknown routes and methods, the body-size limit, and a 500 JSON answer (not a dropped
 //! connection) should a handler ever panic.
 
 use std::collections::HashMap;
-use std::sync::Arc;
 
 use axum::extract::{DefaultBodyLimit, Query, Request, State};
 use axum::http::header;
@@ -12,34 +11,12 @@ use axum::middleware::{self, Next};
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::Router;
-use tokio::sync::watch;
 use tower_http::catch_panic::CatchPanicLayer;
 use tower_http::trace::TraceLayer;
 
 use crate::api_error::ApiError;
-use crate::config::ServerConfig;
 use crate::routes;
-use crate::shared::Shared;
-use crate::store::Store;
-use crate::worker::WorkerHandle;
-
-/// What every handler can reach.
-#[derive(Clone)]
-pub struct AppState {
-    pub store: Arc<Store>,
-    pub shared: Arc<Shared>,
-    pub worker: WorkerHandle,
-    pub config: Arc<ServerConfig>,
-    /// Becomes `true` when the server starts shutting down (ends SSE streams and waits).
-    pub shutdown: watch::Receiver<bool>,
-}
-
-impl AppState {
-    /// Whether shutdown has begun.
-    pub fn shutting_down(&self) -> bool {
-        *self.shutdown.borrow()
-    }
-}
+use crate::state::AppState;
 
 /// The router with every route, layer and fallback.
 pub fn app(state: AppState) -> Router {
@@ -60,6 +37,7 @@ pub fn app(state: AppState) -> Router {
         .route("/api/jobs/{id}/events", get(routes::events::stream))
         .route("/api/jobs/{id}/image.png", get(routes::images::png))
         .route("/api/jobs/{id}/image.exr", get(routes::images::exr))
+        .route("/api/integrators", get(routes::integrators::list))
         .route("/api/scenes", get(routes::scenes::list))
         .route("/api/scenes/{name}", get(routes::scenes::get_one))
         .route("/metrics", get(routes::ops::metrics));

@@ -15,8 +15,7 @@ pub struct RequestLimits {
     /// Most files in an upload (413).
     pub max_upload_files: usize,
     /// Largest film side and pixel count (422).
-    pub max_side: u32,
-    pub max_pixels: u64,
+    pub film: renderer::prepare::FilmLimits,
     /// Largest spp and time budget (422).
     pub max_spp: u32,
     pub max_time_s: f64,
@@ -32,8 +31,7 @@ impl Default for RequestLimits {
             max_body_bytes: 256 << 20,
             max_upload_bytes: 1 << 30,
             max_upload_files: 10_000,
-            max_side: 16384,
-            max_pixels: 64 << 20,
+            film: renderer::prepare::FilmLimits::default(),
             max_spp: 1 << 20,
             max_time_s: 7.0 * 86400.0,
             max_triangles: 20_000_000,
@@ -46,8 +44,8 @@ impl RequestLimits {
     /// The scene loader's limits derived from these.
     pub fn scene_limits(&self) -> renderer::scene::Limits {
         renderer::scene::Limits {
-            max_width: self.max_side,
-            max_height: self.max_side,
+            max_width: self.film.max_side,
+            max_height: self.film.max_side,
             max_triangles: self.max_triangles,
             ..Default::default()
         }

@@ -4,7 +4,7 @@
 //! Exit codes: 0 success, 2 bad input (a one-line error naming what and where), 1 any other
 //! failure. No input may make it panic.
 //!
-//! The server's modules: `app` (router, auth), `routes/` (handlers), `jobs/` (model, requests,
+//! The server's modules: `app` (router, auth), `state` (what handlers reach), `routes/` (handlers), `jobs/` (model, requests,
 //! uploads), `store/` (SQLite jobs and event log), `worker/` (GPU thread, scheduler,
 //! checkpoints), `shared` (snapshots, metrics), `builtin_scenes`, `config`, `api_error`.
 
@@ -17,6 +17,7 @@ mod config;
 mod jobs;
 mod routes;
 mod shared;
+mod state;
 mod store;
 mod worker;
 

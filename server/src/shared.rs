@@ -146,14 +146,17 @@ impl Shared {
     }
 
     /// Prometheus text exposition (version 0.0.4) of the counters and `jobs` by state.
-    pub fn prometheus(&self, jobs: &std::collections::BTreeMap<&'static str, u64>) -> String {
+    pub fn prometheus(
+        &self,
+        jobs: &std::collections::BTreeMap<crate::jobs::model::JobState, u64>,
+    ) -> String {
         let mut out = String::new();
         let _ = writeln!(
             out,
             "# HELP candela_jobs Jobs in the store by state.\n# TYPE candela_jobs gauge"
         );
         for (state, n) in jobs {
-            let _ = writeln!(out, "candela_jobs{{state=\"{state}\"}} {n}");
+            let _ = writeln!(out, "candela_jobs{{state=\"{}\"}} {n}", state.as_str());
         }
         let mut line = |name: &str, kind: &str, help: &str, value: String| {
             let _ = writeln!(

@@ -18,6 +18,7 @@
 #endif
 
 #include "common/bindings.glsl"
+#include "common/film.glsl"
 #include "bdpt/vertex.glsl"
 #include "bdpt/subpath.glsl"
 #include "bdpt/connect.glsl"
@@ -25,17 +26,13 @@
 
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
-bool finite3(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
-
-// GpuPush::flags bits (renderer/src/compile/layout.rs, PUSH_FLAG_BDPT_*).
-#define PUSH_FLAG_BDPT_NO_MIS (1u << 1)
-#define PUSH_FLAG_BDPT_STRATEGY (1u << 2)
-#define PUSH_FLAG_BDPT_UNWEIGHTED (1u << 3)
+// GpuPush::flags bits: PUSH_FLAG_BDPT_* (renderer/src/layout.rs).
 
 // True when strategy (s, t) is rendered (all of them, or the debug one).
 bool strategy_enabled(int s, int t) {
     if ((pc.flags & PUSH_FLAG_BDPT_STRATEGY) == 0u) return true;
-    return uint(s) == ((pc.flags >> 8) & 0xffu) && uint(t) == ((pc.flags >> 16) & 0xffu);
+    return uint(s) == ((pc.flags >> PUSH_FLAG_BDPT_S_SHIFT) & 0xffu)
+        && uint(t) == ((pc.flags >> PUSH_FLAG_BDPT_T_SHIFT) & 0xffu);
 }
 
 // The weight a contribution gets: its MIS weight, or 1 when a debug strategy is rendered
@@ -67,7 +64,7 @@ vec3 bdpt_sample(uvec2 px, inout Rng rng, int max_depth, inout uint rays, inout 
             vec3 c = connect(s, t, rng_next4(rng), rays, film, w);
             c *= strategy_weight(w);
             if (t == 1) {
-                if (!finite3(c)) {
+                if (!is_finite(c)) {
                     dropped += 1u;
                 } else if (any(greaterThan(c, vec3(0.0)))) {
                     splat_film(film, c);
@@ -92,18 +89,8 @@ void main() {
     for (uint i = 0u; i < pc.spp; ++i) {
         Rng rng = rng_init(pixel, pc.sample_base + i, pc.seed_lo, pc.seed_hi);
         vec3 L = bdpt_sample(px, rng, max_depth, rays, dropped);
-        // Test hook (PUSH_FLAG_INJECT_NAN): poison every 7th sample.
-        if ((pc.flags & 1u) != 0u && (pc.sample_base + i) % 7u == 3u) L = vec3(uintBitsToFloat(0x7fc00000u));
-        // NaN/Inf samples never reach the film: dropped and counted.
-        if (finite3(L)) {
-            acc += vec4(L, 1.0);
-        } else {
-            dropped += 1u;
-        }
+        film_add(acc, L, pc.sample_base + i, dropped);
     }
     accum[pixel] = acc;
-    if (dropped > 0u) atomicAdd(stats.dropped_samples, dropped);
-    // 64-bit ray count: carry into the high word when the low word wraps.
-    uint before = atomicAdd(stats.rays_lo, rays);
-    if (before + rays < before) atomicAdd(stats.rays_hi, 1u);
+    film_count(rays, dropped);
 }

@@ -13,6 +13,7 @@
 #ifndef COMMON_PATH_GLSL
 #define COMMON_PATH_GLSL
 #include "common/bindings.glsl"
+#include "common/film.glsl"
 #include "common/math.glsl"
 #include "common/rng.glsl"
 #include "common/camera.glsl"
@@ -22,8 +23,6 @@
 #include "common/lights.glsl"
 
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
-
-bool is_finite(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
 
 vec3 trace_path(uvec2 px, inout Rng rng, inout uint rays) {
     // Step 1: the camera ray.
@@ -118,20 +117,10 @@ void main() {
     for (uint i = 0u; i < pc.spp; ++i) {
         Rng rng = rng_init(pixel, pc.sample_base + i, pc.seed_lo, pc.seed_hi);
         vec3 L = trace_path(px, rng, rays);
-        // Test hook (PUSH_FLAG_INJECT_NAN): poison every 7th sample.
-        if ((pc.flags & 1u) != 0u && (pc.sample_base + i) % 7u == 3u) L = vec3(uintBitsToFloat(0x7fc00000u));
-        // NaN/Inf samples never reach the film: dropped and counted.
-        if (is_finite(L)) {
-            acc += vec4(L, 1.0);
-        } else {
-            dropped += 1u;
-        }
+        film_add(acc, L, pc.sample_base + i, dropped);
     }
     accum[pixel] = acc;
-    if (dropped > 0u) atomicAdd(stats.dropped_samples, dropped);
-    // 64-bit ray count: carry into the high word when the low word wraps.
-    uint before = atomicAdd(stats.rays_lo, rays);
-    if (before + rays < before) atomicAdd(stats.rays_hi, 1u);
+    film_count(rays, dropped);
 }
 
 #endif

@@ -5,36 +5,8 @@
 
 #extension GL_EXT_scalar_block_layout : require
 
-#define B_GLOBALS 0
-#define B_BVH_NODES 1
-#define B_PRIMS 2
-#define B_TRI_SHADING 3
-#define B_MATERIALS 4
-#define B_TEXTURES 5
-#define B_TEXELS 6
-#define B_LIGHTS 7
-#define B_LIGHT_ALIAS 8
-#define B_ENV_DIST 9
-#define B_ACCUM 10
-#define B_STATS 11
-#define B_SPLAT 12   // bdpt: light-tracing splat buffer (shaders/bdpt/splat.glsl)
-#define B_GRID 13        // accel "grid" only (shaders/common/grid.glsl): GpuGridInfo
-#define B_GRID_CELLS 14  // cell offsets into the reference list (cells + 1 entries)
-#define B_GRID_PRIMS 15  // the reference list (primitive indices)
-
-#define NONE 0xffffffffu
-#define PRIM_MATERIAL_MASK 0x00ffffffu
-#define PRIM_SPHERE (1u << 31)
-#define PRIM_FLIP_NORMALS (1u << 30)
-#define PRIM_ALPHA (1u << 29)
-
-#define LIGHT_TRIANGLE 0u
-#define LIGHT_SPHERE 1u
-#define LIGHT_POINT 2u
-#define LIGHT_SPOT 3u
-#define LIGHT_DIRECTIONAL 4u
-#define LIGHT_ENV_CONSTANT 5u
-#define LIGHT_ENV_MAP 6u
+// Bindings (B_*), NONE, PRIM_*, LIGHT_*, MAT_*, PUSH_FLAG_*: generated from the Rust side.
+#include "common/constants.glsl"
 
 struct GpuPrim { vec4 a; vec4 b; vec4 c; };
 struct GpuGridInfo {

@@ -5,6 +5,7 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "common/bindings.glsl"
+#include "common/film.glsl"
 #include "common/rng.glsl"
 #include "common/camera.glsl"
 #include "common/traverse.glsl"
@@ -13,7 +14,6 @@
 
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
-bool is_finite(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
 
 void main() {
     uvec2 px = gl_GlobalInvocationID.xy;
@@ -35,12 +35,8 @@ void main() {
                 if (dot(-ray.d, s.ng) > 0.0) L = materials[s.material].emission.rgb;
             }
         }
-        // Test hook (PUSH_FLAG_INJECT_NAN), as in the path tracers.
-        if ((pc.flags & 1u) != 0u && (pc.sample_base + i) % 7u == 3u) L = vec3(uintBitsToFloat(0x7fc00000u));
-        if (is_finite(L)) acc += vec4(L, 1.0); else dropped += 1u;
+        film_add(acc, L, pc.sample_base + i, dropped);
     }
     accum[pixel] = acc;
-    if (dropped > 0u) atomicAdd(stats.dropped_samples, dropped);
-    uint before = atomicAdd(stats.rays_lo, pc.spp);
-    if (before + pc.spp < before) atomicAdd(stats.rays_hi, 1u);
+    film_count(pc.spp, dropped);
 }

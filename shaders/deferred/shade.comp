@@ -16,6 +16,7 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "deferred/common.glsl"
+#include "common/film.glsl"
 #include "common/traverse.glsl"
 #include "common/surface.glsl"
 #include "common/material.glsl"
@@ -31,7 +32,6 @@ shared uint s_tested;
 shared uint s_shaded;
 shared uint s_lit;
 
-bool is_finite(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
 
 // Light l as seen from p: direction wi, distance, and the incident irradiance-per-solid-angle
 // factor Li = I(−wi)·falloff / d² (so that f·|cos|·Li is the reflected radiance). False when
@@ -232,10 +232,9 @@ void main() {
             L = vec3(count == TILE_OVERFLOW ? float(dp.n_cull) : float(count), float(reach),
                      count == TILE_OVERFLOW ? 1.0 : 0.0);
         }
-        // Test hook (PUSH_FLAG_INJECT_NAN), as in the path tracers.
-        if ((pc.flags & 1u) != 0u && pc.sample_base % 7u == 3u) L = vec3(uintBitsToFloat(0x7fc00000u));
-        // NaN/Inf samples never reach the film: dropped and counted.
-        if (is_finite(L)) accum[pixel] += vec4(L, 1.0); else dropped += 1u;
+        vec4 acc = accum[pixel];
+        film_add(acc, L, pc.sample_base, dropped);
+        accum[pixel] = acc;
     }
     // Step 7: counters, reduced per workgroup first.
     if (rays > 0u) atomicAdd(s_rays, rays);
@@ -248,8 +247,6 @@ void main() {
         counter_add(0u, s_tested);
         counter_add(1u, s_shaded);
         counter_add(2u, s_lit);
-        if (s_dropped > 0u) atomicAdd(stats.dropped_samples, s_dropped);
-        uint before = atomicAdd(stats.rays_lo, s_rays);
-        if (before + s_rays < before) atomicAdd(stats.rays_hi, 1u);
+        film_count(s_rays, s_dropped);
     }
 }

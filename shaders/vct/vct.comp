@@ -13,6 +13,7 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "common/bindings.glsl"
+#include "common/film.glsl"
 #include "common/math.glsl"
 #include "common/rng.glsl"
 #include "common/camera.glsl"
@@ -26,7 +27,6 @@
 
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
-bool is_finite(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
 bool depth_allows(int d) { return pc.max_depth < 0 || pc.max_depth >= d; }
 
 #ifdef VCT_VOLUME
@@ -173,15 +173,8 @@ void main() {
     for (uint i = 0u; i < pc.spp; ++i) {
         Rng rng = rng_init(pixel, pc.sample_base + i, pc.seed_lo, pc.seed_hi);
         vec3 L = shade(px, rng, rays);
-        if ((pc.flags & 1u) != 0u && (pc.sample_base + i) % 7u == 3u) L = vec3(uintBitsToFloat(0x7fc00000u));
-        if (is_finite(L)) {
-            acc += vec4(L, 1.0);
-        } else {
-            dropped += 1u;
-        }
+        film_add(acc, L, pc.sample_base + i, dropped);
     }
     accum[pixel] = acc;
-    if (dropped > 0u) atomicAdd(stats.dropped_samples, dropped);
-    uint before = atomicAdd(stats.rays_lo, rays);
-    if (before + rays < before) atomicAdd(stats.rays_hi, 1u);
+    film_count(rays, dropped);
 }

@@ -11,7 +11,7 @@ use std::path::Path;
 
 use candela_tests::*;
 use glam::DVec3;
-use renderer::accel::{AccelKind, AccelOptions, CacheStatus};
+use renderer::accel::{AccelKind, AccelOptions, AccelRequest, CacheStatus};
 use renderer::compile::{compile_with, CompileOptions, CompiledScene};
 use renderer::film::Image;
 use renderer::integrators::IntegratorOptions;
@@ -119,7 +119,7 @@ fn grid_matches_bvh_with_spheres_and_meshes() {
 fn grid_serves_every_integrator() {
     let scene = load("cornell.json");
     // Every integrator users can pick (pt, nee, bdpt, whitted, deferred, ...).
-    for &integrator in renderer::integrators::NAMES {
+    for integrator in renderer::integrators::names() {
         let bvh = compiled(&scene, 16, AccelOptions::default(), None);
         let (reference, _) = render_compiled(&scene, &bvh, integrator, 2, 3);
         let (again, _) = render_compiled(&scene, &bvh, integrator, 2, 3);
@@ -287,15 +287,28 @@ fn scene_render_block_selects_and_checks_the_accel() {
         renderer::scene::load_str(&v.to_string(), Some(&scene_path("")))
     };
     let s = with(serde_json::json!({"accel": "grid", "grid_resolution": 12})).unwrap();
-    let o = AccelOptions::resolve(&s.render, None, None).unwrap();
+    let o = AccelOptions::resolve(AccelRequest::default(), s.render.accel_request()).unwrap();
     assert_eq!((o.kind, o.grid_resolution), (AccelKind::Grid, Some(12)));
     // Overrides win.
-    let o = AccelOptions::resolve(&s.render, Some("bvh"), None).unwrap();
+    let o = AccelOptions::resolve(
+        AccelRequest {
+            kind: Some("bvh"),
+            grid_resolution: None,
+        },
+        s.render.accel_request(),
+    )
+    .unwrap();
     assert_eq!(o.kind, AccelKind::Bvh);
     assert_eq!(
-        AccelOptions::resolve(&s.render, None, Some(3))
-            .unwrap()
-            .grid_resolution,
+        AccelOptions::resolve(
+            AccelRequest {
+                kind: None,
+                grid_resolution: Some(3),
+            },
+            s.render.accel_request(),
+        )
+        .unwrap()
+        .grid_resolution,
         Some(3)
     );
     let c = compile_with(

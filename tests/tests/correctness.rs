@@ -169,7 +169,7 @@ fn nan_samples_are_dropped_and_counted() {
     let opts = IntegratorOptions::from_name("nee").unwrap();
     let ctx = gpu();
     let mut s = RenderSession::new(&ctx, &compiled, &opts, None, 9).unwrap();
-    s.set_debug_flags(renderer::compile::layout::PUSH_FLAG_INJECT_NAN);
+    s.set_debug_flags(renderer::layout::PUSH_FLAG_INJECT_NAN);
     s.run_pass(10).unwrap();
     s.run_pass(4).unwrap();
     let img = s.image().unwrap();

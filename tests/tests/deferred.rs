@@ -773,7 +773,7 @@ fn nan_samples_are_dropped_and_counted() {
         r#"{"type":"deferred","max_depth":1}"#,
     ] {
         let mut s = RenderSession::new(&ctx, &compiled, &options(json), None, 9).unwrap();
-        s.set_debug_flags(renderer::compile::layout::PUSH_FLAG_INJECT_NAN);
+        s.set_debug_flags(renderer::layout::PUSH_FLAG_INJECT_NAN);
         s.run_pass(10).unwrap();
         s.run_pass(4).unwrap();
         let img = s.image().unwrap();

@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 
 use super::grid::Grid;
 use super::{AccelKind, AccelOptions, PrimBounds};
-use crate::compile::layout::{GpuBvhNode, GpuGridInfo, GpuPrim, PRIM_SPHERE};
+use crate::layout::{GpuBvhNode, GpuGridInfo, GpuPrim, PRIM_SPHERE};
 
 /// Bumped whenever a builder or the file layout changes, so old files are never reused.
 pub const FORMAT_VERSION: u32 = 1;

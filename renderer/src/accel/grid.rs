@@ -24,7 +24,7 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 
 use super::PrimBounds;
-use crate::compile::layout::{GpuGridInfo, GpuPrim, PRIM_SPHERE};
+use crate::layout::{GpuGridInfo, GpuPrim, PRIM_SPHERE};
 
 /// Cells per primitive of the automatic resolution (λ).
 pub const DEFAULT_DENSITY: f64 = 3.0;

@@ -4,7 +4,7 @@
 //! passes through is visited, in order, one face step at a time).
 
 use super::*;
-use crate::compile::layout::NONE;
+use crate::layout::NONE;
 
 /// A tiny deterministic generator (xorshift64*), so the tests need no crate.
 struct Rng(u64);

@@ -15,7 +15,9 @@ pub mod cache;
 pub mod grid;
 mod select;
 
-pub use select::{build_accel, Accel, AccelInfo, AccelKind, AccelOptions, CacheStatus};
+pub use select::{
+    build_accel, Accel, AccelInfo, AccelKind, AccelOptions, AccelRequest, CacheStatus,
+};
 
 use std::time::{Duration, Instant};
 
@@ -23,7 +25,7 @@ use obvhs::aabb::Aabb;
 use obvhs::bvh2::builder::build_bvh2;
 use obvhs::{Boundable, BvhBuildParams};
 
-use crate::compile::layout::GpuBvhNode;
+use crate::layout::GpuBvhNode;
 
 /// The deepest tree the traversal stack (BVH_STACK in traverse.glsl) can walk.
 pub const MAX_DEPTH: usize = 64;

@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use super::grid::{self, Grid};
 use super::{build, cache, AccelError, PrimBounds};
-use crate::compile::layout::{GpuBvhNode, GpuPrim};
+use crate::layout::{GpuBvhNode, GpuPrim};
 
 /// The acceleration structure kind.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, serde::Deserialize)]
@@ -238,24 +238,30 @@ fn from_entry(opts: &AccelOptions, mut e: cache::Entry, n: usize) -> Option<Acce
     }
 }
 
+/// An acceleration-structure request as written in one place (a scene's `render` block, CLI
+/// flags, a job's settings): a kind name and a grid resolution, each optional.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct AccelRequest<'a> {
+    pub kind: Option<&'a str>,
+    pub grid_resolution: Option<u32>,
+}
+
 impl AccelOptions {
-    /// The options of a scene's `render` block (already validated) with overrides (a CLI flag, a
-    /// job's settings) taking precedence: `kind` and `grid_resolution` each fall back on the
-    /// scene's value, then on the defaults (BVH; automatic resolution). Unknown names are an
-    /// error naming the value.
+    /// The options of `request` (a CLI flag, a job's settings) falling back, field by field, on
+    /// the scene's `render` block (already validated), then on the defaults (BVH; automatic
+    /// resolution). Unknown names are an error naming the value.
     pub fn resolve(
-        scene: &crate::scene::RenderDefaults,
-        kind: Option<&str>,
-        grid_resolution: Option<u32>,
+        request: AccelRequest<'_>,
+        scene: AccelRequest<'_>,
     ) -> Result<AccelOptions, String> {
-        let name = kind.or(scene.accel.as_deref()).unwrap_or("bvh");
+        let name = request.kind.or(scene.kind).unwrap_or("bvh");
         let kind = AccelKind::from_name(name).ok_or_else(|| {
             format!(
                 "unknown acceleration structure \"{name}\", expected one of {}",
                 AccelKind::NAMES.join(", ")
             )
         })?;
-        let res = grid_resolution.or(scene.grid_resolution);
+        let res = request.grid_resolution.or(scene.grid_resolution);
         if let Some(r) = res {
             if !(1..=grid::MAX_AXIS).contains(&r) {
                 return Err(format!(

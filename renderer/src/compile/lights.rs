@@ -7,7 +7,7 @@ use std::f64::consts::PI;
 
 use glam::{DVec3, Vec3};
 
-use super::layout::{light, GpuAlias, GpuLight};
+use crate::layout::{light, GpuAlias, GpuLight};
 use crate::scene::Texture;
 
 /// Luminance of linear Rec.709 RGB.

@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 
-use super::layout::{mat, GpuMaterial, GpuTexture, NONE};
+use crate::layout::{mat, GpuMaterial, GpuTexture, NONE};
 use crate::scene::{ColorParam, Material, MaterialKind, ScalarParam, Texture};
 
 fn color(p: &ColorParam) -> [f32; 4] {
@@ -117,13 +117,6 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         }
     }
     g
-}
-
-/// Whether the material reads any texture (colour, scalar or alpha mask).
-pub fn uses_textures(g: &GpuMaterial) -> bool {
-    g.header[2] != NONE
-        || g.colors.iter().any(|c| c[3].to_bits() != NONE)
-        || g.scalar_tex.iter().any(|&t| t != NONE)
 }
 
 /// Packs textures into (descriptors, texels). `clamp_rows[i]` marks environment maps.

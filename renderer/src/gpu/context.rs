@@ -56,6 +56,9 @@ pub struct GpuContext {
     /// `atomicAdd` floats in storage buffers (bdpt's light-tracing splats; without it they use
     /// an integer fixed-point fallback).
     pub float_atomics: bool,
+    /// VK_KHR_pipeline_executable_properties is enabled: pipelines report their compiled
+    /// statistics (registers, shared memory, ... as the driver names them).
+    pub(crate) executable_properties: Option<ash::khr::pipeline_executable_properties::Device>,
 }
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
@@ -188,164 +191,252 @@ unsafe extern "system" fn debug_callback(
     vk::FALSE
 }
 
+/// The Vulkan instance and, with validation, the debug messenger collecting its messages.
+struct InstanceParts {
+    instance: ash::Instance,
+    validation: bool,
+    has_debug_utils: bool,
+    messages: Option<MessageSink>,
+    sink_box: Option<Box<MessageSink>>,
+    debug_messenger: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+}
+
+/// Creates the instance, with the validation layer and debug utils when asked for and available.
+fn create_instance(entry: &ash::Entry, want_validation: bool) -> GpuResult<InstanceParts> {
+    // Step 1: instance, with validation and debug utils when available.
+    // SAFETY: plain enumeration calls on a loaded entry.
+    let layers = unsafe { entry.enumerate_instance_layer_properties() }.unwrap_or_default();
+    let has_validation = layers.iter().any(|l| {
+        l.layer_name_as_c_str()
+            .map(|n| n == VALIDATION_LAYER)
+            .unwrap_or(false)
+    });
+    // SAFETY: as above.
+    let exts = unsafe { entry.enumerate_instance_extension_properties(None) }.unwrap_or_default();
+    let has_debug_utils = exts.iter().any(|e| {
+        e.extension_name_as_c_str()
+            .map(|n| n == ash::ext::debug_utils::NAME)
+            .unwrap_or(false)
+    });
+    let validation = want_validation && has_validation && has_debug_utils;
+    let app_name = CString::new("candela").unwrap_or_default();
+    let app = vk::ApplicationInfo::default()
+        .application_name(&app_name)
+        .engine_name(&app_name)
+        .api_version(vk::API_VERSION_1_2);
+    let layer_ptrs: Vec<*const i8> = if validation {
+        vec![VALIDATION_LAYER.as_ptr()]
+    } else {
+        vec![]
+    };
+    let ext_ptrs: Vec<*const i8> = if has_debug_utils {
+        vec![ash::ext::debug_utils::NAME.as_ptr()]
+    } else {
+        vec![]
+    };
+    let ci = vk::InstanceCreateInfo::default()
+        .application_info(&app)
+        .enabled_layer_names(&layer_ptrs)
+        .enabled_extension_names(&ext_ptrs);
+    // SAFETY: all pointers in `ci` outlive the call.
+    let instance =
+        unsafe { entry.create_instance(&ci, None) }.map_err(GpuError::vk("create instance"))?;
+
+    let (messages, sink_box, debug_messenger) = if validation {
+        let sink: MessageSink = Arc::new(Mutex::new(Vec::new()));
+        let boxed = Box::new(sink.clone());
+        let loader = ash::ext::debug_utils::Instance::new(entry, &instance);
+        let mci = vk::DebugUtilsMessengerCreateInfoEXT::default()
+            .message_severity(
+                vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                    | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+            )
+            .message_type(
+                vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                    | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                    | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+            )
+            .pfn_user_callback(Some(debug_callback))
+            .user_data(&*boxed as *const MessageSink as *mut c_void);
+        // SAFETY: the boxed sink lives in the context as long as the messenger.
+        let m = unsafe { loader.create_debug_utils_messenger(&mci, None) }
+            .map_err(GpuError::vk("create debug messenger"))?;
+        (Some(sink), Some(boxed), Some((loader, m)))
+    } else {
+        (None, None, None)
+    };
+
+    Ok(InstanceParts {
+        instance,
+        validation,
+        has_debug_utils,
+        messages,
+        sink_box,
+        debug_messenger,
+    })
+}
+
+/// The physical device: the first whose name contains `filter`, else the best by kind
+/// (discrete, integrated, virtual, other).
+fn pick_device(instance: &ash::Instance, filter: Option<&str>) -> GpuResult<Candidate> {
+    let cands = candidates(instance)?;
+    let pick = match filter {
+        Some(want) => {
+            let w = want.to_lowercase();
+            cands
+                .iter()
+                .position(|c| c.2.name.to_lowercase().contains(&w))
+                .ok_or_else(|| {
+                    let names: Vec<_> = cands.iter().map(|c| c.2.name.clone()).collect();
+                    GpuError::NoDevice(format!(
+                        " matching \"{want}\" (available: {})",
+                        names.join(", ")
+                    ))
+                })?
+        }
+        None => {
+            let rank = |c: &Candidate| match c.3.device_type {
+                vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+                vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+                vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+                _ => 3,
+            };
+            (0..cands.len()).min_by_key(|&i| rank(&cands[i])).ok_or_else(|| {
+                GpuError::NoDevice(" (install a Vulkan driver, e.g. apt-get install mesa-vulkan-drivers libvulkan1)".into())
+            })?
+        }
+    };
+    Ok(cands[pick].clone())
+}
+
+/// The logical device, its queue, and the optional features enabled.
+struct DeviceParts {
+    device: ash::Device,
+    queue: vk::Queue,
+    float_atomics: bool,
+    /// VK_KHR_pipeline_executable_properties with `pipelineExecutableInfo`.
+    executable_properties: bool,
+}
+
+/// Creates the logical device with the features the kernels use: scalar block layout (required),
+/// host query reset, 64-bit integers and buffer float atomics where available.
+fn create_device(
+    instance: &ash::Instance,
+    physical: vk::PhysicalDevice,
+    queue_family: u32,
+    info: &DeviceInfo,
+) -> GpuResult<DeviceParts> {
+    let prio = [1.0f32];
+    let qci = [vk::DeviceQueueCreateInfo::default()
+        .queue_family_index(queue_family)
+        .queue_priorities(&prio)];
+    let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
+    // Float atomics (optional): the extension must be present and the feature reported.
+    // SAFETY: valid physical device.
+    let device_exts =
+        unsafe { instance.enumerate_device_extension_properties(physical) }.unwrap_or_default();
+    let has_atomic_float_ext = device_exts.iter().any(|e| {
+        e.extension_name_as_c_str()
+            .map(|n| n == ash::ext::shader_atomic_float::NAME)
+            .unwrap_or(false)
+    });
+    let has_executable_properties_ext = device_exts.iter().any(|e| {
+        e.extension_name_as_c_str()
+            .map(|n| n == ash::khr::pipeline_executable_properties::NAME)
+            .unwrap_or(false)
+    });
+    let mut executable_info = vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default();
+    let mut atomic_float = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default();
+    let base_features = {
+        let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12);
+        if has_atomic_float_ext {
+            f2 = f2.push_next(&mut atomic_float);
+        }
+        if has_executable_properties_ext {
+            f2 = f2.push_next(&mut executable_info);
+        }
+        // SAFETY: valid physical device and feature chain.
+        unsafe { instance.get_physical_device_features2(physical, &mut f2) };
+        f2.features
+    };
+    let scalar_layout = f12.scalar_block_layout == vk::TRUE;
+    let host_query_reset = f12.host_query_reset == vk::TRUE;
+    if !scalar_layout {
+        return Err(GpuError::NoDevice(format!(
+            ": {} lacks scalarBlockLayout",
+            info.name
+        )));
+    }
+    let mut en12 = vk::PhysicalDeviceVulkan12Features::default()
+        .scalar_block_layout(true)
+        .host_query_reset(host_query_reset);
+    let base =
+        vk::PhysicalDeviceFeatures::default().shader_int64(base_features.shader_int64 == vk::TRUE);
+    let float_atomics =
+        has_atomic_float_ext && atomic_float.shader_buffer_float32_atomic_add == vk::TRUE;
+    let mut en_atomic_float = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default()
+        .shader_buffer_float32_atomic_add(true);
+    let executable_properties =
+        has_executable_properties_ext && executable_info.pipeline_executable_info == vk::TRUE;
+    let mut en_executable_info =
+        vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default()
+            .pipeline_executable_info(true);
+    let mut device_ext_ptrs: Vec<*const i8> = Vec::new();
+    if float_atomics {
+        device_ext_ptrs.push(ash::ext::shader_atomic_float::NAME.as_ptr());
+    }
+    if executable_properties {
+        device_ext_ptrs.push(ash::khr::pipeline_executable_properties::NAME.as_ptr());
+    }
+    let mut dci = vk::DeviceCreateInfo::default()
+        .queue_create_infos(&qci)
+        .enabled_features(&base)
+        .enabled_extension_names(&device_ext_ptrs)
+        .push_next(&mut en12);
+    if float_atomics {
+        dci = dci.push_next(&mut en_atomic_float);
+    }
+    if executable_properties {
+        dci = dci.push_next(&mut en_executable_info);
+    }
+    // SAFETY: valid create info referencing live locals.
+    let device = unsafe { instance.create_device(physical, &dci, None) }
+        .map_err(GpuError::vk("create device"))?;
+    // SAFETY: queue 0 of the family we requested.
+    let queue = unsafe { device.get_device_queue(queue_family, 0) };
+    Ok(DeviceParts {
+        device,
+        queue,
+        float_atomics,
+        executable_properties,
+    })
+}
+
 impl GpuContext {
     /// Creates the instance and device. Fails with a clear message when no loader or device exists.
     pub fn new(opts: &GpuOptions) -> GpuResult<GpuContext> {
         let entry = load_entry()?;
         // Step 1: instance, with validation and debug utils when available.
-        // SAFETY: plain enumeration calls on a loaded entry.
-        let layers = unsafe { entry.enumerate_instance_layer_properties() }.unwrap_or_default();
-        let has_validation = layers.iter().any(|l| {
-            l.layer_name_as_c_str()
-                .map(|n| n == VALIDATION_LAYER)
-                .unwrap_or(false)
-        });
-        // SAFETY: as above.
-        let exts =
-            unsafe { entry.enumerate_instance_extension_properties(None) }.unwrap_or_default();
-        let has_debug_utils = exts.iter().any(|e| {
-            e.extension_name_as_c_str()
-                .map(|n| n == ash::ext::debug_utils::NAME)
-                .unwrap_or(false)
-        });
-        let validation = opts.validation && has_validation && has_debug_utils;
-        let app_name = CString::new("candela").unwrap_or_default();
-        let app = vk::ApplicationInfo::default()
-            .application_name(&app_name)
-            .engine_name(&app_name)
-            .api_version(vk::API_VERSION_1_2);
-        let layer_ptrs: Vec<*const i8> = if validation {
-            vec![VALIDATION_LAYER.as_ptr()]
-        } else {
-            vec![]
-        };
-        let ext_ptrs: Vec<*const i8> = if has_debug_utils {
-            vec![ash::ext::debug_utils::NAME.as_ptr()]
-        } else {
-            vec![]
-        };
-        let ci = vk::InstanceCreateInfo::default()
-            .application_info(&app)
-            .enabled_layer_names(&layer_ptrs)
-            .enabled_extension_names(&ext_ptrs);
-        // SAFETY: all pointers in `ci` outlive the call.
-        let instance =
-            unsafe { entry.create_instance(&ci, None) }.map_err(GpuError::vk("create instance"))?;
-
-        let (messages, sink_box, debug_messenger) = if validation {
-            let sink: MessageSink = Arc::new(Mutex::new(Vec::new()));
-            let boxed = Box::new(sink.clone());
-            let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
-            let mci = vk::DebugUtilsMessengerCreateInfoEXT::default()
-                .message_severity(
-                    vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
-                        | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
-                )
-                .message_type(
-                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
-                        | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
-                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
-                )
-                .pfn_user_callback(Some(debug_callback))
-                .user_data(&*boxed as *const MessageSink as *mut c_void);
-            // SAFETY: the boxed sink lives in the context as long as the messenger.
-            let m = unsafe { loader.create_debug_utils_messenger(&mci, None) }
-                .map_err(GpuError::vk("create debug messenger"))?;
-            (Some(sink), Some(boxed), Some((loader, m)))
-        } else {
-            (None, None, None)
-        };
-
-        // Step 2: pick the physical device.
-        let cands = candidates(&instance)?;
-        let pick = match &opts.device {
-            Some(want) => {
-                let w = want.to_lowercase();
-                cands
-                    .iter()
-                    .position(|c| c.2.name.to_lowercase().contains(&w))
-                    .ok_or_else(|| {
-                        let names: Vec<_> = cands.iter().map(|c| c.2.name.clone()).collect();
-                        GpuError::NoDevice(format!(
-                            " matching \"{want}\" (available: {})",
-                            names.join(", ")
-                        ))
-                    })?
-            }
-            None => {
-                let rank = |c: &Candidate| match c.3.device_type {
-                    vk::PhysicalDeviceType::DISCRETE_GPU => 0,
-                    vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
-                    vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
-                    _ => 3,
-                };
-                (0..cands.len()).min_by_key(|&i| rank(&cands[i])).ok_or_else(|| {
-                    GpuError::NoDevice(" (install a Vulkan driver, e.g. apt-get install mesa-vulkan-drivers libvulkan1)".into())
-                })?
-            }
-        };
-        let (physical, queue_family, info, props) = cands[pick].clone();
-
-        // Step 3: logical device with the features the kernels use.
-        let prio = [1.0f32];
-        let qci = [vk::DeviceQueueCreateInfo::default()
-            .queue_family_index(queue_family)
-            .queue_priorities(&prio)];
-        let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
-        // Float atomics (optional): the extension must be present and the feature reported.
-        // SAFETY: valid physical device.
-        let device_exts =
-            unsafe { instance.enumerate_device_extension_properties(physical) }.unwrap_or_default();
-        let has_atomic_float_ext = device_exts.iter().any(|e| {
-            e.extension_name_as_c_str()
-                .map(|n| n == ash::ext::shader_atomic_float::NAME)
-                .unwrap_or(false)
-        });
-        let mut atomic_float = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default();
-        let base_features = {
-            let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12);
-            if has_atomic_float_ext {
-                f2 = f2.push_next(&mut atomic_float);
-            }
-            // SAFETY: valid physical device and feature chain.
-            unsafe { instance.get_physical_device_features2(physical, &mut f2) };
-            f2.features
-        };
-        let scalar_layout = f12.scalar_block_layout == vk::TRUE;
-        let host_query_reset = f12.host_query_reset == vk::TRUE;
-        if !scalar_layout {
-            return Err(GpuError::NoDevice(format!(
-                ": {} lacks scalarBlockLayout",
-                info.name
-            )));
-        }
-        let mut en12 = vk::PhysicalDeviceVulkan12Features::default()
-            .scalar_block_layout(true)
-            .host_query_reset(host_query_reset);
-        let base = vk::PhysicalDeviceFeatures::default()
-            .shader_int64(base_features.shader_int64 == vk::TRUE);
-        let float_atomics =
-            has_atomic_float_ext && atomic_float.shader_buffer_float32_atomic_add == vk::TRUE;
-        let mut en_atomic_float = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default()
-            .shader_buffer_float32_atomic_add(true);
-        let device_ext_ptrs: Vec<*const i8> = if float_atomics {
-            vec![ash::ext::shader_atomic_float::NAME.as_ptr()]
-        } else {
-            vec![]
-        };
-        let mut dci = vk::DeviceCreateInfo::default()
-            .queue_create_infos(&qci)
-            .enabled_features(&base)
-            .enabled_extension_names(&device_ext_ptrs)
-            .push_next(&mut en12);
-        if float_atomics {
-            dci = dci.push_next(&mut en_atomic_float);
-        }
-        // SAFETY: valid create info referencing live locals.
-        let device = unsafe { instance.create_device(physical, &dci, None) }
-            .map_err(GpuError::vk("create device"))?;
-        // SAFETY: queue 0 of the family we requested.
-        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        let InstanceParts {
+            instance,
+            validation,
+            has_debug_utils,
+            messages,
+            sink_box,
+            debug_messenger,
+        } = create_instance(&entry, opts.validation)?;
+        // Step 2: the physical device.
+        let (physical, queue_family, info, props) = pick_device(&instance, opts.device.as_deref())?;
+        // Step 3: the logical device with the features the kernels use.
+        let DeviceParts {
+            device,
+            queue,
+            float_atomics,
+            executable_properties,
+        } = create_device(&instance, physical, queue_family, &info)?;
+        let executable_properties = executable_properties
+            .then(|| ash::khr::pipeline_executable_properties::Device::new(&instance, &device));
+        // Step 4: the allocator, debug labels and timestamp support.
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: instance.clone(),
             device: device.clone(),
@@ -383,6 +474,7 @@ impl GpuContext {
             info,
             validation_enabled: validation,
             float_atomics,
+            executable_properties,
         })
     }
 

@@ -17,7 +17,7 @@ pub use buffer::{Buffer, BufferUsage};
 pub use commands::{DispatchTiming, Recorder};
 pub use context::{list_devices, DeviceInfo, GpuContext, GpuOptions};
 pub use pipeline::{Binding, ComputePipeline};
-pub use shader::{compile_glsl, ShaderDefines};
+pub use shader::{compile_glsl, shader_source, ShaderDefines};
 
 /// Errors of the GPU layer. Messages name the stage that failed.
 #[derive(Debug, thiserror::Error)]

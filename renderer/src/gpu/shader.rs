@@ -1,6 +1,6 @@
 //! GLSL → SPIR-V in-process with glslang, from the sources embedded at build time (build.rs), so
 //! no shader compiler is needed on the machine. `#include "common/x.glsl"` resolves against the
-//! `shaders/` root. Each (entry file, define set) is compiled once per process and cached: kernels
+//! `shaders/` root; `common/constants.glsl` is generated from renderer/src/layout.rs. Each (entry file, define set) is compiled once per process and cached: kernels
 //! are specialised per scene feature set with `#define`s ("model only what a scene requires").
 
 use std::collections::HashMap;
@@ -21,8 +21,17 @@ mod embedded {
 /// `#define NAME VALUE` pairs, in a stable order (they are part of the cache key).
 pub type ShaderDefines = Vec<(String, String)>;
 
-/// Returns the embedded source of `path` (relative to shaders/).
+/// Returns the source of `path` (relative to shaders/): an embedded file, or the generated
+/// constants (`common/constants.glsl`, from [`crate::layout::glsl_constants`]).
 pub fn shader_source(path: &str) -> Option<&'static str> {
+    if path == crate::layout::GLSL_CONSTANTS_PATH {
+        static CONSTANTS: OnceLock<String> = OnceLock::new();
+        return Some(
+            CONSTANTS
+                .get_or_init(crate::layout::glsl_constants)
+                .as_str(),
+        );
+    }
     embedded::SHADERS
         .iter()
         .find(|(p, _)| *p == path)

@@ -37,11 +37,11 @@
 //! path (no delta lights or specular connections).
 
 use super::{BdptOptions, ExtraBuffer, Integrator};
-use crate::compile::layout::{
+use crate::gpu::{ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
+use crate::layout::{
     binding, GpuPush, PUSH_FLAG_BDPT_NO_MIS, PUSH_FLAG_BDPT_STRATEGY, PUSH_FLAG_BDPT_S_SHIFT,
     PUSH_FLAG_BDPT_T_SHIFT, PUSH_FLAG_BDPT_UNWEIGHTED,
 };
-use crate::gpu::{ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
 
 /// Most segments a bdpt path may have: the private vertex arrays hold 2·DEPTH_CAP + 1 vertices
 /// (5.9 KB per thread). NVIDIA's driver (580, H200) fails to create the pipeline at 32.
@@ -106,12 +106,6 @@ impl BdptIntegrator {
 }
 
 impl Integrator for BdptIntegrator {
-    fn name(&self) -> &'static str {
-        "bdpt"
-    }
-    fn kernel(&self) -> &'static str {
-        "bdpt/bdpt.comp"
-    }
     fn max_depth(&self) -> i32 {
         self.max_depth
     }

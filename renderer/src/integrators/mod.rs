@@ -1,26 +1,33 @@
 //! Integrators: one module each, all with the same interface: created from typed options
 //! (`IntegratorOptions`, a serde enum tagged by `type`, unknown fields rejected), they record
-//! one pass of `spp` samples per pixel into the accumulation buffer and name their kernel.
-//! Kernels live in `shaders/<name>/`, mirroring these modules.
+//! one pass of `spp` samples per pixel into the accumulation buffer. The list of integrators,
+//! with their kernels and capabilities, is declared once, in `registry`. Kernels live in
+//! `shaders/<name>/`, mirroring these modules.
 
 pub mod bdpt;
 pub mod deferred;
 mod nee;
 mod path;
 mod pt;
+mod registry;
 pub mod vct;
 pub mod whitted;
+
+pub use registry::{
+    info, names, IntegratorInfo, IntegratorOptions, OptionField, OptionsError, OptionsInfo,
+    DEFAULT_INTEGRATOR, INTEGRATORS,
+};
 
 use serde::{Deserialize, Serialize};
 
 use std::sync::Arc;
 
-use crate::compile::layout::GpuPush;
 use crate::compile::CompiledScene;
+use crate::error::RenderError;
 use crate::gpu::{
     Binding, ComputePipeline, DispatchTiming, GpuContext, GpuResult, Recorder, ShaderDefines,
 };
-use crate::render::RenderError;
+use crate::layout::GpuPush;
 
 /// Options of the path tracers (`pt`, `nee`).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -54,101 +61,68 @@ pub struct BdptOptions {
     pub fixed_point_splats: Option<bool>,
 }
 
-/// Which integrator, with its options.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
-pub enum IntegratorOptions {
-    /// Path tracing with BSDF sampling only.
-    Pt(PathOptions),
-    /// Path tracing with next-event estimation and MIS.
-    Nee(PathOptions),
-    /// Bidirectional path tracing with MIS and light-tracing splats.
-    Bdpt(BdptOptions),
-    /// Whitted ray tracing: mirror/refraction recursion, shadow rays.
-    Whitted(whitted::WhittedOptions),
-    /// Deferred many-light shading: packed G-buffer, culled lights.
-    Deferred(deferred::DeferredOptions),
-    /// Voxel cone tracing over a sparse voxel octree.
-    Vct(vct::VctOptions),
+const MAX_DEPTH_HELP: &str =
+    "Mitsuba's max_depth: 1 = emitters seen directly, 2 = + direct light, -1 = unbounded (default: the scene's render.max_depth, else 6)";
+
+impl OptionsInfo for PathOptions {
+    const FIELDS: &'static [OptionField] = &[
+        OptionField {
+            name: "max_depth",
+            kind: "integer",
+            help: MAX_DEPTH_HELP,
+        },
+        OptionField {
+            name: "rr_depth",
+            kind: "integer",
+            help: "depth at which Russian roulette starts (default 5)",
+        },
+    ];
+    fn max_depth(&self) -> Option<i32> {
+        self.max_depth
+    }
+    fn set_max_depth(&mut self, d: i32) {
+        self.max_depth = Some(d);
+    }
 }
 
-/// Names accepted on the command line and in `render.integrator`.
-pub const NAMES: &[&str] = &["pt", "nee", "bdpt", "deferred", "whitted", "vct"];
-
-impl IntegratorOptions {
-    /// Default options for an integrator name; None for unknown or not-yet-built integrators.
-    pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "pt" => Some(IntegratorOptions::Pt(PathOptions::default())),
-            "nee" => Some(IntegratorOptions::Nee(PathOptions::default())),
-            "bdpt" => Some(IntegratorOptions::Bdpt(BdptOptions::default())),
-            "deferred" => Some(IntegratorOptions::Deferred(
-                deferred::DeferredOptions::default(),
-            )),
-            "vct" => Some(IntegratorOptions::Vct(vct::VctOptions::default())),
-            "whitted" => Some(IntegratorOptions::Whitted(
-                whitted::WhittedOptions::default(),
-            )),
-            _ => None,
-        }
+impl OptionsInfo for BdptOptions {
+    const FIELDS: &'static [OptionField] = &[
+        OptionField {
+            name: "max_depth",
+            kind: "integer",
+            help: MAX_DEPTH_HELP,
+        },
+        OptionField {
+            name: "rr_depth",
+            kind: "integer",
+            help: "subpath length at which Russian roulette starts (default 5)",
+        },
+        OptionField {
+            name: "mis",
+            kind: "boolean",
+            help: "multiple importance sampling, power heuristic (default true); false weighs every strategy equally",
+        },
+        OptionField {
+            name: "strategy",
+            kind: "[s, t]",
+            help: "debug: render strategy (s light vertices, t camera vertices) alone",
+        },
+        OptionField {
+            name: "weighted",
+            kind: "boolean",
+            help: "debug, with strategy: multiply by its MIS weight (default true)",
+        },
+        OptionField {
+            name: "fixed_point_splats",
+            kind: "boolean",
+            help: "debug: integer fixed-point light-tracing splats even where float atomics exist (default false)",
+        },
+    ];
+    fn max_depth(&self) -> Option<i32> {
+        self.max_depth
     }
-
-    pub fn name(&self) -> &'static str {
-        match self {
-            IntegratorOptions::Pt(_) => "pt",
-            IntegratorOptions::Nee(_) => "nee",
-            IntegratorOptions::Bdpt(_) => "bdpt",
-            IntegratorOptions::Whitted(_) => "whitted",
-            IntegratorOptions::Deferred(_) => "deferred",
-            IntegratorOptions::Vct(_) => "vct",
-        }
-    }
-
-    /// Overrides max_depth (e.g. from `--max-depth`).
-    pub fn set_max_depth(&mut self, d: i32) {
-        match self {
-            IntegratorOptions::Pt(o) | IntegratorOptions::Nee(o) => o.max_depth = Some(d),
-            IntegratorOptions::Bdpt(o) => o.max_depth = Some(d),
-            IntegratorOptions::Whitted(o) => o.max_depth = Some(d),
-            IntegratorOptions::Deferred(o) => o.max_depth = Some(d),
-            IntegratorOptions::Vct(o) => o.max_depth = Some(d),
-        }
-    }
-
-    pub fn max_depth(&self) -> Option<i32> {
-        match self {
-            IntegratorOptions::Pt(o) | IntegratorOptions::Nee(o) => o.max_depth,
-            IntegratorOptions::Bdpt(o) => o.max_depth,
-            IntegratorOptions::Whitted(o) => o.max_depth,
-            IntegratorOptions::Deferred(o) => o.max_depth,
-            IntegratorOptions::Vct(o) => o.max_depth,
-        }
-    }
-
-    /// Checks the options' values (ranges, combinations) without a device, naming the field, so
-    /// that a server can refuse a job when it is submitted instead of failing it when it starts.
-    /// `RenderSession::new` checks them again.
-    pub fn validate(&self) -> Result<(), RenderError> {
-        match self {
-            IntegratorOptions::Whitted(o) => whitted::new(o, None).validate(),
-            IntegratorOptions::Deferred(o) => deferred::validate(o),
-            IntegratorOptions::Vct(o) => o.settings().map(|_| ()),
-            IntegratorOptions::Pt(_) | IntegratorOptions::Nee(_) | IntegratorOptions::Bdpt(_) => {
-                Ok(())
-            }
-        }
-    }
-
-    /// Builds the integrator for these options.
-    pub fn build(&self, scene_max_depth: Option<i32>) -> Box<dyn Integrator> {
-        match self {
-            IntegratorOptions::Pt(o) => Box::new(pt::new(o, scene_max_depth)),
-            IntegratorOptions::Nee(o) => Box::new(nee::new(o, scene_max_depth)),
-            IntegratorOptions::Bdpt(o) => Box::new(bdpt::new(o, scene_max_depth)),
-            IntegratorOptions::Whitted(o) => Box::new(whitted::new(o, scene_max_depth)),
-            IntegratorOptions::Deferred(o) => Box::new(deferred::new(o, scene_max_depth)),
-            IntegratorOptions::Vct(o) => Box::new(vct::new(o, scene_max_depth)),
-        }
+    fn set_max_depth(&mut self, d: i32) {
+        self.max_depth = Some(d);
     }
 }
 
@@ -177,11 +151,9 @@ pub fn mean_of_accumulation(accum: &[[f32; 4]]) -> Vec<[f32; 3]> {
         .collect()
 }
 
-/// The common interface.
+/// The common interface. Its name and pass kernel are its registry entry's
+/// ([`IntegratorInfo`]).
 pub trait Integrator: Send {
-    fn name(&self) -> &'static str;
-    /// The compute kernel (path relative to shaders/).
-    fn kernel(&self) -> &'static str;
     /// The effective max_depth.
     fn max_depth(&self) -> i32;
     /// Records one pass: `spp` samples per pixel starting at sample index `sample_base`.

@@ -6,5 +6,5 @@ use super::path::PathIntegrator;
 use super::PathOptions;
 
 pub fn new(o: &PathOptions, scene_max_depth: Option<i32>) -> PathIntegrator {
-    PathIntegrator::new("nee", "nee/nee.comp", "nee pass", o, scene_max_depth)
+    PathIntegrator::new("nee pass", o, scene_max_depth)
 }

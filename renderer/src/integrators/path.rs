@@ -2,12 +2,10 @@
 //! (shaders/common/path.glsl), compiled with or without next-event estimation.
 
 use super::{Integrator, PathOptions};
-use crate::compile::layout::GpuPush;
 use crate::gpu::{ComputePipeline, GpuResult, Recorder};
+use crate::layout::GpuPush;
 
 pub struct PathIntegrator {
-    name: &'static str,
-    kernel: &'static str,
     label: &'static str,
     max_depth: i32,
     rr_depth: i32,
@@ -15,16 +13,8 @@ pub struct PathIntegrator {
 
 impl PathIntegrator {
     /// `max_depth` and `rr_depth` take their defaults here: the scene's max_depth, else 6; 5.
-    pub(super) fn new(
-        name: &'static str,
-        kernel: &'static str,
-        label: &'static str,
-        o: &PathOptions,
-        scene_max_depth: Option<i32>,
-    ) -> Self {
+    pub(super) fn new(label: &'static str, o: &PathOptions, scene_max_depth: Option<i32>) -> Self {
         PathIntegrator {
-            name,
-            kernel,
             label,
             max_depth: o.max_depth.or(scene_max_depth).unwrap_or(6),
             rr_depth: o.rr_depth.unwrap_or(5),
@@ -33,12 +23,6 @@ impl PathIntegrator {
 }
 
 impl Integrator for PathIntegrator {
-    fn name(&self) -> &'static str {
-        self.name
-    }
-    fn kernel(&self) -> &'static str {
-        self.kernel
-    }
     fn max_depth(&self) -> i32 {
         self.max_depth
     }

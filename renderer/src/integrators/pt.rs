@@ -6,5 +6,5 @@ use super::path::PathIntegrator;
 use super::PathOptions;
 
 pub fn new(o: &PathOptions, scene_max_depth: Option<i32>) -> PathIntegrator {
-    PathIntegrator::new("pt", "pt/pt.comp", "pt pass", o, scene_max_depth)
+    PathIntegrator::new("pt pass", o, scene_max_depth)
 }

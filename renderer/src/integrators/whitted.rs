@@ -68,11 +68,11 @@
 
 use std::sync::Arc;
 
-use super::Integrator;
-use crate::compile::layout::GpuPush;
+use super::{Integrator, OptionField, OptionsInfo};
 use crate::compile::CompiledScene;
+use crate::error::RenderError;
 use crate::gpu::{Binding, ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
-use crate::render::RenderError;
+use crate::layout::GpuPush;
 use serde::{Deserialize, Serialize};
 
 /// Most segments of a ray chain; also the ray stack's capacity (WHITTED_STACK), which a
@@ -103,6 +103,40 @@ pub struct WhittedOptions {
     /// Roughness below which conductors and principled materials reflect as perfect mirrors
     /// (default 0.2); at or above it they are lit locally with their exact BSDF.
     pub mirror_roughness: Option<f32>,
+}
+
+impl OptionsInfo for WhittedOptions {
+    const FIELDS: &'static [OptionField] = &[
+        OptionField {
+            name: "max_depth",
+            kind: "integer",
+            help: "Mitsuba's max_depth; each step past 2 is one more specular bounce; -1 = the cap (default: the scene's render.max_depth, else 6)",
+        },
+        OptionField {
+            name: "area_samples",
+            kind: "integer",
+            help: "fixed shadow-ray points per emissive triangle or sphere, 1..=4096 (default 16)",
+        },
+        OptionField {
+            name: "jitter",
+            kind: "boolean",
+            help: "pixel-filter jitter of camera rays (default true); false: pixel centres",
+        },
+        OptionField {
+            name: "mirror_roughness",
+            kind: "number",
+            help: "roughness below which conductors and principled surfaces reflect as mirrors (default 0.2)",
+        },
+    ];
+    fn max_depth(&self) -> Option<i32> {
+        self.max_depth
+    }
+    fn set_max_depth(&mut self, d: i32) {
+        self.max_depth = Some(d);
+    }
+    fn validate(&self) -> Result<(), RenderError> {
+        new(self, None).validate()
+    }
 }
 
 /// The integrator with its options resolved.
@@ -167,12 +201,6 @@ fn finite_or_zero(x: f32) -> f32 {
 }
 
 impl Integrator for WhittedIntegrator {
-    fn name(&self) -> &'static str {
-        "whitted"
-    }
-    fn kernel(&self) -> &'static str {
-        "whitted/whitted.comp"
-    }
     fn max_depth(&self) -> i32 {
         self.max_depth
     }

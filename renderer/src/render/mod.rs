@@ -4,18 +4,16 @@
 //! `render` drives a session to an spp or wall-time budget.
 
 mod session;
-mod upload;
 
+pub use crate::error::RenderError;
 pub use session::{PassStats, Progress, RenderSession, LLVMPIPE_MAX_DISPATCHES};
-pub use upload::{as_bindings, upload_scene};
 
 use std::time::Duration;
 
 use serde::Serialize;
 
-use crate::compile::CompileError;
 use crate::film::Image;
-use crate::gpu::{DeviceInfo, GpuError};
+use crate::gpu::DeviceInfo;
 use crate::integrators::IntegratorOptions;
 
 /// What to render and for how long.
@@ -63,7 +61,17 @@ pub struct RenderStats {
     pub bvh_depth: usize,
     pub bvh_build_s: f64,
     pub setup_s: f64,
-    pub features: crate::compile::FeatureSet,
+    /// Of `setup_s`: building the pass kernel (compiling it, or the in-process cache, and the
+    /// pipeline).
+    pub kernel_s: f64,
+    /// The pass kernel as the driver compiled it (VK_KHR_pipeline_executable_properties, e.g.
+    /// NVIDIA's "Register Count"); empty where the driver does not report it.
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub kernel_stats: std::collections::BTreeMap<String, f64>,
+    /// The features the kernels were compiled for (`spheres`, `mat_diffuse`, ...).
+    pub features: Vec<&'static str>,
+    /// "specialized" (to the scene's features) or "generic" (every feature).
+    pub kernels: crate::compile::KernelMode,
     /// The acceleration structure: "bvh" or "grid".
     pub accel: String,
     /// Seconds to obtain it: its build, or loading it from the cache on a hit.
@@ -81,16 +89,6 @@ pub struct RenderStats {
     /// The integrator's own statistics (stage timings, memory), where it has any.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub details: Option<serde_json::Value>,
-}
-
-#[derive(Debug, thiserror::Error)]
-pub enum RenderError {
-    #[error(transparent)]
-    Gpu(#[from] GpuError),
-    #[error(transparent)]
-    Compile(#[from] CompileError),
-    #[error("{0}")]
-    Invalid(String),
 }
 
 /// Renders to the budget and returns the image (radiance per pixel) and what happened.

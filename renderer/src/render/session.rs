@@ -5,13 +5,13 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use super::upload::{as_bindings, upload_scene};
 use super::{RenderError, RenderStats};
-use crate::compile::layout::{binding, GpuPush, GpuStats};
-use crate::compile::CompiledScene;
+use crate::compile::{CompiledScene, KernelMode};
 use crate::film::Image;
 use crate::gpu::{compile_glsl, Binding, Buffer, BufferUsage, ComputePipeline, GpuContext};
-use crate::integrators::{ExtraBuffer, Integrator, IntegratorOptions};
+use crate::integrators::{ExtraBuffer, Integrator, IntegratorInfo, IntegratorOptions};
+use crate::layout::{binding, GpuPush, GpuStats};
+use crate::upload::{as_bindings, upload_scene};
 
 /// Timing of one pass.
 #[derive(Debug, Clone, Copy)]
@@ -61,6 +61,8 @@ fn pass_chunks(push: &GpuPush, limit: u32) -> Vec<GpuPush> {
 /// A progressive render on one device.
 pub struct RenderSession {
     ctx: Arc<GpuContext>,
+    /// The integrator's registry entry (name, pass kernel).
+    entry: &'static IntegratorInfo,
     integrator: Box<dyn Integrator>,
     pipeline: ComputePipeline,
     // Scene buffers are kept alive for the pipeline's descriptor set.
@@ -79,6 +81,8 @@ pub struct RenderSession {
     elapsed: Duration,
     gpu_time: Duration,
     setup: Duration,
+    /// Building the pass kernel: GLSL → SPIR-V (or the in-process cache) and the pipeline.
+    kernel_time: Duration,
     info: SceneInfo,
     flags: u32,
     /// Most dispatches a pass is split into ([`LLVMPIPE_MAX_DISPATCHES`] on llvmpipe, else 1).
@@ -93,6 +97,7 @@ struct SceneInfo {
     bvh_depth: usize,
     bvh_build: Duration,
     features: crate::compile::FeatureSet,
+    kernels: KernelMode,
     accel: crate::accel::AccelInfo,
 }
 
@@ -104,6 +109,25 @@ impl RenderSession {
         options: &IntegratorOptions,
         scene_max_depth: Option<i32>,
         seed: u64,
+    ) -> Result<Self, RenderError> {
+        Self::with_kernels(
+            ctx,
+            scene,
+            options,
+            scene_max_depth,
+            seed,
+            KernelMode::Specialized,
+        )
+    }
+
+    /// [`Self::new`] with a choice of kernels: specialised to the scene's features, or generic.
+    pub fn with_kernels(
+        ctx: &Arc<GpuContext>,
+        scene: &CompiledScene,
+        options: &IntegratorOptions,
+        scene_max_depth: Option<i32>,
+        seed: u64,
+        kernels: KernelMode,
     ) -> Result<Self, RenderError> {
         let start = Instant::now();
         let mut integrator = options.build(scene_max_depth);
@@ -129,13 +153,16 @@ impl RenderSession {
             ctx.fill_zero(&b)?;
             extra.push((e, b));
         }
-        // Step 3: the kernel, specialised for the scene's features (and the integrator's own).
-        let mut defines = scene.features.defines();
+        // Step 3: the kernel, specialised for the scene's features (or generic), and the
+        // integrator's own defines.
+        let features = scene.features.for_mode(kernels);
+        let mut defines = features.defines();
         if scene.grid.is_some() {
             defines.push(("ACCEL_GRID".to_string(), "1".to_string()));
         }
         defines.extend(integrator.defines());
-        let spirv = compile_glsl(integrator.kernel(), &defines)?;
+        let kernel_start = Instant::now();
+        let spirv = compile_glsl(options.info().kernel, &defines)?;
         let mut bindings = as_bindings(&scene_buffers);
         bindings.push(Binding {
             index: binding::ACCUM,
@@ -153,17 +180,19 @@ impl RenderSession {
         }
         let pipeline = ComputePipeline::new(
             ctx,
-            integrator.kernel(),
+            options.info().kernel,
             &spirv,
             &bindings,
             std::mem::size_of::<GpuPush>() as u32,
         )?;
+        let kernel_time = kernel_start.elapsed();
         // Step 4: the integrator's own stages (buffers, pipelines, scene-only work).
         integrator.setup(ctx, scene, &bindings, &defines)?;
         drop(bindings);
         ctx.check_validation()?;
         Ok(RenderSession {
             ctx: ctx.clone(),
+            entry: options.info(),
             integrator,
             pipeline,
             _scene: scene_buffers.into_iter().map(|(_, b)| b).collect(),
@@ -180,6 +209,7 @@ impl RenderSession {
             elapsed: Duration::ZERO,
             gpu_time: Duration::ZERO,
             setup: start.elapsed(),
+            kernel_time,
             flags: 0,
             split_limit: if ctx.info.name.contains("llvmpipe") {
                 LLVMPIPE_MAX_DISPATCHES
@@ -193,7 +223,8 @@ impl RenderSession {
                 bvh_nodes: scene.nodes.len(),
                 bvh_depth: scene.bvh_depth,
                 bvh_build: scene.bvh_build_time,
-                features: scene.features,
+                features,
+                kernels,
                 accel: scene.accel.clone(),
             },
         })
@@ -374,7 +405,7 @@ impl RenderSession {
         let samples = self.spp as f64 * self.width as f64 * self.height as f64;
         RenderStats {
             device: self.ctx.info.clone(),
-            integrator: self.integrator.name().to_string(),
+            integrator: self.entry.name.to_string(),
             width: self.width,
             height: self.height,
             spp: self.spp,
@@ -394,7 +425,10 @@ impl RenderSession {
             bvh_depth: self.info.bvh_depth,
             bvh_build_s: self.info.bvh_build.as_secs_f64(),
             setup_s: self.setup.as_secs_f64(),
-            features: self.info.features,
+            kernel_s: self.kernel_time.as_secs_f64(),
+            kernel_stats: self.pipeline.statistics().into_iter().collect(),
+            features: self.info.features.names(),
+            kernels: self.info.kernels,
             accel: self.info.accel.kind.name().to_string(),
             accel_build_s: self.info.accel.build_time.as_secs_f64(),
             accel_bytes: self.info.accel.bytes,

@@ -85,8 +85,9 @@ fn from_map<T: DeserializeOwned, E: de::Error>(map: JsonMap, shared: &[&str]) ->
     })
 }
 
-const MATERIAL_TYPES: &[&str] = &["diffuse", "conductor", "dielectric", "principled", "phong"];
-const MATERIAL_SHARED: &[&str] = &["type", "emission", "alpha_mask", "two_sided"];
+pub(crate) const MATERIAL_TYPES: &[&str] =
+    &["diffuse", "conductor", "dielectric", "principled", "phong"];
+pub(crate) const MATERIAL_SHARED: &[&str] = &["type", "emission", "alpha_mask", "two_sided"];
 
 impl<'de> Deserialize<'de> for MaterialDesc {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
@@ -104,8 +105,8 @@ impl<'de> Deserialize<'de> for MaterialDesc {
     }
 }
 
-const OBJECT_TYPES: &[&str] = &["mesh", "triangles", "sphere", "quad", "box"];
-const OBJECT_SHARED: &[&str] = &["type", "material", "transform"];
+pub(crate) const OBJECT_TYPES: &[&str] = &["mesh", "triangles", "sphere", "quad", "box"];
+pub(crate) const OBJECT_SHARED: &[&str] = &["type", "material", "transform"];
 
 impl<'de> Deserialize<'de> for ObjectDesc {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
@@ -123,7 +124,7 @@ impl<'de> Deserialize<'de> for ObjectDesc {
     }
 }
 
-const LIGHT_TYPES: &[&str] = &["point", "spot", "directional"];
+pub(crate) const LIGHT_TYPES: &[&str] = &["point", "spot", "directional"];
 
 impl<'de> Deserialize<'de> for LightDesc {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
@@ -137,7 +138,7 @@ impl<'de> Deserialize<'de> for LightDesc {
     }
 }
 
-const ENVIRONMENT_TYPES: &[&str] = &["constant", "map"];
+pub(crate) const ENVIRONMENT_TYPES: &[&str] = &["constant", "map"];
 
 impl<'de> Deserialize<'de> for EnvironmentDesc {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
@@ -153,7 +154,7 @@ impl<'de> Deserialize<'de> for EnvironmentDesc {
 /// The gaussian filter's fields besides `type`.
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
-struct GaussianFields {
+pub(crate) struct GaussianFields {
     #[serde(default)]
     stddev: Option<f64>,
 }
@@ -161,9 +162,9 @@ struct GaussianFields {
 /// The box filter has no fields besides `type`.
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
-struct BoxFields {}
+pub(crate) struct BoxFields {}
 
-const FILTER_TYPES: &[&str] = &["box", "gaussian"];
+pub(crate) const FILTER_TYPES: &[&str] = &["box", "gaussian"];
 
 impl<'de> Deserialize<'de> for FilterDesc {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {

@@ -28,6 +28,8 @@ pub(crate) mod transform;
 mod validate;
 
 #[cfg(test)]
+mod tests_docs;
+#[cfg(test)]
 mod tests_errors;
 #[cfg(test)]
 mod tests_files;
@@ -41,7 +43,6 @@ use paths::AssetRoot;
 
 pub use error::SceneError;
 pub(crate) use error::{io_message, key_path};
-pub use validate::INTEGRATORS;
 
 /// Limits applied during load: absurd sizes are errors, not allocations.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -123,10 +123,6 @@ fn errors_name_the_json_path() {
         "objects[2].transform.scale",
     );
     path_is(
-        &|v| v["render"]["integrator"] = json!("mlt"),
-        "render.integrator",
-    );
-    path_is(
         &|v| v["objects"][6]["transform"]["matrix"][15] = json!(2),
         "objects[6].transform.matrix",
     );

@@ -197,3 +197,13 @@ pub struct RenderDefaults {
     /// Grid cells along the longest axis of the scene box (None: automatic).
     pub grid_resolution: Option<u32>,
 }
+
+impl RenderDefaults {
+    /// The scene's acceleration-structure request, for [`crate::accel::AccelOptions::resolve`].
+    pub fn accel_request(&self) -> crate::accel::AccelRequest<'_> {
+        crate::accel::AccelRequest {
+            kind: self.accel.as_deref(),
+            grid_resolution: self.grid_resolution,
+        }
+    }
+}

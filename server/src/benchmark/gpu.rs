@@ -6,11 +6,11 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use renderer::compile::{compile, CompiledScene};
 use renderer::film::{read_exr, write_exr, Image};
-use renderer::gpu::{GpuContext, GpuError, GpuOptions};
-use renderer::integrators::{IntegratorOptions, NAMES};
+use renderer::gpu::GpuContext;
+use renderer::integrators::IntegratorOptions;
 use renderer::metrics::{Display, Metrics};
+use renderer::prepare::{prepare, PrepareOptions, PreparedScene};
 use renderer::render::{next_pass_size, render, Budget, RenderSession};
 
 use super::{
@@ -19,19 +19,16 @@ use super::{
 };
 use renderer::metrics::METRIC_NOTES;
 
-/// Largest film side and pixel count accepted (as `candela render`).
-const MAX_SIDE: u32 = 16384;
-const MAX_PIXELS: u64 = 64 * 1024 * 1024;
-
 /// How often a long reference render reports progress.
 const REFERENCE_PROGRESS_EVERY: Duration = Duration::from_secs(2);
 
-/// Runs the whole benchmark; `progress` receives one line per step (for stderr).
+/// Runs the whole benchmark on `ctx`; `progress` receives one line per step (for stderr).
 pub fn run_bench(
+    ctx: &Arc<GpuContext>,
     cfg: &BenchConfig,
     progress: &mut dyn FnMut(&str),
 ) -> Result<BenchReport, BenchError> {
-    // Step 1: scene, integrators, given reference, film size.
+    // Step 1: scene, given reference, film size.
     let loaded = renderer::import::load_file(&cfg.scene, &cfg.import).map_err(|e| match e {
         renderer::scene::SceneError::Import { .. } => BenchError::Input(e.to_string()),
         e => BenchError::Input(format!("{}: {e}", cfg.scene.display())),
@@ -40,7 +37,7 @@ pub fn run_bench(
         progress(&format!("warning: {w}"));
     }
     let scene = loaded.scene;
-    let options = integrator_options(&cfg.integrators)?;
+    let options = &cfg.integrators;
     let given = match &cfg.reference {
         Some(path) => Some(read_exr(path).map_err(|e| BenchError::Input(e.to_string()))?),
         None => None,
@@ -55,22 +52,17 @@ pub fn run_bench(
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "scene".into());
-    // Step 2: device and compiled scene.
-    let ctx = Arc::new(
-        GpuContext::new(&GpuOptions {
-            device: cfg.device.clone(),
-            validation: false,
-        })
-        .map_err(|e| match e {
-            GpuError::NoDevice(_) if cfg.device.is_some() => {
-                BenchError::Input(format!("--device: {e}"))
-            }
-            e => BenchError::Failure(e.to_string()),
-        })?,
-    );
-    let compiled = compile(&scene, width, height)
-        .map_err(|e| BenchError::Input(format!("{}: {e}", cfg.scene.display())))?;
-    let max_depth = scene.render.max_depth;
+    // Step 2: the prepared scene (the scene's own acceleration structure, built afresh).
+    let prepared = prepare(
+        &scene,
+        &PrepareOptions {
+            width: Some(width),
+            height: Some(height),
+            kernels: cfg.kernels,
+            ..Default::default()
+        },
+    )
+    .map_err(|e| BenchError::Input(format!("{}: {e}", cfg.scene.display())))?;
     let device = ctx.info.clone();
     let commit = provenance::commit();
     progress(&format!(
@@ -93,13 +85,13 @@ pub fn run_bench(
             };
             (img, info)
         }
-        _ => render_reference(&ctx, &compiled, max_depth, cfg, progress)?,
+        _ => render_reference(ctx, &prepared, cfg, progress)?,
     };
     // Step 4: one session per integrator (kernel build and upload untimed), warmed up with a short
     // untimed pass; each timed run then starts from `reset(seed)`, as fresh as a new session.
     let mut sessions = Vec::with_capacity(options.len());
-    for o in &options {
-        let mut s = new_session(&ctx, &compiled, o, max_depth, 0)?;
+    for o in options {
+        let mut s = new_session(ctx, &prepared, o, 0)?;
         s.run_pass(1).map_err(fail)?;
         sessions.push(s);
     }
@@ -143,7 +135,8 @@ pub fn run_bench(
             }
         }
     }
-    let summary = stats::summarise(&cfg.integrators, &cfg.times, &runs);
+    let names: Vec<String> = options.iter().map(|o| o.name().to_string()).collect();
+    let summary = stats::summarise(&names, &cfg.times, &runs);
     Ok(BenchReport {
         scene: scene_name,
         scene_path: cfg.scene.display().to_string(),
@@ -153,7 +146,7 @@ pub fn run_bench(
         commit,
         display: display.into(),
         reference: reference_info,
-        integrators: cfg.integrators.clone(),
+        integrators: names,
         budgets_s: cfg.times.clone(),
         repeats: cfg.repeats,
         targets: Targets {
@@ -171,21 +164,6 @@ fn fail(e: impl std::fmt::Display) -> BenchError {
     BenchError::Failure(e.to_string())
 }
 
-/// The options of each integrator name; an unknown name is bad input listing the known ones.
-fn integrator_options(names: &[String]) -> Result<Vec<IntegratorOptions>, BenchError> {
-    names
-        .iter()
-        .map(|n| {
-            IntegratorOptions::from_name(n).ok_or_else(|| {
-                BenchError::Input(format!(
-                    "--integrators: unknown or not yet available \"{n}\" (available: {})",
-                    NAMES.join(", ")
-                ))
-            })
-        })
-        .collect()
-}
-
 /// The film size: --width/--height, else the given reference's size, else the scene's film; a
 /// given reference must match it.
 fn film_size(
@@ -201,11 +179,6 @@ fn film_size(
         cfg.width.unwrap_or(default_w),
         cfg.height.unwrap_or(default_h),
     );
-    if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE || w as u64 * h as u64 > MAX_PIXELS {
-        return Err(BenchError::Input(format!(
-            "film: {w}x{h} is outside 1..={MAX_SIDE} per side or over {MAX_PIXELS} pixels"
-        )));
-    }
     if let (Some(r), Some(path)) = (reference, &cfg.reference) {
         if (r.width, r.height) != (w, h) {
             return Err(BenchError::Input(format!(
@@ -222,20 +195,18 @@ fn film_size(
 /// A fresh session (kernel build and upload are not part of any timing).
 fn new_session(
     ctx: &Arc<GpuContext>,
-    compiled: &CompiledScene,
+    prepared: &PreparedScene,
     options: &IntegratorOptions,
-    max_depth: Option<i32>,
     seed: u64,
 ) -> Result<RenderSession, BenchError> {
-    RenderSession::new(ctx, compiled, options, max_depth, seed).map_err(fail)
+    prepared.session(ctx, options, seed).map_err(fail)
 }
 
 /// Renders the reference with [`REFERENCE_INTEGRATOR`] at `cfg.reference_spp` and writes it to
 /// `DIR/reference.exr`, reporting progress every couple of seconds.
 fn render_reference(
     ctx: &Arc<GpuContext>,
-    compiled: &CompiledScene,
-    max_depth: Option<i32>,
+    prepared: &PreparedScene,
     cfg: &BenchConfig,
     progress: &mut dyn FnMut(&str),
 ) -> Result<(Image, ReferenceInfo), BenchError> {
@@ -245,7 +216,7 @@ fn render_reference(
     progress(&format!(
         "reference: rendering {REFERENCE_INTEGRATOR} at {total} spp (seed {REFERENCE_SEED})"
     ));
-    let mut session = new_session(ctx, compiled, &options, max_depth, REFERENCE_SEED)?;
+    let mut session = new_session(ctx, prepared, &options, REFERENCE_SEED)?;
     let mut per_pass = 1u32;
     let mut last_report = Instant::now();
     while session.spp() < total {

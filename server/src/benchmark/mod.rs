@@ -40,8 +40,8 @@ pub struct BenchConfig {
     pub scene: PathBuf,
     /// A reference EXR to compare with; `None` renders one.
     pub reference: Option<PathBuf>,
-    /// Integrator names, each known to `IntegratorOptions::from_name`.
-    pub integrators: Vec<String>,
+    /// The integrators, each with its default options, in the order asked for.
+    pub integrators: Vec<renderer::integrators::IntegratorOptions>,
     /// Wall-time budgets in seconds, ascending, distinct, positive.
     pub times: Vec<f64>,
     /// Runs per (integrator, budget), each with its own seed.
@@ -52,10 +52,11 @@ pub struct BenchConfig {
     pub height: Option<u32>,
     /// Samples per pixel of a rendered reference.
     pub reference_spp: u32,
-    /// Vulkan device name filter.
-    pub device: Option<String>,
     /// Where the reference is written when rendered (`DIR/reference.exr`).
     pub out_dir: PathBuf,
+    /// Specialised or generic kernels for the measured runs (the reference is always rendered
+    /// with specialised kernels).
+    pub kernels: renderer::compile::KernelMode,
     /// How a scene file of another format is imported.
     pub import: renderer::import::ImportOptions,
 }

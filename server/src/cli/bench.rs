@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use renderer::integrators::{IntegratorOptions, NAMES};
+use renderer::integrators::IntegratorOptions;
 
 use super::CliError;
 use crate::benchmark::chart::{chart_svg, ChartMetric, ChartTitle};
@@ -24,7 +24,7 @@ pub struct BenchArgs {
     #[arg(long, value_name = "REF.exr")]
     pub reference: Option<PathBuf>,
     /// Integrators to measure, comma-separated.
-    #[arg(long, default_value = "pt,nee")]
+    #[arg(long, default_value = "pt,nee", long_help = super::integrator_help("Integrators to measure, comma-separated"))]
     pub integrators: String,
     /// Wall-time budgets in seconds, comma-separated.
     #[arg(long, default_value = "0.1,0.3,1,3,10")]
@@ -47,6 +47,9 @@ pub struct BenchArgs {
     /// Use the first Vulkan device whose name contains this text.
     #[arg(long)]
     pub device: Option<String>,
+    /// Kernels: "specialized" to what the scene uses (default) or "generic".
+    #[arg(long, value_name = "MODE", value_parser = super::parse_kernels, default_value = "specialized")]
+    pub kernels: renderer::compile::KernelMode,
     #[command(flatten)]
     pub import: super::scene_file::ImportArgs,
 }
@@ -58,16 +61,12 @@ const MAX_REPEATS: u32 = 1000;
 
 /// Checks the arguments and turns them into a [`BenchConfig`].
 fn config(a: &BenchArgs) -> Result<BenchConfig, CliError> {
-    let mut integrators: Vec<String> = Vec::new();
+    let mut integrators: Vec<IntegratorOptions> = Vec::new();
     for name in a.integrators.split(',').map(str::trim) {
-        if IntegratorOptions::from_name(name).is_none() {
-            return Err(CliError::input(format!(
-                "--integrators: unknown or not yet available \"{name}\" (available: {})",
-                NAMES.join(", ")
-            )));
-        }
-        if !integrators.iter().any(|n| n == name) {
-            integrators.push(name.to_string());
+        let o = IntegratorOptions::parse(&serde_json::Value::String(name.into()), name)
+            .map_err(|e| CliError::input(format!("--integrators: {e}")))?;
+        if !integrators.contains(&o) {
+            integrators.push(o);
         }
     }
     let mut times: Vec<f64> = Vec::new();
@@ -107,7 +106,7 @@ fn config(a: &BenchArgs) -> Result<BenchConfig, CliError> {
         width: a.width,
         height: a.height,
         reference_spp: a.reference_spp,
-        device: a.device.clone(),
+        kernels: a.kernels,
         out_dir: a.out.clone(),
         import: a.import.options()?,
     })
@@ -118,7 +117,8 @@ pub fn run(a: BenchArgs) -> Result<(), CliError> {
     let cfg = config(&a)?;
     std::fs::create_dir_all(&cfg.out_dir)
         .map_err(|e| CliError::failure(format!("cannot create {}: {e}", cfg.out_dir.display())))?;
-    let report = run_bench(&cfg, &mut |line| eprintln!("{line}")).map_err(|e| match e {
+    let ctx = super::open_device(a.device.as_deref())?;
+    let report = run_bench(&ctx, &cfg, &mut |line| eprintln!("{line}")).map_err(|e| match e {
         BenchError::Input(m) => CliError::input(m),
         BenchError::Failure(m) => CliError::failure(m),
     })?;

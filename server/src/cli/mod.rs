@@ -31,6 +31,51 @@ impl CliError {
     }
 }
 
+/// The Vulkan device: the first whose name contains `filter`, else the best one. A filter that
+/// matches nothing is bad input (exit 2); no device at all is a failure.
+pub fn open_device(
+    filter: Option<&str>,
+) -> Result<std::sync::Arc<renderer::gpu::GpuContext>, CliError> {
+    use renderer::gpu::{GpuContext, GpuError, GpuOptions};
+    GpuContext::new(&GpuOptions {
+        device: filter.map(String::from),
+        validation: false,
+    })
+    .map(std::sync::Arc::new)
+    .map_err(|e| match e {
+        GpuError::NoDevice(_) if filter.is_some() => CliError::input(format!("--device: {e}")),
+        e => CliError::failure(e.to_string()),
+    })
+}
+
+/// The integrator registry as help text: one line per integrator with its summary, whether it
+/// is unbiased, and its options.
+pub fn integrator_help(intro: &str) -> String {
+    use renderer::integrators::{DEFAULT_INTEGRATOR, INTEGRATORS};
+    let mut s = format!("{intro} (default: {DEFAULT_INTEGRATOR})\n");
+    for i in INTEGRATORS {
+        let options: Vec<&str> = i.options.iter().map(|o| o.name).collect();
+        s.push_str(&format!(
+            "\n  {:<9}{}{}\n           options: {}",
+            i.name,
+            i.summary,
+            if i.unbiased { " Unbiased." } else { "" },
+            options.join(", ")
+        ));
+    }
+    s
+}
+
+/// `--kernels specialized|generic`.
+pub fn parse_kernels(s: &str) -> Result<renderer::compile::KernelMode, String> {
+    renderer::compile::KernelMode::from_name(s).ok_or_else(|| {
+        format!(
+            "unknown kernel mode \"{s}\", expected one of {}",
+            renderer::compile::KernelMode::NAMES.join(", ")
+        )
+    })
+}
+
 #[derive(Debug, Parser)]
 #[command(
     name = "candela",

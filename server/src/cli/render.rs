@@ -2,20 +2,15 @@
 //! write the image, report what happened (human-readable, or one JSON object with --json).
 
 use std::path::PathBuf;
-use std::sync::Arc;
 
 use clap::Args;
-use renderer::accel::{AccelKind, AccelOptions};
-use renderer::compile::{compile_with, CompileOptions};
-use renderer::gpu::{GpuContext, GpuOptions};
-use renderer::integrators::{IntegratorOptions, NAMES};
-use renderer::render::{render, Budget, RenderSession};
+use renderer::accel::{AccelKind, AccelRequest};
+use renderer::compile::KernelMode;
+use renderer::integrators::{IntegratorOptions, DEFAULT_INTEGRATOR};
+use renderer::prepare::{prepare, FilmLimits, PrepareOptions};
+use renderer::render::{render, Budget, RenderStats};
 
 use super::CliError;
-
-/// Largest film side and pixel count the CLI accepts.
-const MAX_SIDE: u32 = 16384;
-const MAX_PIXELS: u64 = 64 * 1024 * 1024;
 
 #[derive(Debug, Args)]
 pub struct RenderArgs {
@@ -25,8 +20,8 @@ pub struct RenderArgs {
     /// Output image: .exr (linear float RGB) or .png (exposure, tonemap, sRGB).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Integrator: pt, nee, bdpt, ... (default: the scene's render.integrator, else nee).
-    #[arg(long)]
+    /// Integrator (default: the scene's render.integrator, else nee).
+    #[arg(long, long_help = super::integrator_help("Integrator; else the scene's render.integrator"))]
     pub integrator: Option<String>,
     /// The integrator's options as a JSON object, e.g. '{"max_depth": 3}' (the fields of
     /// `{"type": NAME, ...}` besides the type; unknown fields are refused).
@@ -38,6 +33,11 @@ pub struct RenderArgs {
     /// Render for this many seconds instead of a sample count.
     #[arg(long)]
     pub time: Option<f64>,
+    /// Benchmarking: render this many seconds first, untimed and discarded, so that the timed
+    /// render starts on a GPU already at its working clocks (after a cold kernel compile the
+    /// device may have idled down).
+    #[arg(long, value_name = "SECONDS")]
+    pub warmup: Option<f64>,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -70,6 +70,10 @@ pub struct RenderArgs {
     /// Always build the acceleration structure; read and write no cache.
     #[arg(long)]
     pub no_accel_cache: bool,
+    /// Kernels: "specialized" to what the scene uses (default), or "generic" (every feature
+    /// compiled in; for comparison).
+    #[arg(long, value_name = "MODE", value_parser = super::parse_kernels, default_value = "specialized")]
+    pub kernels: KernelMode,
     #[command(flatten)]
     pub import: super::scene_file::ImportArgs,
 }
@@ -91,6 +95,13 @@ fn check_args(a: &RenderArgs) -> Result<(), CliError> {
     if a.spp == Some(0) {
         return Err(CliError::input("--spp: must be at least 1"));
     }
+    if let Some(w) = a.warmup {
+        if !(w.is_finite() && (0.0..=3600.0).contains(&w)) {
+            return Err(CliError::input(format!(
+                "--warmup: must be a number of seconds in [0, 3600], got {w}"
+            )));
+        }
+    }
     if let Some(t) = a.time {
         if !(t.is_finite() && t > 0.0 && t <= 7.0 * 86400.0) {
             return Err(CliError::input(format!(
@@ -98,18 +109,12 @@ fn check_args(a: &RenderArgs) -> Result<(), CliError> {
             )));
         }
     }
-    if let Some(d) = a.max_depth {
-        if d == 0 || d < -1 {
-            return Err(CliError::input(format!(
-                "--max-depth: must be -1 or at least 1, got {d}"
-            )));
-        }
-    }
+    let max_side = FilmLimits::default().max_side;
     for (flag, v) in [("--width", a.width), ("--height", a.height)] {
         if let Some(v) = v {
-            if v == 0 || v > MAX_SIDE {
+            if v == 0 || v > max_side {
                 return Err(CliError::input(format!(
-                    "{flag}: must be in 1..={MAX_SIDE}, got {v}"
+                    "{flag}: must be in 1..={max_side}, got {v}"
                 )));
             }
         }
@@ -151,67 +156,54 @@ fn check_args(a: &RenderArgs) -> Result<(), CliError> {
 
 pub fn run(a: RenderArgs) -> Result<(), CliError> {
     check_args(&a)?;
-    // Step 1: the scene.
+    // Step 1: the scene and the integrator.
     let scene = super::scene_file::load_scene(&a.scene, &a.import)?;
-    let name = a
-        .integrator
-        .clone()
-        .or_else(|| scene.render.integrator.clone())
-        .unwrap_or_else(|| "nee".into());
-    let mut options = IntegratorOptions::from_name(&name).ok_or_else(|| {
-        CliError::input(format!(
-            "--integrator: unknown or not yet available \"{name}\" (available: {})",
-            NAMES.join(", ")
-        ))
-    })?;
-    if let Some(json) = &a.options {
-        options = integrator_options(&name, json)?;
-    }
+    let mut options = integrator_options(&a, scene.render.integrator.as_deref())?;
     if let Some(d) = a.max_depth {
         options.set_max_depth(d);
-    }
-    let width = a.width.unwrap_or(scene.film.width);
-    let height = a.height.unwrap_or(scene.film.height);
-    if width as u64 * height as u64 > MAX_PIXELS {
-        return Err(CliError::input(format!(
-            "film: {width}x{height} is more than {MAX_PIXELS} pixels"
-        )));
+        options
+            .check()
+            .map_err(|e| CliError::input(format!("--max-depth: {e}")))?;
     }
     let budget = match (a.spp, a.time) {
         (_, Some(t)) => Budget::Time(t),
         (Some(n), None) => Budget::Spp(n),
         (None, None) => Budget::Spp(scene.render.spp.unwrap_or(256)),
     };
-    // Step 2: device, compile, render.
-    let ctx = GpuContext::new(&GpuOptions {
-        device: a.device.clone(),
-        validation: false,
-    })
-    .map_err(|e| match e {
-        renderer::gpu::GpuError::NoDevice(_) if a.device.is_some() => {
-            CliError::input(format!("--device: {e}"))
-        }
-        e => CliError::failure(e.to_string()),
-    })?;
-    let ctx = Arc::new(ctx);
-    let accel = AccelOptions::resolve(&scene.render, a.accel.as_deref(), a.grid_resolution)
-        .map_err(|e| CliError::input(format!("--accel: {e}")))?;
+    // Step 2: the prepared scene (film, acceleration structure, compiled buffers).
     let cache = match (&a.accel_cache, a.no_accel_cache) {
         (_, true) => None,
         (Some(dir), false) => Some(dir.clone()),
         (None, false) => default_accel_cache(),
     };
-    let copts = CompileOptions {
-        accel,
-        cache: cache.as_deref(),
-    };
-    let compiled = compile_with(&scene, width, height, &copts)
-        .map_err(|e| CliError::input(format!("{}: {e}", a.scene.display())))?;
-    let mut session = RenderSession::new(&ctx, &compiled, &options, scene.render.max_depth, a.seed)
+    let prepared = prepare(
+        &scene,
+        &PrepareOptions {
+            width: a.width,
+            height: a.height,
+            limits: FilmLimits::default(),
+            accel: AccelRequest {
+                kind: a.accel.as_deref(),
+                grid_resolution: a.grid_resolution,
+            },
+            cache: cache.as_deref(),
+            kernels: a.kernels,
+        },
+    )
+    .map_err(|e| CliError::input(format!("{}: {e}", a.scene.display())))?;
+    // Step 3: device, session, render.
+    let ctx = super::open_device(a.device.as_deref())?;
+    let mut session = prepared
+        .session(&ctx, &options, a.seed)
         .map_err(|e| CliError::failure(e.to_string()))?;
+    if let Some(w) = a.warmup {
+        render(&mut session, Budget::Time(w))
+            .and_then(|_| session.reset(a.seed))
+            .map_err(|e| CliError::failure(format!("warm-up: {e}")))?;
+    }
     let (image, stats) =
         render(&mut session, budget).map_err(|e| CliError::failure(e.to_string()))?;
-    // Step 3: the image and the report.
+    // Step 4: the image and the report.
     renderer::film::write_image(&a.output, &image, scene.film.exposure, scene.film.tonemap)
         .map_err(|e| CliError::failure(e.to_string()))?;
     if a.json {
@@ -228,70 +220,79 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
         }
         println!("{v}");
     } else {
-        println!(
-            "device      {} ({})",
-            stats.device.name, stats.device.driver
-        );
-        println!(
-            "integrator  {} (max_depth {})",
-            stats.integrator, stats.max_depth
-        );
-        println!(
-            "image       {}x{}, {} spp in {} passes, seed {}",
-            stats.width, stats.height, stats.spp, stats.passes, stats.seed
-        );
-        println!(
-            "time        {:.3} s (GPU {:.3} s), setup {:.3} s",
-            stats.time_s, stats.gpu_time_s, stats.setup_s
-        );
-        println!(
-            "throughput  {:.2} Msamples/s, {:.2} Mrays/s",
-            stats.msamples_per_s,
-            stats.rays_per_s * 1e-6
-        );
-        println!(
-            "scene       {} triangles, {} primitives, {} lights, BVH {} nodes (depth {})",
-            stats.triangles, stats.primitives, stats.lights, stats.bvh_nodes, stats.bvh_depth
-        );
-        let grid = match (stats.grid_resolution, stats.grid_refs) {
-            (Some([x, y, z]), Some(refs)) => format!(", {x}x{y}x{z} cells, {refs} references"),
-            _ => String::new(),
-        };
-        println!(
-            "accel       {}{grid}, {} bytes, {:.3} s, cache {}",
-            stats.accel,
-            stats.accel_bytes,
-            stats.accel_build_s,
-            serde_json::to_value(stats.accel_cache)
-                .ok()
-                .and_then(|v| v.as_str().map(String::from))
-                .unwrap_or_default()
-        );
-        println!("dropped     {} NaN/Inf samples", stats.dropped_samples);
-        println!("wrote       {}", a.output.display());
+        print_report(&stats, &a.output);
     }
     Ok(())
 }
 
-/// `--options`: the integrator's fields as a JSON object, parsed as `{"type": name, ...}`.
-fn integrator_options(name: &str, json: &str) -> Result<IntegratorOptions, CliError> {
-    let bad = |m: String| CliError::input(format!("--options: {m}"));
-    let mut v: serde_json::Value =
-        serde_json::from_str(json).map_err(|e| bad(format!("not JSON: {e}")))?;
-    let Some(map) = v.as_object_mut() else {
-        return Err(bad(format!("expected a JSON object, got {json}")));
+/// The human-readable report, one aligned line per topic.
+fn print_report(stats: &RenderStats, output: &std::path::Path) {
+    println!(
+        "device      {} ({})",
+        stats.device.name, stats.device.driver
+    );
+    println!(
+        "integrator  {} (max_depth {})",
+        stats.integrator, stats.max_depth
+    );
+    println!(
+        "image       {}x{}, {} spp in {} passes, seed {}",
+        stats.width, stats.height, stats.spp, stats.passes, stats.seed
+    );
+    println!(
+        "time        {:.3} s (GPU {:.3} s), setup {:.3} s",
+        stats.time_s, stats.gpu_time_s, stats.setup_s
+    );
+    println!(
+        "throughput  {:.2} Msamples/s, {:.2} Mrays/s",
+        stats.msamples_per_s,
+        stats.rays_per_s * 1e-6
+    );
+    println!(
+        "scene       {} triangles, {} primitives, {} lights, BVH {} nodes (depth {})",
+        stats.triangles, stats.primitives, stats.lights, stats.bvh_nodes, stats.bvh_depth
+    );
+    let grid = match (stats.grid_resolution, stats.grid_refs) {
+        (Some([x, y, z]), Some(refs)) => format!(", {x}x{y}x{z} cells, {refs} references"),
+        _ => String::new(),
     };
-    match map.get("type").and_then(|t| t.as_str()) {
-        Some(t) if t != name => {
-            return Err(bad(format!(
-                "\"type\": \"{t}\" contradicts the integrator \"{name}\""
-            )))
-        }
-        _ => {}
-    }
-    map.insert("type".into(), serde_json::Value::String(name.into()));
-    let options: IntegratorOptions =
-        serde_json::from_value(v).map_err(|e| bad(format!("{name}: {e}")))?;
-    options.validate().map_err(|e| bad(e.to_string()))?;
-    Ok(options)
+    println!(
+        "accel       {}{grid}, {} bytes, {:.3} s, cache {}",
+        stats.accel,
+        stats.accel_bytes,
+        stats.accel_build_s,
+        serde_json::to_value(stats.accel_cache)
+            .ok()
+            .and_then(|v| v.as_str().map(String::from))
+            .unwrap_or_default()
+    );
+    println!(
+        "kernels     {}: {}",
+        stats.kernels.name(),
+        stats.features.join(", ")
+    );
+    println!("dropped     {} NaN/Inf samples", stats.dropped_samples);
+    println!("wrote       {}", output.display());
+}
+
+/// `--integrator NAME` (else the scene's render.integrator, else the default) with `--options
+/// JSON` (its fields besides `type`).
+fn integrator_options(
+    a: &RenderArgs,
+    scene_default: Option<&str>,
+) -> Result<IntegratorOptions, CliError> {
+    let name = a
+        .integrator
+        .as_deref()
+        .or(scene_default)
+        .unwrap_or(DEFAULT_INTEGRATOR);
+    let from_scene = a.integrator.is_none() && scene_default.is_some();
+    IntegratorOptions::parse_named(name, a.options.as_deref()).map_err(|e| {
+        let flag = match (a.options.is_some(), from_scene) {
+            (true, _) => "--options",
+            (false, true) => "render.integrator",
+            (false, false) => "--integrator",
+        };
+        CliError::input(format!("{flag}: {e}"))
+    })
 }

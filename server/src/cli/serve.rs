@@ -16,9 +16,10 @@ use clap::Args;
 use tokio::sync::watch;
 
 use super::CliError;
-use crate::app::{app, AppState};
+use crate::app::app;
 use crate::config::ServerConfig;
 use crate::shared::Shared;
+use crate::state::AppState;
 use crate::store::Store;
 
 #[derive(Debug, Args)]
@@ -128,7 +129,7 @@ fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), CliError> {
         .limits
         .max_upload_bytes
         .max(c.limits.max_body_bytes as u64);
-    c.limits.max_pixels = a.max_pixels;
+    c.limits.film.max_pixels = a.max_pixels;
     c.limits.max_spp = a.max_spp;
     c.limits.max_time_s = a.max_time;
     c.limits.max_triangles = a.max_triangles;

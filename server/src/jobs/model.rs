@@ -18,7 +18,7 @@ use serde_json::{json, Value};
 pub type JobId = i64;
 
 /// Where a job is in its life.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum JobState {
     /// Waiting for its first pass (or for a free slot after a resume).
@@ -61,6 +61,11 @@ impl JobState {
     /// Parses a name written by [`JobState::as_str`].
     pub fn parse(s: &str) -> Option<JobState> {
         JobState::ALL.into_iter().find(|st| st.as_str() == s)
+    }
+
+    /// Queued, running and paused: the jobs that count against the queue's limit.
+    pub fn is_unfinished(self) -> bool {
+        !self.is_terminal()
     }
 
     /// Done, failed and canceled never change again.
@@ -111,6 +116,10 @@ pub struct JobSettings {
     /// jobs stored before it existed: they use the scene's choice, else the BVH).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub accel: Option<AccelSetting>,
+    /// Kernels specialised to the scene (the default; absent in jobs stored before the choice
+    /// existed) or generic.
+    #[serde(default)]
+    pub kernels: renderer::compile::KernelMode,
 }
 
 /// A job's acceleration structure: `{"type": "grid", "grid_resolution": 64}` (docs/accel.md).
@@ -271,6 +280,18 @@ pub fn rfc3339(t: f64) -> String {
         rem % 3600 / 60,
         rem % 60
     )
+}
+
+/// A job to insert.
+#[derive(Debug, Clone)]
+pub struct NewJob {
+    pub name: String,
+    pub priority: u32,
+    pub settings: JobSettings,
+    /// The scene JSON text.
+    pub scene: String,
+    pub scene_name: Option<String>,
+    pub source: SceneSource,
 }
 
 #[cfg(test)]

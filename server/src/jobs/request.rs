@@ -8,7 +8,8 @@
 
 use std::path::{Path, PathBuf};
 
-use renderer::integrators::{IntegratorOptions, NAMES};
+use renderer::integrators::IntegratorOptions;
+use renderer::prepare::PrepareError;
 use renderer::scene::{SceneError, Tonemap};
 use serde::Deserialize;
 use serde_json::Value;
@@ -17,7 +18,7 @@ use super::model::{AccelSetting, JobSettings, SceneSource, DEFAULT_PRIORITY, MAX
 use crate::api_error::ApiError;
 use crate::builtin_scenes;
 use crate::config::RequestLimits;
-use crate::store::NewJob;
+use crate::jobs::model::NewJob;
 
 /// The fields a client may send.
 #[derive(Debug, Default, Deserialize)]
@@ -38,14 +39,27 @@ pub struct JobRequest {
     pub height: Option<u32>,
     pub exposure: Option<f32>,
     pub tonemap: Option<String>,
-    /// `{"job": ID}`: a done job's image to compute progress metrics against.
-    pub reference: Option<Value>,
+    /// `{"job": ID}` (a done job's image) or `{"file": NAME}` (an uploaded EXR) to compute
+    /// progress metrics against.
+    pub reference: Option<ReferenceSpec>,
     /// `"grid"` or `{"type": "grid", "grid_resolution": 64}` (default: the scene's
     /// `render.accel`, else `"bvh"`).
     pub accel: Option<Value>,
+    /// `"specialized"` (default: kernels compiled for what the scene uses) or `"generic"`.
+    pub kernels: Option<renderer::compile::KernelMode>,
     /// For an uploaded scene file of another format (Mitsuba XML, glTF, pbrt, .scn): import what
     /// candela cannot express as `warning` events and skip it, instead of refusing the scene.
     pub lenient: Option<bool>,
+}
+
+/// A job's reference image: exactly one of `job` (a done job of the same film size) and `file`
+/// (an uploaded EXR). Other fields are kept to be refused as a whole (`reference: expected ...`).
+#[derive(Debug, Clone, PartialEq, Default, Deserialize)]
+pub struct ReferenceSpec {
+    pub job: Option<crate::jobs::model::JobId>,
+    pub file: Option<String>,
+    #[serde(flatten)]
+    pub other: serde_json::Map<String, Value>,
 }
 
 /// Where the scene comes from besides the request's own fields.
@@ -133,62 +147,21 @@ pub fn parse_tonemap(s: &str) -> Option<Tonemap> {
     }
 }
 
-fn integrator_options(v: Option<&Value>, default: &str) -> Result<IntegratorOptions, ApiError> {
-    let unknown = |name: &str| {
-        ApiError::invalid(
-            "integrator",
-            format!(
-                "integrator: unknown or not yet available \"{name}\" (available: {})",
-                NAMES.join(", ")
-            ),
-        )
-    };
-    let options = match v {
-        None | Some(Value::Null) => {
-            IntegratorOptions::from_name(default).ok_or_else(|| unknown(default))?
-        }
-        Some(Value::String(name)) => {
-            IntegratorOptions::from_name(name).ok_or_else(|| unknown(name))?
-        }
-        Some(v @ Value::Object(map)) => {
-            match map.get("type").and_then(Value::as_str) {
-                Some(name) if IntegratorOptions::from_name(name).is_none() => {
-                    return Err(unknown(name))
-                }
-                None => {
-                    return Err(ApiError::invalid(
-                        "integrator.type",
-                        "integrator.type: missing (e.g. {\"type\": \"nee\"})",
-                    ))
-                }
-                _ => {}
-            }
-            serde_json::from_value(v.clone()).map_err(|e| {
-                ApiError::invalid(
-                    "integrator",
-                    format!("integrator: {}", tidy(&e.to_string())),
-                )
-            })?
-        }
-        Some(_) => {
-            return Err(ApiError::invalid(
-                "integrator",
-                "integrator: expected a name (\"nee\") or an object ({\"type\": \"nee\", ...})",
-            ))
-        }
-    };
-    if let Some(d) = options.max_depth() {
-        if d == 0 || d < -1 {
-            return Err(ApiError::invalid(
-                "integrator.max_depth",
-                format!("integrator.max_depth: must be -1 or at least 1, got {d}"),
-            ));
-        }
-    }
-    options
-        .validate()
-        .map_err(|e| ApiError::invalid("integrator", format!("integrator: {e}")))?;
-    Ok(options)
+/// The request's `integrator` (a name or `{"type", ...}`; absent: the scene's
+/// `render.integrator`, else the default), resolved through the integrator registry.
+fn integrator_options(
+    v: Option<&Value>,
+    scene_default: Option<&str>,
+) -> Result<IntegratorOptions, ApiError> {
+    IntegratorOptions::resolve(v.unwrap_or(&Value::Null), scene_default).map_err(|e| {
+        let path = match e.path.as_str() {
+            "" => "integrator".to_string(),
+            "render.integrator" => "scene.render.integrator".to_string(),
+            p => format!("integrator.{p}"),
+        };
+        let message = format!("{path}: {}", e.message);
+        ApiError::invalid(path, message)
+    })
 }
 
 /// The request's `accel` field: a name or `{"type", "grid_resolution"}`, checked.
@@ -304,8 +277,8 @@ pub fn prepare(
             .map_err(|e| scene_error(&e, prefix))?;
 
     // Step 2: integrator and budget.
-    let default_integrator = scene.render.integrator.as_deref().unwrap_or("nee");
-    let integrator = integrator_options(req.integrator.as_ref(), default_integrator)?;
+    let integrator =
+        integrator_options(req.integrator.as_ref(), scene.render.integrator.as_deref())?;
     let accel = accel_setting(req.accel.as_ref())?;
     let (spp, time_s) = match (req.spp, req.time_s) {
         (Some(_), Some(_)) => {
@@ -341,22 +314,9 @@ pub fn prepare(
     // Step 3: film, display defaults, scheduling.
     let width = req.width.unwrap_or(scene.film.width);
     let height = req.height.unwrap_or(scene.film.height);
-    for (field, v) in [("width", width), ("height", height)] {
-        if v == 0 || v > limits.max_side {
-            return Err(ApiError::invalid(
-                field,
-                format!("{field}: must be in 1..={}, got {v}", limits.max_side),
-            ));
-        }
-    }
-    if width as u64 * height as u64 > limits.max_pixels {
-        return Err(ApiError::invalid(
-            "width",
-            format!(
-                "width: {width}x{height} is more than the {} pixels this server accepts",
-                limits.max_pixels
-            ),
-        ));
+    if let Err(PrepareError::Film { field, message }) = limits.film.check(width, height) {
+        let field = if field == "size" { "width" } else { field };
+        return Err(ApiError::invalid(field, format!("{field}: {message}")));
     }
     let exposure = req.exposure.unwrap_or(scene.film.exposure);
     if !(exposure.is_finite() && exposure.abs() <= 64.0) {
@@ -406,6 +366,7 @@ pub fn prepare(
             tonemap,
             reference: None,
             accel,
+            kernels: req.kernels.unwrap_or_default(),
         },
         scene: text,
         scene_name: req.scene_name,

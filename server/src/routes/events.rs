@@ -22,8 +22,8 @@ use tokio_stream::wrappers::ReceiverStream;
 
 use super::extract::JobIdPath;
 use crate::api_error::ApiError;
-use crate::app::AppState;
 use crate::shared::Shared;
+use crate::state::AppState;
 use crate::store::StoredEvent;
 
 /// Counts an open stream in the metrics while alive.

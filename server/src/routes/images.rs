@@ -11,10 +11,10 @@ use axum::response::{IntoResponse, Response};
 
 use super::extract::{JobIdPath, QueryMap};
 use crate::api_error::ApiError;
-use crate::app::AppState;
 use crate::jobs::model::{JobId, JobRecord};
 use crate::jobs::request::parse_tonemap;
 use crate::shared::Snapshot;
+use crate::state::AppState;
 use crate::store::JobPaths;
 
 /// The latest image of a job: the in-memory snapshot, else the one on disk.

@@ -15,10 +15,12 @@ use tokio::sync::broadcast::error::RecvError;
 
 use super::extract::{JobIdPath, QueryMap};
 use crate::api_error::ApiError;
-use crate::app::AppState;
-use crate::jobs::model::{JobId, JobRecord, JobState, MAX_PRIORITY};
-use crate::jobs::request::{parse_object, parse_request, prepare, SceneInput};
-use crate::jobs::upload::read_multipart;
+use crate::jobs::model::{JobId, JobRecord, JobState, NewJob, MAX_PRIORITY};
+use crate::jobs::request::{
+    parse_object, parse_request, prepare, JobRequest, ReferenceSpec, SceneInput,
+};
+use crate::jobs::upload::{read_multipart, Upload};
+use crate::state::AppState;
 use crate::store::{JobPaths, Transition};
 
 /// A boolean query parameter: true/1/yes, false/0/no/empty.
@@ -51,17 +53,21 @@ fn resolve_reference(
     store: &crate::store::Store,
     data_dir: &std::path::Path,
     upload: Option<&std::path::Path>,
-    reference: Option<Value>,
+    reference: Option<ReferenceSpec>,
     settings: &crate::jobs::model::JobSettings,
 ) -> Result<Option<String>, ApiError> {
     let Some(reference) = reference else {
         return Ok(None);
     };
-    let source = match (reference.get("job"), reference.get("file")) {
+    let malformed = || {
+        ApiError::invalid(
+            "reference",
+            "reference: expected {\"job\": ID} or {\"file\": \"NAME.exr\"}",
+        )
+    };
+    let source = match (reference.job, reference.file) {
+        _ if !reference.other.is_empty() => return Err(malformed()),
         (Some(id), None) => {
-            let id = id.as_i64().ok_or_else(|| {
-                ApiError::invalid("reference.job", "reference.job: expected a job id")
-            })?;
             let rec = store.get_job(id).map_err(|_| {
                 ApiError::invalid("reference.job", format!("reference.job: no job {id}"))
             })?;
@@ -76,25 +82,16 @@ fn resolve_reference(
             }
             JobPaths::new(data_dir, id).image()
         }
-        (None, Some(name)) => {
-            let name = name.as_str().unwrap_or("");
-            let path = upload
-                .map(|b| b.join(name))
-                .filter(|p| !name.is_empty() && !name.contains("..") && p.is_file())
-                .ok_or_else(|| {
-                    ApiError::invalid(
-                        "reference.file",
-                        format!("reference.file: no uploaded file \"{name}\""),
-                    )
-                })?;
-            path
-        }
-        _ => {
-            return Err(ApiError::invalid(
-                "reference",
-                "reference: expected {\"job\": ID} or {\"file\": \"NAME.exr\"}",
-            ))
-        }
+        (None, Some(name)) => upload
+            .map(|b| b.join(&name))
+            .filter(|p| !name.is_empty() && !name.contains("..") && p.is_file())
+            .ok_or_else(|| {
+                ApiError::invalid(
+                    "reference.file",
+                    format!("reference.file: no uploaded file \"{name}\""),
+                )
+            })?,
+        _ => return Err(malformed()),
     };
     let image = renderer::film::read_exr(&source).map_err(|e| {
         ApiError::invalid("reference", format!("reference: reading the image: {e}"))
@@ -131,75 +128,123 @@ pub async fn create(
         return Err(ApiError::Unavailable("the server is shutting down".into()));
     }
     // Step 1: room in the queue.
-    let limits = &st.config.limits;
-    let counts = st.store.count_by_state()?;
-    let unfinished: u64 = ["queued", "running", "paused"]
+    check_room(&st)?;
+    // Step 2: the request, JSON or multipart, checked and its scene loaded.
+    let (new_job, upload) = read_job(&st, req).await?;
+    // Step 3: store it (moving uploaded assets into the job's folder) and wake the worker.
+    let rec = store_job(&st, new_job, upload).await?;
+    // Step 4: with `wait`, answer once it has ended.
+    let rec = if wait {
+        let rec = wait_for_end(&st, rec.id).await?;
+        if !rec.state.is_terminal() {
+            return Err(ApiError::Unavailable(format!(
+                "the server is shutting down before job {} ended; it resumes at the next start (GET /api/jobs/{})",
+                rec.id, rec.id
+            )));
+        }
+        rec
+    } else {
+        rec
+    };
+    let location = format!("/api/jobs/{}", rec.id);
+    Ok((
+        StatusCode::CREATED,
+        [(header::LOCATION, location)],
+        Json(rec.to_json()),
+    )
+        .into_response())
+}
+
+/// 429 when the unfinished jobs (queued, running, paused) already reach the server's limit.
+fn check_room(st: &AppState) -> Result<(), ApiError> {
+    let limit = st.config.limits.max_unfinished_jobs;
+    let unfinished: u64 = st
+        .store
+        .count_by_state()?
         .iter()
-        .map(|s| counts.get(s).copied().unwrap_or(0))
+        .filter(|(s, _)| s.is_unfinished())
+        .map(|(_, n)| n)
         .sum();
-    if unfinished >= limits.max_unfinished_jobs {
+    if unfinished >= limit {
         return Err(ApiError::TooManyJobs(format!(
-            "{unfinished} jobs are unfinished (queued, running or paused); this server accepts at most {}: retry when some have ended",
-            limits.max_unfinished_jobs
+            "{unfinished} jobs are unfinished (queued, running or paused); this server accepts at most {limit}: retry when some have ended"
         )));
     }
-    // Step 2: the request, JSON or multipart, checked and its scene loaded.
+    Ok(())
+}
+
+/// Reads the request (a JSON body, or multipart with the scene and its assets) into the job to
+/// insert, its scene loaded and checked, and the unpacked upload, if any.
+async fn read_job(st: &AppState, req: Request) -> Result<(NewJob, Option<Upload>), ApiError> {
+    let limits = &st.config.limits;
     let is_multipart = req
         .headers()
         .get(header::CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())
         .is_some_and(|ct| ct.starts_with("multipart/form-data"));
-    let (builtin, cfg) = (st.config.builtin_dir(), st.config.clone());
-    let mut import_warnings: Vec<String> = Vec::new();
-    let (new_job, upload) = if is_multipart {
-        let mp = Multipart::from_request(req, &st)
-            .await
-            .map_err(|e| ApiError::bad_request(format!("upload: {}", e.body_text())))?;
-        let mut up = read_multipart(mp, limits, &st.config.tmp_dir()).await?;
-        import_warnings = std::mem::take(&mut up.warnings);
-        let input = SceneInput::Uploaded {
-            json: up.scene_json.clone(),
-            dir: up.base.clone(),
-        };
-        let mut job = std::mem::take(&mut up.job);
-        // `reference` in the job part, or else a part named `reference` holding an EXR.
-        let reference = job.reference.take().or_else(|| {
-            up.base
-                .join("reference")
-                .is_file()
-                .then(|| json!({"file": "reference"}))
-        });
-        let base = up.base.clone();
-        let store = st.store.clone();
-        let new = tokio::task::spawn_blocking(move || {
-            let mut new = prepare(job, input, &cfg.limits, &builtin)?;
-            new.settings.reference =
-                resolve_reference(&store, &cfg.data_dir, Some(&base), reference, &new.settings)?;
-            Ok::<_, ApiError>(new)
-        })
-        .await
-        .map_err(ApiError::internal)??;
-        (new, Some(up))
-    } else {
-        let body = Bytes::from_request(req, &st)
+    if !is_multipart {
+        let body = Bytes::from_request(req, st)
             .await
             .map_err(|e| body_error(e.status(), e.body_text(), limits.max_body_bytes))?;
         let mut job = parse_request(&body)?;
         let reference = job.reference.take();
-        let store = st.store.clone();
-        let new = tokio::task::spawn_blocking(move || {
-            let mut new = prepare(job, SceneInput::InRequest, &cfg.limits, &builtin)?;
-            new.settings.reference =
-                resolve_reference(&store, &cfg.data_dir, None, reference, &new.settings)?;
-            Ok::<_, ApiError>(new)
-        })
+        let new = checked_job(st, job, SceneInput::InRequest, reference, None).await?;
+        return Ok((new, None));
+    }
+    let mp = Multipart::from_request(req, st)
         .await
-        .map_err(ApiError::internal)??;
-        (new, None)
+        .map_err(|e| ApiError::bad_request(format!("upload: {}", e.body_text())))?;
+    let mut up = read_multipart(mp, limits, &st.config.tmp_dir()).await?;
+    let input = SceneInput::Uploaded {
+        json: up.scene_json.clone(),
+        dir: up.base.clone(),
     };
-    // Step 3: store it (moving uploaded assets into the job's folder) and wake the worker.
+    let mut job = std::mem::take(&mut up.job);
+    // `reference` in the job part, or else a part named `reference` holding an EXR.
+    let reference = job.reference.take().or_else(|| {
+        up.base.join("reference").is_file().then(|| ReferenceSpec {
+            file: Some("reference".into()),
+            ..Default::default()
+        })
+    });
+    let new = checked_job(st, job, input, reference, Some(up.base.clone())).await?;
+    Ok((new, Some(up)))
+}
+
+/// The request checked and its scene loaded (off the async threads: it reads files), with its
+/// reference resolved.
+async fn checked_job(
+    st: &AppState,
+    job: JobRequest,
+    input: SceneInput,
+    reference: Option<ReferenceSpec>,
+    upload_dir: Option<std::path::PathBuf>,
+) -> Result<NewJob, ApiError> {
+    let (builtin, cfg, store) = (st.config.builtin_dir(), st.config.clone(), st.store.clone());
+    tokio::task::spawn_blocking(move || {
+        let mut new = prepare(job, input, &cfg.limits, &builtin)?;
+        new.settings.reference = resolve_reference(
+            &store,
+            &cfg.data_dir,
+            upload_dir.as_deref(),
+            reference,
+            &new.settings,
+        )?;
+        Ok::<_, ApiError>(new)
+    })
+    .await
+    .map_err(ApiError::internal)?
+}
+
+/// Inserts the job, moving an upload's assets into its folder, and wakes the worker.
+async fn store_job(
+    st: &AppState,
+    new_job: NewJob,
+    upload: Option<Upload>,
+) -> Result<JobRecord, ApiError> {
     let data_dir = st.config.data_dir.clone();
     let store = st.store.clone();
+    let import_warnings = upload.as_ref().map(|u| u.warnings.clone()).unwrap_or_default();
     let rec = tokio::task::spawn_blocking(move || {
         let r = store.insert_job(&new_job, |id| {
             if let Some(up) = &upload {
@@ -227,25 +272,7 @@ pub async fn create(
         .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     tracing::info!(job = rec.id, name = %rec.name, "job submitted");
     st.worker.wake();
-    let rec = if wait {
-        let rec = wait_for_end(&st, rec.id).await?;
-        if !rec.state.is_terminal() {
-            return Err(ApiError::Unavailable(format!(
-                "the server is shutting down before job {} ended; it resumes at the next start (GET /api/jobs/{})",
-                rec.id, rec.id
-            )));
-        }
-        rec
-    } else {
-        rec
-    };
-    let location = format!("/api/jobs/{}", rec.id);
-    Ok((
-        StatusCode::CREATED,
-        [(header::LOCATION, location)],
-        Json(rec.to_json()),
-    )
-        .into_response())
+    Ok(rec)
 }
 
 /// Waits until job `id` is done, failed or canceled (or the server shuts down).

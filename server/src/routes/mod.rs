@@ -1,10 +1,12 @@
 //! HTTP handlers, one module per resource: jobs (submit, list, control), events (SSE), images
-//! (PNG/EXR snapshots), scenes (built-ins), ops (health, metrics), static_files (web viewer).
+//! (PNG/EXR snapshots), scenes (built-ins), integrators (the registry), ops (health, metrics),
+//! static_files (web viewer).
 //! The router itself is assembled in `app.rs`.
 
 pub mod events;
 pub mod extract;
 pub mod images;
+pub mod integrators;
 pub mod jobs;
 pub mod ops;
 pub mod scenes;

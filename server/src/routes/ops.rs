@@ -9,7 +9,7 @@ use axum::Json;
 use serde_json::{json, Value};
 
 use crate::api_error::ApiError;
-use crate::app::AppState;
+use crate::state::AppState;
 
 /// Health: `status` is "ok" when the device is ready, "degraded" otherwise (the API still
 /// accepts jobs; they wait for the device).

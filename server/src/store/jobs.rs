@@ -9,19 +9,7 @@ use serde_json::{json, Value};
 
 use super::events::append_in;
 use super::{Store, StoreError};
-use crate::jobs::model::{now_s, JobId, JobRecord, JobSettings, JobState, SceneSource};
-
-/// A job to insert.
-#[derive(Debug, Clone)]
-pub struct NewJob {
-    pub name: String,
-    pub priority: u32,
-    pub settings: JobSettings,
-    /// The scene JSON text.
-    pub scene: String,
-    pub scene_name: Option<String>,
-    pub source: SceneSource,
-}
+use crate::jobs::model::{now_s, JobId, JobRecord, JobState, NewJob, SceneSource};
 
 /// A state change and what comes with it.
 #[derive(Debug, Default)]
@@ -169,16 +157,15 @@ impl Store {
     }
 
     /// Number of jobs in each state (every state present, zero when none).
-    pub fn count_by_state(&self) -> Result<BTreeMap<&'static str, u64>, StoreError> {
+    pub fn count_by_state(&self) -> Result<BTreeMap<JobState, u64>, StoreError> {
         let conn = self.conn();
-        let mut out: BTreeMap<&'static str, u64> =
-            JobState::ALL.iter().map(|s| (s.as_str(), 0)).collect();
+        let mut out: BTreeMap<JobState, u64> = JobState::ALL.iter().map(|s| (*s, 0)).collect();
         let mut stmt = conn.prepare_cached("SELECT state, COUNT(*) FROM jobs GROUP BY state")?;
         let rows = stmt.query_map([], |r| Ok((r.get::<_, String>(0)?, r.get::<_, i64>(1)?)))?;
         for row in rows {
             let (state, n) = row?;
             if let Some(s) = JobState::parse(&state) {
-                out.insert(s.as_str(), n.max(0) as u64);
+                out.insert(s, n.max(0) as u64);
             }
         }
         Ok(out)

@@ -10,7 +10,7 @@ mod events;
 mod jobs;
 
 pub use events::StoredEvent;
-pub use jobs::{NewJob, Transition};
+pub use jobs::Transition;
 
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard};

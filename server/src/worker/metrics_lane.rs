@@ -174,8 +174,8 @@ impl Drop for MetricsLane {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::jobs::model::NewJob;
     use crate::jobs::model::{JobSettings, SceneSource};
-    use crate::store::NewJob;
     use renderer::scene::Tonemap;
 
     /// A 4×2 image of `v` everywhere, plus `bump` on the first pixel.

@@ -21,8 +21,10 @@ use std::sync::{mpsc, Arc};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use renderer::accel::AccelRequest;
 use renderer::gpu::{GpuContext, GpuError, GpuOptions};
-use renderer::render::{RenderError, RenderSession};
+use renderer::prepare::{prepare, PrepareOptions};
+use renderer::render::RenderError;
 use tracing::{error, info, warn};
 
 use crate::config::ServerConfig;
@@ -275,28 +277,28 @@ impl Worker {
             Ok(s) => s,
             Err(e) => return self.fail(id, format!("scene: {e}")),
         };
-        // The request's accel (else the scene's), built once per scene in the data dir's cache.
-        let accel = match renderer::accel::AccelOptions::resolve(
-            &scene.render,
-            s.accel.as_ref().map(|a| a.kind.as_str()),
-            s.accel.as_ref().and_then(|a| a.grid_resolution),
-        ) {
-            Ok(a) => a,
-            Err(e) => return self.fail(id, format!("accel: {e}")),
-        };
+        // The request's film and accel (else the scene's); structures built once per scene in
+        // the data dir's cache.
         let cache = self.config.data_dir.join("accel-cache");
-        let copts = renderer::compile::CompileOptions {
-            accel,
+        let options = PrepareOptions {
+            width: Some(s.width),
+            height: Some(s.height),
+            limits: self.config.limits.film,
+            accel: AccelRequest {
+                kind: s.accel.as_ref().map(|a| a.kind.as_str()),
+                grid_resolution: s.accel.as_ref().and_then(|a| a.grid_resolution),
+            },
             cache: Some(&cache),
+            kernels: s.kernels,
         };
-        let compiled = match renderer::compile::compile_with(&scene, s.width, s.height, &copts) {
-            Ok(c) => c,
-            Err(e) => return self.fail(id, format!("compiling the scene: {e}")),
+        let prepared = match prepare(&scene, &options) {
+            Ok(p) => p,
+            Err(e) => return self.fail(id, e.to_string()),
         };
         drop(scene);
         // Step 2: the session, restored from the checkpoint when there is one.
         let made = catch_unwind(AssertUnwindSafe(|| {
-            RenderSession::new(&ctx, &compiled, &s.integrator, s.scene_max_depth, s.seed)
+            prepared.session(&ctx, &s.integrator, s.seed)
         }));
         let mut session = match made {
             Ok(Ok(session)) => session,

@@ -31,8 +31,8 @@ use std::collections::HashMap;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use crate::compile::layout::{light, GpuLight};
 use crate::compile::luminance;
+use crate::layout::{light, GpuLight};
 
 /// Light kinds of [`DeferredLight`] (DL_* in shaders/deferred/common.glsl).
 pub mod kind {

@@ -26,13 +26,13 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 
-use super::Integrator;
-use crate::compile::layout::GpuPush;
+use super::{Integrator, OptionField, OptionsInfo};
 use crate::compile::CompiledScene;
+use crate::error::RenderError;
 use crate::gpu::{
     Binding, ComputePipeline, DispatchTiming, GpuContext, GpuResult, Recorder, ShaderDefines,
 };
-use crate::render::RenderError;
+use crate::layout::GpuPush;
 use lights::{LightSet, ManagerOptions};
 use stages::{DeferredParams, Stages, TILE_OVERFLOW};
 
@@ -99,6 +99,65 @@ pub struct DeferredOptions {
     pub env_ambient: Option<bool>,
     /// A debug view instead of radiance.
     pub debug: Option<DeferredDebug>,
+}
+
+impl OptionsInfo for DeferredOptions {
+    const FIELDS: &'static [OptionField] = &[
+        OptionField {
+            name: "max_depth",
+            kind: "integer",
+            help: "1 = emitters seen directly, >= 2 or -1 = + direct light (default: the scene's render.max_depth, else 6)",
+        },
+        OptionField {
+            name: "cutoff",
+            kind: "number",
+            help: "irradiance below which a light is ignored; sets influence radii (default 1e-3; 0: unbounded)",
+        },
+        OptionField {
+            name: "max_lights_per_pixel",
+            kind: "integer",
+            help: "shade at most this many lights per pixel, the strongest, 1..=32 (default: all)",
+        },
+        OptionField {
+            name: "merge_radius",
+            kind: "number",
+            help: "merge small point lights per grid cell of this width (default 0: no merging)",
+        },
+        OptionField {
+            name: "shadows",
+            kind: "boolean",
+            help: "shadow rays through the BVH (default false)",
+        },
+        OptionField {
+            name: "tile_capacity",
+            kind: "integer",
+            help: "light indices per tile list (default 1024)",
+        },
+        OptionField {
+            name: "cull",
+            kind: "boolean",
+            help: "tile culling and influence radii (default true); false shades every light everywhere",
+        },
+        OptionField {
+            name: "env_ambient",
+            kind: "boolean",
+            help: "the environment lights surfaces as an ambient term (default true)",
+        },
+        OptionField {
+            name: "debug",
+            kind: "\"normal\" | \"depth\" | \"gbuffer_error\" | \"tile_lights\"",
+            help: "a debug view instead of radiance",
+        },
+    ];
+    fn max_depth(&self) -> Option<i32> {
+        self.max_depth
+    }
+    fn set_max_depth(&mut self, d: i32) {
+        self.max_depth = Some(d);
+    }
+    fn validate(&self) -> Result<(), RenderError> {
+        validate(self)
+    }
 }
 
 /// Stage times accumulated over the passes, milliseconds.
@@ -174,12 +233,6 @@ impl DeferredIntegrator {
 }
 
 impl Integrator for DeferredIntegrator {
-    fn name(&self) -> &'static str {
-        "deferred"
-    }
-    fn kernel(&self) -> &'static str {
-        "deferred/deferred.comp"
-    }
     fn max_depth(&self) -> i32 {
         self.max_depth
     }

@@ -9,10 +9,10 @@ use std::sync::Arc;
 use bytemuck::{Pod, Zeroable};
 
 use super::lights::{DeferredLight, LightSet};
-use crate::compile::layout::GpuPush;
+use crate::error::RenderError;
 use crate::gpu::{compile_glsl, Binding, Buffer, BufferUsage, ComputePipeline, GpuContext};
 use crate::gpu::{GpuResult, Recorder, ShaderDefines};
-use crate::render::RenderError;
+use crate::layout::GpuPush;
 
 /// Binding indices of the stages' own buffers (B_* in shaders/deferred/common.glsl).
 pub mod binding {

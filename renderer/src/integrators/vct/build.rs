@@ -12,8 +12,8 @@ use super::gpu::{self, bindings, groups_1d, pipeline, push, Set, VctInfo, VctPar
 use super::options::{Settings, VctStorage};
 use super::volume::{fit_grid, StageTimes, Volume};
 use crate::compile::CompiledScene;
+use crate::error::RenderError;
 use crate::gpu::{Binding, Buffer, BufferUsage, GpuContext, ShaderDefines};
-use crate::render::RenderError;
 
 fn storage_buffer(ctx: &Arc<GpuContext>, name: &str, bytes: u64) -> Result<Buffer, RenderError> {
     Ok(Buffer::new(ctx, name, bytes, BufferUsage::Storage)?)
@@ -293,7 +293,7 @@ pub fn build(
 fn max_slices(scene: &CompiledScene, min: [f32; 3], voxel: f32, r: u32) -> u32 {
     let mut most = 1u32;
     for p in &scene.prims {
-        let sphere = p.a[3].to_bits() & crate::compile::layout::PRIM_SPHERE != 0;
+        let sphere = p.a[3].to_bits() & crate::layout::PRIM_SPHERE != 0;
         let (lo, hi) = if sphere {
             (
                 [0, 1, 2].map(|i| p.a[i] - p.b[0]),

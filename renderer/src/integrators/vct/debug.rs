@@ -5,10 +5,11 @@ use std::sync::Arc;
 
 use super::options::VctOptions;
 use super::{build, cache, volume::Volume};
-use crate::compile::layout::{binding, GpuStats};
 use crate::compile::CompiledScene;
+use crate::error::RenderError;
 use crate::gpu::{Buffer, GpuContext};
-use crate::render::{as_bindings, upload_scene, RenderError};
+use crate::layout::{binding, GpuStats};
+use crate::upload::{as_bindings, upload_scene};
 
 /// A built and lit volume with the scene buffers its kernels bind.
 pub struct DebugVolume {

@@ -5,9 +5,9 @@ use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
 
-use crate::compile::layout::GpuPush;
+use crate::error::RenderError;
 use crate::gpu::{compile_glsl, Binding, Buffer, ComputePipeline, GpuContext, ShaderDefines};
-use crate::render::RenderError;
+use crate::layout::GpuPush;
 
 /// Binding indices of vct's buffers (after the session's, which end at 12), as `B_VCT_*`.
 pub mod binding {

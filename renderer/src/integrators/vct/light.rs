@@ -9,10 +9,10 @@ use std::sync::Arc;
 use super::gpu::{bindings, groups_1d, pipeline, push, Set};
 use super::options::{Settings, VctStorage};
 use super::volume::{StageTimes, Volume};
+use crate::error::RenderError;
 use crate::gpu::{
     Binding, Buffer, BufferUsage, ComputePipeline, GpuContext, Recorder, ShaderDefines,
 };
-use crate::render::RenderError;
 
 fn sum_ms(t: &[crate::gpu::DispatchTiming]) -> f64 {
     t.iter().map(|d| d.gpu_ms).sum()

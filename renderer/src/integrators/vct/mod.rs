@@ -43,10 +43,10 @@ pub use volume::StageTimes;
 use std::sync::{Arc, Mutex};
 
 use super::Integrator;
-use crate::compile::layout::GpuPush;
 use crate::compile::CompiledScene;
+use crate::error::RenderError;
 use crate::gpu::{Binding, ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
-use crate::render::RenderError;
+use crate::layout::GpuPush;
 use volume::Volume;
 
 /// The volume a session renders with and its gather pipeline.
@@ -100,12 +100,6 @@ impl VctIntegrator {
 }
 
 impl Integrator for VctIntegrator {
-    fn name(&self) -> &'static str {
-        "vct"
-    }
-    fn kernel(&self) -> &'static str {
-        "vct/vct.comp"
-    }
     fn max_depth(&self) -> i32 {
         self.max_depth
     }

@@ -3,7 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::render::RenderError;
+use crate::error::RenderError;
+use crate::integrators::{OptionField, OptionsInfo};
 
 /// Where the filtered voxels live.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
@@ -61,6 +62,80 @@ pub struct VctOptions {
     /// and steps by it. Coarse cells average a wall with what lies behind it, so walls thinner
     /// than 2^max_level voxels can leak light; lower values leak less and cost more steps.
     pub max_level: Option<u32>,
+}
+
+impl OptionsInfo for VctOptions {
+    const FIELDS: &'static [OptionField] = &[
+        OptionField {
+            name: "max_depth",
+            kind: "integer",
+            help: "1 = emitters, 2 = + exact direct light, >= 3 or -1 = + cone-traced indirect light (default: the scene's render.max_depth, else 6)",
+        },
+        OptionField {
+            name: "resolution",
+            kind: "integer",
+            help: "voxels per axis, a power of two 128..=1024, 64 for previews (default 128)",
+        },
+        OptionField {
+            name: "storage",
+            kind: "\"octree\" | \"dense\"",
+            help: "sparse voxel octree (default) or dense mip volume (resolution <= 256)",
+        },
+        OptionField {
+            name: "cones",
+            kind: "integer",
+            help: "diffuse cones per shaded point, 1..=32 (default 6)",
+        },
+        OptionField {
+            name: "cone_aperture",
+            kind: "number",
+            help: "full aperture of the diffuse cones in degrees, 1..=120 (default 60)",
+        },
+        OptionField {
+            name: "step",
+            kind: "number",
+            help: "cone step as a fraction of the cone's diameter, 0.1..=2 (default 0.5)",
+        },
+        OptionField {
+            name: "bounces",
+            kind: "integer",
+            help: "voxel bounces, 1 or 2 (default 1)",
+        },
+        OptionField {
+            name: "shadows",
+            kind: "\"rays\" | \"cone\"",
+            help: "shadows of the direct light: BVH rays (default) or cones",
+        },
+        OptionField {
+            name: "ao",
+            kind: "boolean",
+            help: "render ambient occlusion instead of radiance (default false)",
+        },
+        OptionField {
+            name: "ao_distance",
+            kind: "number",
+            help: "reach of the occlusion cones in scene units (default: an eighth of the grid's side)",
+        },
+        OptionField {
+            name: "inject_samples",
+            kind: "integer",
+            help: "light samples per voxel for the injection, 1..=1024 (default 16)",
+        },
+        OptionField {
+            name: "max_level",
+            kind: "integer",
+            help: "coarsest level the cones read (default log2(resolution) - 4)",
+        },
+    ];
+    fn max_depth(&self) -> Option<i32> {
+        self.max_depth
+    }
+    fn set_max_depth(&mut self, d: i32) {
+        self.max_depth = Some(d);
+    }
+    fn validate(&self) -> Result<(), RenderError> {
+        self.settings().map(|_| ())
+    }
 }
 
 /// Largest resolution the dense storage accepts (its level 0 alone is R³ cells).

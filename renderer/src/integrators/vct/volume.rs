@@ -121,7 +121,7 @@ pub fn fit_grid(scene: &CompiledScene, resolution: u32) -> ([f32; 3], f32) {
     let mut lo = [f32::INFINITY; 3];
     let mut hi = [f32::NEG_INFINITY; 3];
     for p in &scene.prims {
-        let sphere = p.a[3].to_bits() & crate::compile::layout::PRIM_SPHERE != 0;
+        let sphere = p.a[3].to_bits() & crate::layout::PRIM_SPHERE != 0;
         if sphere {
             for i in 0..3 {
                 lo[i] = lo[i].min(p.a[i] - p.b[0]);

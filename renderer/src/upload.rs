@@ -4,9 +4,9 @@
 
 use std::sync::Arc;
 
-use crate::compile::layout::binding;
 use crate::compile::CompiledScene;
 use crate::gpu::{Binding, Buffer, GpuContext, GpuResult};
+use crate::layout::binding;
 
 /// Uploads every scene buffer; returns (binding, buffer) pairs.
 pub fn upload_scene(ctx: &Arc<GpuContext>, scene: &CompiledScene) -> GpuResult<Vec<(u32, Buffer)>> {

@@ -2,12 +2,16 @@
 //! `shaders/common/types.glsl` (scalar block layout). This file and that one are the single
 //! source of truth; `tests` below and the GPU layout test check sizes and offsets.
 //!
+//! The constants (bindings, primitive and material flags, light kinds, push-constant flags) are
+//! declared here only: [`glsl_constants`] writes them as the `#define`s of the virtual shader
+//! include `common/constants.glsl`, which types.glsl and bsdf.glsl include.
+//!
 //! Positions are camera-relative f32 (the host composes transforms in f64 and subtracts the
 //! camera position before rounding), so a scene far from the origin renders like one at it.
 
 use bytemuck::{Pod, Zeroable};
 
-/// Descriptor binding indices (set 0), mirrored as `B_*` in types.glsl. 0–15 belong to the
+/// Descriptor binding indices (set 0), `B_*` in the shaders. 0–15 belong to the
 /// session (scene, film, acceleration structure); integrators' own stages take their own
 /// ranges: vct 16–29 (renderer/src/integrators/vct/gpu.rs), deferred 30–39
 /// (renderer/src/integrators/deferred/stages.rs).
@@ -96,7 +100,7 @@ pub struct GpuGridInfo {
     pub prim_refs: u32,
 }
 
-/// Material type ids (mirrored as MAT_* in shaders/common/bsdf/bsdf.glsl).
+/// Material type ids (MAT_*, MATF_* in the shaders).
 pub mod mat {
     pub const DIFFUSE: u32 = 0;
     pub const CONDUCTOR: u32 = 1;
@@ -132,7 +136,7 @@ pub struct GpuTexture {
     pub pad: [f32; 2],
 }
 
-/// Light kinds (mirrored as LIGHT_* in types.glsl).
+/// Light kinds (LIGHT_* in the shaders).
 pub mod light {
     pub const TRIANGLE: u32 = 0;
     pub const SPHERE: u32 = 1;
@@ -211,9 +215,9 @@ pub struct GpuPush {
 }
 
 /// `GpuPush::flags` bit: poison every 7th sample (sample index % 7 == 3) with NaN, so tests can
-/// check that such samples are dropped and counted (mirrored in shaders/common/path.glsl).
+/// check that such samples are dropped and counted (shaders/common/film.glsl).
 pub const PUSH_FLAG_INJECT_NAN: u32 = 1;
-/// `GpuPush::flags` bits of bdpt (mirrored in shaders/bdpt/bdpt.comp): uniform instead of
+/// `GpuPush::flags` bits of bdpt (read in shaders/bdpt/bdpt.comp): uniform instead of
 /// power-heuristic MIS weights; render only the strategy (s, t) in bits 8–15 (s) and 16–23 (t);
 /// with it, leave that strategy unweighted.
 pub const PUSH_FLAG_BDPT_NO_MIS: u32 = 1 << 1;
@@ -231,6 +235,71 @@ pub struct GpuStats {
     pub rays_lo: u32,
     pub rays_hi: u32,
     pub pad: u32,
+}
+
+/// The path under which [`glsl_constants`] is served to `#include`.
+pub const GLSL_CONSTANTS_PATH: &str = "common/constants.glsl";
+
+/// The constants above as GLSL `#define`s (unsigned, except binding numbers, which layout
+/// qualifiers take as plain integers).
+pub fn glsl_constants() -> String {
+    let bindings = [
+        ("B_GLOBALS", binding::GLOBALS),
+        ("B_BVH_NODES", binding::BVH_NODES),
+        ("B_PRIMS", binding::PRIMS),
+        ("B_TRI_SHADING", binding::TRI_SHADING),
+        ("B_MATERIALS", binding::MATERIALS),
+        ("B_TEXTURES", binding::TEXTURES),
+        ("B_TEXELS", binding::TEXELS),
+        ("B_LIGHTS", binding::LIGHTS),
+        ("B_LIGHT_ALIAS", binding::LIGHT_ALIAS),
+        ("B_ENV_DIST", binding::ENV_DIST),
+        ("B_ACCUM", binding::ACCUM),
+        ("B_STATS", binding::STATS),
+        ("B_SPLAT", binding::SPLAT),
+        ("B_GRID", binding::GRID),
+        ("B_GRID_CELLS", binding::GRID_CELLS),
+        ("B_GRID_PRIMS", binding::GRID_PRIMS),
+    ];
+    let flags = [
+        ("NONE", NONE),
+        ("PRIM_MATERIAL_MASK", PRIM_MATERIAL_MASK),
+        ("PRIM_SPHERE", PRIM_SPHERE),
+        ("PRIM_FLIP_NORMALS", PRIM_FLIP_NORMALS),
+        ("PRIM_ALPHA", PRIM_ALPHA),
+        ("LIGHT_TRIANGLE", light::TRIANGLE),
+        ("LIGHT_SPHERE", light::SPHERE),
+        ("LIGHT_POINT", light::POINT),
+        ("LIGHT_SPOT", light::SPOT),
+        ("LIGHT_DIRECTIONAL", light::DIRECTIONAL),
+        ("LIGHT_ENV_CONSTANT", light::ENV_CONSTANT),
+        ("LIGHT_ENV_MAP", light::ENV_MAP),
+        ("MAT_DIFFUSE", mat::DIFFUSE),
+        ("MAT_CONDUCTOR", mat::CONDUCTOR),
+        ("MAT_DIELECTRIC", mat::DIELECTRIC),
+        ("MAT_PRINCIPLED", mat::PRINCIPLED),
+        ("MAT_PHONG", mat::PHONG),
+        ("MATF_TWO_SIDED", mat::F_TWO_SIDED),
+        ("MATF_HAS_ETA_K", mat::F_HAS_ETA_K),
+        ("PUSH_FLAG_INJECT_NAN", PUSH_FLAG_INJECT_NAN),
+        ("PUSH_FLAG_BDPT_NO_MIS", PUSH_FLAG_BDPT_NO_MIS),
+        ("PUSH_FLAG_BDPT_STRATEGY", PUSH_FLAG_BDPT_STRATEGY),
+        ("PUSH_FLAG_BDPT_UNWEIGHTED", PUSH_FLAG_BDPT_UNWEIGHTED),
+        ("PUSH_FLAG_BDPT_S_SHIFT", PUSH_FLAG_BDPT_S_SHIFT),
+        ("PUSH_FLAG_BDPT_T_SHIFT", PUSH_FLAG_BDPT_T_SHIFT),
+    ];
+    let mut s = String::from(
+        "// Generated from renderer/src/layout.rs (glsl_constants): edit the Rust side.\n\
+         #ifndef COMMON_CONSTANTS_GLSL\n#define COMMON_CONSTANTS_GLSL\n",
+    );
+    for (name, v) in bindings {
+        s.push_str(&format!("#define {name} {v}\n"));
+    }
+    for (name, v) in flags {
+        s.push_str(&format!("#define {name} 0x{v:08x}u\n"));
+    }
+    s.push_str("#endif\n");
+    s
 }
 
 #[cfg(test)]

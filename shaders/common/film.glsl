@@ -1,0 +1,34 @@
+// The film end of every kernel's sample loop, written once: a sample's radiance joins the
+// pixel's accumulation (Σr, Σg, Σb, samples kept) unless it is NaN or Inf, in which case it is
+// dropped and counted; the pass's counters (rays, dropped samples) are added once per invocation
+// (or workgroup). Needs common/bindings.glsl (ACCUM, STATS) and the push constants.
+#ifndef COMMON_FILM_GLSL
+#define COMMON_FILM_GLSL
+
+bool is_finite(vec3 v) { return !any(isnan(v)) && !any(isinf(v)); }
+
+// Adds sample `sample_index`'s radiance L to the pixel accumulation `acc`, or counts it in
+// `dropped`. Test hook (PUSH_FLAG_INJECT_NAN): every 7th sample index is poisoned with NaN first,
+// so tests can check that such samples never reach the film.
+void film_add(inout vec4 acc, vec3 L, uint sample_index, inout uint dropped) {
+    if ((pc.flags & PUSH_FLAG_INJECT_NAN) != 0u && sample_index % 7u == 3u) {
+        L = vec3(uintBitsToFloat(0x7fc00000u));
+    }
+    if (is_finite(L)) {
+        acc += vec4(L, 1.0);
+    } else {
+        dropped += 1u;
+    }
+}
+
+// Adds an invocation's (or a workgroup's) counters to the pass's: dropped samples, and rays as a
+// 64-bit count in two words (carry into the high word when the low word wraps).
+void film_count(uint rays, uint dropped) {
+    if (dropped > 0u) atomicAdd(stats.dropped_samples, dropped);
+    if (rays > 0u) {
+        uint before = atomicAdd(stats.rays_lo, rays);
+        if (before + rays < before) atomicAdd(stats.rays_hi, 1u);
+    }
+}
+
+#endif
