@@ -244,7 +244,10 @@ async fn store_job(
 ) -> Result<JobRecord, ApiError> {
     let data_dir = st.config.data_dir.clone();
     let store = st.store.clone();
-    let import_warnings = upload.as_ref().map(|u| u.warnings.clone()).unwrap_or_default();
+    let import_warnings = upload
+        .as_ref()
+        .map(|u| u.warnings.clone())
+        .unwrap_or_default();
     let rec = tokio::task::spawn_blocking(move || {
         let r = store.insert_job(&new_job, |id| {
             if let Some(up) = &upload {
