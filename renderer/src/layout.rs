@@ -211,7 +211,9 @@ pub struct GpuPush {
     pub max_depth: i32,
     pub rr_depth: i32,
     pub flags: u32,
-    pub pad: u32,
+    /// How the pass is cut into dispatches (render/dispatch.rs): bits 0–3 log2 of the threads
+    /// per pixel, bits 8–31 the first row of this dispatch's band.
+    pub dispatch: u32,
 }
 
 /// `GpuPush::flags` bit: poison every 7th sample (sample index % 7 == 3) with NaN, so tests can

@@ -19,6 +19,7 @@
 
 #include "common/bindings.glsl"
 #include "common/film.glsl"
+#include "common/dispatch.glsl"
 #include "bdpt/vertex.glsl"
 #include "bdpt/subpath.glsl"
 #include "bdpt/connect.glsl"
@@ -78,19 +79,21 @@ vec3 bdpt_sample(uvec2 px, inout Rng rng, int max_depth, inout uint rays, inout 
 }
 
 void main() {
-    uvec2 px = gl_GlobalInvocationID.xy;
-    if (px.x >= g.film.x || px.y >= g.film.y) return;
-    uint pixel = px.y * g.film.x + px.x;
+    FilmTask t = film_task();
     // Mitsuba's max_depth, capped by the arrays' capacity (−1: the capacity).
     int max_depth = pc.max_depth < 0 ? BDPT_DEPTH_CAP : min(pc.max_depth, BDPT_DEPTH_CAP);
     bdpt_mis = (pc.flags & PUSH_FLAG_BDPT_NO_MIS) == 0u;
-    vec4 acc = accum[pixel];
+    vec4 acc = film_load(t);
     uint rays = 0u, dropped = 0u;
-    for (uint i = 0u; i < pc.spp; ++i) {
-        Rng rng = rng_init(pixel, pc.sample_base + i, pc.seed_lo, pc.seed_hi);
-        vec3 L = bdpt_sample(px, rng, max_depth, rays, dropped);
-        film_add(acc, L, pc.sample_base + i, dropped);
+    for (uint r = 0u; r < film_rounds(t); ++r) {
+        uint i = film_sample(t, r);
+        vec3 L = vec3(0.0);
+        if (film_has(t, i)) {
+            Rng rng = rng_init(t.pixel, pc.sample_base + i, pc.seed_lo, pc.seed_hi);
+            L = bdpt_sample(t.px, rng, max_depth, rays, dropped);
+        }
+        film_lanes_add(t, acc, L, r, dropped);
     }
-    accum[pixel] = acc;
+    film_store(t, acc);
     film_count(rays, dropped);
 }

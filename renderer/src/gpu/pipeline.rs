@@ -88,8 +88,11 @@ impl ComputePipeline {
             let ci = [vk::ComputePipelineCreateInfo::default()
                 .stage(stage)
                 .layout(p.layout)];
-            let r = dev.create_compute_pipelines(vk::PipelineCache::null(), &ci, None);
+            let start = std::time::Instant::now();
+            let r = dev.create_compute_pipelines(ctx.pipelines.raw, &ci, None);
             dev.destroy_shader_module(module, None);
+            super::kernel_cache::note_pipeline(start.elapsed().as_secs_f64() * 1e3);
+            ctx.pipelines.note_created();
             p.pipeline = r.map_err(|(_, e)| GpuError::Vk {
                 stage: "create compute pipeline",
                 result: e,

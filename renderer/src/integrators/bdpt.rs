@@ -36,7 +36,9 @@
 //! of a path length is an unbiased estimate of that length's image wherever it can sample every
 //! path (no delta lights or specular connections).
 
-use super::{BdptOptions, ExtraBuffer, Integrator};
+use std::sync::Arc;
+
+use super::{BdptOptions, ExtraBuffer, Integrator, Resolver};
 use crate::gpu::{ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
 use crate::layout::{
     binding, GpuPush, PUSH_FLAG_BDPT_NO_MIS, PUSH_FLAG_BDPT_STRATEGY, PUSH_FLAG_BDPT_S_SHIFT,
@@ -138,43 +140,55 @@ impl Integrator for BdptIntegrator {
             entries_per_pixel: if self.float_splats { 1 } else { 2 },
         }]
     }
-    fn resolve(&self, accum: &[[f32; 4]], extra: &[Vec<[f32; 4]>], spp: u32) -> Vec<[f32; 3]> {
-        let n = accum.len();
-        let paths = n as f64 * spp as f64;
-        let splat = |i: usize, c: usize| -> f64 {
-            let Some(buf) = extra.first() else {
-                return 0.0;
-            };
-            if self.float_splats {
-                buf.get(i).map_or(0.0, |e| e[c] as f64)
-            } else {
-                let (lo, hi) = match (buf.get(2 * i), buf.get(2 * i + 1)) {
-                    (Some(lo), Some(hi)) => (lo[c].to_bits() as u64, hi[c].to_bits() as u64),
-                    _ => return 0.0,
-                };
-                ((hi << 32) | lo) as f64 / (1u64 << SPLAT_FRAC_BITS) as f64
-            }
-        };
-        accum
-            .iter()
-            .enumerate()
-            .map(|(i, a)| {
-                let mut px = [0f32; 3];
-                for (c, v) in px.iter_mut().enumerate() {
-                    let camera = if a[3] > 0.0 {
-                        a[c] as f64 / a[3] as f64
-                    } else {
-                        0.0
-                    };
-                    let light = if paths > 0.0 {
-                        splat(i, c) / paths
-                    } else {
-                        0.0
-                    };
-                    *v = (camera + light) as f32;
-                }
-                px
-            })
-            .collect()
+    fn resolver(&self) -> Resolver {
+        let float_splats = self.float_splats;
+        Arc::new(move |accum, extra, spp| resolve(float_splats, accum, extra, spp))
     }
+}
+
+/// The image: accum.rgb / accum.w + splat / (pixels · spp), the splats as floats or as 64-bit
+/// fixed point (two words per pixel).
+fn resolve(
+    float_splats: bool,
+    accum: &[[f32; 4]],
+    extra: &[&[[f32; 4]]],
+    spp: u32,
+) -> Vec<[f32; 3]> {
+    let n = accum.len();
+    let paths = n as f64 * spp as f64;
+    let splat = |i: usize, c: usize| -> f64 {
+        let Some(buf) = extra.first() else {
+            return 0.0;
+        };
+        if float_splats {
+            buf.get(i).map_or(0.0, |e| e[c] as f64)
+        } else {
+            let (lo, hi) = match (buf.get(2 * i), buf.get(2 * i + 1)) {
+                (Some(lo), Some(hi)) => (lo[c].to_bits() as u64, hi[c].to_bits() as u64),
+                _ => return 0.0,
+            };
+            ((hi << 32) | lo) as f64 / (1u64 << SPLAT_FRAC_BITS) as f64
+        }
+    };
+    accum
+        .iter()
+        .enumerate()
+        .map(|(i, a)| {
+            let mut px = [0f32; 3];
+            for (c, v) in px.iter_mut().enumerate() {
+                let camera = if a[3] > 0.0 {
+                    a[c] as f64 / a[3] as f64
+                } else {
+                    0.0
+                };
+                let light = if paths > 0.0 {
+                    splat(i, c) / paths
+                } else {
+                    0.0
+                };
+                *v = (camera + light) as f32;
+            }
+            px
+        })
+        .collect()
 }

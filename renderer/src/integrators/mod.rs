@@ -137,6 +137,11 @@ pub struct ExtraBuffer {
     pub entries_per_pixel: u32,
 }
 
+/// Forms the image from an integrator's raw buffers: `accum` per pixel (Σr, Σg, Σb, samples
+/// kept), `extra[i]` the contents of `extra_buffers()[i]`, and the samples per pixel rendered.
+/// Shareable, so snapshots can be resolved away from the thread that renders.
+pub type Resolver = Arc<dyn Fn(&[[f32; 4]], &[&[[f32; 4]]], u32) -> Vec<[f32; 3]> + Send + Sync>;
+
 /// The plain estimate: accumulated radiance divided by the samples kept per pixel.
 pub fn mean_of_accumulation(accum: &[[f32; 4]]) -> Vec<[f32; 3]> {
     accum
@@ -169,6 +174,12 @@ pub trait Integrator: Send {
     fn prepare(&mut self, _ctx: &GpuContext) {}
     /// Kernel defines besides the scene's feature set. Default: none.
     fn defines(&self) -> ShaderDefines {
+        Vec::new()
+    }
+    /// The kernels (path, defines) [`Integrator::setup`] builds besides the pass kernel, for
+    /// `defines` (the session's: the scene's feature set plus [`Integrator::defines`]), so that
+    /// they can be compiled ahead and in parallel. Default: none.
+    fn kernels(&self, _defines: &ShaderDefines) -> Vec<(String, ShaderDefines)> {
         Vec::new()
     }
     /// Integrators with stages besides the per-pass kernel (vct's voxel structure, deferred's
@@ -204,11 +215,15 @@ pub trait Integrator: Send {
     fn extra_buffers(&self) -> Vec<ExtraBuffer> {
         Vec::new()
     }
-    /// The image from the raw buffers: `accum` per pixel (Σr, Σg, Σb, samples kept), `extra[i]`
-    /// the contents of `extra_buffers()[i]`, `spp` the samples per pixel rendered so far.
-    /// Default: [`mean_of_accumulation`].
-    fn resolve(&self, accum: &[[f32; 4]], _extra: &[Vec<[f32; 4]>], _spp: u32) -> Vec<[f32; 3]> {
-        mean_of_accumulation(accum)
+    /// How the image is formed from the raw buffers. Default: [`mean_of_accumulation`].
+    fn resolver(&self) -> Resolver {
+        Arc::new(|accum, _, _| mean_of_accumulation(accum))
+    }
+    /// Whether the pass kernel reads `GpuPush::dispatch` (common/dispatch.glsl), so the
+    /// session may give a pass several threads per pixel and split it into bands. Default:
+    /// true; integrators whose passes are made of per-sample stages say false.
+    fn shapes_dispatch(&self) -> bool {
+        true
     }
 }
 

@@ -47,6 +47,8 @@ pub struct BenchArgs {
     /// Use the first Vulkan device whose name contains this text.
     #[arg(long)]
     pub device: Option<String>,
+    #[command(flatten)]
+    pub kernels: super::KernelCacheArgs,
 }
 
 /// Longest budget accepted, seconds.
@@ -110,7 +112,7 @@ pub fn run(a: BenchArgs) -> Result<(), CliError> {
     let cfg = config(&a)?;
     std::fs::create_dir_all(&cfg.out_dir)
         .map_err(|e| CliError::failure(format!("cannot create {}: {e}", cfg.out_dir.display())))?;
-    let ctx = super::open_device(a.device.as_deref())?;
+    let ctx = super::open_device(a.device.as_deref(), a.kernels.dir())?;
     let report = run_bench(&ctx, &cfg, &mut |line| eprintln!("{line}")).map_err(|e| match e {
         BenchError::Input(m) => CliError::input(m),
         BenchError::Failure(m) => CliError::failure(m),

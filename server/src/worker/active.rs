@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use renderer::film::Image;
 use renderer::metrics::{tonemap_from_name, Display};
-use renderer::render::{next_pass_size, Budget, PassStats, Progress, RenderError, RenderSession};
+use renderer::render::{Budget, PassSizer, PassStats, Progress, RenderError, RenderSession};
 use renderer::scene::Tonemap;
 use serde_json::{json, Value};
 
@@ -29,9 +29,9 @@ pub struct ActiveJob {
     pub session: RenderSession,
     pub settings: JobSettings,
     pub paths: JobPaths,
-    /// Size and wall time of the last pass (None before the first).
-    last_pass: Option<(u32, Duration)>,
-    /// When the last snapshot was published (None: publish after the next pass).
+    /// Sizes the passes from the cost of the last one.
+    sizer: PassSizer,
+    /// When the last snapshot was asked for (None: with the next pass).
     pub last_snapshot: Option<Instant>,
     pub last_checkpoint: Instant,
     /// When the session was created, and the counters then (for the ETA).
@@ -63,7 +63,7 @@ impl ActiveJob {
             session,
             settings,
             paths,
-            last_pass: None,
+            sizer: PassSizer::default(),
             last_snapshot: None,
             last_checkpoint: Instant::now(),
             admitted: Instant::now(),
@@ -72,36 +72,41 @@ impl ActiveJob {
         }
     }
 
-    /// Whether the budget is reached.
+    /// Whether the budget is reached and every queued pass has completed.
     pub fn finished(&self) -> bool {
-        match self.settings.budget() {
+        let reached = match self.settings.budget() {
             Budget::Spp(n) => self.session.spp() >= n,
             Budget::Time(t) => self.session.elapsed().as_secs_f64() >= t,
-        }
+        };
+        reached && self.session.in_flight() == 0
     }
 
-    /// Samples per pixel of the next pass: sized from the last one to take about `target`, and
-    /// never past the budget.
-    pub fn next_pass_spp(&self, target: Duration) -> u32 {
-        let target = match self.settings.budget() {
-            Budget::Time(t) => target.min(Duration::from_secs_f64(
-                (t - self.session.elapsed().as_secs_f64()).max(0.0),
-            )),
-            Budget::Spp(_) => target,
-        };
-        let n = match self.last_pass {
-            None => 1,
-            Some((spp, wall)) => next_pass_size(spp, wall, target),
-        };
+    /// Samples per pixel of the next pass, sized from the last one to take about `target` and
+    /// never past the budget, counting the passes still queued; 0 when no more should be
+    /// queued.
+    pub fn next_pass_spp(&mut self, target: Duration) -> u32 {
+        let submitted = self.session.submitted_spp();
         match self.settings.budget() {
-            Budget::Spp(total) => n.min(total.saturating_sub(self.session.spp())).max(1),
-            Budget::Time(_) => n.max(1),
+            Budget::Spp(total) => match total.saturating_sub(submitted) {
+                0 => 0,
+                left => self.sizer.next(target).min(left),
+            },
+            Budget::Time(t) => {
+                let queued = self.sizer.seconds(submitted - self.session.spp());
+                let left = t - self.session.elapsed().as_secs_f64() - queued;
+                if left <= 0.0 && submitted > 0 {
+                    0
+                } else {
+                    self.sizer
+                        .next(target.min(Duration::from_secs_f64(left.max(0.0))))
+                }
+            }
         }
     }
 
-    /// Notes a pass that ran.
+    /// Notes a pass that completed.
     pub fn record_pass(&mut self, stats: &PassStats) {
-        self.last_pass = Some((stats.spp, stats.wall));
+        self.sizer.observe(stats);
     }
 
     /// Whether a snapshot is due.
@@ -205,6 +210,7 @@ impl ActiveJob {
 
     /// Writes the checkpoint and the image it implies; returns the progress saved.
     pub fn write_checkpoint(&mut self) -> Result<Progress, CheckpointError> {
+        // (Waits for the job's queued passes.)
         let acc = self
             .session
             .accumulation()
@@ -220,7 +226,7 @@ impl ActiveJob {
             &acc,
         )
         .map_err(CheckpointError::Io)?;
-        let image = self.session.image().map_err(CheckpointError::Render)?;
+        let image = self.session.resolve(&acc);
         self.write_image(&image)?;
         self.last_checkpoint = Instant::now();
         Ok(progress)

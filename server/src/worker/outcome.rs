@@ -2,9 +2,7 @@
 //! `snapshot` events), the end (final image on disk, `done` with the stats), and failures
 //! (`error`, and a device rebuild when the device itself is in doubt).
 
-use std::time::Instant;
-
-use renderer::render::RenderError;
+use renderer::render::{AccumSnapshot, RenderError};
 use serde_json::json;
 use tracing::{error, info, warn};
 
@@ -14,17 +12,16 @@ use crate::jobs::model::{JobId, JobState};
 use crate::store::{StoreError, Transition};
 
 impl Worker {
-    /// Publishes the current image and a progress + snapshot event.
-    pub(super) fn snapshot(&mut self, id: JobId) {
+    /// Publishes the image a pass copied out (`snap`) and a progress + snapshot event.
+    pub(super) fn snapshot(&mut self, id: JobId, snap: AccumSnapshot) {
         let Some(job) = self.active.get_mut(&id) else {
             return;
         };
-        let image = match job.session.image() {
+        let image = match snap.image() {
             Ok(i) => i,
             Err(e) => return self.render_failed(id, e, "reading the image"),
         };
-        job.last_snapshot = Some(Instant::now());
-        let spp = job.session.spp();
+        let spp = snap.spp();
         let _ = self.store.set_progress(id, &job.session.progress());
         // Published first, so the snapshot event never announces an older image.
         let measured = job.has_reference().then(|| image.clone());
@@ -35,6 +32,7 @@ impl Worker {
     /// The budget is reached: final image on disk, final events, state done.
     pub(super) fn finish(&mut self, id: JobId) {
         self.sched.remove(id);
+        self.queued.retain(|j| *j != id);
         let Some(mut job) = self.active.remove(&id) else {
             return;
         };
@@ -87,6 +85,7 @@ impl Worker {
     /// Fails job `id` with `message` (no effect on the device).
     pub(super) fn fail(&mut self, id: JobId, message: String) {
         self.sched.remove(id);
+        self.queued.retain(|j| *j != id);
         if let Some(job) = self.active.remove(&id) {
             let _ = std::fs::remove_file(job.paths.checkpoint());
         }

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use bytemuck::{Pod, Zeroable};
 
 use crate::error::RenderError;
-use crate::gpu::{compile_glsl, Binding, Buffer, ComputePipeline, GpuContext, ShaderDefines};
+use crate::gpu::{Binding, Buffer, ComputePipeline, GpuContext, ShaderDefines};
 use crate::layout::GpuPush;
 
 /// Binding indices of vct's buffers (after the session's, which end at 12), as `B_VCT_*`.
@@ -85,7 +85,7 @@ pub fn pipeline(
     defines: &ShaderDefines,
     bindings: &[Binding<'_>],
 ) -> Result<ComputePipeline, RenderError> {
-    let spirv = compile_glsl(kernel, defines)?;
+    let spirv = ctx.kernel(kernel, defines)?;
     Ok(ComputePipeline::new(
         ctx,
         kernel,
