@@ -9,6 +9,7 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
 use super::kernel_cache::{compile_kernels, kernel_spirv, DriverKey, PipelineCache};
+use super::pipeline::PipelineObjects;
 use super::ShaderDefines;
 use super::{GpuError, GpuResult};
 
@@ -59,6 +60,8 @@ pub struct GpuContext {
     pub validation_enabled: bool,
     /// The driver's pipeline cache, loaded from and saved to `kernel_dir`.
     pub(crate) pipelines: PipelineCache,
+    /// Pipelines made on this device, shared by every session that uses them.
+    pub(crate) pipeline_objects: PipelineObjects,
     /// The kernel cache folder, if any.
     pub kernel_dir: Option<std::path::PathBuf>,
     /// When the host last saw a pass of any session complete: a pass queued behind another
@@ -460,6 +463,7 @@ impl GpuContext {
             info,
             validation_enabled: validation,
             pipelines,
+            pipeline_objects: PipelineObjects::default(),
             kernel_dir: opts.kernel_cache.clone(),
             last_completion: Mutex::new(None),
             float_atomics,
@@ -536,6 +540,7 @@ impl Drop for GpuContext {
         unsafe {
             let _ = self.device.device_wait_idle();
             self.pipelines.save(&self.device);
+            self.pipeline_objects.destroy_all(&self.device);
             self.device.destroy_pipeline_cache(self.pipelines.raw, None);
             if let Ok(mut a) = self.allocator.lock() {
                 a.take();

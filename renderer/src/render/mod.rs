@@ -83,9 +83,20 @@ pub struct RenderStats {
     pub grid_refs: Option<u64>,
     /// Building the kernels: compiles, cache hits, pipelines and their milliseconds.
     pub kernels: crate::gpu::KernelStats,
+    /// The session's first pass (None before one, or after a restore).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub first_pass: Option<FirstPass>,
     /// The integrator's own statistics (stage timings, memory), where it has any.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub details: Option<serde_json::Value>,
+}
+
+/// Size and times of a session's first pass.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct FirstPass {
+    pub spp: u32,
+    pub gpu_ms: f64,
+    pub wall_ms: f64,
 }
 
 /// Renders to the budget and returns the image (radiance per pixel) and what happened. Up to

@@ -77,6 +77,8 @@ pub struct RenderSession {
     ring: PassRing,
     /// What building the kernels took (compiles, cache hits, pipelines).
     kernels: KernelStats,
+    /// The first pass this session ran (a GPU coming from idle runs it at low clocks).
+    first_pass: Option<PassStats>,
 }
 
 struct SceneInfo {
@@ -186,6 +188,7 @@ impl RenderSession {
             shape: None,
             ring: PassRing::default(),
             kernels: kernel_stats().since(&kernels_before),
+            first_pass: None,
             info: SceneInfo {
                 triangles: scene.triangle_count,
                 primitives: scene.prims.len(),
@@ -263,6 +266,7 @@ impl RenderSession {
         }
         self.seed = seed;
         self.spp = 0;
+        self.first_pass = None;
         self.passes = 0;
         self.rays = 0;
         self.dropped = 0;
@@ -413,12 +417,14 @@ impl RenderSession {
         self.passes += 1;
         self.elapsed += wall;
         self.gpu_time += gpu;
+        let stats = PassStats {
+            spp: p.spp,
+            wall,
+            gpu,
+        };
+        self.first_pass.get_or_insert(stats);
         Ok(Some(CompletedPass {
-            stats: PassStats {
-                spp: p.spp,
-                wall,
-                gpu,
-            },
+            stats,
             snapshot: p.snapshot,
         }))
     }
@@ -565,6 +571,11 @@ impl RenderSession {
             grid_resolution: self.info.accel.grid_resolution,
             grid_refs: self.info.accel.grid_refs,
             kernels: self.kernels,
+            first_pass: self.first_pass.map(|p| super::FirstPass {
+                spp: p.spp,
+                gpu_ms: p.gpu.as_secs_f64() * 1e3,
+                wall_ms: p.wall.as_secs_f64() * 1e3,
+            }),
             details: self.integrator.details(),
         }
     }

@@ -382,7 +382,11 @@ impl Worker {
         while self.queued.len() >= PIPELINE_DEPTH {
             self.complete_oldest();
         }
-        let target = self.config.pass_target.min(self.config.snapshot_interval);
+        // Passes of a third of the snapshot interval at most, and a snapshot asked for with the
+        // pass that starts closest to the interval after the last: the cadence is honoured
+        // whatever the pass size.
+        let interval = self.config.snapshot_interval;
+        let target = self.config.pass_target.min(interval / 3);
         let Some(job) = self.active.get_mut(&id) else {
             return self.sched.remove(id);
         };
@@ -413,7 +417,7 @@ impl Worker {
             return;
         };
         // Step 3: queue it, with a copy of the accumulation when a snapshot is due.
-        let snapshot = job.snapshot_due(self.config.snapshot_interval);
+        let snapshot = job.snapshot_due(interval.saturating_sub(target / 2));
         let result = catch_unwind(AssertUnwindSafe(|| job.session.submit_pass(spp, snapshot)));
         let done = match result {
             Ok(Ok(done)) => done,
