@@ -109,8 +109,11 @@ pub fn render(
     let target = Duration::from_millis(250);
     let mut sizer = PassSizer::default();
     loop {
-        // Step 1: keep the queue full while the budget has room.
-        while session.in_flight() < PIPELINE_DEPTH {
+        // Step 1: keep the queue full while the budget has room (one pass at a time until a
+        // pass has shown what a sample costs).
+        while session.in_flight() < PIPELINE_DEPTH
+            && (sizer.knows_cost() || session.in_flight() == 0)
+        {
             let n = match budget {
                 Budget::Spp(total) => {
                     let left = total.saturating_sub(session.submitted_spp());
@@ -146,7 +149,8 @@ pub fn render(
 /// Sizes passes from the measured cost of a sample per pixel (GPU time where the device has
 /// timestamps, else wall time): a pass of about the target time, at most 4× the previous pass
 /// (a first measurement may be off: a GPU starting from idle runs at low clocks) and at most
-/// 1024 samples per pixel. Until a pass has completed, passes are one sample.
+/// 1024 samples per pixel. Until a pass has completed, passes are one sample (and callers
+/// queue only one: [`PassSizer::knows_cost`]).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct PassSizer {
     /// Seconds per sample per pixel, from the last completed pass.
@@ -172,6 +176,12 @@ impl PassSizer {
         };
         self.last = n;
         n
+    }
+
+    /// Whether a pass has completed (before, passes are one sample and queued one at a time,
+    /// so a slow first pass does not make a short budget overrun by a second one).
+    pub fn knows_cost(&self) -> bool {
+        self.cost.is_some()
     }
 
     /// The expected time of `spp` samples per pixel (0 before any measurement).

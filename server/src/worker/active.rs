@@ -11,8 +11,9 @@ use renderer::scene::Tonemap;
 use serde_json::{json, Value};
 
 use super::checkpoint;
-use super::metrics_lane::{add_metrics, MetricsLane};
+use super::metrics_lane::{LaneTargets, MetricsLane, SnapshotImage};
 use crate::jobs::model::{JobId, JobSettings};
+use crate::shared::Shared;
 use crate::store::{JobPaths, Store};
 
 /// Why writing a checkpoint failed.
@@ -40,10 +41,8 @@ pub struct ActiveJob {
     time_at_admit: f64,
     /// The reference image of the progress metrics (None: no reference, or it is unreadable).
     reference: Option<Arc<Image>>,
-    /// The thread measuring snapshots against the reference (started with the first snapshot).
+    /// The thread reporting snapshots (started with the first snapshot).
     lane: Option<MetricsLane>,
-    /// Whether a progress event measured inline carried `metrics_note` yet.
-    metrics_noted: bool,
 }
 
 impl ActiveJob {
@@ -59,7 +58,6 @@ impl ActiveJob {
         ActiveJob {
             reference,
             lane: None,
-            metrics_noted: false,
             session,
             settings,
             paths,
@@ -83,9 +81,12 @@ impl ActiveJob {
 
     /// Samples per pixel of the next pass, sized from the last one to take about `target` and
     /// never past the budget, counting the passes still queued; 0 when no more should be
-    /// queued.
+    /// queued (yet: the first pass is queued alone, until it shows what a sample costs).
     pub fn next_pass_spp(&mut self, target: Duration) -> u32 {
         let submitted = self.session.submitted_spp();
+        if !self.sizer.knows_cost() && self.session.in_flight() > 0 {
+            return 0; // the first pass's cost first
+        }
         match self.settings.budget() {
             Budget::Spp(total) => match total.saturating_sub(submitted) {
                 0 => 0,
@@ -154,12 +155,6 @@ impl ActiveJob {
         })
     }
 
-    /// Whether the job measures its snapshots against a reference (then
-    /// [`Self::report_snapshot`] wants a copy of each image).
-    pub fn has_reference(&self) -> bool {
-        self.reference.is_some()
-    }
-
     /// How the reference and the snapshots are compared (the job's exposure and tonemap).
     fn display(&self) -> Display {
         Display {
@@ -168,37 +163,33 @@ impl ActiveJob {
         }
     }
 
-    /// Appends a snapshot's `progress` event ([`Self::progress_json`], plus `metrics` of `image`
-    /// against the reference and `metrics_note` the first time) and its `snapshot` event. With a
-    /// reference the metrics are computed on the job's [`MetricsLane`], which appends both events
-    /// when done (inline if its thread could not start); call [`Self::flush_metrics`] before
-    /// events that must come after them.
+    /// Reports a snapshot of `spp` samples per pixel: its image is resolved and published, and
+    /// its `progress` event ([`Self::progress_json`], plus `metrics` against the reference and
+    /// `metrics_note` the first time) and `snapshot` event appended, on the job's
+    /// [`MetricsLane`] (inline if its thread could not start); call [`Self::flush_metrics`]
+    /// before events that must come after them, and before forgetting the published image.
     pub fn report_snapshot(
         &mut self,
         store: &Arc<Store>,
+        shared: &Arc<Shared>,
         id: JobId,
-        image: Option<Image>,
+        image: SnapshotImage,
+        spp: u32,
         snapshot: Value,
     ) {
-        let mut progress = self.progress_json();
-        if let (Some(reference), Some(image)) = (self.reference.clone(), image) {
-            let display = self.display();
-            let lane = self.lane.get_or_insert_with(|| {
-                MetricsLane::start(id, reference.clone(), display, store.clone())
-            });
-            if lane.running() {
-                return lane.submit(image, progress, snapshot);
-            }
-            add_metrics(
-                &mut progress,
-                &image,
-                &reference,
-                display,
-                &mut self.metrics_noted,
-            );
-        }
-        let _ = store.append_event(id, "progress", progress);
-        let _ = store.append_event(id, "snapshot", snapshot);
+        let progress = self.progress_json();
+        let reference = self.reference.clone().map(|r| (r, self.display()));
+        let lane = self.lane.get_or_insert_with(|| {
+            MetricsLane::start(
+                id,
+                LaneTargets {
+                    store: store.clone(),
+                    shared: shared.clone(),
+                    reference,
+                },
+            )
+        });
+        lane.submit(image, spp, progress, snapshot);
     }
 
     /// Waits until the metrics lane has appended every snapshot's events.

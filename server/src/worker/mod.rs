@@ -371,6 +371,7 @@ impl Worker {
             }
             _ => {}
         }
+        job.flush_metrics();
         self.shared.forget(id);
     }
 
