@@ -144,13 +144,19 @@ vec3 shade(uvec2 px, inout Rng rng, inout uint rays) {
         make_frame(n, t, b);
         float phi0 = 2.0 * PI * rng_next1(rng);
         vec3 origin = s.p + ng_o * (CONE_OFFSET * vox);
-        for (uint i = 0u; i < nc; ++i) {
+        // `cones_per_sample` (P.mode.w) < nc: a run of that many cones from a random one,
+        // weighted by nc / run, so each cone is traced with the same expected weight.
+        uint run = clamp(P.mode.w, 1u, nc);
+        uint first = run < nc ? min(uint(rng_next1(rng) * float(nc)), nc - 1u) : 0u;
+        float run_weight = float(nc) / float(run);
+        for (uint j = 0u; j < run; ++j) {
+            uint i = (first + j) % nc;
             vec3 dl = diffuse_cone_dir(i, nc, phi0);
             vec3 d = from_local(dl, t, b, n);
             vec3 f = bsdf_eval(m, wo, to_local(d, s.tangent, bt, s.ns), TRANSPORT_RADIANCE);
             if (!any(greaterThan(f, vec3(0.0)))) continue;
             vec3 Lc = cone_trace(origin, d, P.cone.x, 1.0, 1e9).rgb;
-            L += f * Lc * (PI / (float(nc) * max(dl.z, 1e-3)));
+            L += f * Lc * (PI * run_weight / (float(nc) * max(dl.z, 1e-3)));
         }
     } else if (sampled) {
         // One cone along the sampled direction; its solid angle ≈ 1/pdf (narrow for smooth lobes,

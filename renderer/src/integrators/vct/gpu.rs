@@ -40,7 +40,7 @@ pub struct VctParams {
     pub dims: [u32; 4],
     /// tan of the diffuse cones' half-angle, diffuse cone count, step factor, AO distance (voxels).
     pub cone: [f32; 4],
-    /// AO output, shadow cones, injection samples, 0.
+    /// AO output, shadow cones, injection samples, diffuse cones traced per sample.
     pub mode: [u32; 4],
     /// Fragment, node and slot capacities, 0.
     pub caps: [u32; 4],
