@@ -14,7 +14,7 @@
 // (nee_density_ratio), so the weights match how the path was really made.
 #ifndef BDPT_CONNECT_GLSL
 #define BDPT_CONNECT_GLSL
-#include "bdpt/vertex.glsl"
+#include "bdpt/paths.glsl"
 
 // The density values that strategy (s, t) changes before the ratios are taken (pbrt's
 // ScopedAssignments): reverse densities at p_{t−1}, p_{t−2}, q_{s−1}, q_{s−2}; the light endpoint
@@ -46,21 +46,21 @@ float mis_weight(int s, int t, MisInputs mi) {
     // Step 1: hypothetical strategies with fewer camera vertices (i = their t).
     float ri = 1.0;
     for (int i = t - 1; i > 0; --i) {
-        Vertex c = vtx[CAM(i)];
+        Vertex c = CAMV(i);
         float rev = i == t - 1 ? mi.pt_rev : (i == t - 2 ? mi.ptm_rev : c.pdf_rev);
         ri *= remap0(rev) / remap0(c.pdf_fwd);
         bool delta = i == t - 1 ? false : vertex_is_delta(c);
-        if (!delta && !vertex_is_delta(vtx[CAM(i - 1)])) sum_ri += mis_term(ri, s + t - i, s, mi.nee_ratio);
+        if (!delta && !vertex_is_delta(CAMV(i - 1))) sum_ri += mis_term(ri, s + t - i, s, mi.nee_ratio);
     }
     // Step 2: hypothetical strategies with fewer light vertices (i = their s).
     ri = 1.0;
     for (int i = s - 1; i >= 0; --i) {
-        Vertex l = vtx[LGT(i)];
+        Vertex l = LGTV(i);
         float fwd = i == 0 ? mi.l0_fwd : l.pdf_fwd;
         float rev = i == s - 1 ? mi.qs_rev : (i == s - 2 ? mi.qsm_rev : l.pdf_rev);
         ri *= remap0(rev) / remap0(fwd);
         bool delta = i == s - 1 ? false : vertex_is_delta(l);
-        bool delta_light = i > 0 ? vertex_is_delta(vtx[LGT(i - 1)]) : mi.l0_delta;
+        bool delta_light = i > 0 ? vertex_is_delta(LGTV(i - 1)) : mi.l0_delta;
         if (!delta && !delta_light) sum_ri += mis_term(ri, i, s, mi.nee_ratio);
     }
     return 1.0 / (1.0 + sum_ri);
@@ -68,7 +68,7 @@ float mis_weight(int s, int t, MisInputs mi) {
 
 // s = 0: camera vertex t−1 is an emitter. Returns β·Le and sets the densities it changes.
 vec3 connect_s0(int t, inout MisInputs mi) {
-    Vertex pt = vtx[CAM(t - 1)], ptm = vtx[CAM(t - 2)];
+    Vertex pt = CAMV(t - 1), ptm = CAMV(t - 2);
     vec3 Le = vec3(0.0);
     if (pt.kind == VTX_INF) {
         Le = env_eval(pt.p);
@@ -91,11 +91,11 @@ vec3 connect_st(int s, int t, vec4 u, inout uint rays, out vec2 film, inout MisI
     film = vec2(-1.0);
     // Step 1: the two ends (0: light side q, 1: camera side p) and their own predecessors.
     Vertex ends[2], preds[2];
-    ends[1] = vtx[CAM(t - 1)];
+    ends[1] = CAMV(t - 1);
     // Escaped camera rays (infinite-light vertices) only count for s = 0 (pbrt).
     if (t >= 2 && ends[1].kind != VTX_SURFACE) return vec3(0.0);
-    preds[1] = vtx[CAM(max(t - 2, 0))];
-    preds[0] = vtx[LGT(max(s - 2, 0))];
+    preds[1] = CAMV(max(t - 2, 0));
+    preds[0] = LGTV(max(s - 2, 0));
     vec3 weight_q = vec3(0.0), weight_p = vec3(0.0); // β·f at each end, or the sampled end's weight
     float cos_theta = 0.0, ls_pdf = 0.0;
     LightSample ls;
@@ -113,7 +113,7 @@ vec3 connect_st(int s, int t, vec4 u, inout uint rays, out vec2 film, inout MisI
         ends[0] = q;
         weight_q = ls.L / ls.pdf;
     } else {
-        ends[0] = vtx[LGT(s - 1)];
+        ends[0] = LGTV(s - 1);
     }
     if (t == 1) {
         // A fresh lens point, and where the connection lands on the film.
@@ -193,19 +193,19 @@ vec3 connect_st(int s, int t, vec4 u, inout uint rays, out vec2 film, inout MisI
 vec3 connect(int s, int t, vec4 u, inout uint rays, out vec2 film, out float w) {
     w = 0.0;
     film = vec2(-1.0);
-    Vertex l0 = vtx[LGT(0)];
+    Vertex l0 = LGTV(0);
     MisInputs mi = MisInputs(0.0, 0.0, 0.0, 0.0, l0.pdf_fwd, (l0.flags & VF_DELTA_LIGHT) != 0u, 1.0);
     Vertex q;
     vec3 L = s == 0 ? connect_s0(t, mi) : connect_st(s, t, u, rays, film, mi, q);
     if (!any(greaterThan(L, vec3(0.0)))) return vec3(0.0);
     // x0 (the light end) and x1 (its neighbour), for NEE's density of x0 (sphere lights).
-    Vertex x0 = l0, x1 = vtx[LGT(1)];
+    Vertex x0 = l0, x1 = LGTV(1);
     if (s == 0) {
-        x0 = vtx[CAM(t - 1)];
-        x1 = vtx[CAM(max(t - 2, 0))];
+        x0 = CAMV(t - 1);
+        x1 = CAMV(max(t - 2, 0));
     } else if (s == 1) {
         x0 = q;
-        x1 = vtx[CAM(t - 1)];
+        x1 = CAMV(t - 1);
     }
     mi.nee_ratio = nee_density_ratio(x0, x1);
     w = mis_weight(s, t, mi);

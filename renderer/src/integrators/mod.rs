@@ -59,6 +59,22 @@ pub struct BdptOptions {
     /// Debug: integer fixed-point light-tracing splats even where float atomics exist
     /// (bit-reproducible; the fallback for devices without float atomics).
     pub fixed_point_splats: Option<bool>,
+    /// How the GPU runs it (see [`bdpt`]): "split" (default: light subpaths in one pass, kept in
+    /// a buffer, camera subpaths in another) or "per_pixel" (both in one thread, the reference).
+    /// The same estimator either way.
+    pub design: Option<BdptDesign>,
+}
+
+/// How bdpt's passes are laid out on the GPU ([`bdpt`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BdptDesign {
+    /// A light pass writes every pixel's light subpath to a buffer and splats its light
+    /// tracing; a camera pass traces the camera subpaths and joins them to those vertices.
+    #[default]
+    Split,
+    /// One thread per pixel traces both subpaths into private arrays and joins them.
+    PerPixel,
 }
 
 const MAX_DEPTH_HELP: &str =
@@ -117,6 +133,11 @@ impl OptionsInfo for BdptOptions {
             kind: "boolean",
             help: "debug: integer fixed-point light-tracing splats even where float atomics exist (default false)",
         },
+        OptionField {
+            name: "design",
+            kind: "\"split\" | \"per_pixel\"",
+            help: "GPU layout: split (default: a light pass and a camera pass) or per_pixel (one thread per pixel traces both subpaths); the same estimator",
+        },
     ];
     fn max_depth(&self) -> Option<i32> {
         self.max_depth
@@ -141,6 +162,15 @@ pub struct ExtraBuffer {
 /// kept), `extra[i]` the contents of `extra_buffers()[i]`, and the samples per pixel rendered.
 /// Shareable, so snapshots can be resolved away from the thread that renders.
 pub type Resolver = Arc<dyn Fn(&[[f32; 4]], &[&[[f32; 4]]], u32) -> Vec<[f32; 3]> + Send + Sync>;
+
+/// A device buffer an integrator's kernels use as scratch (not carried in checkpoints, not part
+/// of the image): the session allocates it and binds it next to ACCUM and STATS.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ScratchBuffer {
+    pub binding: u32,
+    pub name: &'static str,
+    pub bytes: u64,
+}
 
 /// The plain estimate: accumulated radiance divided by the samples kept per pixel.
 pub fn mean_of_accumulation(accum: &[[f32; 4]]) -> Vec<[f32; 3]> {
@@ -225,6 +255,20 @@ pub trait Integrator: Send {
     fn shapes_dispatch(&self) -> bool {
         true
     }
+    /// Most threads per pixel a pass may use (with [`Integrator::shapes_dispatch`]). Default:
+    /// [`crate::render::MAX_LANES`].
+    fn max_lanes(&self) -> u32 {
+        crate::render::MAX_LANES
+    }
+    /// Most pixels one band (dispatch) of a `width`×`height` film may cover, e.g. what a
+    /// per-band scratch buffer holds. Default: no limit of its own.
+    fn max_band_pixels(&self, _width: u32, _height: u32) -> u64 {
+        u64::MAX
+    }
+    /// Scratch buffers for a `width`×`height` film. Default: none.
+    fn scratch_buffers(&self, _width: u32, _height: u32) -> Vec<ScratchBuffer> {
+        Vec::new()
+    }
 }
 
 #[cfg(test)]
@@ -262,6 +306,7 @@ mod tests {
                 strategy: Some([2, 1]),
                 weighted: Some(false),
                 fixed_point_splats: None,
+                design: None,
             })
         );
         assert_eq!(o.name(), "bdpt");

@@ -42,18 +42,28 @@ impl DispatchShape {
     }
 
     /// The shape for a pass of `spp` samples on a `width`×`height` film: lanes up to
-    /// [`TARGET_THREADS`] threads (never more lanes than samples; none on a CPU device, whose
-    /// few cores any film fills), bands of at most [`MAX_BAND_PIXELS`] pixels.
-    pub fn auto(width: u32, height: u32, spp: u32, cpu: bool) -> Self {
+    /// [`TARGET_THREADS`] threads (never more lanes than samples or `max_lanes`; none on a CPU
+    /// device, whose few cores any film fills), bands of at most [`MAX_BAND_PIXELS`] (and
+    /// `max_band_pixels`) pixels.
+    pub fn auto(
+        width: u32,
+        height: u32,
+        spp: u32,
+        cpu: bool,
+        max_lanes: u32,
+        max_band_pixels: u64,
+    ) -> Self {
         let pixels = (width as u64 * height as u64).max(1);
         let lanes = if cpu {
             1
         } else {
-            let want = (TARGET_THREADS / pixels).clamp(1, MAX_LANES as u64) as u32;
+            let want =
+                (TARGET_THREADS / pixels).clamp(1, MAX_LANES.min(max_lanes.max(1)) as u64) as u32;
             prev_power_of_two(want).min(prev_power_of_two(spp.max(1)))
         };
-        let band_rows = if pixels > MAX_BAND_PIXELS {
-            ((MAX_BAND_PIXELS / width.max(1) as u64) as u32 / TILE * TILE).max(TILE)
+        let band_pixels = MAX_BAND_PIXELS.min(max_band_pixels);
+        let band_rows = if pixels > band_pixels {
+            ((band_pixels / width.max(1) as u64) as u32 / TILE * TILE).max(TILE)
         } else {
             height
         };
@@ -177,15 +187,39 @@ mod tests {
     fn shapes_fill_the_gpu_and_bound_the_bands() {
         // A 1280x720 film fills the GPU with one thread per pixel; 256x256 takes 8 lanes (but
         // never more than the pass has samples); a CPU device always one.
-        assert_eq!(DispatchShape::auto(1280, 720, 64, false).lanes, 1);
-        assert_eq!(DispatchShape::auto(256, 256, 64, false).lanes, 8);
-        assert_eq!(DispatchShape::auto(256, 256, 3, false).lanes, 2);
-        assert_eq!(DispatchShape::auto(512, 512, 64, false).lanes, 4);
-        assert_eq!(DispatchShape::auto(256, 256, 64, true).lanes, 1);
-        let small = DispatchShape::auto(1280, 720, 1, false);
+        assert_eq!(
+            DispatchShape::auto(1280, 720, 64, false, 8, u64::MAX).lanes,
+            1
+        );
+        assert_eq!(
+            DispatchShape::auto(256, 256, 64, false, 8, u64::MAX).lanes,
+            8
+        );
+        assert_eq!(
+            DispatchShape::auto(256, 256, 3, false, 8, u64::MAX).lanes,
+            2
+        );
+        assert_eq!(
+            DispatchShape::auto(512, 512, 64, false, 8, u64::MAX).lanes,
+            4
+        );
+        assert_eq!(
+            DispatchShape::auto(256, 256, 64, true, 8, u64::MAX).lanes,
+            1
+        );
+        assert_eq!(
+            DispatchShape::auto(256, 256, 64, false, 2, u64::MAX).lanes,
+            2
+        );
+        // An integrator's own band limit (bdpt's light-vertex buffer): 100 rows -> 96.
+        assert_eq!(
+            DispatchShape::auto(1000, 500, 1, false, 1, 100_000).band_rows,
+            96
+        );
+        let small = DispatchShape::auto(1280, 720, 1, false, 8, u64::MAX);
         assert_eq!(small.bands(720), vec![(0, 720)]);
         // 8K: bands of at most 4 Mpixels, multiples of 8 rows, covering every row once.
-        let huge = DispatchShape::auto(7680, 4320, 1, false);
+        let huge = DispatchShape::auto(7680, 4320, 1, false, 8, u64::MAX);
         let bands = huge.bands(4320);
         assert!(bands.len() >= 8, "{bands:?}");
         let mut next = 0;

@@ -51,7 +51,7 @@ pub struct RenderSession {
     entry: &'static IntegratorInfo,
     integrator: Box<dyn Integrator>,
     pipeline: ComputePipeline,
-    // Scene buffers are kept alive for the pipeline's descriptor set.
+    // Scene and scratch buffers are kept alive for the pipelines' descriptor sets.
     _scene: Vec<Buffer>,
     accum: Buffer,
     /// The integrator's extra per-pixel buffers, in `extra_buffers()` order.
@@ -124,6 +124,10 @@ impl RenderSession {
             BufferUsage::Storage,
         )?;
         ctx.fill_zero(&stats_buf)?;
+        let mut scratch = Vec::new();
+        for b in integrator.scratch_buffers(w, h) {
+            scratch.push((b, Buffer::new(ctx, b.name, b.bytes, BufferUsage::Storage)?));
+        }
         let mut extra = Vec::new();
         for e in integrator.extra_buffers() {
             let bytes = pixels * 16 * e.entries_per_pixel as u64;
@@ -148,6 +152,12 @@ impl RenderSession {
                 buffer: b,
             });
         }
+        for (s, b) in &scratch {
+            bindings.push(Binding {
+                index: s.binding,
+                buffer: b,
+            });
+        }
         let pipeline = ComputePipeline::new(
             ctx,
             options.info().kernel,
@@ -165,7 +175,11 @@ impl RenderSession {
             entry: options.info(),
             integrator,
             pipeline,
-            _scene: scene_buffers.into_iter().map(|(_, b)| b).collect(),
+            _scene: scene_buffers
+                .into_iter()
+                .map(|(_, b)| b)
+                .chain(scratch.into_iter().map(|(_, b)| b))
+                .collect(),
             accum,
             extra,
             stats_buf,
@@ -244,9 +258,26 @@ impl RenderSession {
         if !self.integrator.shapes_dispatch() {
             return DispatchShape::single(self.height);
         }
-        self.shape.unwrap_or_else(|| {
-            DispatchShape::auto(self.width, self.height, spp, self.ctx.info.kind == "cpu")
-        })
+        let limited = |mut s: DispatchShape| {
+            // A shape given by hand still respects the integrator's own limits.
+            let max_rows =
+                self.integrator.max_band_pixels(self.width, self.height) / self.width as u64;
+            s.lanes = s.lanes.min(self.integrator.max_lanes().max(1));
+            if (s.band_rows as u64) > max_rows {
+                s.band_rows = ((max_rows as u32) / 8 * 8).max(8);
+            }
+            s
+        };
+        limited(self.shape.unwrap_or_else(|| {
+            DispatchShape::auto(
+                self.width,
+                self.height,
+                spp,
+                self.ctx.info.kind == "cpu",
+                self.integrator.max_lanes(),
+                self.integrator.max_band_pixels(self.width, self.height),
+            )
+        }))
     }
 
     /// Sets `GpuPush::flags` (testing aids such as `PUSH_FLAG_INJECT_NAN`).
