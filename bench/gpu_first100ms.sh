@@ -3,15 +3,17 @@
 # ../../shared/gpu/README.md), for one binary:
 #   bash bench/gpu_first100ms.sh BIN OUT [--base] [PARTS]
 # PARTS (comma-separated, default all): vct (stage timings, first and later frames, option
-# variants), throughput (pt/nee/bdpt at 1280x720 max_depth 6; nee at 256x256 and 1280x720 on
-# four scenes), bench (`candela bench` GPU busy fraction at short budgets, 256x256 and
-# 1280x720), server (bench/server_latency.py: POST -> first snapshot, busy per integrator and
-# budget, snapshot cadence). --base: a binary from before issue 13 (no kernel cache flags).
+# variants), vctq (vct's error against time with all cones or one cone per sample), bdpt (the
+# split and per-pixel designs), throughput (pt/nee/bdpt at 1280x720 max_depth 6; nee at 256x256
+# and 1280x720 on four scenes), bench (`candela bench` GPU busy fraction at short budgets,
+# 256x256 and 1280x720), server (bench/server_latency.py: POST -> first snapshot, busy per
+# integrator and budget, snapshot cadence; the driver's own shader cache is off there
+# (__GL_SHADER_DISK_CACHE=0), so "cold" is cold). --base: a binary from before issue 13.
 # GPU clocks are sampled every 50 ms into OUT/clocks.csv while it runs.
 set -u
 bin=$1 out=$2
 base=${3:-}
-parts=${4:-vct,throughput,bench,server}
+parts=${4:-vct,vctq,bdpt,throughput,bench,server}
 [ "$base" = "--base" ] || { parts=${3:-$parts}; base=; }
 here=$(cd "$(dirname "$0")" && pwd)
 mkdir -p "$out"
@@ -40,6 +42,25 @@ if [[ $parts == *vct* ]]; then
   render "vct dense" $C --integrator vct --width 1280 --height 720 --spp 16 --options '{"storage": "dense"}'
   render "nee 1spp" $C --integrator nee --width 1280 --height 720 --spp 1
 fi
+if [[ $parts == *vctq* ]]; then
+  # One cone per sample (a random run of the 6) against all 6: the same expected image; error
+  # against a long 6-cone render at equal time.
+  log "vctq"
+  "$bin" render $C -o /tmp/vref.exr --integrator vct --width 1280 --height 720 --spp 512 > /dev/null 2>&1
+  for cps in 6 1; do
+    for t in 0.03 0.1 0.3; do
+      "$bin" render $C -o /tmp/v.exr --integrator vct --width 1280 --height 720 --time $t \
+        --options "{\"cones_per_sample\": $cps}" --json > /tmp/v.json 2>> "$out/stderr.log"
+      "$bin" compare /tmp/v.exr /tmp/vref.exr --json 2>/dev/null | python3 -c "import json,sys; m=json.load(sys.stdin)['metrics']; r=json.load(open('/tmp/v.json')); print(json.dumps({'cones_per_sample': $cps, 'time': $t, 'spp': r['spp'], 'ms_per_frame': 1e3*r['gpu_time_s']/r['spp'], 'rel_mse': m['rel_mse'], 'flip': m['flip']}))" | tee -a "$out/vctq.jsonl"
+    done
+  done
+fi
+if [[ $parts == *bdpt* ]]; then
+  for d in split per_pixel; do
+    render "bdpt $d 720p" $C --integrator bdpt --width 1280 --height 720 --max-depth 6 --spp 64 --options "{\"design\": \"$d\"}"
+    render "bdpt $d 256" $C --integrator bdpt --width 256 --height 256 --max-depth 6 --spp 256 --options "{\"design\": \"$d\"}"
+  done
+fi
 if [[ $parts == *throughput* ]]; then
   for i in nee pt; do render "$i 720p" $C --integrator $i --width 1280 --height 720 --max-depth 6 --spp 256; done
   render "bdpt 720p" $C --integrator bdpt --width 1280 --height 720 --max-depth 6 --spp 64
@@ -59,8 +80,8 @@ if [[ $parts == *bench* ]]; then
 fi
 if [[ $parts == *server* ]]; then
   log "server"
-  timeout 300 python3 "$here/server_latency.py" --candela "$bin" --out "$out/server" ${base:+--base} \
-    > "$out/server.log" 2>&1
+  __GL_SHADER_DISK_CACHE=0 timeout 300 python3 "$here/server_latency.py" --candela "$bin" \
+    --out "$out/server" ${base:+--base} > "$out/server.log" 2>&1
 fi
 log "done"
 kill $smi 2>/dev/null

@@ -499,6 +499,11 @@ impl GpuContext {
             .try_for_each(|r| r.map(|_| ()))
     }
 
+    /// Which driver build this device is (the pipeline cache's key).
+    pub fn driver_key(&self) -> DriverKey {
+        self.pipelines.driver
+    }
+
     /// Saves the pipeline cache to the kernel cache folder if pipelines were made since the
     /// last save.
     pub fn save_pipeline_cache(&self) {

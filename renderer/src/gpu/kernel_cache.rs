@@ -240,11 +240,17 @@ fn load_or_compile(path: &str, defines: &ShaderDefines, dir: Option<&Path>) -> C
 }
 
 fn spirv_words(bytes: &[u8]) -> Option<Vec<u32>> {
-    if bytes.len() % 4 != 0 || bytes.len() < 20 {
+    if !bytes.len().is_multiple_of(4) || bytes.len() < 20 {
         return None;
     }
     let words: Vec<u32> = bytemuck::pod_collect_to_vec(bytes);
     (words[0] == SPIRV_MAGIC).then_some(words)
+}
+
+/// Compiles kernel `path` with `defines` with glslang, bypassing every cache (tests compare it
+/// across threads); the error is glslang's log.
+pub fn compile_uncached(path: &str, defines: &ShaderDefines) -> Result<Vec<u32>, String> {
+    glslang_compile(path, defines)
 }
 
 /// Compiles every kernel of `list` (missing from memory) on up to 8 threads at once, through
@@ -261,8 +267,8 @@ pub fn compile_kernels(
         return list.iter().map(|(p, d)| kernel_spirv(p, d, dir)).collect();
     }
     let next = AtomicUsize::new(0);
-    let results: Vec<Mutex<Option<GpuResult<Arc<Vec<u32>>>>>> =
-        list.iter().map(|_| Mutex::new(None)).collect();
+    type Done = Mutex<Option<GpuResult<Arc<Vec<u32>>>>>;
+    let results: Vec<Done> = list.iter().map(|_| Mutex::new(None)).collect();
     std::thread::scope(|scope| {
         for _ in 0..threads {
             let _ = std::thread::Builder::new()
@@ -304,6 +310,21 @@ impl DriverKey {
             driver_version: props.driver_version,
             pipeline_cache_uuid: props.pipeline_cache_uuid,
         }
+    }
+
+    /// The pipeline cache data stored for this driver in `dir`: `Ok(None)` without a file,
+    /// `Err(why)` for an unusable one (truncated, corrupt, or made by another driver).
+    pub fn read_file(&self, dir: &Path) -> Result<Option<Vec<u8>>, String> {
+        let Some(data) = read_checked(&self.file(dir), PIPELINE_FILE, self.hash())? else {
+            return Ok(None);
+        };
+        self.check_payload(&data)?;
+        Ok(Some(data))
+    }
+
+    /// Stores pipeline cache `data` for this driver in `dir` (atomically).
+    pub fn write_file(&self, dir: &Path, data: &[u8]) -> std::io::Result<()> {
+        write_checked(&self.file(dir), PIPELINE_FILE, self.hash(), data)
     }
 
     fn hash(&self) -> [u64; 2] {
@@ -352,10 +373,13 @@ impl DriverKey {
 /// The device's `VkPipelineCache` and where it is kept.
 pub struct PipelineCache {
     pub(crate) raw: vk::PipelineCache,
-    file: Option<PathBuf>,
-    driver: DriverKey,
-    /// Pipelines created since the cache was last saved, and whether a save is running.
+    /// The kernel cache folder it is saved to.
+    dir: Option<PathBuf>,
+    pub(crate) driver: DriverKey,
+    /// Pipelines created since the cache was last checked, the data size last saved (or
+    /// loaded), and whether a save is running.
     unsaved: AtomicU64,
+    saved_bytes: AtomicU64,
     saving: AtomicBool,
 }
 
@@ -386,9 +410,10 @@ impl PipelineCache {
             .map_err(GpuError::vk("create pipeline cache"))?;
         Ok(PipelineCache {
             raw,
-            file,
+            dir: dir.map(Path::to_path_buf),
             driver,
             unsaved: AtomicU64::new(0),
+            saved_bytes: AtomicU64::new(initial.len() as u64),
             saving: AtomicBool::new(false),
         })
     }
@@ -399,13 +424,14 @@ impl PipelineCache {
 
     /// Whether pipelines were made since the last save (and there is a file to save to).
     pub(crate) fn dirty(&self) -> bool {
-        self.file.is_some() && self.unsaved.load(Ordering::Relaxed) > 0
+        self.dir.is_some() && self.unsaved.load(Ordering::Relaxed) > 0
     }
 
-    /// Writes the cache's data to its file (no-op without a file or new pipelines, or while
-    /// another save runs).
+    /// Writes the cache's data to its file (no-op without a folder, without new pipelines or
+    /// when the driver's data did not grow (pipelines found in the cache), or while another
+    /// save runs).
     pub(crate) fn save(&self, device: &ash::Device) {
-        let Some(file) = &self.file else { return };
+        let Some(dir) = &self.dir else { return };
         if !self.dirty() || self.saving.swap(true, Ordering::AcqRel) {
             return;
         }
@@ -415,11 +441,18 @@ impl PipelineCache {
         let r = unsafe { device.get_pipeline_cache_data(self.raw) }
             .map_err(|e| e.to_string())
             .and_then(|data| {
-                write_checked(file, PIPELINE_FILE, self.driver.hash(), &data)
-                    .map_err(|e| e.to_string())
+                if data.len() as u64 == self.saved_bytes.load(Ordering::Acquire) {
+                    return Ok(()); // nothing new
+                }
+                self.driver
+                    .write_file(dir, &data)
+                    .map_err(|e| e.to_string())?;
+                self.saved_bytes.store(data.len() as u64, Ordering::Release);
+                Ok(())
             });
         if let Err(e) = r {
             self.unsaved.fetch_add(pending, Ordering::Relaxed);
+            let file = self.driver.file(dir);
             tracing::warn!("pipeline cache {}: not saved: {e}", file.display());
         }
         self.saving.store(false, Ordering::Release);

@@ -19,8 +19,8 @@ pub use buffer::{Buffer, BufferUsage};
 pub use commands::{DispatchTiming, Frame, Recorder};
 pub use context::{list_devices, DeviceInfo, GpuContext, GpuOptions};
 pub use kernel_cache::{
-    compile_glsl, compile_kernels, kernel_spirv, kernel_stats, source_closure, spirv_key,
-    spirv_path, DriverKey, KernelStats,
+    compile_glsl, compile_kernels, compile_uncached, kernel_spirv, kernel_stats, source_closure,
+    spirv_key, spirv_path, DriverKey, KernelStats,
 };
 pub use pipeline::{Binding, ComputePipeline};
 pub use shader::{shader_source, ShaderDefines, COMPILER_ID};

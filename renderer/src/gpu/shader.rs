@@ -101,7 +101,7 @@ pub(crate) fn glslang_compile(path: &str, defines: &ShaderDefines) -> Result<Vec
         .filter(|v| v != "0")
         .map(|_| SERIAL.lock().unwrap_or_else(|e| e.into_inner()));
     let compiler = glslang::Compiler::acquire().ok_or("glslang failed to initialise")?;
-    let source = ShaderSource::try_from(text.to_string()).map_err(|e| e.to_string())?;
+    let source = ShaderSource::from(text.to_string());
     let options = CompilerOptions {
         source_language: SourceLanguage::GLSL,
         target: Target::Vulkan {

@@ -79,7 +79,7 @@ impl DispatchShape {
         if !lanes.is_power_of_two() || lanes > MAX_LANES {
             return Err(format!("lanes must be 1, 2, 4 or 8, got {lanes}"));
         }
-        if band_rows == 0 || band_rows % TILE != 0 {
+        if band_rows == 0 || !band_rows.is_multiple_of(TILE) {
             return Err(format!(
                 "band rows must be a positive multiple of 8, got {band_rows}"
             ));

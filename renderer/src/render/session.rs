@@ -169,7 +169,6 @@ impl RenderSession {
         integrator.setup(ctx, scene, &bindings, &defines)?;
         drop(bindings);
         ctx.check_validation()?;
-        ctx.save_pipeline_cache_later();
         Ok(RenderSession {
             ctx: ctx.clone(),
             entry: options.info(),

@@ -286,7 +286,10 @@ mod tests {
         // The insert's `state`, then progress/snapshot pairs in submission order.
         assert_eq!(kinds[0], "state");
         let rest = &events[1..];
-        assert!(!rest.is_empty() && rest.len() % 2 == 0, "{kinds:?}");
+        assert!(
+            !rest.is_empty() && rest.len().is_multiple_of(2),
+            "{kinds:?}"
+        );
         let mut last_spp = 0;
         let mut last_rel = f64::INFINITY;
         for pair in rest.chunks(2) {

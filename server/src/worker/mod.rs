@@ -342,6 +342,8 @@ impl Worker {
             }
         }
         info!(job = id, name = %rec.name, "rendering");
+        // New pipelines go to the kernel cache folder, off this thread.
+        ctx.save_pipeline_cache_later();
         self.active.insert(id, ActiveJob::new(session, s, paths));
         self.sched.add(id, priority);
     }
