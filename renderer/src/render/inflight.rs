@@ -67,9 +67,21 @@ impl AccumSnapshot {
         Ok(bytemuck::pod_collect_to_vec(&bytes[..n * 16]))
     }
 
-    /// The image, as the integrator resolves it.
+    /// The image, as the integrator resolves it (read in place where the mapping is aligned).
     pub fn image(&self) -> Result<Image, RenderError> {
-        let all = self.entries()?;
+        let n: usize = self.parts.iter().sum();
+        let copy;
+        let all: &[[f32; 4]] = match self
+            .buffer
+            .mapped()
+            .and_then(|b| bytemuck::try_cast_slice(&b[..n * 16]).ok())
+        {
+            Some(words) => words,
+            None => {
+                copy = self.entries()?;
+                &copy
+            }
+        };
         let mut parts = Vec::with_capacity(self.parts.len());
         let mut at = 0;
         for &len in &self.parts {

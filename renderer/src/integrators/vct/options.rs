@@ -42,9 +42,10 @@ pub struct VctOptions {
     pub storage: Option<VctStorage>,
     /// Diffuse cones per shaded point (1..=32, default 6).
     pub cones: Option<u32>,
-    /// Diffuse cones traced per sample (1..=cones, default all): each sample traces this many
+    /// Diffuse cones traced per sample (1..=cones, default 1): each sample traces this many
     /// consecutive directions of the `cones` spiral from a random one, weighted by
-    /// cones / cones_per_sample, so the expected image is the same and a frame is cheaper.
+    /// cones / cones_per_sample, so the expected image is the same as with all of them and a
+    /// frame is cheaper (on an H100 one cone per sample reached a lower error in equal time).
     pub cones_per_sample: Option<u32>,
     /// Full aperture of the diffuse cones in degrees (1..=120, default 60).
     pub cone_aperture: Option<f32>,
@@ -93,7 +94,7 @@ impl OptionsInfo for VctOptions {
         OptionField {
             name: "cones_per_sample",
             kind: "integer",
-            help: "diffuse cones traced per sample, 1..=cones (default all): a random run of them, weighted so the expected image is the same",
+            help: "diffuse cones traced per sample, 1..=cones (default 1): a random run of them, weighted so the expected image is the same as with all",
         },
         OptionField {
             name: "cone_aperture",
@@ -195,7 +196,7 @@ impl VctOptions {
         if !(1..=32).contains(&cones) {
             return Err(bad("cones", format!("must be 1..=32, got {cones}")));
         }
-        let cones_per_sample = self.cones_per_sample.unwrap_or(cones);
+        let cones_per_sample = self.cones_per_sample.unwrap_or(1);
         if !(1..=cones).contains(&cones_per_sample) {
             return Err(bad(
                 "cones_per_sample",
