@@ -64,6 +64,12 @@ fi
 if [[ $parts == *throughput* ]]; then
   for i in nee pt; do render "$i 720p" $C --integrator $i --width 1280 --height 720 --max-depth 6 --spp 256; done
   render "bdpt 720p" $C --integrator bdpt --width 1280 --height 720 --max-depth 6 --spp 64
+  # Threads per pixel on a small film (CANDELA_MAX_LANES caps the automatic choice).
+  if [ -z "$base" ]; then
+    for l in 1 2 4 8; do
+      CANDELA_MAX_LANES=$l render "nee 256 lanes $l" $C --integrator nee --width 256 --height 256 --spp 1024
+    done
+  fi
   for s in cornell lights mirror_glass envmap; do
     render "nee 256 $s" scenes/$s.json --integrator nee --width 256 --height 256 --spp 1024
     render "nee 720p $s" scenes/$s.json --integrator nee --width 1280 --height 720 --spp 256

@@ -267,13 +267,20 @@ impl RenderSession {
             }
             s
         };
+        // Benchmark knob: CANDELA_MAX_LANES caps the lanes (bench/gpu_first100ms.sh sweeps it).
+        let max_lanes = std::env::var("CANDELA_MAX_LANES")
+            .ok()
+            .and_then(|v| v.parse::<u32>().ok())
+            .map_or(self.integrator.max_lanes(), |m| {
+                m.min(self.integrator.max_lanes())
+            });
         limited(self.shape.unwrap_or_else(|| {
             DispatchShape::auto(
                 self.width,
                 self.height,
                 spp,
                 self.ctx.info.kind == "cpu",
-                self.integrator.max_lanes(),
+                max_lanes,
                 self.integrator.max_band_pixels(self.width, self.height),
             )
         }))

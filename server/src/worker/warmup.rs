@@ -6,9 +6,9 @@
 //!
 //! 1. every kernel (path, defines) is compiled, all in parallel (gpu::compile_kernels), from
 //!    the kernel cache when it holds them;
-//! 2. a session of the scene at 8×8 pixels is created, which creates the pipelines (the
-//!    driver's compile, kept in its pipeline cache) and, for vct, builds the scene's volume
-//!    (kept in the in-process volume cache).
+//! 2. a session of the scene at 8×8 pixels is created, on several threads at once, which
+//!    creates the pipelines (the driver's compile, kept in its pipeline cache) and, for vct,
+//!    builds the scene's volume (kept in the in-process volume cache).
 //!
 //! Jobs do not wait for it: a job that needs a kernel being compiled waits for that compile
 //! alone. Progress is in `GET /api/health` (`kernels`).
@@ -79,19 +79,33 @@ fn run(ctx: &Arc<GpuContext>, config: &ServerConfig, shared: &Shared, integrator
     if let Err(e) = ctx.compile_kernels(&kernels) {
         warn!(error = %e, "kernel warm-up: compiling");
     }
-    // Step 3: one small session per variant (pipelines, vct volumes).
-    for v in &variants {
-        let p = &scenes[v.scene];
-        if let Err(e) = p.session(ctx, &v.options, 0) {
-            warn!(integrator = v.options.name(), error = %e, "kernel warm-up: session");
+    // Step 3: one small session per variant (pipelines, vct volumes), several at once: the
+    // driver compiles pipelines on the calling thread.
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let status = std::sync::Mutex::new(status);
+    let threads = std::thread::available_parallelism()
+        .map_or(2, |n| n.get())
+        .clamp(1, 8);
+    std::thread::scope(|scope| {
+        for _ in 0..threads.min(variants.len()) {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(v) = variants.get(i) else { break };
+                let p = &scenes[v.scene];
+                if let Err(e) = p.session(ctx, &v.options, 0) {
+                    warn!(integrator = v.options.name(), error = %e, "kernel warm-up: session");
+                }
+                let mut st = status.lock().unwrap_or_else(|e| e.into_inner());
+                st.built += 1;
+                let k = kernel_stats().since(&before);
+                st.compiled = k.compiled;
+                st.disk_hits = k.disk_hits;
+                st.seconds = start.elapsed().as_secs_f64();
+                shared.set_kernels(st.clone());
+            });
         }
-        status.built += 1;
-        let k = kernel_stats().since(&before);
-        status.compiled = k.compiled;
-        status.disk_hits = k.disk_hits;
-        status.seconds = start.elapsed().as_secs_f64();
-        shared.set_kernels(status.clone());
-    }
+    });
+    let mut status = status.into_inner().unwrap_or_else(|e| e.into_inner());
     ctx.save_pipeline_cache();
     status.state = "ready";
     status.seconds = start.elapsed().as_secs_f64();
