@@ -21,7 +21,8 @@
 //!   Davidovič et al. 2014's light-vertex *cache* (each camera vertex joined to a few random
 //!   cached vertices): it changes the estimator; this keeps pbrt's and still separates the
 //!   walks. The buffer holds a band of at most [`LIGHT_BUFFER_BYTES`]; a pass is two dispatches
-//!   per sample and band.
+//!   per sample and band. On an H100 (Cornell box, 1280×720, max_depth 6) it renders 123.5
+//!   Msamples/s against the per-pixel design's 99.8 (bench/RESULTS.md).
 //!
 //! Per-thread state is bounded by the array's capacity, compiled in as `BDPT_DEPTH_CAP`:
 //! [`SMALL_DEPTH_CAP`] segments for max_depth up to that (one kernel for the usual depths), else
