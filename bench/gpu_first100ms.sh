@@ -101,7 +101,7 @@ for l in open(sys.argv[1]):
     d = r.get("details") or {}
     t = d.get("timings_ms", {})
     fp = r.get("first_pass") or {}
-    k = r.get("kernels") or {}
+    k = r.get("kernel_build") or {}
     print(f"{r['integrator']:8} {r['width']}x{r['height']} {r['spp']:5} spp {r['time_s']:.3f} s gpu {r['gpu_time_s']:.3f} "
           f"setup {r['setup_s']:.2f} {r['msamples_per_s']:8.1f} Ms/s first {fp.get('gpu_ms', 0):.1f} ms "
           f"compile {k.get('compile_ms', 0):.0f} pipe {k.get('pipeline_ms', 0):.0f} "

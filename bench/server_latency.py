@@ -131,7 +131,7 @@ def run_job(server, body, fetch_png=False):
         "snapshots": snapshots,
         "end_s": time.perf_counter() - t0,
         "stats": {k: stats.get(k) for k in ("spp", "passes", "time_s", "gpu_time_s", "setup_s",
-                                             "msamples_per_s", "kernels", "width", "height",
+                                             "msamples_per_s", "kernel_build", "width", "height",
                                              "first_pass")},
         "details": stats.get("details"),
     }

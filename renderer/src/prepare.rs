@@ -13,7 +13,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use crate::accel::{AccelOptions, AccelRequest};
-use crate::compile::{compile_with, CompileError, CompileOptions, CompiledScene};
+use crate::compile::{compile_with, CompileError, CompileOptions, CompiledScene, KernelMode};
 use crate::error::RenderError;
 use crate::gpu::GpuContext;
 use crate::integrators::IntegratorOptions;
@@ -69,6 +69,8 @@ pub struct PrepareOptions<'a> {
     pub accel: AccelRequest<'a>,
     /// Directory of the acceleration-structure cache (None: always build).
     pub cache: Option<&'a Path>,
+    /// Kernels specialised to the scene (default) or generic.
+    pub kernels: KernelMode,
 }
 
 /// Why a scene could not be prepared; each names the setting at fault.
@@ -93,6 +95,8 @@ pub struct PreparedScene {
     pub scene_max_depth: Option<i32>,
     /// Wall time of steps 1-3.
     pub prepare_time: Duration,
+    /// The kernels its sessions compile.
+    pub kernels: KernelMode,
 }
 
 /// Steps 1-3: film size, acceleration structure, compiled scene.
@@ -119,6 +123,7 @@ pub fn prepare(scene: &Scene, o: &PrepareOptions<'_>) -> Result<PreparedScene, P
         compiled,
         scene_max_depth: scene.render.max_depth,
         prepare_time: start.elapsed(),
+        kernels: o.kernels,
     })
 }
 
@@ -131,7 +136,14 @@ impl PreparedScene {
         integrator: &IntegratorOptions,
         seed: u64,
     ) -> Result<RenderSession, RenderError> {
-        RenderSession::new(ctx, &self.compiled, integrator, self.scene_max_depth, seed)
+        RenderSession::with_kernels(
+            ctx,
+            &self.compiled,
+            integrator,
+            self.scene_max_depth,
+            seed,
+            self.kernels,
+        )
     }
 }
 

@@ -14,7 +14,7 @@ use renderer::gpu::{compile_uncached, DriverKey};
 use serde_json::Value;
 
 /// Renders the Cornell box at 8×8 with `nee` through the CLI with the kernel cache in `dir`;
-/// returns the report's `kernels` object and stderr.
+/// returns the report's `kernel_build` object and stderr.
 fn render(dir: &Path) -> (Value, String) {
     let out = dir.join("out.exr");
     let o = run_candela(&[
@@ -37,7 +37,7 @@ fn render(dir: &Path) -> (Value, String) {
     ]);
     assert!(o.status.success(), "{}", text(&o.stderr));
     let report: Value = serde_json::from_slice(&o.stdout).expect("JSON report");
-    (report["kernels"].clone(), text(&o.stderr))
+    (report["kernel_build"].clone(), text(&o.stderr))
 }
 
 fn files(dir: &Path, prefix: &str) -> Vec<std::path::PathBuf> {

@@ -70,7 +70,7 @@ fn warm_kernels_and_snapshot_cadence() {
     );
 
     // Step 3: warmed, the job built no kernel and no pipeline.
-    let k = &done["stats"]["kernels"];
+    let k = &done["stats"]["kernel_build"];
     assert_eq!(k["compiled"], 0, "{k}");
     assert_eq!(k["pipelines"], 0, "{k}");
 }

@@ -119,13 +119,6 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
     g
 }
 
-/// Whether the material reads any texture (colour, scalar or alpha mask).
-pub fn uses_textures(g: &GpuMaterial) -> bool {
-    g.header[2] != NONE
-        || g.colors.iter().any(|c| c[3].to_bits() != NONE)
-        || g.scalar_tex.iter().any(|&t| t != NONE)
-}
-
 /// Packs textures into (descriptors, texels). `clamp_rows[i]` marks environment maps.
 pub fn pack_textures(
     textures: &[Texture],

@@ -4,6 +4,7 @@
 //! Precision: every position is `world − camera` computed in f64 and only then rounded to f32,
 //! so a scene translated by 1e5 units renders exactly like one at the origin.
 
+mod features;
 mod lights;
 mod materials;
 
@@ -16,40 +17,8 @@ use crate::accel::grid::Grid;
 use crate::accel::{self, AccelError, AccelInfo, AccelOptions, PrimBounds};
 use crate::layout::*;
 use crate::scene::{Environment, Filter, Light, Scene};
+pub use features::{FeatureSet, KernelMode};
 pub use lights::{alias_table, luminance};
-
-/// What the scene uses; each flag becomes a `#define` of the same name for the kernels, and
-/// buffers of absent features are left at their 16-byte minimum.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, serde::Serialize)]
-pub struct FeatureSet {
-    pub spheres: bool,
-    pub tri_shading: bool,
-    pub textures: bool,
-    pub alpha: bool,
-    pub env_map: bool,
-    pub delta_lights: bool,
-}
-
-impl FeatureSet {
-    /// The kernel defines for this set.
-    pub fn defines(&self) -> Vec<(String, String)> {
-        let mut d = Vec::new();
-        let flags = [
-            (self.spheres, "HAS_SPHERES"),
-            (self.tri_shading, "HAS_TRI_SHADING"),
-            (self.textures, "HAS_TEXTURES"),
-            (self.alpha, "HAS_ALPHA"),
-            (self.env_map, "HAS_ENV_MAP"),
-            (self.delta_lights, "HAS_DELTA_LIGHTS"),
-        ];
-        for (on, name) in flags {
-            if on {
-                d.push((name.to_string(), "1".to_string()));
-            }
-        }
-        d
-    }
-}
 
 /// The scene in GPU form, ready to upload.
 #[derive(Debug, Clone)]
@@ -150,7 +119,7 @@ pub fn compile_with(
 ) -> Result<CompiledScene, CompileError> {
     let origin = scene.camera.position;
     let rel = |p: DVec3| p - origin;
-    let mut features = FeatureSet::default();
+    let features = FeatureSet::detect(scene);
 
     // Step 1: materials and textures.
     let materials: Vec<GpuMaterial> = scene
@@ -158,7 +127,6 @@ pub fn compile_with(
         .iter()
         .map(materials::gpu_material)
         .collect();
-    features.textures = materials.iter().any(materials::uses_textures);
     let alpha_material: Vec<bool> = scene
         .materials
         .iter()
@@ -181,7 +149,6 @@ pub fn compile_with(
             let mut flags = m & PRIM_MATERIAL_MASK;
             if alpha_material.get(m as usize).copied().unwrap_or(false) {
                 flags |= PRIM_ALPHA;
-                features.alpha = true;
             }
             let shading = if shaded {
                 let n = |k: usize| {
@@ -227,9 +194,7 @@ pub fn compile_with(
             triangle_count += 1;
         }
     }
-    features.tri_shading = !tri_shading.is_empty();
     for s in &scene.spheres {
-        features.spheres = true;
         let c = rel(s.center);
         let mut flags = PRIM_SPHERE | (s.material & PRIM_MATERIAL_MASK);
         if s.flip_normals {
@@ -304,7 +269,6 @@ pub fn compile_with(
         sorted[slot].b[3] = f32::from_bits(li);
     }
     for l in &scene.lights {
-        features.delta_lights = true;
         match l {
             Light::Point {
                 position,
@@ -352,8 +316,6 @@ pub fn compile_with(
                 let a = rotate_y.to_radians();
                 env_params = [*scale, a.cos(), a.sin(), 0.0];
                 clamp_rows[*texture as usize] = true;
-                features.env_map = true;
-                features.textures = true;
             }
         }
         _ => {}

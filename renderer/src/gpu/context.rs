@@ -71,6 +71,9 @@ pub struct GpuContext {
     /// `atomicAdd` floats in storage buffers (bdpt's light-tracing splats; without it they use
     /// an integer fixed-point fallback).
     pub float_atomics: bool,
+    /// VK_KHR_pipeline_executable_properties is enabled: pipelines report their compiled
+    /// statistics (registers, shared memory, ... as the driver names them).
+    pub(crate) executable_properties: Option<ash::khr::pipeline_executable_properties::Device>,
 }
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
@@ -321,11 +324,13 @@ fn pick_device(instance: &ash::Instance, filter: Option<&str>) -> GpuResult<Cand
     Ok(cands[pick].clone())
 }
 
-/// The logical device, its queue, and whether float atomics are enabled.
+/// The logical device, its queue, and the optional features enabled.
 struct DeviceParts {
     device: ash::Device,
     queue: vk::Queue,
     float_atomics: bool,
+    /// VK_KHR_pipeline_executable_properties with `pipelineExecutableInfo`.
+    executable_properties: bool,
 }
 
 /// Creates the logical device with the features the kernels use: scalar block layout (required),
@@ -350,11 +355,20 @@ fn create_device(
             .map(|n| n == ash::ext::shader_atomic_float::NAME)
             .unwrap_or(false)
     });
+    let has_executable_properties_ext = device_exts.iter().any(|e| {
+        e.extension_name_as_c_str()
+            .map(|n| n == ash::khr::pipeline_executable_properties::NAME)
+            .unwrap_or(false)
+    });
+    let mut executable_info = vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default();
     let mut atomic_float = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default();
     let base_features = {
         let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12);
         if has_atomic_float_ext {
             f2 = f2.push_next(&mut atomic_float);
+        }
+        if has_executable_properties_ext {
+            f2 = f2.push_next(&mut executable_info);
         }
         // SAFETY: valid physical device and feature chain.
         unsafe { instance.get_physical_device_features2(physical, &mut f2) };
@@ -377,11 +391,18 @@ fn create_device(
         has_atomic_float_ext && atomic_float.shader_buffer_float32_atomic_add == vk::TRUE;
     let mut en_atomic_float = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default()
         .shader_buffer_float32_atomic_add(true);
-    let device_ext_ptrs: Vec<*const i8> = if float_atomics {
-        vec![ash::ext::shader_atomic_float::NAME.as_ptr()]
-    } else {
-        vec![]
-    };
+    let executable_properties =
+        has_executable_properties_ext && executable_info.pipeline_executable_info == vk::TRUE;
+    let mut en_executable_info =
+        vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default()
+            .pipeline_executable_info(true);
+    let mut device_ext_ptrs: Vec<*const i8> = Vec::new();
+    if float_atomics {
+        device_ext_ptrs.push(ash::ext::shader_atomic_float::NAME.as_ptr());
+    }
+    if executable_properties {
+        device_ext_ptrs.push(ash::khr::pipeline_executable_properties::NAME.as_ptr());
+    }
     let mut dci = vk::DeviceCreateInfo::default()
         .queue_create_infos(&qci)
         .enabled_features(&base)
@@ -389,6 +410,9 @@ fn create_device(
         .push_next(&mut en12);
     if float_atomics {
         dci = dci.push_next(&mut en_atomic_float);
+    }
+    if executable_properties {
+        dci = dci.push_next(&mut en_executable_info);
     }
     // SAFETY: valid create info referencing live locals.
     let device = unsafe { instance.create_device(physical, &dci, None) }
@@ -399,6 +423,7 @@ fn create_device(
         device,
         queue,
         float_atomics,
+        executable_properties,
     })
 }
 
@@ -422,7 +447,10 @@ impl GpuContext {
             device,
             queue,
             float_atomics,
+            executable_properties,
         } = create_device(&instance, physical, queue_family, &info)?;
+        let executable_properties = executable_properties
+            .then(|| ash::khr::pipeline_executable_properties::Device::new(&instance, &device));
         // Step 4: the allocator, debug labels and timestamp support.
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: instance.clone(),
@@ -467,6 +495,7 @@ impl GpuContext {
             kernel_dir: opts.kernel_cache.clone(),
             last_completion: Mutex::new(None),
             float_atomics,
+            executable_properties,
         })
     }
 

@@ -121,7 +121,15 @@ fn create_object(
                 .stage(vk::ShaderStageFlags::COMPUTE)
                 .module(module)
                 .name(c"main");
+            // With VK_KHR_pipeline_executable_properties the driver keeps the compiled code's
+            // statistics (registers, ...) for `statistics()`.
+            let flags = if ctx.executable_properties.is_some() {
+                vk::PipelineCreateFlags::CAPTURE_STATISTICS_KHR
+            } else {
+                vk::PipelineCreateFlags::empty()
+            };
             let ci = [vk::ComputePipelineCreateInfo::default()
+                .flags(flags)
                 .stage(stage)
                 .layout(o.layout)];
             let start = std::time::Instant::now();
@@ -233,6 +241,51 @@ impl ComputePipeline {
             dev.update_descriptor_sets(&writes, &[]);
         }
         Ok(p)
+    }
+}
+
+impl ComputePipeline {
+    /// What the driver reports about the compiled kernel (VK_KHR_pipeline_executable_properties:
+    /// on NVIDIA e.g. "Register Count", "Shared Memory Size", ...), as (name, value) pairs in the
+    /// driver's order; empty where the extension is missing.
+    pub fn statistics(&self) -> Vec<(String, f64)> {
+        let Some(ext) = &self.ctx.executable_properties else {
+            return Vec::new();
+        };
+        let info = vk::PipelineInfoKHR::default().pipeline(self.pipeline);
+        // SAFETY: a live pipeline created with CAPTURE_STATISTICS; the returned structs are
+        // plain data read immediately.
+        let Ok(executables) = (unsafe { ext.get_pipeline_executable_properties(&info) }) else {
+            return Vec::new();
+        };
+        let mut out = Vec::new();
+        for index in 0..executables.len() as u32 {
+            let ei = vk::PipelineExecutableInfoKHR::default()
+                .pipeline(self.pipeline)
+                .executable_index(index);
+            // SAFETY: as above.
+            let Ok(stats) = (unsafe { ext.get_pipeline_executable_statistics(&ei) }) else {
+                continue;
+            };
+            for st in stats {
+                let name = st
+                    .name_as_c_str()
+                    .map(|c| c.to_string_lossy().into_owned())
+                    .unwrap_or_default();
+                // SAFETY: `format` says which member of the union is set.
+                let value = unsafe {
+                    match st.format {
+                        vk::PipelineExecutableStatisticFormatKHR::BOOL32 => st.value.b32 as f64,
+                        vk::PipelineExecutableStatisticFormatKHR::INT64 => st.value.i64 as f64,
+                        vk::PipelineExecutableStatisticFormatKHR::UINT64 => st.value.u64 as f64,
+                        vk::PipelineExecutableStatisticFormatKHR::FLOAT64 => st.value.f64,
+                        _ => continue,
+                    }
+                };
+                out.push((name, value));
+            }
+        }
+        out
     }
 }
 

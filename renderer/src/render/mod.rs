@@ -66,7 +66,17 @@ pub struct RenderStats {
     pub bvh_depth: usize,
     pub bvh_build_s: f64,
     pub setup_s: f64,
-    pub features: crate::compile::FeatureSet,
+    /// Of `setup_s`: building the pass kernel (compiling it, or the in-process cache, and the
+    /// pipeline).
+    pub kernel_s: f64,
+    /// The pass kernel as the driver compiled it (VK_KHR_pipeline_executable_properties, e.g.
+    /// NVIDIA's "Register Count"); empty where the driver does not report it.
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub kernel_stats: std::collections::BTreeMap<String, f64>,
+    /// The features the kernels were compiled for (`spheres`, `mat_diffuse`, ...).
+    pub features: Vec<&'static str>,
+    /// "specialized" (to the scene's features) or "generic" (every feature).
+    pub kernels: crate::compile::KernelMode,
     /// The acceleration structure: "bvh" or "grid".
     pub accel: String,
     /// Seconds to obtain it: its build, or loading it from the cache on a hit.
@@ -81,8 +91,9 @@ pub struct RenderStats {
     /// Grid only: primitive references over all cells.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub grid_refs: Option<u64>,
-    /// Building the kernels: compiles, cache hits, pipelines and their milliseconds.
-    pub kernels: crate::gpu::KernelStats,
+    /// What building the session's kernels took: compiles, kernel-cache hits, pipelines and
+    /// their milliseconds.
+    pub kernel_build: crate::gpu::KernelStats,
     /// The session's first pass (None before one, or after a restore).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub first_pass: Option<FirstPass>,

@@ -14,7 +14,7 @@ use super::inflight::{
     charge, snapshot_target, CompletedPass, InFlight, PassRing, PassStats, PIPELINE_DEPTH,
 };
 use super::{RenderError, RenderStats};
-use crate::compile::CompiledScene;
+use crate::compile::{CompiledScene, KernelMode};
 use crate::film::Image;
 use crate::gpu::{
     kernel_stats, Binding, Buffer, BufferUsage, ComputePipeline, GpuContext, KernelStats,
@@ -67,6 +67,8 @@ pub struct RenderSession {
     elapsed: Duration,
     gpu_time: Duration,
     setup: Duration,
+    /// Building the pass kernel: GLSL → SPIR-V (or the in-process cache) and the pipeline.
+    kernel_time: Duration,
     info: SceneInfo,
     flags: u32,
     /// Most dispatches a pass is split into ([`LLVMPIPE_MAX_DISPATCHES`] on llvmpipe, else 1).
@@ -76,7 +78,7 @@ pub struct RenderSession {
     /// Passes queued on the GPU and spare frames.
     ring: PassRing,
     /// What building the kernels took (compiles, cache hits, pipelines).
-    kernels: KernelStats,
+    kernel_build: KernelStats,
     /// The first pass this session ran (a GPU coming from idle runs it at low clocks).
     first_pass: Option<PassStats>,
 }
@@ -89,6 +91,7 @@ struct SceneInfo {
     bvh_depth: usize,
     bvh_build: Duration,
     features: crate::compile::FeatureSet,
+    kernels: KernelMode,
     accel: crate::accel::AccelInfo,
 }
 
@@ -101,15 +104,35 @@ impl RenderSession {
         scene_max_depth: Option<i32>,
         seed: u64,
     ) -> Result<Self, RenderError> {
+        Self::with_kernels(
+            ctx,
+            scene,
+            options,
+            scene_max_depth,
+            seed,
+            KernelMode::Specialized,
+        )
+    }
+
+    /// [`Self::new`] with a choice of kernels: specialised to the scene's features, or generic.
+    pub fn with_kernels(
+        ctx: &Arc<GpuContext>,
+        scene: &CompiledScene,
+        options: &IntegratorOptions,
+        scene_max_depth: Option<i32>,
+        seed: u64,
+        kernels: KernelMode,
+    ) -> Result<Self, RenderError> {
         let start = Instant::now();
         let kernels_before = kernel_stats();
         let mut integrator = options.build(scene_max_depth);
         integrator.prepare(ctx);
-        // Step 0: every kernel the session will build, compiled in parallel where not cached.
-        let defines = Self::defines(scene, integrator.as_ref());
-        let mut kernels = vec![(options.info().kernel.to_string(), defines.clone())];
-        kernels.extend(integrator.kernels(&defines));
-        ctx.compile_kernels(&kernels)?;
+        // Step 0: every kernel the session will build (specialised for the scene's features,
+        // or generic, and the integrator's own defines), compiled in parallel where not cached.
+        let defines = Self::defines(scene, integrator.as_ref(), kernels);
+        let mut list = vec![(options.info().kernel.to_string(), defines.clone())];
+        list.extend(integrator.kernels(&defines));
+        ctx.compile_kernels(&list)?;
         let (w, h) = (scene.width, scene.height);
         let pixels = w as u64 * h as u64;
         // Step 1: scene buffers, each at its named binding.
@@ -135,7 +158,9 @@ impl RenderSession {
             ctx.fill_zero(&b)?;
             extra.push((e, b));
         }
-        // Step 3: the kernel, specialised for the scene's features (and the integrator's own).
+        // Step 3: the pass kernel.
+        let features = scene.features.for_mode(kernels);
+        let kernel_start = Instant::now();
         let spirv = ctx.kernel(options.info().kernel, &defines)?;
         let mut bindings = as_bindings(&scene_buffers);
         bindings.push(Binding {
@@ -165,6 +190,7 @@ impl RenderSession {
             &bindings,
             std::mem::size_of::<GpuPush>() as u32,
         )?;
+        let kernel_time = kernel_start.elapsed();
         // Step 4: the integrator's own stages (buffers, pipelines, scene-only work).
         integrator.setup(ctx, scene, &bindings, &defines)?;
         drop(bindings);
@@ -192,6 +218,7 @@ impl RenderSession {
             elapsed: Duration::ZERO,
             gpu_time: Duration::ZERO,
             setup: start.elapsed(),
+            kernel_time,
             flags: 0,
             split_limit: if ctx.info.name.contains("llvmpipe") {
                 LLVMPIPE_MAX_DISPATCHES
@@ -200,7 +227,7 @@ impl RenderSession {
             },
             shape: None,
             ring: PassRing::default(),
-            kernels: kernel_stats().since(&kernels_before),
+            kernel_build: kernel_stats().since(&kernels_before),
             first_pass: None,
             info: SceneInfo {
                 triangles: scene.triangle_count,
@@ -209,16 +236,21 @@ impl RenderSession {
                 bvh_nodes: scene.nodes.len(),
                 bvh_depth: scene.bvh_depth,
                 bvh_build: scene.bvh_build_time,
-                features: scene.features,
+                features,
+                kernels,
                 accel: scene.accel.clone(),
             },
         })
     }
 
-    /// The defines of the session's kernels: the scene's feature set, the accel kind and the
-    /// integrator's own.
-    fn defines(scene: &CompiledScene, integrator: &dyn Integrator) -> ShaderDefines {
-        let mut defines = scene.features.defines();
+    /// The defines of the session's kernels: the scene's feature set (for `mode`), the accel
+    /// kind and the integrator's own.
+    fn defines(
+        scene: &CompiledScene,
+        integrator: &dyn Integrator,
+        mode: KernelMode,
+    ) -> ShaderDefines {
+        let mut defines = scene.features.for_mode(mode).defines();
         if scene.grid.is_some() {
             defines.push(("ACCEL_GRID".to_string(), "1".to_string()));
         }
@@ -226,25 +258,26 @@ impl RenderSession {
         defines
     }
 
-    /// Every kernel (path, defines) a session of `options` on `scene` builds: the pass kernel
-    /// and the integrator's stages (to compile ahead, e.g. when a server warms up).
+    /// Every kernel (path, defines) a session of `options` on `scene` builds with `mode`: the
+    /// pass kernel and the integrator's stages (to compile ahead, e.g. when a server warms up).
     pub fn kernels(
         ctx: &GpuContext,
         scene: &CompiledScene,
         options: &IntegratorOptions,
         scene_max_depth: Option<i32>,
+        mode: KernelMode,
     ) -> Vec<(String, ShaderDefines)> {
         let mut integrator = options.build(scene_max_depth);
         integrator.prepare(ctx);
-        let defines = Self::defines(scene, integrator.as_ref());
+        let defines = Self::defines(scene, integrator.as_ref(), mode);
         let mut out = vec![(options.info().kernel.to_string(), defines.clone())];
         out.extend(integrator.kernels(&defines));
         out
     }
 
     /// What building this session's kernels took.
-    pub fn kernel_stats(&self) -> KernelStats {
-        self.kernels
+    pub fn kernel_build(&self) -> KernelStats {
+        self.kernel_build
     }
 
     /// Cuts passes into dispatches of this shape instead of the automatic one (tests).
@@ -600,14 +633,17 @@ impl RenderSession {
             bvh_depth: self.info.bvh_depth,
             bvh_build_s: self.info.bvh_build.as_secs_f64(),
             setup_s: self.setup.as_secs_f64(),
-            features: self.info.features,
+            kernel_s: self.kernel_time.as_secs_f64(),
+            kernel_stats: self.pipeline.statistics().into_iter().collect(),
+            features: self.info.features.names(),
+            kernels: self.info.kernels,
             accel: self.info.accel.kind.name().to_string(),
             accel_build_s: self.info.accel.build_time.as_secs_f64(),
             accel_bytes: self.info.accel.bytes,
             accel_cache: self.info.accel.cache,
             grid_resolution: self.info.accel.grid_resolution,
             grid_refs: self.info.accel.grid_refs,
-            kernels: self.kernels,
+            kernel_build: self.kernel_build,
             first_pass: self.first_pass.map(|p| super::FirstPass {
                 spp: p.spp,
                 gpu_ms: p.gpu.as_secs_f64() * 1e3,

@@ -52,6 +52,7 @@ pub fn run_bench(
         &PrepareOptions {
             width: Some(width),
             height: Some(height),
+            kernels: cfg.kernels,
             ..Default::default()
         },
     )

@@ -54,6 +54,9 @@ pub struct BenchConfig {
     pub reference_spp: u32,
     /// Where the reference is written when rendered (`DIR/reference.exr`).
     pub out_dir: PathBuf,
+    /// Specialised or generic kernels for the measured runs (the reference is always rendered
+    /// with specialised kernels).
+    pub kernels: renderer::compile::KernelMode,
 }
 
 /// Why a benchmark failed: bad input (exit 2) or anything else (exit 1).

@@ -47,8 +47,11 @@ pub struct BenchArgs {
     /// Use the first Vulkan device whose name contains this text.
     #[arg(long)]
     pub device: Option<String>,
+    /// Kernels: "specialized" to what the scene uses (default) or "generic".
+    #[arg(long, value_name = "MODE", value_parser = super::parse_kernels, default_value = "specialized")]
+    pub kernels: renderer::compile::KernelMode,
     #[command(flatten)]
-    pub kernels: super::KernelCacheArgs,
+    pub kernel_cache: super::KernelCacheArgs,
 }
 
 /// Longest budget accepted, seconds.
@@ -103,6 +106,7 @@ fn config(a: &BenchArgs) -> Result<BenchConfig, CliError> {
         width: a.width,
         height: a.height,
         reference_spp: a.reference_spp,
+        kernels: a.kernels,
         out_dir: a.out.clone(),
     })
 }
@@ -112,7 +116,7 @@ pub fn run(a: BenchArgs) -> Result<(), CliError> {
     let cfg = config(&a)?;
     std::fs::create_dir_all(&cfg.out_dir)
         .map_err(|e| CliError::failure(format!("cannot create {}: {e}", cfg.out_dir.display())))?;
-    let ctx = super::open_device(a.device.as_deref(), a.kernels.dir())?;
+    let ctx = super::open_device(a.device.as_deref(), a.kernel_cache.dir())?;
     let report = run_bench(&ctx, &cfg, &mut |line| eprintln!("{line}")).map_err(|e| match e {
         BenchError::Input(m) => CliError::input(m),
         BenchError::Failure(m) => CliError::failure(m),

@@ -103,6 +103,16 @@ pub fn integrator_help(intro: &str) -> String {
     s
 }
 
+/// `--kernels specialized|generic`.
+pub fn parse_kernels(s: &str) -> Result<renderer::compile::KernelMode, String> {
+    renderer::compile::KernelMode::from_name(s).ok_or_else(|| {
+        format!(
+            "unknown kernel mode \"{s}\", expected one of {}",
+            renderer::compile::KernelMode::NAMES.join(", ")
+        )
+    })
+}
+
 #[derive(Debug, Parser)]
 #[command(
     name = "candela",

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use renderer::accel::{AccelKind, AccelRequest};
+use renderer::compile::KernelMode;
 use renderer::integrators::{IntegratorOptions, DEFAULT_INTEGRATOR};
 use renderer::prepare::{prepare, FilmLimits, PrepareOptions};
 use renderer::render::{render, Budget, RenderStats};
@@ -31,6 +32,11 @@ pub struct RenderArgs {
     /// Render for this many seconds instead of a sample count.
     #[arg(long)]
     pub time: Option<f64>,
+    /// Benchmarking: render this many seconds first, untimed and discarded, so that the timed
+    /// render starts on a GPU already at its working clocks (after a cold kernel compile the
+    /// device may have idled down).
+    #[arg(long, value_name = "SECONDS")]
+    pub warmup: Option<f64>,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -63,8 +69,12 @@ pub struct RenderArgs {
     /// Always build the acceleration structure; read and write no cache.
     #[arg(long)]
     pub no_accel_cache: bool,
+    /// Kernels: "specialized" to what the scene uses (default), or "generic" (every feature
+    /// compiled in; for comparison).
+    #[arg(long, value_name = "MODE", value_parser = super::parse_kernels, default_value = "specialized")]
+    pub kernels: KernelMode,
     #[command(flatten)]
-    pub kernels: super::KernelCacheArgs,
+    pub kernel_cache: super::KernelCacheArgs,
 }
 
 /// The per-user accel cache: $XDG_CACHE_HOME/candela/accel, else ~/.cache/candela/accel; None
@@ -76,6 +86,13 @@ pub fn default_accel_cache() -> Option<PathBuf> {
 fn check_args(a: &RenderArgs) -> Result<(), CliError> {
     if a.spp == Some(0) {
         return Err(CliError::input("--spp: must be at least 1"));
+    }
+    if let Some(w) = a.warmup {
+        if !(w.is_finite() && (0.0..=3600.0).contains(&w)) {
+            return Err(CliError::input(format!(
+                "--warmup: must be a number of seconds in [0, 3600], got {w}"
+            )));
+        }
     }
     if let Some(t) = a.time {
         if !(t.is_finite() && t > 0.0 && t <= 7.0 * 86400.0) {
@@ -163,14 +180,20 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
                 grid_resolution: a.grid_resolution,
             },
             cache: cache.as_deref(),
+            kernels: a.kernels,
         },
     )
     .map_err(|e| CliError::input(format!("{}: {e}", a.scene.display())))?;
     // Step 3: device, session, render.
-    let ctx = super::open_device(a.device.as_deref(), a.kernels.dir())?;
+    let ctx = super::open_device(a.device.as_deref(), a.kernel_cache.dir())?;
     let mut session = prepared
         .session(&ctx, &options, a.seed)
         .map_err(|e| CliError::failure(e.to_string()))?;
+    if let Some(w) = a.warmup {
+        render(&mut session, Budget::Time(w))
+            .and_then(|_| session.reset(a.seed))
+            .map_err(|e| CliError::failure(format!("warm-up: {e}")))?;
+    }
     let (image, stats) =
         render(&mut session, budget).map_err(|e| CliError::failure(e.to_string()))?;
     // Step 4: the image and the report.
@@ -235,6 +258,11 @@ fn print_report(stats: &RenderStats, output: &std::path::Path) {
             .ok()
             .and_then(|v| v.as_str().map(String::from))
             .unwrap_or_default()
+    );
+    println!(
+        "kernels     {}: {}",
+        stats.kernels.name(),
+        stats.features.join(", ")
     );
     println!("dropped     {} NaN/Inf samples", stats.dropped_samples);
     println!("wrote       {}", output.display());

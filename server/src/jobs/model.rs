@@ -116,6 +116,10 @@ pub struct JobSettings {
     /// jobs stored before it existed: they use the scene's choice, else the BVH).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub accel: Option<AccelSetting>,
+    /// Kernels specialised to the scene (the default; absent in jobs stored before the choice
+    /// existed) or generic.
+    #[serde(default)]
+    pub kernels: renderer::compile::KernelMode,
 }
 
 /// A job's acceleration structure: `{"type": "grid", "grid_resolution": 64}` (docs/accel.md).

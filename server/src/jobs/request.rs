@@ -45,6 +45,8 @@ pub struct JobRequest {
     /// `"grid"` or `{"type": "grid", "grid_resolution": 64}` (default: the scene's
     /// `render.accel`, else `"bvh"`).
     pub accel: Option<Value>,
+    /// `"specialized"` (default: kernels compiled for what the scene uses) or `"generic"`.
+    pub kernels: Option<renderer::compile::KernelMode>,
 }
 
 /// A job's reference image: exactly one of `job` (a done job of the same film size) and `file`
@@ -361,6 +363,7 @@ pub fn prepare(
             tonemap,
             reference: None,
             accel,
+            kernels: req.kernels.unwrap_or_default(),
         },
         scene: text,
         scene_name: req.scene_name,

@@ -298,6 +298,7 @@ impl Worker {
                 grid_resolution: s.accel.as_ref().and_then(|a| a.grid_resolution),
             },
             cache: Some(&cache),
+            kernels: s.kernels,
         };
         let prepared = match prepare(&scene, &options) {
             Ok(p) => p,

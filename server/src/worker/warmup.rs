@@ -66,7 +66,13 @@ fn run(ctx: &Arc<GpuContext>, config: &ServerConfig, shared: &Shared, integrator
             continue;
         };
         for (i, p) in scenes.iter().enumerate() {
-            let list = RenderSession::kernels(ctx, &p.compiled, &options, p.scene_max_depth);
+            let list = RenderSession::kernels(
+                ctx,
+                &p.compiled,
+                &options,
+                p.scene_max_depth,
+                renderer::compile::KernelMode::Specialized,
+            );
             if seen.insert(list.clone()) {
                 kernels.extend(list);
                 variants.push(Variant { scene: i, options });

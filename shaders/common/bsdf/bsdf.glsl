@@ -18,6 +18,18 @@
 // twosided wrapper; MATF_HAS_ETA_K: conductor c1 = eta, c2 = k given, else Fresnel = 1) come
 // from the Rust side (renderer/src/layout.rs, `mat`).
 #include "common/constants.glsl"
+
+// The material models this kernel compiles: every one, unless the kernel is specialised to the
+// scene (MATERIALS_SPECIALISED, renderer/src/compile/features.rs), which defines HAS_MAT_* for
+// the models its primitives use; the dispatch below then holds no code for the others.
+#ifndef MATERIALS_SPECIALISED
+#define HAS_MAT_DIFFUSE 1
+#define HAS_MAT_CONDUCTOR 1
+#define HAS_MAT_DIELECTRIC 1
+#define HAS_MAT_PRINCIPLED 1
+#define HAS_MAT_PHONG 1
+#endif
+
 #define TRANSPORT_RADIANCE 0u
 #define TRANSPORT_IMPORTANCE 1u
 #define BSDF_DELTA 1u          // sampled lobe is perfectly specular (pdf is a discrete probability)
@@ -82,11 +94,21 @@ vec3 bsdf_eval(in SurfaceParams m, vec3 wo, vec3 wi, uint mode) {
     if (flipped) wi.z = -wi.z;
     vec3 f;
     switch (m.type) {
+#ifdef HAS_MAT_DIFFUSE
         case MAT_DIFFUSE: f = diffuse_eval(m, wo, wi); break;
+#endif
+#ifdef HAS_MAT_CONDUCTOR
         case MAT_CONDUCTOR: f = conductor_eval(m, wo, wi); break;
+#endif
+#ifdef HAS_MAT_DIELECTRIC
         case MAT_DIELECTRIC: f = dielectric_eval(m, wo, wi, mode); break;
+#endif
+#ifdef HAS_MAT_PRINCIPLED
         case MAT_PRINCIPLED: f = principled_eval(m, wo, wi, mode); break;
+#endif
+#ifdef HAS_MAT_PHONG
         case MAT_PHONG: f = phong_eval(m, wo, wi); break;
+#endif
         default: f = vec3(0.0); break;
     }
     return bsdf_finite(f) ? max(f, vec3(0.0)) : vec3(0.0);
@@ -99,11 +121,21 @@ float bsdf_pdf(in SurfaceParams m, vec3 wo, vec3 wi) {
     if (flipped) wi.z = -wi.z;
     float pdf;
     switch (m.type) {
+#ifdef HAS_MAT_DIFFUSE
         case MAT_DIFFUSE: pdf = diffuse_pdf(m, wo, wi); break;
+#endif
+#ifdef HAS_MAT_CONDUCTOR
         case MAT_CONDUCTOR: pdf = conductor_pdf(m, wo, wi); break;
+#endif
+#ifdef HAS_MAT_DIELECTRIC
         case MAT_DIELECTRIC: pdf = dielectric_pdf(m, wo, wi); break;
+#endif
+#ifdef HAS_MAT_PRINCIPLED
         case MAT_PRINCIPLED: pdf = principled_pdf(m, wo, wi); break;
+#endif
+#ifdef HAS_MAT_PHONG
         case MAT_PHONG: pdf = phong_pdf(m, wo, wi); break;
+#endif
         default: pdf = 0.0; break;
     }
     return (bsdf_finite(pdf) && pdf > 0.0) ? pdf : 0.0;
@@ -118,11 +150,21 @@ bool bsdf_sample(in SurfaceParams m, vec3 wo, vec3 u, uint mode, out BsdfSample 
     if (!bsdf_resolve_side(m, wo, flipped)) return false;
     bool ok;
     switch (m.type) {
+#ifdef HAS_MAT_DIFFUSE
         case MAT_DIFFUSE: ok = diffuse_sample(m, wo, u, s); break;
+#endif
+#ifdef HAS_MAT_CONDUCTOR
         case MAT_CONDUCTOR: ok = conductor_sample(m, wo, u, s); break;
+#endif
+#ifdef HAS_MAT_DIELECTRIC
         case MAT_DIELECTRIC: ok = dielectric_sample(m, wo, u, mode, s); break;
+#endif
+#ifdef HAS_MAT_PRINCIPLED
         case MAT_PRINCIPLED: ok = principled_sample(m, wo, u, mode, s); break;
+#endif
+#ifdef HAS_MAT_PHONG
         case MAT_PHONG: ok = phong_sample(m, wo, u, s); break;
+#endif
         default: ok = false; break;
     }
     if (flipped) s.wi.z = -s.wi.z;
@@ -138,8 +180,12 @@ bool bsdf_sample(in SurfaceParams m, vec3 wo, vec3 u, uint mode, out BsdfSample 
 
 /// True when every lobe is perfectly specular (next-event estimation cannot help).
 bool bsdf_is_delta(in SurfaceParams m) {
+#ifdef HAS_MAT_CONDUCTOR
     if (m.type == MAT_CONDUCTOR) return conductor_is_delta(m);
+#endif
+#ifdef HAS_MAT_DIELECTRIC
     if (m.type == MAT_DIELECTRIC) return dielectric_is_delta(m);
+#endif
     return false;
 }
 
@@ -147,13 +193,20 @@ bool bsdf_is_delta(in SurfaceParams m) {
 vec3 bsdf_albedo_hint(in SurfaceParams m) {
     vec3 a;
     switch (m.type) {
+#ifdef HAS_MAT_DIFFUSE
         case MAT_DIFFUSE: a = m.c0; break;
+#endif
+#ifdef HAS_MAT_CONDUCTOR
         case MAT_CONDUCTOR: a = m.c0 * conductor_fresnel(m, 1.0); break;
+#endif
+#ifdef HAS_MAT_DIELECTRIC
         case MAT_DIELECTRIC: {
             float F0 = fresnel_dielectric(1.0, max(m.s[1], 1e-3));
             a = m.c0 * F0 + m.c1 * (1.0 - F0);
             break;
         }
+#endif
+#ifdef HAS_MAT_PRINCIPLED
         case MAT_PRINCIPLED: {
             float metallic = clamp(m.s[0], 0.0, 1.0);
             float spec_trans = clamp(m.s[7], 0.0, 1.0);
@@ -162,7 +215,10 @@ vec3 bsdf_albedo_hint(in SurfaceParams m) {
                 sqrt(base) * ((1.0 - metallic) * spec_trans) + vec3(0.04 * (1.0 - metallic));
             break;
         }
+#endif
+#ifdef HAS_MAT_PHONG
         case MAT_PHONG: a = m.c0 + m.c1; break;
+#endif
         default: a = vec3(0.0); break;
     }
     return bsdf_finite(a) ? clamp(a, vec3(0.0), vec3(1.0)) : vec3(0.0);

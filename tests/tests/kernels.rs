@@ -1,0 +1,183 @@
+//! Kernel specialisation, audited on every project scene (scenes/*.json):
+//! 1. the features the loader detects (`FeatureSet::detect`) equal the ones the scene uses, as
+//!    read independently here from the scene document and its mesh files: none missed (a kernel
+//!    without a feature the scene needs renders it wrongly) and none extra (it would compile code
+//!    the scene never runs);
+//! 2. for every scene and integrator, the specialised kernels render the same image as the
+//!    generic ones (every feature compiled in), to float tolerance (8×8 pixels, 2 spp: building
+//!    the kernels on lavapipe is what costs).
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use candela_tests::{gpu, repo_root};
+use renderer::compile::{compile, FeatureSet, KernelMode};
+use renderer::integrators::{names, IntegratorOptions};
+use renderer::render::{render, Budget, RenderSession};
+use serde_json::Value;
+
+/// The project's scenes.
+fn project_scenes() -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(repo_root().join("scenes"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().and_then(|e| e.to_str()) == Some("json"))
+        .collect();
+    v.sort();
+    assert!(v.len() >= 8, "expected the project's scenes, found {v:?}");
+    v
+}
+
+/// `usemtl` names of an OBJ file, and whether it has texture coordinates.
+fn obj_facts(path: &Path) -> (Vec<String>, bool) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let usemtl = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("usemtl "))
+        .map(|s| s.trim().to_string())
+        .collect();
+    (usemtl, text.lines().any(|l| l.starts_with("vt ")))
+}
+
+/// Whether a material field (colour or scalar) is a texture reference.
+fn is_texture(v: &Value) -> bool {
+    v.get("texture").is_some()
+}
+
+/// The features a scene document uses, read from the JSON (and its mesh files) alone.
+fn expected_features(path: &Path) -> FeatureSet {
+    let doc: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let dir = path.parent().unwrap();
+    let materials = doc["materials"].as_object().unwrap();
+    let first_material = materials.keys().next().cloned();
+    let mut f = FeatureSet::default();
+    let mut used: BTreeSet<String> = BTreeSet::new();
+    for o in doc["objects"].as_array().unwrap() {
+        let kind = o["type"].as_str().unwrap();
+        let material = o.get("material").and_then(Value::as_str).map(String::from);
+        match kind {
+            "sphere" => f.spheres = true,
+            // Quads and boxes carry per-face texture coordinates.
+            "quad" | "box" => f.tri_shading = true,
+            "triangles" => {
+                f.tri_shading |= o.get("normals").is_some() || o.get("uvs").is_some();
+            }
+            "mesh" => {
+                let file = dir.join(o["file"].as_str().unwrap());
+                let smooth = o.get("smooth").and_then(Value::as_bool).unwrap_or(true);
+                let (usemtl, uvs) = obj_facts(&file);
+                // Smooth meshes get vertex normals (read or computed).
+                f.tri_shading |= smooth || uvs;
+                if material.is_none() {
+                    used.extend(usemtl.into_iter().filter(|m| materials.contains_key(m)));
+                }
+            }
+            other => panic!(
+                "{}: object type {other} not known to this test",
+                path.display()
+            ),
+        }
+        match (material, kind) {
+            (Some(m), _) => {
+                used.insert(m);
+            }
+            (None, "mesh") if !used.is_empty() => {}
+            (None, _) => used.extend(first_material.clone()),
+        }
+    }
+    for name in &used {
+        let m = &materials[name];
+        f.alpha |= m.get("alpha_mask").is_some();
+        f.textures |= m
+            .as_object()
+            .unwrap()
+            .iter()
+            .any(|(k, v)| k == "alpha_mask" || is_texture(v));
+        match m["type"].as_str().unwrap() {
+            "diffuse" => f.mat_diffuse = true,
+            "conductor" => f.mat_conductor = true,
+            "dielectric" => f.mat_dielectric = true,
+            "principled" => f.mat_principled = true,
+            "phong" => f.mat_phong = true,
+            other => panic!("material type {other} not known to this test"),
+        }
+    }
+    f.delta_lights = doc
+        .get("lights")
+        .and_then(Value::as_array)
+        .is_some_and(|l| !l.is_empty());
+    if doc.get("environment").and_then(|e| e["type"].as_str()) == Some("map") {
+        f.env_map = true;
+        f.textures = true;
+    }
+    f
+}
+
+#[test]
+fn detected_features_are_exactly_the_used_ones() {
+    for path in project_scenes() {
+        let scene = renderer::scene::load_file(&path).unwrap();
+        let detected = FeatureSet::detect(&scene);
+        let expected = expected_features(&path);
+        println!(
+            "{}: {}",
+            path.file_name().unwrap().to_string_lossy(),
+            detected.names().join(", ")
+        );
+        assert_eq!(detected, expected, "{}", path.display());
+    }
+}
+
+/// Largest relative difference between two images, per channel, with a floor of 1e-3 on the
+/// denominator (dark pixels compare absolutely).
+fn max_rel_diff(a: &renderer::film::Image, b: &renderer::film::Image) -> f32 {
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs() / p[c].abs().max(1e-3)))
+        .fold(0.0, f32::max)
+}
+
+#[test]
+fn specialised_and_generic_kernels_render_the_same_image() {
+    let ctx = gpu();
+    let mut worst = 0.0f32;
+    for path in project_scenes() {
+        let scene = renderer::scene::load_file(&path).unwrap();
+        let compiled = compile(&scene, 8, 8).unwrap();
+        for name in names() {
+            // The cheapest settings of each integrator: vct at its smallest volume.
+            let spec = match name {
+                "vct" => serde_json::json!({"type": "vct", "resolution": 64}),
+                _ => Value::String(name.into()),
+            };
+            let options = IntegratorOptions::parse(&spec, name).unwrap();
+            let image = |kernels| {
+                let mut s = RenderSession::with_kernels(
+                    &ctx,
+                    &compiled,
+                    &options,
+                    scene.render.max_depth,
+                    3,
+                    kernels,
+                )
+                .unwrap_or_else(|e| panic!("{} {name}: {e}", path.display()));
+                render(&mut s, Budget::Spp(2)).unwrap().0
+            };
+            let specialised = image(KernelMode::Specialized);
+            let generic = image(KernelMode::Generic);
+            let d = max_rel_diff(&specialised, &generic);
+            worst = worst.max(d);
+            // bdpt's light-tracing splats add with float atomics in any order.
+            let tol = if name == "bdpt" { 1e-3 } else { 1e-5 };
+            assert!(
+                d <= tol,
+                "{} {name}: specialised vs generic differ by {d:e} (relative)",
+                path.display()
+            );
+        }
+    }
+    ctx.check_validation().unwrap();
+    println!("specialised vs generic: largest relative difference {worst:e}");
+}
