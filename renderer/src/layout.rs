@@ -220,6 +220,10 @@ pub struct GpuPush {
     pub dispatch: u32,
 }
 
+/// Most threads per pixel a pass may use (`GpuPush::dispatch` bits 0–3 hold their log2; see
+/// renderer/src/render/dispatch.rs and shaders/common/dispatch.glsl).
+pub const MAX_LANES: u32 = 8;
+
 /// `GpuPush::flags` bit: poison every 7th sample (sample index % 7 == 3) with NaN, so tests can
 /// check that such samples are dropped and counted (shaders/common/film.glsl).
 pub const PUSH_FLAG_INJECT_NAN: u32 = 1;

@@ -199,7 +199,7 @@ impl Integrator for BdptIntegrator {
         match self.design {
             // One sample's light subpaths per light pass.
             BdptDesign::Split => 1,
-            BdptDesign::PerPixel => crate::render::MAX_LANES,
+            BdptDesign::PerPixel => crate::layout::MAX_LANES,
         }
     }
     fn max_band_pixels(&self, width: u32, height: u32) -> u64 {

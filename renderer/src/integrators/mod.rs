@@ -256,9 +256,9 @@ pub trait Integrator: Send {
         true
     }
     /// Most threads per pixel a pass may use (with [`Integrator::shapes_dispatch`]). Default:
-    /// [`crate::render::MAX_LANES`].
+    /// [`crate::layout::MAX_LANES`].
     fn max_lanes(&self) -> u32 {
-        crate::render::MAX_LANES
+        crate::layout::MAX_LANES
     }
     /// Most pixels one band (dispatch) of a `width`×`height` film may cover, e.g. what a
     /// per-band scratch buffer holds. Default: no limit of its own.

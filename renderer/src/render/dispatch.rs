@@ -13,8 +13,7 @@
 
 use crate::layout::GpuPush;
 
-/// Most threads per pixel.
-pub const MAX_LANES: u32 = 8;
+pub use crate::layout::MAX_LANES;
 /// Threads a dispatch should have to fill a large GPU (an H100 holds ~270k resident threads;
 /// path tracers run at a fraction of full occupancy, so a few times more than that helps).
 pub const TARGET_THREADS: u64 = 1 << 20;
