@@ -477,15 +477,16 @@ impl Worker {
             .gpu_busy_ns
             .fetch_add(busy.as_nanos() as u64, Relaxed);
         self.shared.passes_total.fetch_add(1, Relaxed);
+        // The last pass's image is the final one, which `finish` reports.
+        if job.finished() {
+            return self.finish(id);
+        }
         if let Some(snap) = p.snapshot {
             self.snapshot(id, snap);
         }
         let Some(job) = self.active.get_mut(&id) else {
             return;
         };
-        if job.finished() {
-            return self.finish(id);
-        }
         if job.checkpoint_due(self.config.checkpoint_interval) {
             match job.write_checkpoint() {
                 Ok(p) => {
