@@ -31,7 +31,36 @@ fn walk(dir: &Path, root: &Path, out: &mut Vec<(String, String)>) {
     }
 }
 
+/// The versions of glslang and its native library in the workspace's Cargo.lock ("unknown"
+/// outside the workspace): part of the kernel cache key, so a compiler upgrade recompiles.
+fn glslang_version() -> String {
+    let lock = Path::new(env!("CARGO_MANIFEST_DIR")).join("../Cargo.lock");
+    println!("cargo:rerun-if-changed={}", lock.display());
+    let Ok(text) = std::fs::read_to_string(&lock) else {
+        return "unknown".into();
+    };
+    let mut found = Vec::new();
+    let mut lines = text.lines();
+    while let Some(l) = lines.next() {
+        if l == "name = \"glslang\"" || l == "name = \"glslang-sys\"" {
+            if let Some(v) = lines.next().and_then(|v| v.strip_prefix("version = ")) {
+                let name = l.trim_start_matches("name = ").trim_matches('"');
+                found.push(format!("{name}={}", v.trim_matches('"')));
+            }
+        }
+    }
+    if found.is_empty() {
+        "unknown".into()
+    } else {
+        found.join(",")
+    }
+}
+
 fn main() {
+    println!(
+        "cargo:rustc-env=CANDELA_GLSLANG_VERSION={}",
+        glslang_version()
+    );
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shaders");
     println!("cargo:rerun-if-changed={}", root.display());
     let mut files = Vec::new();

@@ -14,7 +14,7 @@ use bytemuck::{Pod, Zeroable};
 /// Descriptor binding indices (set 0), `B_*` in the shaders. 0–15 belong to the
 /// session (scene, film, acceleration structure); integrators' own stages take their own
 /// ranges: vct 16–29 (renderer/src/integrators/vct/gpu.rs), deferred 30–39
-/// (renderer/src/integrators/deferred/stages.rs).
+/// (renderer/src/integrators/deferred/stages.rs), bdpt 40–49 (below).
 pub mod binding {
     pub const GLOBALS: u32 = 0;
     pub const BVH_NODES: u32 = 1;
@@ -35,6 +35,10 @@ pub mod binding {
     pub const GRID: u32 = 13;
     pub const GRID_CELLS: u32 = 14;
     pub const GRID_PRIMS: u32 = 15;
+    /// bdpt's split design (renderer/src/integrators/bdpt.rs): the light subpaths' vertices of
+    /// the band being rendered, and each path's vertex count.
+    pub const BDPT_LIGHT_VERTICES: u32 = 40;
+    pub const BDPT_LIGHT_COUNTS: u32 = 41;
 }
 
 /// Marks "none" in u32 index fields.
@@ -211,8 +215,14 @@ pub struct GpuPush {
     pub max_depth: i32,
     pub rr_depth: i32,
     pub flags: u32,
-    pub pad: u32,
+    /// How the pass is cut into dispatches (render/dispatch.rs): bits 0–3 log2 of the threads
+    /// per pixel, bits 8–31 the first row of this dispatch's band.
+    pub dispatch: u32,
 }
+
+/// Most threads per pixel a pass may use (`GpuPush::dispatch` bits 0–3 hold their log2; see
+/// renderer/src/render/dispatch.rs and shaders/common/dispatch.glsl).
+pub const MAX_LANES: u32 = 8;
 
 /// `GpuPush::flags` bit: poison every 7th sample (sample index % 7 == 3) with NaN, so tests can
 /// check that such samples are dropped and counted (shaders/common/film.glsl).
@@ -260,6 +270,8 @@ pub fn glsl_constants() -> String {
         ("B_GRID", binding::GRID),
         ("B_GRID_CELLS", binding::GRID_CELLS),
         ("B_GRID_PRIMS", binding::GRID_PRIMS),
+        ("B_BDPT_LIGHT_VERTICES", binding::BDPT_LIGHT_VERTICES),
+        ("B_BDPT_LIGHT_COUNTS", binding::BDPT_LIGHT_COUNTS),
     ];
     let flags = [
         ("NONE", NONE),

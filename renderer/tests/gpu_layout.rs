@@ -30,6 +30,7 @@ fn glsl_mirror_matches_rust_layout() {
         GpuContext::new(&GpuOptions {
             device: None,
             validation: true,
+            ..Default::default()
         })
         .unwrap(),
     );

@@ -58,6 +58,7 @@ fn white_furnace_renders_one() {
         GpuContext::new(&GpuOptions {
             device: None,
             validation: true,
+            ..Default::default()
         })
         .expect("device"),
     );

@@ -73,14 +73,68 @@ pub struct ServerConfig {
     pub max_active: usize,
     /// SSE keep-alive comment interval.
     pub sse_keepalive: Duration,
+    /// The kernel cache folder (compiled kernels, the driver's pipeline cache); None: off.
+    pub kernel_cache: Option<PathBuf>,
+    /// Which integrators' kernels to build at start, for the built-in scenes' feature sets.
+    pub warm_kernels: WarmKernels,
     pub limits: RequestLimits,
+}
+
+/// Which kernels the server builds when its device opens (worker/warmup.rs).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum WarmKernels {
+    /// Every integrator on a GPU; none on a CPU device (lavapipe), where compiling takes as
+    /// long as rendering and tests start many servers.
+    Auto,
+    /// None.
+    None,
+    /// These integrators (registry names).
+    Only(Vec<String>),
+}
+
+impl WarmKernels {
+    /// Parses `auto`, `all`, `none` or a comma-separated list of integrator names.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        match text.trim() {
+            "auto" => Ok(WarmKernels::Auto),
+            "none" | "" => Ok(WarmKernels::None),
+            "all" => Ok(WarmKernels::Only(
+                renderer::integrators::names().map(String::from).collect(),
+            )),
+            list => {
+                let names: Vec<String> = list.split(',').map(|n| n.trim().to_string()).collect();
+                for n in &names {
+                    if renderer::integrators::info(n).is_none() {
+                        return Err(format!(
+                            "unknown integrator \"{n}\" (expected auto, all, none or a list of {})",
+                            renderer::integrators::names()
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ));
+                    }
+                }
+                Ok(WarmKernels::Only(names))
+            }
+        }
+    }
+
+    /// The integrators to warm on a device of this kind ("cpu", "discrete", ...).
+    pub fn integrators(&self, device_kind: &str) -> Vec<String> {
+        match self {
+            WarmKernels::Auto if device_kind != "cpu" => {
+                renderer::integrators::names().map(String::from).collect()
+            }
+            WarmKernels::Auto | WarmKernels::None => Vec::new(),
+            WarmKernels::Only(v) => v.clone(),
+        }
+    }
 }
 
 impl ServerConfig {
     /// A configuration with defaults under `data_dir`.
     pub fn new(data_dir: PathBuf) -> Self {
         ServerConfig {
-            data_dir,
+            data_dir: data_dir.clone(),
             token: None,
             device: None,
             validation: false,
@@ -89,6 +143,8 @@ impl ServerConfig {
             pass_target: Duration::from_millis(150),
             max_active: 4,
             sse_keepalive: Duration::from_secs(15),
+            kernel_cache: Some(data_dir.join("kernel-cache")),
+            warm_kernels: WarmKernels::Auto,
             limits: RequestLimits::default(),
         }
     }

@@ -52,6 +52,20 @@ pub struct GpuStatus {
     pub error: Option<String>,
 }
 
+/// How far the server is with building its common kernels (worker/warmup.rs).
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct KernelWarmup {
+    /// "off", "warming" or "ready".
+    pub state: &'static str,
+    /// Distinct (integrator, feature set) variants to build, and those built.
+    pub variants: usize,
+    pub built: usize,
+    /// Kernels compiled and read from the disk cache, and seconds so far.
+    pub compiled: u64,
+    pub disk_hits: u64,
+    pub seconds: f64,
+}
+
 /// Fixed histogram buckets (seconds) of the queue wait.
 const WAIT_BUCKETS: [f64; 12] = [
     0.01, 0.05, 0.1, 0.5, 1.0, 5.0, 10.0, 30.0, 60.0, 300.0, 1800.0, 3600.0,
@@ -68,6 +82,7 @@ struct Histogram {
 pub struct Shared {
     snapshots: Mutex<HashMap<JobId, Arc<Snapshot>>>,
     gpu: Mutex<GpuStatus>,
+    kernels: Mutex<KernelWarmup>,
     /// Pixel samples rendered since start.
     pub samples_total: AtomicU64,
     /// GPU time of passes since start, nanoseconds.
@@ -90,6 +105,10 @@ impl Default for Shared {
                 state: "starting",
                 device: None,
                 error: None,
+            }),
+            kernels: Mutex::new(KernelWarmup {
+                state: "off",
+                ..Default::default()
             }),
             samples_total: AtomicU64::new(0),
             gpu_busy_ns: AtomicU64::new(0),
@@ -126,6 +145,16 @@ impl Shared {
     /// Sets the device status.
     pub fn set_gpu(&self, status: GpuStatus) {
         *lock(&self.gpu) = status;
+    }
+
+    /// The kernel warm-up's progress.
+    pub fn kernels(&self) -> KernelWarmup {
+        lock(&self.kernels).clone()
+    }
+
+    /// Sets the kernel warm-up's progress.
+    pub fn set_kernels(&self, k: KernelWarmup) {
+        *lock(&self.kernels) = k;
     }
 
     /// Seconds since start.

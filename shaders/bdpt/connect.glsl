@@ -14,7 +14,7 @@
 // (nee_density_ratio), so the weights match how the path was really made.
 #ifndef BDPT_CONNECT_GLSL
 #define BDPT_CONNECT_GLSL
-#include "bdpt/vertex.glsl"
+#include "bdpt/paths.glsl"
 
 // The density values that strategy (s, t) changes before the ratios are taken (pbrt's
 // ScopedAssignments): reverse densities at p_{t−1}, p_{t−2}, q_{s−1}, q_{s−2}; the light endpoint
@@ -46,21 +46,21 @@ float mis_weight(int s, int t, MisInputs mi) {
     // Step 1: hypothetical strategies with fewer camera vertices (i = their t).
     float ri = 1.0;
     for (int i = t - 1; i > 0; --i) {
-        Vertex c = vtx[CAM(i)];
+        Vertex c = CAMV(i);
         float rev = i == t - 1 ? mi.pt_rev : (i == t - 2 ? mi.ptm_rev : c.pdf_rev);
         ri *= remap0(rev) / remap0(c.pdf_fwd);
         bool delta = i == t - 1 ? false : vertex_is_delta(c);
-        if (!delta && !vertex_is_delta(vtx[CAM(i - 1)])) sum_ri += mis_term(ri, s + t - i, s, mi.nee_ratio);
+        if (!delta && !vertex_is_delta(CAMV(i - 1))) sum_ri += mis_term(ri, s + t - i, s, mi.nee_ratio);
     }
     // Step 2: hypothetical strategies with fewer light vertices (i = their s).
     ri = 1.0;
     for (int i = s - 1; i >= 0; --i) {
-        Vertex l = vtx[LGT(i)];
+        Vertex l = LGTV(i);
         float fwd = i == 0 ? mi.l0_fwd : l.pdf_fwd;
         float rev = i == s - 1 ? mi.qs_rev : (i == s - 2 ? mi.qsm_rev : l.pdf_rev);
         ri *= remap0(rev) / remap0(fwd);
         bool delta = i == s - 1 ? false : vertex_is_delta(l);
-        bool delta_light = i > 0 ? vertex_is_delta(vtx[LGT(i - 1)]) : mi.l0_delta;
+        bool delta_light = i > 0 ? vertex_is_delta(LGTV(i - 1)) : mi.l0_delta;
         if (!delta && !delta_light) sum_ri += mis_term(ri, i, s, mi.nee_ratio);
     }
     return 1.0 / (1.0 + sum_ri);
@@ -68,7 +68,7 @@ float mis_weight(int s, int t, MisInputs mi) {
 
 // s = 0: camera vertex t−1 is an emitter. Returns β·Le and sets the densities it changes.
 vec3 connect_s0(int t, inout MisInputs mi) {
-    Vertex pt = vtx[CAM(t - 1)], ptm = vtx[CAM(t - 2)];
+    Vertex pt = CAMV(t - 1), ptm = CAMV(t - 2);
     vec3 Le = vec3(0.0);
     if (pt.kind == VTX_INF) {
         Le = env_eval(pt.p);
@@ -89,51 +89,51 @@ vec3 connect_s0(int t, inout MisInputs mi) {
 // through one loop, so the BSDF code is inlined once.
 vec3 connect_st(int s, int t, vec4 u, inout uint rays, out vec2 film, inout MisInputs mi, out Vertex q) {
     film = vec2(-1.0);
-    // Step 1: the two ends (0: light side q, 1: camera side p) and their own predecessors.
-    Vertex ends[2], preds[2];
-    ends[1] = vtx[CAM(t - 1)];
+    // Step 1: the two ends (q: light side, p: camera side). Plain variables, not arrays: arrays
+    // of vertices indexed in the loop below would live in (slow) local memory.
+    Vertex p_end = CAMV(t - 1);
     // Escaped camera rays (infinite-light vertices) only count for s = 0 (pbrt).
-    if (t >= 2 && ends[1].kind != VTX_SURFACE) return vec3(0.0);
-    preds[1] = vtx[CAM(max(t - 2, 0))];
-    preds[0] = vtx[LGT(max(s - 2, 0))];
+    if (t >= 2 && p_end.kind != VTX_SURFACE) return vec3(0.0);
+    Vertex q_end;
     vec3 weight_q = vec3(0.0), weight_p = vec3(0.0); // β·f at each end, or the sampled end's weight
-    float cos_theta = 0.0, ls_pdf = 0.0;
+    float cos_theta = 0.0;
     LightSample ls;
     if (s == 1) {
         // A fresh light point, chosen from camera vertex t−1 as NEE does.
-        if (!sample_light(ends[1].p, u.xyz, ls) || !any(greaterThan(ls.L, vec3(0.0)))) return vec3(0.0);
+        if (!sample_light(p_end.p, u.xyz, ls) || !any(greaterThan(ls.L, vec3(0.0)))) return vec3(0.0);
         uint li = pick_light(u.x); // the light sample_light picked with the same u
         bool infinite = isinf(ls.dist);
-        Vertex q = vertex_blank(infinite ? VTX_INF : VTX_LIGHT);
-        q.p = infinite ? ls.wi : ls.p;
-        q.light = li;
+        q_end = vertex_blank(infinite ? VTX_INF : VTX_LIGHT);
+        q_end.p = infinite ? ls.wi : ls.p;
+        q_end.light = li;
         GpuLight gl = lights[li];
-        if (gl.kind == LIGHT_TRIANGLE || gl.kind == LIGHT_SPHERE) q.ng = light_front_normal(gl, ls.p);
-        q.flags = ls.delta ? VF_DELTA_LIGHT : 0u;
-        ends[0] = q;
+        if (gl.kind == LIGHT_TRIANGLE || gl.kind == LIGHT_SPHERE) q_end.ng = light_front_normal(gl, ls.p);
+        q_end.flags = ls.delta ? VF_DELTA_LIGHT : 0u;
         weight_q = ls.L / ls.pdf;
     } else {
-        ends[0] = vtx[LGT(s - 1)];
+        q_end = LGTV(s - 1);
     }
     if (t == 1) {
         // A fresh lens point, and where the connection lands on the film.
-        if (ends[0].kind != VTX_SURFACE) return vec3(0.0);
+        if (q_end.kind != VTX_SURFACE) return vec3(0.0);
         Vertex c = vertex_blank(VTX_CAMERA);
         c.p = camera_sample_lens(u.zw);
-        vec3 d = c.p - ends[0].p;
+        vec3 d = c.p - q_end.p;
         float d2 = dot(d, d);
         if (!(d2 > 0.0)) return vec3(0.0);
         if (!camera_film_position(c.p, -d * inversesqrt(d2), film, cos_theta)) return vec3(0.0);
-        ends[1] = c;
+        p_end = c;
         weight_p = vec3(camera_connection_we(cos_theta, d2));
     }
-    // Step 2: at each surface end, the BSDF towards the other end (importance on the light side,
-    // with the shading-normal correction) and the densities of sampling the other end and, in
-    // reverse, its own predecessor. Sampled ends give their densities from the light or camera.
-    float rev_other[2], rev_pred[2];
-    rev_other[0] = 0.0; rev_other[1] = 0.0; rev_pred[0] = 0.0; rev_pred[1] = 0.0;
+    // Step 2: at each surface end (e = 0: q, 1: p), the BSDF towards the other end (importance
+    // on the light side, with the shading-normal correction) and the densities of sampling the
+    // other end and, in reverse, its own predecessor. Sampled ends give their densities from the
+    // light or camera. One loop, so the BSDF code is inlined once.
+    float q_rev_other = 0.0, p_rev_other = 0.0, q_rev_pred = 0.0, p_rev_pred = 0.0;
     for (int e = 0; e < 2; ++e) {
-        Vertex v = ends[e], other = ends[1 - e];
+        Vertex v = e == 0 ? q_end : p_end;
+        Vertex other = e == 0 ? p_end : q_end;
+        float rev_other = 0.0, rev_pred = 0.0;
         if (v.kind == VTX_SURFACE) {
             SurfaceParams m = resolve_material(v.material, v.uv);
             if (bsdf_is_delta(m)) return vec3(0.0);
@@ -144,48 +144,57 @@ vec3 connect_st(int s, int t, vec4 u, inout uint rays, out vec2 film, inout MisI
             if (!any(greaterThan(f, vec3(0.0)))) return vec3(0.0);
             vec3 wf = v.beta * f;
             if (e == 0) weight_q = wf; else weight_p = wf;
-            // Densities towards the other end and back to the predecessor, through one call
-            // site; the camera-side predecessor counts only beyond the lens (t ≥ 3).
+            // Densities towards the other end and back to the predecessor (read only then),
+            // through one call site; the camera-side predecessor counts only beyond the lens
+            // (t ≥ 3).
             bool need_pred = e == 0 ? s >= 2 : t >= 3;
             for (int j = 0; j < (need_pred ? 2 : 1); ++j) {
-                float pdf = pdf_surface(v, m, j == 0 ? v.wo : wn, j == 0 ? other : preds[e]);
-                if (j == 0) rev_other[e] = pdf; else rev_pred[e] = pdf;
+                Vertex to = j == 0 ? other : (e == 0 ? LGTV(max(s - 2, 0)) : CAMV(max(t - 2, 0)));
+                float pdf = pdf_surface(v, m, j == 0 ? v.wo : wn, to);
+                if (j == 0) rev_other = pdf; else rev_pred = pdf;
             }
         } else if (v.kind == VTX_CAMERA) {
-            rev_other[e] = convert_density(camera_pdf_dir(cos_theta), v, other);
+            rev_other = convert_density(camera_pdf_dir(cos_theta), v, other);
         } else {
-            rev_other[e] = pdf_light(v, other);
+            rev_other = pdf_light(v, other);
+        }
+        if (e == 0) {
+            q_rev_other = rev_other;
+            q_rev_pred = rev_pred;
+        } else {
+            p_rev_other = rev_other;
+            p_rev_pred = rev_pred;
         }
     }
     // Step 3: the contribution; 1/d² only between two subpath vertices (the sampled ends' weights
     // already hold theirs).
     vec3 L = weight_q * weight_p;
     if (s >= 2 && t >= 2) {
-        vec3 d = ends[0].p - ends[1].p;
+        vec3 d = q_end.p - p_end.p;
         L /= dot(d, d);
     }
     if (!any(greaterThan(L, vec3(0.0)))) return vec3(0.0);
     // Step 4: visibility, from the camera end when it is a surface.
     Ray shadow;
     if (t == 1) {
-        shadow = spawn_ray_to(vertex_surface(ends[0]), ends[1].p);
+        shadow = spawn_ray_to(vertex_surface(q_end), p_end.p);
     } else if (s == 1 && isinf(ls.dist)) {
-        shadow = spawn_ray(vertex_surface(ends[1]), ls.wi);
+        shadow = spawn_ray(vertex_surface(p_end), ls.wi);
     } else {
-        shadow = spawn_ray_to(vertex_surface(ends[1]), ends[0].p);
+        shadow = spawn_ray_to(vertex_surface(p_end), q_end.p);
     }
     rays += 1u;
     if (trace_any(shadow)) return vec3(0.0);
     // Step 5: the densities this strategy changes.
-    q = ends[0];
+    q = q_end;
     if (s == 1) {
-        mi.l0_fwd = pdf_light_origin(ends[0]);
+        mi.l0_fwd = pdf_light_origin(q_end);
         mi.l0_delta = ls.delta;
     }
-    mi.pt_rev = rev_other[0];
-    mi.qs_rev = rev_other[1];
-    mi.qsm_rev = rev_pred[0];
-    mi.ptm_rev = rev_pred[1];
+    mi.pt_rev = q_rev_other;
+    mi.qs_rev = p_rev_other;
+    mi.qsm_rev = q_rev_pred;
+    mi.ptm_rev = p_rev_pred;
     return L;
 }
 
@@ -193,19 +202,19 @@ vec3 connect_st(int s, int t, vec4 u, inout uint rays, out vec2 film, inout MisI
 vec3 connect(int s, int t, vec4 u, inout uint rays, out vec2 film, out float w) {
     w = 0.0;
     film = vec2(-1.0);
-    Vertex l0 = vtx[LGT(0)];
+    Vertex l0 = LGTV(0);
     MisInputs mi = MisInputs(0.0, 0.0, 0.0, 0.0, l0.pdf_fwd, (l0.flags & VF_DELTA_LIGHT) != 0u, 1.0);
     Vertex q;
     vec3 L = s == 0 ? connect_s0(t, mi) : connect_st(s, t, u, rays, film, mi, q);
     if (!any(greaterThan(L, vec3(0.0)))) return vec3(0.0);
     // x0 (the light end) and x1 (its neighbour), for NEE's density of x0 (sphere lights).
-    Vertex x0 = l0, x1 = vtx[LGT(1)];
+    Vertex x0 = l0, x1 = LGTV(1);
     if (s == 0) {
-        x0 = vtx[CAM(t - 1)];
-        x1 = vtx[CAM(max(t - 2, 0))];
+        x0 = CAMV(t - 1);
+        x1 = CAMV(max(t - 2, 0));
     } else if (s == 1) {
         x0 = q;
-        x1 = vtx[CAM(t - 1)];
+        x1 = CAMV(t - 1);
     }
     mi.nee_ratio = nee_density_ratio(x0, x1);
     w = mis_weight(s, t, mi);

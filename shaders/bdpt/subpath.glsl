@@ -7,7 +7,7 @@
 // made stay usable (no sample is discarded for reaching max_depth).
 #ifndef BDPT_SUBPATH_GLSL
 #define BDPT_SUBPATH_GLSL
-#include "bdpt/vertex.glsl"
+#include "bdpt/paths.glsl"
 #include "common/camera.glsl"
 #include "common/traverse.glsl"
 
@@ -79,14 +79,29 @@ int random_walk(Ray ray, vec3 beta, float pdf_dir, int max_new, uint mode, int b
     return added;
 }
 
-// Both subpaths of one sample: the camera subpath (the lens vertex, then a radiance walk) and
-// the light subpath (an emitted ray from light_emit.glsl, then an importance walk), through one
-// call of random_walk (one inlined copy keeps the kernel small). nc ≥ 1; nl = 0 when no light
-// or no emission was sampled. Vertex counts: camera ≤ max_depth + 1, light ≤ max_depth.
+// The sides a kernel traces (paths.glsl): both in the per-pixel design, one per pass in the
+// split design.
+#if defined(BDPT_LIGHT_PASS)
+#define BDPT_FIRST_SIDE 1
+#define BDPT_LAST_SIDE 1
+#elif defined(BDPT_CAMERA_PASS)
+#define BDPT_FIRST_SIDE 0
+#define BDPT_LAST_SIDE 0
+#else
+#define BDPT_FIRST_SIDE 0
+#define BDPT_LAST_SIDE 1
+#endif
+
+// Both subpaths of one sample (those of this kernel's sides): the camera subpath (the lens
+// vertex, then a radiance walk) and the light subpath (an emitted ray from light_emit.glsl, then
+// an importance walk), through one call of random_walk (one inlined copy keeps the kernel
+// small). nc ≥ 1; nl = 0 when no light or no emission was sampled. Vertex counts: camera ≤
+// max_depth + 1, light ≤ max_depth. Each side draws from its own dimensions (0 and 256), so a
+// side traced alone is the same subpath.
 void trace_subpaths(uvec2 px, int max_depth, inout Rng rng, inout uint rays, out int nc, out int nl) {
     nc = 1;
     nl = 0;
-    for (int side = 0; side < 2; ++side) {
+    for (int side = BDPT_FIRST_SIDE; side <= BDPT_LAST_SIDE; ++side) {
         bool camera = side == 0;
         Ray ray;
         vec3 beta;

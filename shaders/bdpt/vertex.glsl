@@ -38,10 +38,6 @@ struct Vertex {
 // Capacity: camera subpaths have up to max_depth + 1 vertices, light subpaths max_depth.
 #define BDPT_MAX_CAM (BDPT_DEPTH_CAP + 1)
 #define BDPT_MAX_LIGHT (BDPT_DEPTH_CAP < 2 ? 2 : BDPT_DEPTH_CAP) // ≥ 2: LGT(1) is always addressable
-#define CAM(i) (i)
-#define LGT(i) (BDPT_MAX_CAM + (i))
-// Both subpaths of the sample in flight, in one private array (camera first, then light).
-Vertex vtx[BDPT_MAX_CAM + BDPT_MAX_LIGHT];
 
 Vertex vertex_blank(uint kind) {
     Vertex v;

@@ -1,7 +1,8 @@
 // The path-tracing megakernel shared by `pt` (INTEGRATOR_NEE 0: BSDF sampling only) and `nee`
 // (INTEGRATOR_NEE 1: next-event estimation with multiple importance sampling, power heuristic).
-// One thread per pixel traces `pc.spp` samples, adding each straight into the running sum in the
-// accumulation buffer, so the floating-point sum is the same whatever the pass split.
+// Each pixel's `pc.spp` samples are traced by one thread, or by up to 8 threads on small films
+// (common/dispatch.glsl), and added to the running sum in the accumulation buffer in sample
+// order, so the floating-point sum is the same whatever the pass split or dispatch shape.
 // max_depth has Mitsuba 3's meaning (1: directly visible emitters only; 2: + direct light; −1:
 // unbounded), and Russian roulette starts at rr_depth as in Mitsuba's `path` integrator.
 //
@@ -14,6 +15,7 @@
 #define COMMON_PATH_GLSL
 #include "common/bindings.glsl"
 #include "common/film.glsl"
+#include "common/dispatch.glsl"
 #include "common/math.glsl"
 #include "common/rng.glsl"
 #include "common/camera.glsl"
@@ -109,17 +111,19 @@ vec3 trace_path(uvec2 px, inout Rng rng, inout uint rays) {
 }
 
 void main() {
-    uvec2 px = gl_GlobalInvocationID.xy;
-    if (px.x >= g.film.x || px.y >= g.film.y) return;
-    uint pixel = px.y * g.film.x + px.x;
-    vec4 acc = accum[pixel];
+    FilmTask t = film_task();
+    vec4 acc = film_load(t);
     uint rays = 0u, dropped = 0u;
-    for (uint i = 0u; i < pc.spp; ++i) {
-        Rng rng = rng_init(pixel, pc.sample_base + i, pc.seed_lo, pc.seed_hi);
-        vec3 L = trace_path(px, rng, rays);
-        film_add(acc, L, pc.sample_base + i, dropped);
+    for (uint r = 0u; r < film_rounds(t); ++r) {
+        uint i = film_sample(t, r);
+        vec3 L = vec3(0.0);
+        if (film_has(t, i)) {
+            Rng rng = rng_init(t.pixel, pc.sample_base + i, pc.seed_lo, pc.seed_hi);
+            L = trace_path(t.px, rng, rays);
+        }
+        film_lanes_add(t, acc, L, r, dropped);
     }
-    accum[pixel] = acc;
+    film_store(t, acc);
     film_count(rays, dropped);
 }
 

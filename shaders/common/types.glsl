@@ -54,7 +54,7 @@ layout(push_constant, scalar) uniform Push {
     int max_depth;
     int rr_depth;
     uint flags;
-    uint pad;
+    uint dispatch; // lanes and band: common/dispatch.glsl
 } pc;
 
 #endif

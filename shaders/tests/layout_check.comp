@@ -56,5 +56,5 @@ void main() {
     pu(v_stats.dropped_samples); pu(v_stats.rays_lo); pu(v_stats.rays_hi); pu(v_stats.pad);
     k = 576u;
     pu(pc.seed_lo); pu(pc.seed_hi); pu(pc.sample_base); pu(pc.spp);
-    pi(pc.max_depth); pi(pc.rr_depth); pu(pc.flags); pu(pc.pad);
+    pi(pc.max_depth); pi(pc.rr_depth); pu(pc.flags); pu(pc.dispatch);
 }

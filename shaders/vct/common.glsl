@@ -34,7 +34,7 @@ struct VctParams {
     vec4 grid;        // grid minimum corner (camera-relative), voxel size
     uvec4 dims;       // resolution R, levels D = log2 R, storage (0 dense, 1 octree), coarsest level cones read
     vec4 cone;        // tan of the diffuse cones' half-angle, diffuse cone count, step factor, AO distance (grid units)
-    uvec4 mode;       // ao output, shadow cones, injection samples per voxel, 0
+    uvec4 mode;       // ao output, shadow cones, injection samples per voxel, diffuse cones per sample
     uvec4 caps;       // fragment capacity, node capacity, slot capacity, 0
     uint mip_offset[VCT_LEVELS_MAX]; // dense: first cell of level m in MIP (cells of 6 values)
 };
@@ -141,18 +141,21 @@ vec3 dir_axis(uint dir) {
     return e;
 }
 
+// level0_value from the slot's loaded radiance r and normal n, for the axis direction e.
+vec4 level0_face(uvec4 r, vec3 n, vec3 e) {
+    float c = dot(n, e);
+    float nl = dot(n, n);
+    if (nl < 0.25) return unpack_h4(r.xy);
+    return (c <= 0.0 ? unpack_h4(r.xy) : unpack_h4(r.zw)) * (abs(c) * inversesqrt(nl));
+}
+
 // Level 0 is directional too: a voxel keeps the radiance of the two sides of its surface
 // (front: the side its normal points to), and a cone travelling along e sees the side facing
 // −e, with the surface's projected coverage |n·e| as opacity: a thin wall lit on one side does
 // not shine on the other, and a wall seen edge-on neither shows its lit side nor occludes
 // (voxels whose normals cancel show the same opaque value every way).
 vec4 level0_value(uint slot, uint dir) {
-    uvec4 r = rad[slot];
-    vec3 n = unpackSnorm4x8(attr[slot].y).xyz;
-    float c = dot(n, dir_axis(dir));
-    float nl = dot(n, n);
-    if (nl < 0.25) return unpack_h4(r.xy);
-    return (c <= 0.0 ? unpack_h4(r.xy) : unpack_h4(r.zw)) * (abs(c) * inversesqrt(nl));
+    return level0_face(rad[slot], unpackSnorm4x8(attr[slot].y).xyz, dir_axis(dir));
 }
 
 // The radiance of the side of slot's surface a ray travelling along d sees (its opacity is 1).
@@ -167,8 +170,11 @@ vec3 level0_seen(uint slot, vec3 d) {
 // values (both storages read level 0 this way).
 vec4 level0_dir(uint slot, vec3 d) {
     vec3 w = d * d;
-    return w.x * level0_value(slot, d.x >= 0.0 ? 0u : 1u) + w.y * level0_value(slot, d.y >= 0.0 ? 2u : 3u) +
-           w.z * level0_value(slot, d.z >= 0.0 ? 4u : 5u);
+    uvec4 r = rad[slot];
+    vec3 n = unpackSnorm4x8(attr[slot].y).xyz;
+    return w.x * level0_face(r, n, dir_axis(d.x >= 0.0 ? 0u : 1u)) +
+           w.y * level0_face(r, n, dir_axis(d.y >= 0.0 ? 2u : 3u)) +
+           w.z * level0_face(r, n, dir_axis(d.z >= 0.0 ? 4u : 5u));
 }
 
 // Anisotropic value seen by a cone travelling along d from six directional values

@@ -30,6 +30,7 @@ vec4 cone_trace(vec3 p, vec3 d, float tan_half, float t0, float t_max) {
     float max_diam = float(1u << min(P.dims.w, vct_levels() - 1u));
     // Axis positions up to t_checked have been tested for occupied level-0 voxels.
     float t_checked = t0;
+    uvec2 walk = uvec2(NONE);
     for (int it = 0; it < 4096 && t < t_max && A < 0.99; ++it) {
         vec3 pg = pg0 + t * d;
         bool outside = any(lessThan(pg, vec3(-1.0))) || any(greaterThan(pg, vec3(r + 1.0)));
@@ -49,7 +50,7 @@ vec4 cone_trace(vec3 p, vec3 d, float tan_half, float t0, float t_max) {
                 if (u > t_checked + 0.5) break; // left the grid
                 continue;
             }
-            uint hit = occupied_slot(uvec3(pu));
+            uint hit = occupied_slot_walk(uvec3(pu), walk);
             if (hit != NONE) {
                 C += (1.0 - A) * level0_seen(hit, d);
                 return vec4(C, 1.0);

@@ -14,6 +14,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "common/bindings.glsl"
 #include "common/film.glsl"
+#include "common/dispatch.glsl"
 #include "common/math.glsl"
 #include "common/rng.glsl"
 #include "common/camera.glsl"
@@ -143,13 +144,19 @@ vec3 shade(uvec2 px, inout Rng rng, inout uint rays) {
         make_frame(n, t, b);
         float phi0 = 2.0 * PI * rng_next1(rng);
         vec3 origin = s.p + ng_o * (CONE_OFFSET * vox);
-        for (uint i = 0u; i < nc; ++i) {
+        // `cones_per_sample` (P.mode.w) < nc: a run of that many cones from a random one,
+        // weighted by nc / run, so each cone is traced with the same expected weight.
+        uint run = clamp(P.mode.w, 1u, nc);
+        uint first = run < nc ? min(uint(rng_next1(rng) * float(nc)), nc - 1u) : 0u;
+        float run_weight = float(nc) / float(run);
+        for (uint j = 0u; j < run; ++j) {
+            uint i = (first + j) % nc;
             vec3 dl = diffuse_cone_dir(i, nc, phi0);
             vec3 d = from_local(dl, t, b, n);
             vec3 f = bsdf_eval(m, wo, to_local(d, s.tangent, bt, s.ns), TRANSPORT_RADIANCE);
             if (!any(greaterThan(f, vec3(0.0)))) continue;
             vec3 Lc = cone_trace(origin, d, P.cone.x, 1.0, 1e9).rgb;
-            L += f * Lc * (PI / (float(nc) * max(dl.z, 1e-3)));
+            L += f * Lc * (PI * run_weight / (float(nc) * max(dl.z, 1e-3)));
         }
     } else if (sampled) {
         // One cone along the sampled direction; its solid angle ≈ 1/pdf (narrow for smooth lobes,
@@ -165,16 +172,18 @@ vec3 shade(uvec2 px, inout Rng rng, inout uint rays) {
 }
 
 void main() {
-    uvec2 px = gl_GlobalInvocationID.xy;
-    if (px.x >= g.film.x || px.y >= g.film.y) return;
-    uint pixel = px.y * g.film.x + px.x;
-    vec4 acc = accum[pixel];
+    FilmTask t = film_task();
+    vec4 acc = film_load(t);
     uint rays = 0u, dropped = 0u;
-    for (uint i = 0u; i < pc.spp; ++i) {
-        Rng rng = rng_init(pixel, pc.sample_base + i, pc.seed_lo, pc.seed_hi);
-        vec3 L = shade(px, rng, rays);
-        film_add(acc, L, pc.sample_base + i, dropped);
+    for (uint r = 0u; r < film_rounds(t); ++r) {
+        uint i = film_sample(t, r);
+        vec3 L = vec3(0.0);
+        if (film_has(t, i)) {
+            Rng rng = rng_init(t.pixel, pc.sample_base + i, pc.seed_lo, pc.seed_hi);
+            L = shade(t.px, rng, rays);
+        }
+        film_lanes_add(t, acc, L, r, dropped);
     }
-    accum[pixel] = acc;
+    film_store(t, acc);
     film_count(rays, dropped);
 }

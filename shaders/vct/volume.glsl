@@ -9,9 +9,13 @@
 #define VCT_VOLUME_GLSL
 #include "vct/common.glsl"
 
+// The six directional values at `at` as seen along d: only the three faces d shows are read
+// (combine_dirs' choice, made before the loads).
 vec4 mip_dir(uint at, vec3 d) {
-    return combine_dirs(unpack_h4(mip[at]), unpack_h4(mip[at + 1u]), unpack_h4(mip[at + 2u]),
-                        unpack_h4(mip[at + 3u]), unpack_h4(mip[at + 4u]), unpack_h4(mip[at + 5u]), d);
+    vec3 w = d * d;
+    uvec3 face = uvec3(d.x >= 0.0 ? 0u : 1u, d.y >= 0.0 ? 2u : 3u, d.z >= 0.0 ? 4u : 5u);
+    return w.x * unpack_h4(mip[at + face.x]) + w.y * unpack_h4(mip[at + face.y]) +
+           w.z * unpack_h4(mip[at + face.z]);
 }
 
 // Sample i (0..2 per axis) of the brick of `node` (depth D−1−m).
@@ -40,6 +44,20 @@ vec4 cell_value(uvec3 c, uint m, vec3 d) {
 uint occupied_slot(uvec3 c) {
     uint slot = voxel_slot(c);
     if (slot == NONE) return NONE;
+    return unpackUnorm4x8(attr[slot].x).a > 0.5 ? slot : NONE;
+}
+
+// occupied_slot for a walk along a line: `last` caches the last leaf-parent cell looked up
+// and its node (octree), so consecutive half-voxel steps inside one 2×2×2 block walk the tree
+// once. Start with last = uvec2(NONE).
+uint occupied_slot_walk(uvec3 c, inout uvec2 last) {
+    if (!vct_octree()) return occupied_slot(c);
+    uint key = pack_cell(c >> 1u);
+    if (key != last.x) {
+        last = uvec2(key, octree_find(c >> 1u, vct_levels() - 1u));
+    }
+    if (last.y == NONE) return NONE;
+    uint slot = (last.y - info.level_start[vct_levels() - 1u]) * 8u + octant(c & 1u);
     return unpackUnorm4x8(attr[slot].x).a > 0.5 ? slot : NONE;
 }
 

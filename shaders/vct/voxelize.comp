@@ -5,14 +5,22 @@
 // triangle's bounding box; spheres: the voxel box straddles the sphere surface (nearest box point
 // inside, farthest outside). Thin geometry is never lost: a voxel is kept when any part of the
 // primitive touches it. Thread (x: primitive, y: slice): each thread covers one slice of the
-// primitive's bounding box along its longest axis, so a wall spanning the grid is split over
-// many threads. Counting pass (capacity 0) and emitting pass share the kernel: each thread counts
-// its voxels, reserves a block with one atomic and then writes it.
+// primitive's bounding box along its longest axis, and VOX_ROWS rows of it along the second
+// longest (z: row block), so a wall spanning the grid is split over many threads, each testing a
+// few rows (renderer/src/integrators/vct/build.rs sizes the grid). Counting pass (capacity 0)
+// and emitting pass share the kernel: each thread counts its voxels, the workgroup sums its
+// threads' counts in shared memory and reserves one block with one global atomic (millions of
+// threads on one counter serialise), and each thread writes its share of the block.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "vct/common.glsl"
 
 layout(local_size_x = 64, local_size_y = 1, local_size_z = 1) in;
+
+#define VOX_ROWS 4
+
+shared uint s_count;
+shared uint s_base;
 
 // Akenine-Möller's axis test: projections of the triangle (v0, v1, v2, relative to the box
 // centre) and of the box (half size h) on `axis` are disjoint.
@@ -59,38 +67,58 @@ bool touches(GpuPrim pr, bool sphere, vec3 v) {
 void main() {
     uint prim = gl_GlobalInvocationID.x;
     uint slice = gl_GlobalInvocationID.y;
-    if (prim >= g.counts.x) return;
-    GpuPrim pr = prims[prim];
-    bool sphere = (floatBitsToUint(pr.a.w) & PRIM_SPHERE) != 0u;
-    // Step 1: the primitive's voxel range.
-    vec3 lo, hi;
-    if (sphere) {
-        vec3 sc = to_grid(pr.a.xyz);
-        float r = pr.b.x / P.grid.w;
-        lo = sc - r; hi = sc + r;
-    } else {
-        vec3 a = to_grid(pr.a.xyz), b = to_grid(pr.b.xyz), d = to_grid(pr.c.xyz);
-        lo = min(a, min(b, d)); hi = max(a, max(b, d));
+    uint rows = gl_GlobalInvocationID.z * VOX_ROWS;
+    // Threads without work stay to the end: the workgroup meets at barriers.
+    bool work = prim < g.counts.x;
+    GpuPrim pr;
+    bool sphere = false;
+    ivec3 slo = ivec3(0), shi = ivec3(-1);
+    if (work) {
+        pr = prims[prim];
+        sphere = (floatBitsToUint(pr.a.w) & PRIM_SPHERE) != 0u;
+        // Step 1: the primitive's voxel range.
+        vec3 lo, hi;
+        if (sphere) {
+            vec3 sc = to_grid(pr.a.xyz);
+            float r = pr.b.x / P.grid.w;
+            lo = sc - r; hi = sc + r;
+        } else {
+            vec3 a = to_grid(pr.a.xyz), b = to_grid(pr.b.xyz), d = to_grid(pr.c.xyz);
+            lo = min(a, min(b, d)); hi = max(a, max(b, d));
+        }
+        float rmax = float(vct_res() - 1u);
+        ivec3 vlo = ivec3(clamp(floor(lo - 1e-3), vec3(0.0), vec3(rmax)));
+        ivec3 vhi = ivec3(clamp(floor(hi + 1e-3), vec3(0.0), vec3(rmax)));
+        // Step 2: this thread's slice along the longest axis and rows along the second longest.
+        ivec3 ext = vhi - vlo;
+        int axis = ext.x >= ext.y ? (ext.x >= ext.z ? 0 : 2) : (ext.y >= ext.z ? 1 : 2);
+        int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+        int row_axis = ext[a1] >= ext[a2] ? a1 : a2;
+        work = int(slice) <= ext[axis] && int(rows) <= ext[row_axis];
+        slo = vlo; shi = vhi;
+        slo[axis] = vlo[axis] + int(slice);
+        shi[axis] = slo[axis];
+        slo[row_axis] = vlo[row_axis] + int(rows);
+        shi[row_axis] = min(slo[row_axis] + VOX_ROWS - 1, vhi[row_axis]);
     }
-    float rmax = float(vct_res() - 1u);
-    ivec3 vlo = ivec3(clamp(floor(lo - 1e-3), vec3(0.0), vec3(rmax)));
-    ivec3 vhi = ivec3(clamp(floor(hi + 1e-3), vec3(0.0), vec3(rmax)));
-    // Step 2: this thread's slice along the longest axis.
-    ivec3 ext = vhi - vlo;
-    int axis = ext.x >= ext.y ? (ext.x >= ext.z ? 0 : 2) : (ext.y >= ext.z ? 1 : 2);
-    if (int(slice) > ext[axis]) return;
-    ivec3 slo = vlo, shi = vhi;
-    slo[axis] = vlo[axis] + int(slice);
-    shi[axis] = slo[axis];
-    // Step 3: count the voxels touched, reserve a block, write it.
+    // Step 3: count the voxels touched.
     uint n = 0u;
-    for (int z = slo.z; z <= shi.z; ++z)
-        for (int y = slo.y; y <= shi.y; ++y)
-            for (int x = slo.x; x <= shi.x; ++x)
-                if (touches(pr, sphere, vec3(x, y, z))) n += 1u;
+    if (work)
+        for (int z = slo.z; z <= shi.z; ++z)
+            for (int y = slo.y; y <= shi.y; ++y)
+                for (int x = slo.x; x <= shi.x; ++x)
+                    if (touches(pr, sphere, vec3(x, y, z))) n += 1u;
+    // Step 4: one block for the workgroup, this thread's share of it.
+    if (gl_LocalInvocationIndex == 0u) s_count = 0u;
+    barrier();
+    uint mine = n > 0u ? atomicAdd(s_count, n) : 0u;
+    barrier();
+    if (gl_LocalInvocationIndex == 0u && s_count > 0u) s_base = atomicAdd(info.frag_count, s_count);
+    barrier();
     if (n == 0u) return;
-    uint base = atomicAdd(info.frag_count, n);
+    uint base = s_base + mine;
     if (base + n > P.caps.x) return; // counting pass (capacity 0) or overflow
+    // Step 5: write them.
     for (int z = slo.z; z <= shi.z; ++z)
         for (int y = slo.y; y <= shi.y; ++y)
             for (int x = slo.x; x <= shi.x; ++x)

@@ -8,6 +8,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "common/bindings.glsl"
 #include "common/film.glsl"
+#include "common/dispatch.glsl"
 #include "common/math.glsl"
 #include "common/rng.glsl"
 #include "common/camera.glsl"
@@ -122,16 +123,18 @@ vec3 trace_whitted(uvec2 px, inout Rng rng, inout uint rays) {
 }
 
 void main() {
-    uvec2 px = gl_GlobalInvocationID.xy;
-    if (px.x >= g.film.x || px.y >= g.film.y) return;
-    uint pixel = px.y * g.film.x + px.x;
-    vec4 acc = accum[pixel];
+    FilmTask t = film_task();
+    vec4 acc = film_load(t);
     uint rays = 0u, dropped = 0u;
-    for (uint i = 0u; i < pc.spp; ++i) {
-        Rng rng = rng_init(pixel, pc.sample_base + i, pc.seed_lo, pc.seed_hi);
-        vec3 L = trace_whitted(px, rng, rays);
-        film_add(acc, L, pc.sample_base + i, dropped);
+    for (uint r = 0u; r < film_rounds(t); ++r) {
+        uint i = film_sample(t, r);
+        vec3 L = vec3(0.0);
+        if (film_has(t, i)) {
+            Rng rng = rng_init(t.pixel, pc.sample_base + i, pc.seed_lo, pc.seed_hi);
+            L = trace_whitted(t.px, rng, rays);
+        }
+        film_lanes_add(t, acc, L, r, dropped);
     }
-    accum[pixel] = acc;
+    film_store(t, acc);
     film_count(rays, dropped);
 }

@@ -62,6 +62,7 @@ pub fn gpu() -> Arc<GpuContext> {
             GpuContext::new(&GpuOptions {
                 device: None,
                 validation: true,
+                ..Default::default()
             })
             .expect("a Vulkan device (install mesa-vulkan-drivers)"),
         )

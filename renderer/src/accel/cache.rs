@@ -9,8 +9,10 @@
 //! and the file overwritten. Files are written to a temporary name and renamed into place, so a
 //! reader never sees a half-written file.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
+
+pub use crate::cache_file::Hasher128;
+use crate::cache_file::{read_checked, write_checked, FileKind};
 
 use super::grid::Grid;
 use super::{AccelKind, AccelOptions, PrimBounds};
@@ -19,82 +21,13 @@ use crate::layout::{GpuBvhNode, GpuGridInfo, GpuPrim, PRIM_SPHERE};
 /// Bumped whenever a builder or the file layout changes, so old files are never reused.
 pub const FORMAT_VERSION: u32 = 1;
 const MAGIC: &[u8; 8] = b"CNDLACCL";
-const HEADER: usize = 8 + 4 + 4 + 16 + 8 + 8;
 
-/// A 128-bit content hash (two independent 64-bit multiply-rotate lanes over 8-byte words with
-/// a final avalanche). Not cryptographic: it keys a local cache, it does not authenticate.
-#[derive(Clone)]
-pub struct Hasher128 {
-    a: u64,
-    b: u64,
-    len: u64,
-    tail: Vec<u8>,
-}
-
-impl Default for Hasher128 {
-    fn default() -> Self {
-        Hasher128 {
-            a: 0x9e37_79b9_7f4a_7c15,
-            b: 0xc2b2_ae3d_27d4_eb4f,
-            len: 0,
-            tail: Vec::new(),
-        }
-    }
-}
-
-fn mix64(mut x: u64) -> u64 {
-    // splitmix64's finaliser.
-    x ^= x >> 30;
-    x = x.wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    x ^= x >> 27;
-    x = x.wrapping_mul(0x94d0_49bb_1331_11eb);
-    x ^ (x >> 31)
-}
-
-impl Hasher128 {
-    fn word(&mut self, w: u64) {
-        self.a = (self.a ^ w)
-            .wrapping_mul(0x0000_0100_0000_01b3)
-            .rotate_left(29)
-            .wrapping_add(self.b);
-        self.b = self
-            .b
-            .wrapping_add(w.wrapping_mul(0x87c3_7b91_1142_53d5))
-            .rotate_left(31)
-            .wrapping_mul(0x4cf5_ad43_2745_937f);
-    }
-
-    /// Feeds bytes.
-    pub fn update(&mut self, bytes: &[u8]) {
-        self.len += bytes.len() as u64;
-        let mut rest = bytes;
-        if !self.tail.is_empty() {
-            let need = 8 - self.tail.len();
-            let take = need.min(rest.len());
-            self.tail.extend_from_slice(&rest[..take]);
-            rest = &rest[take..];
-            if self.tail.len() < 8 {
-                return;
-            }
-            let w = u64::from_le_bytes(self.tail[..8].try_into().unwrap());
-            self.tail.clear();
-            self.word(w);
-        }
-        let mut chunks = rest.chunks_exact(8);
-        for c in &mut chunks {
-            self.word(u64::from_le_bytes(c.try_into().unwrap()));
-        }
-        self.tail.extend_from_slice(chunks.remainder());
-    }
-
-    /// The 128-bit digest.
-    pub fn finish(&self) -> [u64; 2] {
-        let mut s = self.clone();
-        let mut last = [0u8; 8];
-        last[..s.tail.len()].copy_from_slice(&s.tail);
-        s.word(u64::from_le_bytes(last));
-        s.word(s.len);
-        [mix64(s.a ^ mix64(s.b)), mix64(s.b.wrapping_add(s.a))]
+/// The file header's identity for structures of `kind`.
+fn file_kind(kind: AccelKind) -> FileKind {
+    FileKind {
+        magic: MAGIC,
+        version: FORMAT_VERSION,
+        kind: kind as u32,
     }
 }
 
@@ -224,69 +157,19 @@ fn decode(payload: &[u8]) -> Option<Entry> {
 
 /// Loads the entry for `key`, or None when there is no valid file for it.
 pub fn load(dir: &Path, kind: AccelKind, key: [u64; 2]) -> Option<Entry> {
-    let bytes = std::fs::read(path(dir, kind, key)).ok()?;
-    if bytes.len() < HEADER || &bytes[..8] != MAGIC {
-        return None;
+    let p = path(dir, kind, key);
+    match read_checked(&p, file_kind(kind), key) {
+        Ok(payload) => decode(&payload?),
+        Err(why) => {
+            tracing::warn!("accel cache {}: {why}; rebuilding", p.display());
+            None
+        }
     }
-    let mut r = Reader(&bytes[8..HEADER]);
-    let version = r.u32()?;
-    let k = r.u32()?;
-    let key0 = u64::from_le_bytes(r.take(8)?.try_into().ok()?);
-    let key1 = u64::from_le_bytes(r.take(8)?.try_into().ok()?);
-    let len = u64::from_le_bytes(r.take(8)?.try_into().ok()?);
-    let sum = u64::from_le_bytes(r.take(8)?.try_into().ok()?);
-    let payload = &bytes[HEADER..];
-    if version != FORMAT_VERSION
-        || k != kind as u32
-        || [key0, key1] != key
-        || len != payload.len() as u64
-    {
-        return None;
-    }
-    let mut h = Hasher128::default();
-    h.update(payload);
-    if h.finish()[0] != sum {
-        return None;
-    }
-    decode(payload)
 }
 
 /// Writes the entry for `key` atomically (a temporary file in `dir`, then a rename).
 pub fn store(dir: &Path, kind: AccelKind, key: [u64; 2], e: &Entry) -> std::io::Result<()> {
-    std::fs::create_dir_all(dir)?;
-    let payload = encode(e);
-    let mut h = Hasher128::default();
-    h.update(&payload);
-    let mut out = Vec::with_capacity(HEADER + payload.len());
-    out.extend_from_slice(MAGIC);
-    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
-    out.extend_from_slice(&(kind as u32).to_le_bytes());
-    out.extend_from_slice(&key[0].to_le_bytes());
-    out.extend_from_slice(&key[1].to_le_bytes());
-    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-    out.extend_from_slice(&h.finish()[0].to_le_bytes());
-    out.extend_from_slice(&payload);
-    let target = path(dir, kind, key);
-    let tmp = dir.join(format!(
-        ".{}.{}.{:?}.tmp",
-        target
-            .file_name()
-            .and_then(|n| n.to_str())
-            .unwrap_or("accel"),
-        std::process::id(),
-        std::thread::current().id()
-    ));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(&out)?;
-        f.sync_all()?;
-        drop(f);
-        std::fs::rename(&tmp, &target)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    write_checked(&path(dir, kind, key), file_kind(kind), key, &encode(e))
 }
 
 impl Entry {
@@ -304,26 +187,6 @@ impl Entry {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn hash_is_split_invariant_and_sensitive() {
-        let data: Vec<u8> = (0..1000u32).map(|i| (i * 7 % 251) as u8).collect();
-        let mut a = Hasher128::default();
-        a.update(&data);
-        let mut b = Hasher128::default();
-        for c in data.chunks(13) {
-            b.update(c);
-        }
-        assert_eq!(a.finish(), b.finish());
-        let mut c = Hasher128::default();
-        let mut d2 = data.clone();
-        d2[500] ^= 1;
-        c.update(&d2);
-        assert_ne!(a.finish(), c.finish());
-        let mut e = Hasher128::default();
-        e.update(&data[..999]);
-        assert_ne!(a.finish(), e.finish());
-    }
 
     #[test]
     fn entries_round_trip_and_corruption_is_rejected() {
@@ -345,7 +208,7 @@ mod tests {
         bytes[last] ^= 0x55;
         std::fs::write(&p, &bytes).unwrap();
         assert_eq!(load(&dir, AccelKind::Grid, key), None);
-        std::fs::write(&p, &bytes[..HEADER + 3]).unwrap();
+        std::fs::write(&p, &bytes[..crate::cache_file::HEADER + 3]).unwrap();
         assert_eq!(load(&dir, AccelKind::Grid, key), None);
         std::fs::remove_dir_all(&dir).unwrap();
     }

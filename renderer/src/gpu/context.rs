@@ -8,6 +8,9 @@ use std::sync::{Arc, Mutex};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
+use super::kernel_cache::{compile_kernels, kernel_spirv, DriverKey, PipelineCache};
+use super::pipeline::PipelineObjects;
+use super::ShaderDefines;
 use super::{GpuError, GpuResult};
 
 /// How to create a context.
@@ -18,6 +21,9 @@ pub struct GpuOptions {
     pub device: Option<String>,
     /// Enable the Khronos validation layer if installed; its messages become errors.
     pub validation: bool,
+    /// The kernel cache folder (compiled SPIR-V and the driver's pipeline cache, see
+    /// kernel_cache.rs); `None`: compile in memory only.
+    pub kernel_cache: Option<std::path::PathBuf>,
 }
 
 /// What a device is, for logs, stats and `--device` matching.
@@ -52,6 +58,15 @@ pub struct GpuContext {
     pub(crate) timestamps_supported: bool,
     pub info: DeviceInfo,
     pub validation_enabled: bool,
+    /// The driver's pipeline cache, loaded from and saved to `kernel_dir`.
+    pub(crate) pipelines: PipelineCache,
+    /// Pipelines made on this device, shared by every session that uses them.
+    pub(crate) pipeline_objects: PipelineObjects,
+    /// The kernel cache folder, if any.
+    pub kernel_dir: Option<std::path::PathBuf>,
+    /// When the host last saw a pass of any session complete: a pass queued behind another
+    /// is charged only from there (render/inflight.rs).
+    pub(crate) last_completion: Mutex<Option<std::time::Instant>>,
     /// `shaderBufferFloat32AtomicAdd` (VK_EXT_shader_atomic_float) is enabled: kernels may
     /// `atomicAdd` floats in storage buffers (bdpt's light-tracing splats; without it they use
     /// an integer fixed-point fallback).
@@ -455,6 +470,8 @@ impl GpuContext {
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
         let timestamps_supported = families[queue_family as usize].timestamp_valid_bits > 0
             && props.limits.timestamp_compute_and_graphics == vk::TRUE;
+        let pipelines =
+            PipelineCache::open(&device, DriverKey::of(&props), opts.kernel_cache.as_deref())?;
         tracing::info!(device = %info.name, driver = %info.driver, validation, float_atomics, "Vulkan device ready");
         Ok(GpuContext {
             entry,
@@ -473,6 +490,10 @@ impl GpuContext {
             timestamps_supported,
             info,
             validation_enabled: validation,
+            pipelines,
+            pipeline_objects: PipelineObjects::default(),
+            kernel_dir: opts.kernel_cache.clone(),
+            last_completion: Mutex::new(None),
             float_atomics,
             executable_properties,
         })
@@ -492,6 +513,40 @@ impl GpuContext {
         let all = v.join("\n");
         v.clear();
         Err(GpuError::Validation(all))
+    }
+
+    /// The SPIR-V of kernel `path` (relative to shaders/) with `defines`, through the kernel
+    /// cache (memory, then this context's cache folder, then glslang).
+    pub fn kernel(&self, path: &str, defines: &ShaderDefines) -> GpuResult<Arc<Vec<u32>>> {
+        kernel_spirv(path, defines, self.kernel_dir.as_deref())
+    }
+
+    /// Compiles the kernels of `list` that are in no cache yet, on several threads at once.
+    pub fn compile_kernels(&self, list: &[(String, ShaderDefines)]) -> GpuResult<()> {
+        compile_kernels(list, self.kernel_dir.as_deref())
+            .into_iter()
+            .try_for_each(|r| r.map(|_| ()))
+    }
+
+    /// Which driver build this device is (the pipeline cache's key).
+    pub fn driver_key(&self) -> DriverKey {
+        self.pipelines.driver
+    }
+
+    /// Saves the pipeline cache to the kernel cache folder if pipelines were made since the
+    /// last save.
+    pub fn save_pipeline_cache(&self) {
+        self.pipelines.save(&self.device);
+    }
+
+    /// [`Self::save_pipeline_cache`] on a background thread (when there is anything to save).
+    pub fn save_pipeline_cache_later(self: &Arc<Self>) {
+        if self.pipelines.dirty() {
+            let ctx = self.clone();
+            let _ = std::thread::Builder::new()
+                .name("pipeline-cache".into())
+                .spawn(move || ctx.save_pipeline_cache());
+        }
     }
 
     /// Blocks until the device is idle.
@@ -518,6 +573,9 @@ impl Drop for GpuContext {
         // object (buffers, pipelines) holds an Arc to the context and is gone by now.
         unsafe {
             let _ = self.device.device_wait_idle();
+            self.pipelines.save(&self.device);
+            self.pipeline_objects.destroy_all(&self.device);
+            self.device.destroy_pipeline_cache(self.pipelines.raw, None);
             if let Ok(mut a) = self.allocator.lock() {
                 a.take();
             }

@@ -1,7 +1,8 @@
 //! The Vulkan compute layer, on ash: device selection, buffers, shader compilation, compute
 //! pipelines and timed, labelled dispatches. One concept per file (after kajiya's wrappers):
 //! `context` (instance, device, queue, validation), `buffer`, `shader` (GLSL → SPIR-V with
-//! glslang, in-process, cached per define set), `pipeline` (compute pipelines and their descriptor
+//! glslang, in-process), `kernel_cache` (compiled kernels in memory and on disk, the driver's
+//! pipeline cache, parallel compiles), `pipeline` (compute pipelines and their descriptor
 //! sets), `commands` (recording, submission, timestamps).
 //!
 //! Everything is Vulkan 1.2 compute, so the same code runs on Mesa lavapipe (tests, CI) and on
@@ -10,14 +11,19 @@
 mod buffer;
 mod commands;
 mod context;
+mod kernel_cache;
 mod pipeline;
 mod shader;
 
 pub use buffer::{Buffer, BufferUsage};
-pub use commands::{DispatchTiming, Recorder};
+pub use commands::{DispatchTiming, Frame, Recorder};
 pub use context::{list_devices, DeviceInfo, GpuContext, GpuOptions};
+pub use kernel_cache::{
+    compile_glsl, compile_kernels, compile_uncached, kernel_spirv, kernel_stats, source_closure,
+    spirv_key, spirv_path, DriverKey, KernelStats,
+};
 pub use pipeline::{Binding, ComputePipeline};
-pub use shader::{compile_glsl, shader_source, ShaderDefines};
+pub use shader::{shader_source, ShaderDefines, COMPILER_ID};
 
 /// Errors of the GPU layer. Messages name the stage that failed.
 #[derive(Debug, thiserror::Error)]

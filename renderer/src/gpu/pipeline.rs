@@ -1,12 +1,20 @@
 //! Compute pipelines with their descriptor set. Every binding is a storage buffer in set 0 at an
 //! explicit, named binding index (the constants live next to the GLSL mirror of each layout);
 //! push constants carry per-dispatch values.
+//!
+//! The pipeline itself (and its layouts) depends only on the SPIR-V, the binding indices and
+//! the push-constant size, so it is made once per device and shared ([`PipelineObjects`]): a
+//! second session of the same kernel only allocates its descriptor set. Pipelines are created
+//! through the device's pipeline cache (kernel_cache.rs), so even the first one after a restart
+//! is quick where the driver cached it.
 
-use std::sync::Arc;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
 
 use ash::vk;
 
 use super::{Buffer, GpuContext, GpuError, GpuResult};
+use crate::cache_file::Hasher128;
 
 /// A storage buffer bound at `index` in set 0.
 pub struct Binding<'a> {
@@ -14,51 +22,80 @@ pub struct Binding<'a> {
     pub buffer: &'a Buffer,
 }
 
+/// The shareable part of a compute pipeline (destroyed with the device).
+#[derive(Clone, Copy)]
+pub(crate) struct PipelineObject {
+    pipeline: vk::Pipeline,
+    layout: vk::PipelineLayout,
+    set_layout: vk::DescriptorSetLayout,
+}
+
+/// What a pipeline object depends on: a hash of the SPIR-V, the binding indices, the push size.
+type PipelineKey = ([u64; 2], Vec<u32>, u32);
+type PipelineSlot = Arc<OnceLock<Result<PipelineObject, GpuError>>>;
+
+/// Every pipeline object of a device, one slot per key (filled by the first caller, which the
+/// others wait for).
+#[derive(Default)]
+pub(crate) struct PipelineObjects(Mutex<HashMap<PipelineKey, PipelineSlot>>);
+
+impl PipelineObjects {
+    /// Destroys every object (the device is idle and about to go).
+    pub(crate) fn destroy_all(&self, dev: &ash::Device) {
+        let map = std::mem::take(&mut *self.0.lock().unwrap_or_else(|e| e.into_inner()));
+        for slot in map.values() {
+            if let Some(Ok(o)) = slot.get() {
+                // SAFETY: nothing uses the objects any more (the device is idle).
+                unsafe {
+                    dev.destroy_pipeline(o.pipeline, None);
+                    dev.destroy_pipeline_layout(o.layout, None);
+                    dev.destroy_descriptor_set_layout(o.set_layout, None);
+                }
+            }
+        }
+    }
+}
+
 /// A compute pipeline and the one descriptor set it is used with.
 pub struct ComputePipeline {
     ctx: Arc<GpuContext>,
     pub(crate) pipeline: vk::Pipeline,
     pub(crate) layout: vk::PipelineLayout,
-    set_layout: vk::DescriptorSetLayout,
     pool: vk::DescriptorPool,
     pub(crate) set: vk::DescriptorSet,
     pub name: String,
 }
 
-impl ComputePipeline {
-    /// Creates the pipeline from SPIR-V and binds `bindings` to its descriptor set.
-    pub fn new(
-        ctx: &Arc<GpuContext>,
-        name: &str,
-        spirv: &[u32],
-        bindings: &[Binding<'_>],
-        push_size: u32,
-    ) -> GpuResult<Self> {
-        let dev = &ctx.device;
-        let mut p = ComputePipeline {
-            ctx: ctx.clone(),
-            pipeline: vk::Pipeline::null(),
-            layout: vk::PipelineLayout::null(),
-            set_layout: vk::DescriptorSetLayout::null(),
-            pool: vk::DescriptorPool::null(),
-            set: vk::DescriptorSet::null(),
-            name: name.to_string(),
-        };
-        // Step 1: descriptor set layout and pipeline layout.
-        let dsl: Vec<_> = bindings
-            .iter()
-            .map(|b| {
-                vk::DescriptorSetLayoutBinding::default()
-                    .binding(b.index)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                    .descriptor_count(1)
-                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
-            })
-            .collect();
-        // SAFETY: valid device; every handle created here is destroyed in Drop (null handles
-        // are ignored by the destroy calls).
-        unsafe {
-            p.set_layout = dev
+/// Creates the pipeline object of `spirv` with a set layout of `indices` (storage buffers).
+fn create_object(
+    ctx: &GpuContext,
+    name: &str,
+    spirv: &[u32],
+    indices: &[u32],
+    push_size: u32,
+) -> GpuResult<PipelineObject> {
+    let dev = &ctx.device;
+    let mut o = PipelineObject {
+        pipeline: vk::Pipeline::null(),
+        layout: vk::PipelineLayout::null(),
+        set_layout: vk::DescriptorSetLayout::null(),
+    };
+    let dsl: Vec<_> = indices
+        .iter()
+        .map(|&i| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(i)
+                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::COMPUTE)
+        })
+        .collect();
+    // SAFETY: valid device and create infos; on failure the objects made so far are destroyed
+    // below (null handles are ignored).
+    let made = unsafe {
+        (|| -> GpuResult<()> {
+            // Step 1: descriptor set layout and pipeline layout.
+            o.set_layout = dev
                 .create_descriptor_set_layout(
                     &vk::DescriptorSetLayoutCreateInfo::default().bindings(&dsl),
                     None,
@@ -68,16 +105,15 @@ impl ComputePipeline {
                 .stage_flags(vk::ShaderStageFlags::COMPUTE)
                 .offset(0)
                 .size(push_size)];
-            let layouts = [p.set_layout];
+            let layouts = [o.set_layout];
             let mut lci = vk::PipelineLayoutCreateInfo::default().set_layouts(&layouts);
             if push_size > 0 {
                 lci = lci.push_constant_ranges(&ranges);
             }
-            p.layout = dev
+            o.layout = dev
                 .create_pipeline_layout(&lci, None)
                 .map_err(GpuError::vk("create pipeline layout"))?;
-
-            // Step 2: the pipeline.
+            // Step 2: the pipeline, through the device's pipeline cache.
             let module = dev
                 .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(spirv), None)
                 .map_err(GpuError::vk("create shader module"))?;
@@ -95,21 +131,77 @@ impl ComputePipeline {
             let ci = [vk::ComputePipelineCreateInfo::default()
                 .flags(flags)
                 .stage(stage)
-                .layout(p.layout)];
-            let r = dev.create_compute_pipelines(vk::PipelineCache::null(), &ci, None);
+                .layout(o.layout)];
+            let start = std::time::Instant::now();
+            let r = dev.create_compute_pipelines(ctx.pipelines.raw, &ci, None);
             dev.destroy_shader_module(module, None);
-            p.pipeline = r.map_err(|(_, e)| GpuError::Vk {
+            super::kernel_cache::note_pipeline(start.elapsed().as_secs_f64() * 1e3);
+            ctx.pipelines.note_created();
+            o.pipeline = r.map_err(|(_, e)| GpuError::Vk {
                 stage: "create compute pipeline",
                 result: e,
             })?[0];
-            ctx.set_name(p.pipeline, name);
+            ctx.set_name(o.pipeline, name);
+            Ok(())
+        })()
+    };
+    if let Err(e) = made {
+        // SAFETY: the partially made objects are not in use.
+        unsafe {
+            dev.destroy_pipeline_layout(o.layout, None);
+            dev.destroy_descriptor_set_layout(o.set_layout, None);
+        }
+        return Err(e);
+    }
+    Ok(o)
+}
 
-            // Step 3: descriptor pool and set, written once.
-            let count = bindings.len().max(1) as u32;
-            let sizes = [vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::STORAGE_BUFFER,
-                descriptor_count: count,
-            }];
+impl ComputePipeline {
+    /// Creates the pipeline from SPIR-V (or reuses the device's, made earlier for the same
+    /// SPIR-V, binding indices and push size) and binds `bindings` to its descriptor set.
+    pub fn new(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        spirv: &[u32],
+        bindings: &[Binding<'_>],
+        push_size: u32,
+    ) -> GpuResult<Self> {
+        let dev = &ctx.device;
+        // Step 1: the shared pipeline object.
+        let indices: Vec<u32> = bindings.iter().map(|b| b.index).collect();
+        let mut h = Hasher128::default();
+        h.update(bytemuck::cast_slice(spirv));
+        let key = (h.finish(), indices.clone(), push_size);
+        let slot = ctx
+            .pipeline_objects
+            .0
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .entry(key)
+            .or_default()
+            .clone();
+        let object = match slot.get_or_init(|| create_object(ctx, name, spirv, &indices, push_size))
+        {
+            Ok(o) => *o,
+            Err(e) => return Err(GpuError::Other(format!("{name}: {e}"))),
+        };
+        let mut p = ComputePipeline {
+            ctx: ctx.clone(),
+            pipeline: object.pipeline,
+            layout: object.layout,
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+            name: name.to_string(),
+        };
+        // Step 2: descriptor pool and set, written once.
+        let count = bindings.len().max(1) as u32;
+        let sizes = [vk::DescriptorPoolSize {
+            ty: vk::DescriptorType::STORAGE_BUFFER,
+            descriptor_count: count,
+        }];
+        let layouts = [object.set_layout];
+        // SAFETY: valid device; the pool is destroyed in Drop (a null one is ignored).
+        unsafe {
             p.pool = dev
                 .create_descriptor_pool(
                     &vk::DescriptorPoolCreateInfo::default()
@@ -199,13 +291,8 @@ impl ComputePipeline {
 
 impl Drop for ComputePipeline {
     fn drop(&mut self) {
-        let dev = &self.ctx.device;
-        // SAFETY: submissions are waited on before returning, so nothing uses these objects.
-        unsafe {
-            dev.destroy_pipeline(self.pipeline, None);
-            dev.destroy_pipeline_layout(self.layout, None);
-            dev.destroy_descriptor_pool(self.pool, None);
-            dev.destroy_descriptor_set_layout(self.set_layout, None);
-        }
+        // SAFETY: submissions using the set are waited on before pipelines are dropped; the
+        // shared pipeline object lives on with the device.
+        unsafe { self.ctx.device.destroy_descriptor_pool(self.pool, None) };
     }
 }

@@ -1,10 +1,26 @@
 //! GLSL → SPIR-V in-process with glslang, from the sources embedded at build time (build.rs), so
 //! no shader compiler is needed on the machine. `#include "common/x.glsl"` resolves against the
-//! `shaders/` root; `common/constants.glsl` is generated from renderer/src/layout.rs. Each (entry file, define set) is compiled once per process and cached: kernels
-//! are specialised per scene feature set with `#define`s ("model only what a scene requires").
+//! `shaders/` root; `common/constants.glsl` is generated from renderer/src/layout.rs. Kernels are
+//! specialised per scene feature set with `#define`s ("model only what a scene requires"); each
+//! (entry file, define set) is compiled once per process and, with a cache folder, once per
+//! machine (kernel_cache.rs).
+//!
+//! # Compiling in parallel
+//! Independent kernels compile on several threads at once ([`super::compile_kernels`]). glslang
+//! supports that: since its 2023 releases (the vendored one is e1b562a) every compilation
+//! allocates from a `thread_local` pool (PoolAlloc.cpp), the one piece of process-wide state —
+//! the built-in symbol tables, set up lazily per (version, profile, stage) — is built under a
+//! global mutex (`init_lock` in ShaderLang.cpp) and only read afterwards, the bison parser is
+//! pure (`YYPURE 1`), and the SPIR-V tables are initialised once with `std::call_once`.
+//! Google's shaderc drives glslang concurrently the same way. The Rust binding creates one
+//! `glslang_shader_t` and one `glslang_program_t` per compilation (neither is shared) and
+//! initialises the process once (`OnceLock`). tests/tests/kernel_cache.rs compiles kernels on 4
+//! threads at once, several rounds, and checks the SPIR-V is identical to a serial compile.
+//! History: a CI run once aborted with a foreign C++ exception while two test threads compiled;
+//! it was never reproduced, and compiles were serialised since. `CANDELA_SERIAL_GLSLANG=1`
+//! restores that (one glslang compilation at a time) should it ever recur.
 
-use std::collections::HashMap;
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Mutex, OnceLock};
 
 use glslang::include::{IncludeHandler, IncludeResult, IncludeType};
 use glslang::{
@@ -12,14 +28,20 @@ use glslang::{
     VulkanVersion,
 };
 
-use super::{GpuError, GpuResult};
-
 mod embedded {
     include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
 }
 
 /// `#define NAME VALUE` pairs, in a stable order (they are part of the cache key).
 pub type ShaderDefines = Vec<(String, String)>;
+
+/// What the SPIR-V depends on besides the sources and defines: the glslang version (from
+/// Cargo.lock) and the target environment. Part of every kernel cache key.
+pub const COMPILER_ID: &str = concat!(
+    "glslang ",
+    env!("CANDELA_GLSLANG_VERSION"),
+    "; vulkan1.2 spirv1.5 compute"
+);
 
 /// Returns the source of `path` (relative to shaders/): an embedded file, or the generated
 /// constants (`common/constants.glsl`, from [`crate::layout::glsl_constants`]).
@@ -38,6 +60,21 @@ pub fn shader_source(path: &str) -> Option<&'static str> {
         .map(|(_, s)| *s)
 }
 
+/// Where `#include "header"` in `includer` points: root-relative first, then relative to the
+/// including file's folder (the first that `exists`).
+pub fn resolve_include(
+    header: &str,
+    includer: &str,
+    exists: impl Fn(&str) -> bool,
+) -> Option<String> {
+    let rel = includer
+        .rsplit_once('/')
+        .map(|(dir, _)| format!("{dir}/{header}"));
+    std::iter::once(header.to_string())
+        .chain(rel)
+        .find(|p| exists(p))
+}
+
 struct EmbeddedIncludes;
 
 impl IncludeHandler for EmbeddedIncludes {
@@ -48,51 +85,23 @@ impl IncludeHandler for EmbeddedIncludes {
         includer: &str,
         _depth: usize,
     ) -> Option<IncludeResult> {
-        // Root-relative first, then relative to the including file's folder.
-        let rel = includer
-            .rsplit_once('/')
-            .map(|(dir, _)| format!("{dir}/{header}"));
-        let (name, data) = std::iter::once(header.to_string())
-            .chain(rel)
-            .find_map(|p| shader_source(&p).map(|s| (p, s)))?;
-        Some(IncludeResult {
-            name,
-            data: data.to_string(),
-        })
+        let name = resolve_include(header, includer, |p| shader_source(p).is_some())?;
+        let data = shader_source(&name)?.to_string();
+        Some(IncludeResult { name, data })
     }
 }
 
-type Cache = Mutex<HashMap<(String, ShaderDefines), Arc<Vec<u32>>>>;
-
-fn cache() -> &'static Cache {
-    static CACHE: OnceLock<Cache> = OnceLock::new();
-    CACHE.get_or_init(|| Mutex::new(HashMap::new()))
-}
-
-/// Compiles the compute shader `path` (relative to shaders/) with `defines`; cached.
-pub fn compile_glsl(path: &str, defines: &ShaderDefines) -> GpuResult<Arc<Vec<u32>>> {
-    let key = (path.to_string(), defines.clone());
-    if let Some(hit) = cache().lock().ok().and_then(|c| c.get(&key).cloned()) {
-        return Ok(hit);
-    }
-    let err = |log: String| GpuError::Shader {
-        name: path.to_string(),
-        log,
-    };
-    let text = shader_source(path).ok_or_else(|| err("no such embedded shader".into()))?;
-    // One compilation at a time: glslang is C++ and its thread safety is not documented by the
-    // binding; a C++ exception crossing into Rust aborts the process. A test binary once
-    // aborted so ("Rust cannot catch foreign exceptions") while two threads built kernels; the
-    // cause was not pinned down, and serialising glslang rules it out. Compiles are cached, so
-    // this costs little.
-    static COMPILING: Mutex<()> = Mutex::new(());
-    let _one_at_a_time = COMPILING.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some(hit) = cache().lock().ok().and_then(|c| c.get(&key).cloned()) {
-        return Ok(hit);
-    }
-    let compiler =
-        glslang::Compiler::acquire().ok_or_else(|| err("glslang failed to initialise".into()))?;
-    let source = ShaderSource::try_from(text.to_string()).map_err(|e| err(e.to_string()))?;
+/// Compiles the compute shader `path` (relative to shaders/) with `defines`, uncached; the
+/// error is glslang's log.
+pub(crate) fn glslang_compile(path: &str, defines: &ShaderDefines) -> Result<Vec<u32>, String> {
+    let text = shader_source(path).ok_or("no such embedded shader")?;
+    // The escape hatch described at the top of this file.
+    static SERIAL: Mutex<()> = Mutex::new(());
+    let _serial = std::env::var_os("CANDELA_SERIAL_GLSLANG")
+        .filter(|v| v != "0")
+        .map(|_| SERIAL.lock().unwrap_or_else(|e| e.into_inner()));
+    let compiler = glslang::Compiler::acquire().ok_or("glslang failed to initialise")?;
+    let source = ShaderSource::from(text.to_string());
     let options = CompilerOptions {
         source_language: SourceLanguage::GLSL,
         target: Target::Vulkan {
@@ -114,14 +123,9 @@ pub fn compile_glsl(path: &str, defines: &ShaderDefines) -> GpuResult<Arc<Vec<u3
         Some(&defs[..]),
         Some(&mut includes),
     )
-    .map_err(|e| err(e.to_string()))?;
+    .map_err(|e| e.to_string())?;
     let shader = glslang::Shader::new(compiler, input)
         .parse()
-        .map_err(|e| err(e.to_string()))?;
-    let spirv = shader.compile().map_err(|e| err(e.to_string()))?;
-    let spirv = Arc::new(spirv);
-    if let Ok(mut c) = cache().lock() {
-        c.insert(key, spirv.clone());
-    }
-    Ok(spirv)
+        .map_err(|e| e.to_string())?;
+    shader.compile().map_err(|e| e.to_string())
 }

@@ -59,6 +59,22 @@ pub struct BdptOptions {
     /// Debug: integer fixed-point light-tracing splats even where float atomics exist
     /// (bit-reproducible; the fallback for devices without float atomics).
     pub fixed_point_splats: Option<bool>,
+    /// How the GPU runs it (see [`bdpt`]): "split" (default: light subpaths in one pass, kept in
+    /// a buffer, camera subpaths in another) or "per_pixel" (both in one thread, the reference).
+    /// The same estimator either way.
+    pub design: Option<BdptDesign>,
+}
+
+/// How bdpt's passes are laid out on the GPU ([`bdpt`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BdptDesign {
+    /// A light pass writes every pixel's light subpath to a buffer and splats its light
+    /// tracing; a camera pass traces the camera subpaths and joins them to those vertices.
+    #[default]
+    Split,
+    /// One thread per pixel traces both subpaths into private arrays and joins them.
+    PerPixel,
 }
 
 const MAX_DEPTH_HELP: &str =
@@ -117,6 +133,11 @@ impl OptionsInfo for BdptOptions {
             kind: "boolean",
             help: "debug: integer fixed-point light-tracing splats even where float atomics exist (default false)",
         },
+        OptionField {
+            name: "design",
+            kind: "\"split\" | \"per_pixel\"",
+            help: "GPU layout: split (default: a light pass and a camera pass) or per_pixel (one thread per pixel traces both subpaths); the same estimator",
+        },
     ];
     fn max_depth(&self) -> Option<i32> {
         self.max_depth
@@ -135,6 +156,20 @@ pub struct ExtraBuffer {
     pub name: &'static str,
     /// Size per pixel in 16-byte entries (checkpoints carry them as `[f32; 4]` words).
     pub entries_per_pixel: u32,
+}
+
+/// Forms the image from an integrator's raw buffers: `accum` per pixel (Σr, Σg, Σb, samples
+/// kept), `extra[i]` the contents of `extra_buffers()[i]`, and the samples per pixel rendered.
+/// Shareable, so snapshots can be resolved away from the thread that renders.
+pub type Resolver = Arc<dyn Fn(&[[f32; 4]], &[&[[f32; 4]]], u32) -> Vec<[f32; 3]> + Send + Sync>;
+
+/// A device buffer an integrator's kernels use as scratch (not carried in checkpoints, not part
+/// of the image): the session allocates it and binds it next to ACCUM and STATS.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ScratchBuffer {
+    pub binding: u32,
+    pub name: &'static str,
+    pub bytes: u64,
 }
 
 /// The plain estimate: accumulated radiance divided by the samples kept per pixel.
@@ -171,6 +206,12 @@ pub trait Integrator: Send {
     fn defines(&self) -> ShaderDefines {
         Vec::new()
     }
+    /// The kernels (path, defines) [`Integrator::setup`] builds besides the pass kernel, for
+    /// `defines` (the session's: the scene's feature set plus [`Integrator::defines`]), so that
+    /// they can be compiled ahead and in parallel. Default: none.
+    fn kernels(&self, _defines: &ShaderDefines) -> Vec<(String, ShaderDefines)> {
+        Vec::new()
+    }
     /// Integrators with stages besides the per-pass kernel (vct's voxel structure, deferred's
     /// G-buffer and light culling) build their own buffers and pipelines here, once, after the
     /// scene is on the device. `shared` holds the session's bindings (scene buffers, ACCUM,
@@ -204,11 +245,29 @@ pub trait Integrator: Send {
     fn extra_buffers(&self) -> Vec<ExtraBuffer> {
         Vec::new()
     }
-    /// The image from the raw buffers: `accum` per pixel (Σr, Σg, Σb, samples kept), `extra[i]`
-    /// the contents of `extra_buffers()[i]`, `spp` the samples per pixel rendered so far.
-    /// Default: [`mean_of_accumulation`].
-    fn resolve(&self, accum: &[[f32; 4]], _extra: &[Vec<[f32; 4]>], _spp: u32) -> Vec<[f32; 3]> {
-        mean_of_accumulation(accum)
+    /// How the image is formed from the raw buffers. Default: [`mean_of_accumulation`].
+    fn resolver(&self) -> Resolver {
+        Arc::new(|accum, _, _| mean_of_accumulation(accum))
+    }
+    /// Whether the pass kernel reads `GpuPush::dispatch` (common/dispatch.glsl), so the
+    /// session may give a pass several threads per pixel and split it into bands. Default:
+    /// true; integrators whose passes are made of per-sample stages say false.
+    fn shapes_dispatch(&self) -> bool {
+        true
+    }
+    /// Most threads per pixel a pass may use (with [`Integrator::shapes_dispatch`]). Default:
+    /// [`crate::layout::MAX_LANES`].
+    fn max_lanes(&self) -> u32 {
+        crate::layout::MAX_LANES
+    }
+    /// Most pixels one band (dispatch) of a `width`×`height` film may cover, e.g. what a
+    /// per-band scratch buffer holds. Default: no limit of its own.
+    fn max_band_pixels(&self, _width: u32, _height: u32) -> u64 {
+        u64::MAX
+    }
+    /// Scratch buffers for a `width`×`height` film. Default: none.
+    fn scratch_buffers(&self, _width: u32, _height: u32) -> Vec<ScratchBuffer> {
+        Vec::new()
     }
 }
 
@@ -247,6 +306,7 @@ mod tests {
                 strategy: Some([2, 1]),
                 weighted: Some(false),
                 fixed_point_splats: None,
+                design: None,
             })
         );
         assert_eq!(o.name(), "bdpt");

@@ -1,25 +1,28 @@
 //! One render in progress: uploaded scene buffers, accumulation buffer, pipeline and counters.
 //! Integrators may declare extra per-pixel buffers (bdpt: light-tracing splats) and how the image
 //! is formed from them; checkpoints carry them after the accumulation.
+//!
+//! Passes are queued without waiting ([`RenderSession::submit_pass`], up to
+//! [`PIPELINE_DEPTH`] at once, inflight.rs) and cut into dispatches sized to the GPU
+//! (dispatch.rs); [`RenderSession::run_pass`] is the one-pass-and-wait form.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use super::dispatch::DispatchShape;
+use super::inflight::{
+    charge, snapshot_target, CompletedPass, InFlight, PassRing, PassStats, PIPELINE_DEPTH,
+};
 use super::{RenderError, RenderStats};
 use crate::compile::{CompiledScene, KernelMode};
 use crate::film::Image;
-use crate::gpu::{compile_glsl, Binding, Buffer, BufferUsage, ComputePipeline, GpuContext};
+use crate::gpu::{
+    kernel_stats, Binding, Buffer, BufferUsage, ComputePipeline, GpuContext, KernelStats,
+    ShaderDefines,
+};
 use crate::integrators::{ExtraBuffer, Integrator, IntegratorInfo, IntegratorOptions};
 use crate::layout::{binding, GpuPush, GpuStats};
 use crate::upload::{as_bindings, upload_scene};
-
-/// Timing of one pass.
-#[derive(Debug, Clone, Copy)]
-pub struct PassStats {
-    pub spp: u32,
-    pub wall: Duration,
-    pub gpu: Duration,
-}
 
 /// The counters of a render, saved with a checkpoint so a resumed render reports the same
 /// statistics as an uninterrupted one.
@@ -41,23 +44,6 @@ pub struct Progress {
 /// image is the same whatever the split: samples are keyed by index.
 pub const LLVMPIPE_MAX_DISPATCHES: u32 = 64;
 
-/// The pass `push` (samples `sample_base..sample_base + spp`) as up to `limit` consecutive
-/// dispatches of as even a size as possible, in sample order.
-fn pass_chunks(push: &GpuPush, limit: u32) -> Vec<GpuPush> {
-    let n = push.spp.min(limit).max(1);
-    let (base, extra) = (push.spp / n, push.spp % n);
-    let mut first = push.sample_base;
-    (0..n)
-        .map(|i| {
-            let mut p = *push;
-            p.sample_base = first;
-            p.spp = base + u32::from(i < extra);
-            first += p.spp;
-            p
-        })
-        .collect()
-}
-
 /// A progressive render on one device.
 pub struct RenderSession {
     ctx: Arc<GpuContext>,
@@ -65,7 +51,7 @@ pub struct RenderSession {
     entry: &'static IntegratorInfo,
     integrator: Box<dyn Integrator>,
     pipeline: ComputePipeline,
-    // Scene buffers are kept alive for the pipeline's descriptor set.
+    // Scene and scratch buffers are kept alive for the pipelines' descriptor sets.
     _scene: Vec<Buffer>,
     accum: Buffer,
     /// The integrator's extra per-pixel buffers, in `extra_buffers()` order.
@@ -87,6 +73,14 @@ pub struct RenderSession {
     flags: u32,
     /// Most dispatches a pass is split into ([`LLVMPIPE_MAX_DISPATCHES`] on llvmpipe, else 1).
     split_limit: u32,
+    /// A dispatch shape given by hand (tests); None: [`DispatchShape::auto`].
+    shape: Option<DispatchShape>,
+    /// Passes queued on the GPU and spare frames.
+    ring: PassRing,
+    /// What building the kernels took (compiles, cache hits, pipelines).
+    kernel_build: KernelStats,
+    /// The first pass this session ran (a GPU coming from idle runs it at low clocks).
+    first_pass: Option<PassStats>,
 }
 
 struct SceneInfo {
@@ -130,8 +124,15 @@ impl RenderSession {
         kernels: KernelMode,
     ) -> Result<Self, RenderError> {
         let start = Instant::now();
+        let kernels_before = kernel_stats();
         let mut integrator = options.build(scene_max_depth);
         integrator.prepare(ctx);
+        // Step 0: every kernel the session will build (specialised for the scene's features,
+        // or generic, and the integrator's own defines), compiled in parallel where not cached.
+        let defines = Self::defines(scene, integrator.as_ref(), kernels);
+        let mut list = vec![(options.info().kernel.to_string(), defines.clone())];
+        list.extend(integrator.kernels(&defines));
+        ctx.compile_kernels(&list)?;
         let (w, h) = (scene.width, scene.height);
         let pixels = w as u64 * h as u64;
         // Step 1: scene buffers, each at its named binding.
@@ -146,6 +147,10 @@ impl RenderSession {
             BufferUsage::Storage,
         )?;
         ctx.fill_zero(&stats_buf)?;
+        let mut scratch = Vec::new();
+        for b in integrator.scratch_buffers(w, h) {
+            scratch.push((b, Buffer::new(ctx, b.name, b.bytes, BufferUsage::Storage)?));
+        }
         let mut extra = Vec::new();
         for e in integrator.extra_buffers() {
             let bytes = pixels * 16 * e.entries_per_pixel as u64;
@@ -153,16 +158,10 @@ impl RenderSession {
             ctx.fill_zero(&b)?;
             extra.push((e, b));
         }
-        // Step 3: the kernel, specialised for the scene's features (or generic), and the
-        // integrator's own defines.
+        // Step 3: the pass kernel.
         let features = scene.features.for_mode(kernels);
-        let mut defines = features.defines();
-        if scene.grid.is_some() {
-            defines.push(("ACCEL_GRID".to_string(), "1".to_string()));
-        }
-        defines.extend(integrator.defines());
         let kernel_start = Instant::now();
-        let spirv = compile_glsl(options.info().kernel, &defines)?;
+        let spirv = ctx.kernel(options.info().kernel, &defines)?;
         let mut bindings = as_bindings(&scene_buffers);
         bindings.push(Binding {
             index: binding::ACCUM,
@@ -175,6 +174,12 @@ impl RenderSession {
         for (e, b) in &extra {
             bindings.push(Binding {
                 index: e.binding,
+                buffer: b,
+            });
+        }
+        for (s, b) in &scratch {
+            bindings.push(Binding {
+                index: s.binding,
                 buffer: b,
             });
         }
@@ -195,7 +200,11 @@ impl RenderSession {
             entry: options.info(),
             integrator,
             pipeline,
-            _scene: scene_buffers.into_iter().map(|(_, b)| b).collect(),
+            _scene: scene_buffers
+                .into_iter()
+                .map(|(_, b)| b)
+                .chain(scratch.into_iter().map(|(_, b)| b))
+                .collect(),
             accum,
             extra,
             stats_buf,
@@ -216,6 +225,10 @@ impl RenderSession {
             } else {
                 1
             },
+            shape: None,
+            ring: PassRing::default(),
+            kernel_build: kernel_stats().since(&kernels_before),
+            first_pass: None,
             info: SceneInfo {
                 triangles: scene.triangle_count,
                 primitives: scene.prims.len(),
@@ -230,6 +243,82 @@ impl RenderSession {
         })
     }
 
+    /// The defines of the session's kernels: the scene's feature set (for `mode`), the accel
+    /// kind and the integrator's own.
+    fn defines(
+        scene: &CompiledScene,
+        integrator: &dyn Integrator,
+        mode: KernelMode,
+    ) -> ShaderDefines {
+        let mut defines = scene.features.for_mode(mode).defines();
+        if scene.grid.is_some() {
+            defines.push(("ACCEL_GRID".to_string(), "1".to_string()));
+        }
+        defines.extend(integrator.defines());
+        defines
+    }
+
+    /// Every kernel (path, defines) a session of `options` on `scene` builds with `mode`: the
+    /// pass kernel and the integrator's stages (to compile ahead, e.g. when a server warms up).
+    pub fn kernels(
+        ctx: &GpuContext,
+        scene: &CompiledScene,
+        options: &IntegratorOptions,
+        scene_max_depth: Option<i32>,
+        mode: KernelMode,
+    ) -> Vec<(String, ShaderDefines)> {
+        let mut integrator = options.build(scene_max_depth);
+        integrator.prepare(ctx);
+        let defines = Self::defines(scene, integrator.as_ref(), mode);
+        let mut out = vec![(options.info().kernel.to_string(), defines.clone())];
+        out.extend(integrator.kernels(&defines));
+        out
+    }
+
+    /// What building this session's kernels took.
+    pub fn kernel_build(&self) -> KernelStats {
+        self.kernel_build
+    }
+
+    /// Cuts passes into dispatches of this shape instead of the automatic one (tests).
+    pub fn set_dispatch_shape(&mut self, shape: Option<DispatchShape>) {
+        self.shape = shape;
+    }
+
+    /// The shape of a pass of `spp` samples.
+    fn shape_for(&self, spp: u32) -> DispatchShape {
+        if !self.integrator.shapes_dispatch() {
+            return DispatchShape::single(self.height);
+        }
+        let limited = |mut s: DispatchShape| {
+            // A shape given by hand still respects the integrator's own limits.
+            let max_rows =
+                self.integrator.max_band_pixels(self.width, self.height) / self.width as u64;
+            s.lanes = s.lanes.min(self.integrator.max_lanes().max(1));
+            if (s.band_rows as u64) > max_rows {
+                s.band_rows = ((max_rows as u32) / 8 * 8).max(8);
+            }
+            s
+        };
+        // Benchmark knob: CANDELA_MAX_LANES caps the lanes (bench/gpu_first100ms.sh sweeps it).
+        let max_lanes = std::env::var("CANDELA_MAX_LANES")
+            .ok()
+            .and_then(|v| v.parse::<u32>().ok())
+            .map_or(self.integrator.max_lanes(), |m| {
+                m.min(self.integrator.max_lanes())
+            });
+        limited(self.shape.unwrap_or_else(|| {
+            DispatchShape::auto(
+                self.width,
+                self.height,
+                spp,
+                self.ctx.info.kind == "cpu",
+                max_lanes,
+                self.integrator.max_band_pixels(self.width, self.height),
+            )
+        }))
+    }
+
     /// Sets `GpuPush::flags` (testing aids such as `PUSH_FLAG_INJECT_NAN`).
     pub fn set_debug_flags(&mut self, flags: u32) {
         self.flags = flags;
@@ -239,6 +328,7 @@ impl RenderSession {
     /// accumulation, extra buffers and counters are cleared. Much cheaper than a new session
     /// (benchmarks run many short renders of one scene).
     pub fn reset(&mut self, seed: u64) -> Result<(), RenderError> {
+        self.drain()?;
         self.ctx.fill_zero(&self.accum)?;
         self.ctx.fill_zero(&self.stats_buf)?;
         for (_, b) in &self.extra {
@@ -246,6 +336,7 @@ impl RenderSession {
         }
         self.seed = seed;
         self.spp = 0;
+        self.first_pass = None;
         self.passes = 0;
         self.rays = 0;
         self.dropped = 0;
@@ -264,48 +355,157 @@ impl RenderSession {
         self.elapsed
     }
 
-    /// Renders `spp` more samples per pixel.
+    /// Samples per pixel queued, completed or not.
+    pub fn submitted_spp(&self) -> u32 {
+        self.spp + self.ring.spp()
+    }
+
+    /// Passes queued and not yet completed.
+    pub fn in_flight(&self) -> usize {
+        self.ring.in_flight.len()
+    }
+
+    /// Renders `spp` more samples per pixel and waits for them (after any queued passes).
     pub fn run_pass(&mut self, spp: u32) -> Result<PassStats, RenderError> {
+        self.drain()?;
+        self.submit_pass(spp, false)?;
+        let done = self.drain()?;
+        done.last()
+            .map(|p| p.stats)
+            .ok_or_else(|| RenderError::Invalid("the pass did not complete".into()))
+    }
+
+    /// Queues a pass of `spp` more samples per pixel without waiting for it, after waiting for
+    /// the oldest queued pass when [`PIPELINE_DEPTH`] are queued already (those completed
+    /// passes are returned). With `snapshot`, the pass also copies the accumulation for the
+    /// image after it ([`CompletedPass::snapshot`]).
+    pub fn submit_pass(
+        &mut self,
+        spp: u32,
+        snapshot: bool,
+    ) -> Result<Vec<CompletedPass>, RenderError> {
         if spp == 0 {
             return Err(RenderError::Invalid(
                 "a pass needs at least one sample".into(),
             ));
         }
-        let start = Instant::now();
+        let mut done = Vec::new();
+        while self.ring.in_flight.len() >= PIPELINE_DEPTH {
+            done.extend(self.complete_oldest()?);
+        }
         let push = GpuPush {
             seed_lo: self.seed as u32,
             seed_hi: (self.seed >> 32) as u32,
-            sample_base: self.spp,
+            sample_base: self.submitted_spp(),
             spp,
             flags: self.flags,
             ..Default::default()
         };
-        let groups = [self.width.div_ceil(8), self.height.div_ceil(8), 1];
-        let chunks = pass_chunks(&push, self.split_limit);
+        let dispatches =
+            self.shape_for(spp)
+                .dispatches(&push, self.split_limit, self.width, self.height);
+        let target = if snapshot {
+            let n = (self.width * self.height) as usize;
+            let mut parts = vec![n];
+            parts.extend(
+                self.extra
+                    .iter()
+                    .map(|(e, _)| n * e.entries_per_pixel as usize),
+            );
+            Some(snapshot_target(
+                &self.ctx,
+                self.width,
+                self.height,
+                parts,
+                self.submitted_spp() + spp,
+                self.integrator.resolver(),
+            )?)
+        } else {
+            None
+        };
+        let mut slot = self.ring.take(&self.ctx)?;
         let (integrator, pipeline) = (&self.integrator, &self.pipeline);
-        let most: u32 = chunks
+        let most: u32 = dispatches
             .iter()
-            .map(|c| integrator.dispatches_per_pass(c.spp))
+            .map(|(c, _)| integrator.dispatches_per_pass(c.spp))
             .sum();
-        let timings = self.ctx.record(most, |rec| {
-            chunks
-                .iter()
-                .try_for_each(|c| integrator.record_pass(rec, pipeline, *c, groups))
-        })?;
+        let (stats_buf, accum, extra) = (&self.stats_buf, &self.accum, &self.extra);
+        let counters = &slot.counters;
+        let recorded = slot.frame.submit(most, |rec| {
+            for (push, groups) in &dispatches {
+                integrator.record_pass(rec, pipeline, *push, *groups)?;
+            }
+            // The pass's counters to the host, cleared for the next pass.
+            rec.copy(stats_buf, 0, counters, 0, stats_buf.size.min(counters.size));
+            rec.fill_zero(stats_buf);
+            if let Some(t) = &target {
+                let mut at = 0;
+                for b in std::iter::once(accum).chain(extra.iter().map(|(_, b)| b)) {
+                    rec.copy(b, 0, t.buffer(), at, b.size);
+                    at += b.size;
+                }
+            }
+            Ok(())
+        });
+        if let Err(e) = recorded {
+            self.ring.spare.push(slot);
+            return Err(e.into());
+        }
+        self.ring.in_flight.push_back(InFlight {
+            slot,
+            spp,
+            submitted: Instant::now(),
+            snapshot: target,
+        });
+        Ok(done)
+    }
+
+    /// Waits for the oldest queued pass and adds it to the counters; None when none is queued.
+    pub fn complete_oldest(&mut self) -> Result<Option<CompletedPass>, RenderError> {
+        let Some(mut p) = self.ring.in_flight.pop_front() else {
+            return Ok(None);
+        };
+        let waited = p.slot.frame.wait();
+        let now = Instant::now();
+        let timings = match waited {
+            Ok(t) => t,
+            Err(e) => {
+                self.ring.spare.push(p.slot);
+                return Err(e.into());
+            }
+        };
         self.integrator.observe_timings(&timings);
-        // Counters: read and reset (u32 on the GPU, u64 here).
-        let s: Vec<GpuStats> = self.ctx.download_vec(&self.stats_buf, 1)?;
-        self.ctx.fill_zero(&self.stats_buf)?;
+        let s = p.slot.read_counters();
+        self.ring.spare.push(p.slot);
+        let s = s?;
         self.ctx.check_validation()?;
         let gpu = Duration::from_secs_f64(timings.iter().map(|t| t.gpu_ms).sum::<f64>() * 1e-3);
-        let wall = start.elapsed();
-        self.rays += ((s[0].rays_hi as u64) << 32) | s[0].rays_lo as u64;
-        self.dropped += s[0].dropped_samples as u64;
-        self.spp += spp;
+        let wall = charge(&self.ctx, p.submitted, now);
+        self.rays += ((s.rays_hi as u64) << 32) | s.rays_lo as u64;
+        self.dropped += s.dropped_samples as u64;
+        self.spp += p.spp;
         self.passes += 1;
         self.elapsed += wall;
         self.gpu_time += gpu;
-        Ok(PassStats { spp, wall, gpu })
+        let stats = PassStats {
+            spp: p.spp,
+            wall,
+            gpu,
+        };
+        self.first_pass.get_or_insert(stats);
+        Ok(Some(CompletedPass {
+            stats,
+            snapshot: p.snapshot,
+        }))
+    }
+
+    /// Waits for every queued pass; returns them, oldest first.
+    pub fn drain(&mut self) -> Result<Vec<CompletedPass>, RenderError> {
+        let mut done = Vec::new();
+        while let Some(p) = self.complete_oldest()? {
+            done.push(p);
+        }
+        Ok(done)
     }
 
     /// The counters so far (to store with a checkpoint).
@@ -334,7 +534,8 @@ impl RenderSession {
     /// The raw accumulation buffer: per pixel (Σr, Σg, Σb, samples kept), row 0 at the top,
     /// followed by the raw words of the integrator's extra buffers (bdpt: the light-tracing
     /// splats), [`Self::accumulation_len`] entries in all. Restore it as a whole.
-    pub fn accumulation(&self) -> Result<Vec<[f32; 4]>, RenderError> {
+    pub fn accumulation(&mut self) -> Result<Vec<[f32; 4]>, RenderError> {
+        self.drain()?;
         let n = (self.width * self.height) as usize;
         let mut out: Vec<[f32; 4]> = self.ctx.download_vec(&self.accum, n)?;
         for (e, b) in &self.extra {
@@ -354,6 +555,7 @@ impl RenderSession {
         accumulation: &[[f32; 4]],
         progress: Progress,
     ) -> Result<(), RenderError> {
+        self.drain()?;
         let n = (self.width * self.height) as usize;
         let want = self.accumulation_len();
         if accumulation.len() != want {
@@ -380,24 +582,30 @@ impl RenderSession {
         Ok(())
     }
 
-    /// The current estimate: accumulated radiance divided by the samples kept per pixel, as the
-    /// integrator resolves it (bdpt adds its light-tracing splats).
-    pub fn image(&self) -> Result<Image, RenderError> {
+    /// The current estimate (after every queued pass): accumulated radiance divided by the
+    /// samples kept per pixel, as the integrator resolves it (bdpt adds its light-tracing
+    /// splats).
+    pub fn image(&mut self) -> Result<Image, RenderError> {
+        let all = self.accumulation()?;
+        Ok(self.resolve(&all))
+    }
+
+    /// The image of `all`, an [`Self::accumulation`] of this session (at its current spp).
+    pub fn resolve(&self, all: &[[f32; 4]]) -> Image {
         let n = (self.width * self.height) as usize;
-        let acc: Vec<[f32; 4]> = self.ctx.download_vec(&self.accum, n)?;
-        let mut extra = Vec::with_capacity(self.extra.len());
-        for (e, b) in &self.extra {
-            extra.push(
-                self.ctx
-                    .download_vec::<[f32; 4]>(b, n * e.entries_per_pixel as usize)?,
-            );
+        let mut parts = vec![&all[..n.min(all.len())]];
+        let mut at = n;
+        for (e, _) in &self.extra {
+            let len = n * e.entries_per_pixel as usize;
+            parts.push(all.get(at..at + len).unwrap_or(&[]));
+            at += len;
         }
-        let pixels = self.integrator.resolve(&acc, &extra, self.spp);
-        Ok(Image {
+        let pixels = (self.integrator.resolver())(parts[0], &parts[1..], self.spp);
+        Image {
             width: self.width,
             height: self.height,
             pixels,
-        })
+        }
     }
 
     pub fn stats(&self) -> RenderStats {
@@ -435,42 +643,22 @@ impl RenderSession {
             accel_cache: self.info.accel.cache,
             grid_resolution: self.info.accel.grid_resolution,
             grid_refs: self.info.accel.grid_refs,
+            kernel_build: self.kernel_build,
+            first_pass: self.first_pass.map(|p| super::FirstPass {
+                spp: p.spp,
+                gpu_ms: p.gpu.as_secs_f64() * 1e3,
+                wall_ms: p.wall.as_secs_f64() * 1e3,
+            }),
             details: self.integrator.details(),
         }
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn pass_chunks_cover_the_samples_in_order() {
-        for (spp, limit) in [
-            (1, 64),
-            (5, 64),
-            (64, 64),
-            (100, 64),
-            (1000, 64),
-            (7, 1),
-            (3, 2),
-        ] {
-            let push = GpuPush {
-                sample_base: 11,
-                spp,
-                flags: 5,
-                ..Default::default()
-            };
-            let c = pass_chunks(&push, limit);
-            assert_eq!(c.len() as u32, spp.min(limit));
-            let mut next = 11;
-            for p in &c {
-                assert_eq!(p.sample_base, next);
-                assert!(p.spp >= spp / limit && p.spp <= spp.div_ceil(limit).max(1));
-                assert_eq!(p.flags, 5);
-                next += p.spp;
-            }
-            assert_eq!(next, 11 + spp);
+impl Drop for RenderSession {
+    fn drop(&mut self) {
+        // Queued passes use the session's buffers: let them finish before the buffers go.
+        for p in &mut self.ring.in_flight {
+            let _ = p.slot.frame.wait();
         }
     }
 }

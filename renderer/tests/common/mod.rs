@@ -9,6 +9,7 @@ pub fn context() -> Arc<GpuContext> {
     let ctx = GpuContext::new(&GpuOptions {
         device: None,
         validation: true,
+        ..Default::default()
     })
     .expect("device");
     let layer = if ctx.validation_enabled {

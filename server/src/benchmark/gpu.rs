@@ -11,7 +11,7 @@ use renderer::gpu::GpuContext;
 use renderer::integrators::IntegratorOptions;
 use renderer::metrics::{Display, Metrics};
 use renderer::prepare::{prepare, PrepareOptions, PreparedScene};
-use renderer::render::{next_pass_size, render, Budget, RenderSession};
+use renderer::render::{render, Budget, PassSizer, RenderSession};
 
 use super::{
     provenance, stats, BenchConfig, BenchError, BenchReport, ReferenceInfo, RunRecord, Targets,
@@ -217,12 +217,14 @@ fn render_reference(
         "reference: rendering {REFERENCE_INTEGRATOR} at {total} spp (seed {REFERENCE_SEED})"
     ));
     let mut session = new_session(ctx, prepared, &options, REFERENCE_SEED)?;
-    let mut per_pass = 1u32;
+    let mut sizer = PassSizer::default();
     let mut last_report = Instant::now();
     while session.spp() < total {
-        let n = per_pass.min(total - session.spp());
+        let n = sizer
+            .next(Duration::from_millis(250))
+            .min(total - session.spp());
         let pass = session.run_pass(n).map_err(fail)?;
-        per_pass = next_pass_size(n, pass.wall, Duration::from_millis(250));
+        sizer.observe(&pass);
         if last_report.elapsed() >= REFERENCE_PROGRESS_EVERY {
             last_report = Instant::now();
             progress(&format!(

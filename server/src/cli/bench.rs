@@ -52,6 +52,8 @@ pub struct BenchArgs {
     pub kernels: renderer::compile::KernelMode,
     #[command(flatten)]
     pub import: super::scene_file::ImportArgs,
+    #[command(flatten)]
+    pub kernel_cache: super::KernelCacheArgs,
 }
 
 /// Longest budget accepted, seconds.
@@ -117,7 +119,7 @@ pub fn run(a: BenchArgs) -> Result<(), CliError> {
     let cfg = config(&a)?;
     std::fs::create_dir_all(&cfg.out_dir)
         .map_err(|e| CliError::failure(format!("cannot create {}: {e}", cfg.out_dir.display())))?;
-    let ctx = super::open_device(a.device.as_deref())?;
+    let ctx = super::open_device(a.device.as_deref(), a.kernel_cache.dir())?;
     let report = run_bench(&ctx, &cfg, &mut |line| eprintln!("{line}")).map_err(|e| match e {
         BenchError::Input(m) => CliError::input(m),
         BenchError::Failure(m) => CliError::failure(m),

@@ -31,15 +31,54 @@ impl CliError {
     }
 }
 
-/// The Vulkan device: the first whose name contains `filter`, else the best one. A filter that
-/// matches nothing is bad input (exit 2); no device at all is a failure.
+/// A per-user cache folder: $XDG_CACHE_HOME/candela/NAME, else ~/.cache/candela/NAME; None when
+/// neither variable is set.
+pub fn user_cache(name: &str) -> Option<std::path::PathBuf> {
+    let nonempty = |k: &str| {
+        std::env::var_os(k)
+            .filter(|v| !v.is_empty())
+            .map(std::path::PathBuf::from)
+    };
+    nonempty("XDG_CACHE_HOME")
+        .or_else(|| nonempty("HOME").map(|h| h.join(".cache")))
+        .map(|c| c.join("candela").join(name))
+}
+
+/// Where compiled kernels and the driver's pipeline cache are kept (the one-shot commands).
+#[derive(Debug, Clone, clap::Args)]
+pub struct KernelCacheArgs {
+    /// Keep compiled kernels and the driver's pipeline cache in DIR (default:
+    /// $XDG_CACHE_HOME/candela/kernels or ~/.cache/candela/kernels).
+    #[arg(long, value_name = "DIR", conflicts_with = "no_kernel_cache")]
+    pub kernel_cache: Option<std::path::PathBuf>,
+    /// Compile every kernel afresh; read and write no kernel cache.
+    #[arg(long)]
+    pub no_kernel_cache: bool,
+}
+
+impl KernelCacheArgs {
+    /// The folder to use, if any.
+    pub fn dir(&self) -> Option<std::path::PathBuf> {
+        match (&self.kernel_cache, self.no_kernel_cache) {
+            (_, true) => None,
+            (Some(d), false) => Some(d.clone()),
+            (None, false) => user_cache("kernels"),
+        }
+    }
+}
+
+/// The Vulkan device: the first whose name contains `filter`, else the best one, with the
+/// kernel cache in `kernel_cache`. A filter that matches nothing is bad input (exit 2); no
+/// device at all is a failure.
 pub fn open_device(
     filter: Option<&str>,
+    kernel_cache: Option<std::path::PathBuf>,
 ) -> Result<std::sync::Arc<renderer::gpu::GpuContext>, CliError> {
     use renderer::gpu::{GpuContext, GpuError, GpuOptions};
     GpuContext::new(&GpuOptions {
         device: filter.map(String::from),
         validation: false,
+        kernel_cache,
     })
     .map(std::sync::Arc::new)
     .map_err(|e| match e {

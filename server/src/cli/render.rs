@@ -76,19 +76,14 @@ pub struct RenderArgs {
     pub kernels: KernelMode,
     #[command(flatten)]
     pub import: super::scene_file::ImportArgs,
+    #[command(flatten)]
+    pub kernel_cache: super::KernelCacheArgs,
 }
 
 /// The per-user accel cache: $XDG_CACHE_HOME/candela/accel, else ~/.cache/candela/accel; None
 /// when neither variable is set.
 pub fn default_accel_cache() -> Option<PathBuf> {
-    let nonempty = |k: &str| {
-        std::env::var_os(k)
-            .filter(|v| !v.is_empty())
-            .map(PathBuf::from)
-    };
-    nonempty("XDG_CACHE_HOME")
-        .or_else(|| nonempty("HOME").map(|h| h.join(".cache")))
-        .map(|c| c.join("candela").join("accel"))
+    super::user_cache("accel")
 }
 
 fn check_args(a: &RenderArgs) -> Result<(), CliError> {
@@ -192,7 +187,7 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
     )
     .map_err(|e| CliError::input(format!("{}: {e}", a.scene.display())))?;
     // Step 3: device, session, render.
-    let ctx = super::open_device(a.device.as_deref())?;
+    let ctx = super::open_device(a.device.as_deref(), a.kernel_cache.dir())?;
     let mut session = prepared
         .session(&ctx, &options, a.seed)
         .map_err(|e| CliError::failure(e.to_string()))?;

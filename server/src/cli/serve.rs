@@ -72,6 +72,13 @@ pub struct ServeArgs {
     /// Enable the Vulkan validation layer (its messages fail the job).
     #[arg(long)]
     pub validation: bool,
+    /// Compile every kernel afresh; keep no kernel cache (default: <data-dir>/kernel-cache).
+    #[arg(long)]
+    pub no_kernel_cache: bool,
+    /// Build these integrators' kernels for the built-in scenes when the device opens, in the
+    /// background: auto (all on a GPU, none on a CPU device), all, none, or a list (nee,bdpt).
+    #[arg(long, value_name = "LIST", default_value = "auto")]
+    pub warm_kernels: String,
 }
 
 fn seconds(flag: &str, v: f64) -> Result<Duration, CliError> {
@@ -124,6 +131,11 @@ fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), CliError> {
     c.sse_keepalive = seconds("--sse-keepalive", a.sse_keepalive)?;
     c.pass_target = Duration::from_millis(a.pass_ms.clamp(1, 10_000));
     c.max_active = a.max_active;
+    if a.no_kernel_cache {
+        c.kernel_cache = None;
+    }
+    c.warm_kernels = crate::config::WarmKernels::parse(&a.warm_kernels)
+        .map_err(|e| CliError::input(format!("--warm-kernels: {e}")))?;
     c.limits.max_body_bytes = (a.max_body_mb.clamp(1, 1 << 20) << 20) as usize;
     c.limits.max_upload_bytes = c
         .limits

@@ -1,4 +1,5 @@
-//! Operations: `GET /api/health` (always open: status, version, device, jobs by state) and
+//! Operations: `GET /api/health` (always open: status, version, device, kernel warm-up, jobs by
+//! state) and
 //! `GET /metrics` (Prometheus text: jobs by state, samples rendered, GPU busy seconds, passes,
 //! queue-wait histogram, open event streams).
 
@@ -26,6 +27,7 @@ pub async fn health(State(st): State<AppState>) -> Result<Json<Value>, ApiError>
         "version": env!("CARGO_PKG_VERSION"),
         "uptime_s": st.shared.uptime_s(),
         "gpu": gpu,
+        "kernels": st.shared.kernels(),
         "jobs": jobs,
         "auth": st.config.token.is_some(),
     })))

@@ -6,13 +6,14 @@ use std::time::{Duration, Instant};
 
 use renderer::film::Image;
 use renderer::metrics::{tonemap_from_name, Display};
-use renderer::render::{next_pass_size, Budget, PassStats, Progress, RenderError, RenderSession};
+use renderer::render::{Budget, PassSizer, PassStats, Progress, RenderError, RenderSession};
 use renderer::scene::Tonemap;
 use serde_json::{json, Value};
 
 use super::checkpoint;
-use super::metrics_lane::{add_metrics, MetricsLane};
+use super::metrics_lane::{LaneTargets, MetricsLane, SnapshotImage};
 use crate::jobs::model::{JobId, JobSettings};
+use crate::shared::Shared;
 use crate::store::{JobPaths, Store};
 
 /// Why writing a checkpoint failed.
@@ -29,9 +30,9 @@ pub struct ActiveJob {
     pub session: RenderSession,
     pub settings: JobSettings,
     pub paths: JobPaths,
-    /// Size and wall time of the last pass (None before the first).
-    last_pass: Option<(u32, Duration)>,
-    /// When the last snapshot was published (None: publish after the next pass).
+    /// Sizes the passes from the cost of the last one.
+    sizer: PassSizer,
+    /// When the last snapshot was asked for (None: with the next pass).
     pub last_snapshot: Option<Instant>,
     pub last_checkpoint: Instant,
     /// When the session was created, and the counters then (for the ETA).
@@ -40,10 +41,8 @@ pub struct ActiveJob {
     time_at_admit: f64,
     /// The reference image of the progress metrics (None: no reference, or it is unreadable).
     reference: Option<Arc<Image>>,
-    /// The thread measuring snapshots against the reference (started with the first snapshot).
+    /// The thread reporting snapshots (started with the first snapshot).
     lane: Option<MetricsLane>,
-    /// Whether a progress event measured inline carried `metrics_note` yet.
-    metrics_noted: bool,
 }
 
 impl ActiveJob {
@@ -59,11 +58,10 @@ impl ActiveJob {
         ActiveJob {
             reference,
             lane: None,
-            metrics_noted: false,
             session,
             settings,
             paths,
-            last_pass: None,
+            sizer: PassSizer::default(),
             last_snapshot: None,
             last_checkpoint: Instant::now(),
             admitted: Instant::now(),
@@ -72,36 +70,44 @@ impl ActiveJob {
         }
     }
 
-    /// Whether the budget is reached.
+    /// Whether the budget is reached and every queued pass has completed.
     pub fn finished(&self) -> bool {
-        match self.settings.budget() {
+        let reached = match self.settings.budget() {
             Budget::Spp(n) => self.session.spp() >= n,
             Budget::Time(t) => self.session.elapsed().as_secs_f64() >= t,
-        }
+        };
+        reached && self.session.in_flight() == 0
     }
 
-    /// Samples per pixel of the next pass: sized from the last one to take about `target`, and
-    /// never past the budget.
-    pub fn next_pass_spp(&self, target: Duration) -> u32 {
-        let target = match self.settings.budget() {
-            Budget::Time(t) => target.min(Duration::from_secs_f64(
-                (t - self.session.elapsed().as_secs_f64()).max(0.0),
-            )),
-            Budget::Spp(_) => target,
-        };
-        let n = match self.last_pass {
-            None => 1,
-            Some((spp, wall)) => next_pass_size(spp, wall, target),
-        };
+    /// Samples per pixel of the next pass, sized from the last one to take about `target` and
+    /// never past the budget, counting the passes still queued; 0 when no more should be
+    /// queued (yet: the first pass is queued alone, until it shows what a sample costs).
+    pub fn next_pass_spp(&mut self, target: Duration) -> u32 {
+        let submitted = self.session.submitted_spp();
+        if !self.sizer.knows_cost() && self.session.in_flight() > 0 {
+            return 0; // the first pass's cost first
+        }
         match self.settings.budget() {
-            Budget::Spp(total) => n.min(total.saturating_sub(self.session.spp())).max(1),
-            Budget::Time(_) => n.max(1),
+            Budget::Spp(total) => match total.saturating_sub(submitted) {
+                0 => 0,
+                left => self.sizer.next(target).min(left),
+            },
+            Budget::Time(t) => {
+                let queued = self.sizer.seconds(submitted - self.session.spp());
+                let left = t - self.session.elapsed().as_secs_f64() - queued;
+                if left <= 0.0 && submitted > 0 {
+                    0
+                } else {
+                    self.sizer
+                        .next(target.min(Duration::from_secs_f64(left.max(0.0))))
+                }
+            }
         }
     }
 
-    /// Notes a pass that ran.
+    /// Notes a pass that completed.
     pub fn record_pass(&mut self, stats: &PassStats) {
-        self.last_pass = Some((stats.spp, stats.wall));
+        self.sizer.observe(stats);
     }
 
     /// Whether a snapshot is due.
@@ -149,12 +155,6 @@ impl ActiveJob {
         })
     }
 
-    /// Whether the job measures its snapshots against a reference (then
-    /// [`Self::report_snapshot`] wants a copy of each image).
-    pub fn has_reference(&self) -> bool {
-        self.reference.is_some()
-    }
-
     /// How the reference and the snapshots are compared (the job's exposure and tonemap).
     fn display(&self) -> Display {
         Display {
@@ -163,37 +163,33 @@ impl ActiveJob {
         }
     }
 
-    /// Appends a snapshot's `progress` event ([`Self::progress_json`], plus `metrics` of `image`
-    /// against the reference and `metrics_note` the first time) and its `snapshot` event. With a
-    /// reference the metrics are computed on the job's [`MetricsLane`], which appends both events
-    /// when done (inline if its thread could not start); call [`Self::flush_metrics`] before
-    /// events that must come after them.
+    /// Reports a snapshot of `spp` samples per pixel: its image is resolved and published, and
+    /// its `progress` event ([`Self::progress_json`], plus `metrics` against the reference and
+    /// `metrics_note` the first time) and `snapshot` event appended, on the job's
+    /// [`MetricsLane`] (inline if its thread could not start); call [`Self::flush_metrics`]
+    /// before events that must come after them, and before forgetting the published image.
     pub fn report_snapshot(
         &mut self,
         store: &Arc<Store>,
+        shared: &Arc<Shared>,
         id: JobId,
-        image: Option<Image>,
+        image: SnapshotImage,
+        spp: u32,
         snapshot: Value,
     ) {
-        let mut progress = self.progress_json();
-        if let (Some(reference), Some(image)) = (self.reference.clone(), image) {
-            let display = self.display();
-            let lane = self.lane.get_or_insert_with(|| {
-                MetricsLane::start(id, reference.clone(), display, store.clone())
-            });
-            if lane.running() {
-                return lane.submit(image, progress, snapshot);
-            }
-            add_metrics(
-                &mut progress,
-                &image,
-                &reference,
-                display,
-                &mut self.metrics_noted,
-            );
-        }
-        let _ = store.append_event(id, "progress", progress);
-        let _ = store.append_event(id, "snapshot", snapshot);
+        let progress = self.progress_json();
+        let reference = self.reference.clone().map(|r| (r, self.display()));
+        let lane = self.lane.get_or_insert_with(|| {
+            MetricsLane::start(
+                id,
+                LaneTargets {
+                    store: store.clone(),
+                    shared: shared.clone(),
+                    reference,
+                },
+            )
+        });
+        lane.submit(image, spp, progress, snapshot);
     }
 
     /// Waits until the metrics lane has appended every snapshot's events.
@@ -205,6 +201,7 @@ impl ActiveJob {
 
     /// Writes the checkpoint and the image it implies; returns the progress saved.
     pub fn write_checkpoint(&mut self) -> Result<Progress, CheckpointError> {
+        // (Waits for the job's queued passes.)
         let acc = self
             .session
             .accumulation()
@@ -220,7 +217,7 @@ impl ActiveJob {
             &acc,
         )
         .map_err(CheckpointError::Io)?;
-        let image = self.session.image().map_err(CheckpointError::Render)?;
+        let image = self.session.resolve(&acc);
         self.write_image(&image)?;
         self.last_checkpoint = Instant::now();
         Ok(progress)

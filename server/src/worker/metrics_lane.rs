@@ -1,27 +1,73 @@
-//! Progress metrics off the worker thread. A job with a reference gets one small thread (its
-//! "lane") that computes relMSE/FLIP/SSIM/PSNR/MSE of each snapshot against the reference and
-//! then appends the snapshot's `progress` (with `metrics`) and `snapshot` events, so the GPU
-//! worker never waits on a large film's FLIP. Order is kept: the lane holds at most one pending
-//! snapshot (a newer one replaces it, so a slow metric drops intermediate events rather than
-//! falling behind), the worker [`MetricsLane::flush`]es it before the job's final events, and
-//! dropping the lane reports what is pending and joins the thread.
+//! Snapshots reported off the worker thread. Each job gets one small thread (its "lane") that
+//! resolves a snapshot's raw accumulation into the image (the pass copied it to host memory),
+//! publishes it for the image endpoints, computes relMSE/FLIP/SSIM/PSNR/MSE against the job's
+//! reference when it has one, and then appends the snapshot's `progress` (with `metrics`) and
+//! `snapshot` events, so the GPU worker queues the next pass at once and never waits on a large
+//! film's resolve or FLIP. Order is kept: the lane holds at most one pending snapshot (a newer
+//! one replaces it, so a slow metric drops intermediate events rather than falling behind), the
+//! worker [`MetricsLane::flush`]es it before the job's final events (and before it forgets the
+//! job's published image), and dropping the lane reports what is pending and joins the thread.
 
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 
 use renderer::film::Image;
 use renderer::metrics::{Display, Metrics, METRIC_NOTES};
+use renderer::render::AccumSnapshot;
 use serde_json::{json, Value};
 
 use crate::jobs::model::JobId;
+use crate::shared::Shared;
 use crate::store::Store;
 
-/// One snapshot to report: its image, the `progress` data without metrics, and the `snapshot`
-/// event's data.
+/// A snapshot's image: resolved already, or the raw accumulation a pass copied out.
+pub enum SnapshotImage {
+    Image(Image),
+    Accum(AccumSnapshot),
+}
+
+/// One snapshot to report: its image and sample count, the `progress` data without metrics,
+/// and the `snapshot` event's data.
 struct Work {
-    image: Image,
+    image: SnapshotImage,
+    spp: u32,
     progress: Value,
     snapshot: Value,
+}
+
+/// What the lane of a job reports to and measures against.
+pub struct LaneTargets {
+    pub store: Arc<Store>,
+    pub shared: Arc<Shared>,
+    /// The reference of the progress metrics and how images are compared (None: no metrics).
+    pub reference: Option<(Arc<Image>, Display)>,
+}
+
+/// Resolves, publishes, measures and reports one snapshot (on the lane, or inline).
+fn report(id: JobId, w: Work, t: &LaneTargets, noted: &mut bool) {
+    let Work {
+        image,
+        spp,
+        mut progress,
+        snapshot,
+    } = w;
+    let image = match image {
+        SnapshotImage::Image(i) => i,
+        SnapshotImage::Accum(a) => match a.image() {
+            Ok(i) => i,
+            Err(e) => return tracing::warn!(job = id, error = %e, "resolving a snapshot"),
+        },
+    };
+    // Published first, so the snapshot event never announces an older image.
+    match &t.reference {
+        Some((reference, display)) => {
+            add_metrics(&mut progress, &image, reference, *display, noted);
+            t.shared.publish(id, image, spp);
+        }
+        None => t.shared.publish(id, image, spp),
+    }
+    let _ = t.store.append_event(id, "progress", progress);
+    let _ = t.store.append_event(id, "snapshot", snapshot);
 }
 
 #[derive(Default)]
@@ -42,10 +88,14 @@ impl Inner {
     }
 }
 
-/// The metrics thread of one job (see the module docs).
+/// The report thread of one job (see the module docs).
 pub struct MetricsLane {
     inner: Arc<Inner>,
     thread: Option<JoinHandle<()>>,
+    /// For reporting inline when the thread could not start.
+    targets: Arc<LaneTargets>,
+    noted: Mutex<bool>,
+    id: JobId,
 }
 
 /// Adds `metrics` of `image` against `reference` to `progress` (and `metrics_note` the first
@@ -82,15 +132,17 @@ pub fn add_metrics(
 }
 
 impl MetricsLane {
-    /// Starts the lane of job `id`, measuring against `reference` as shown through `display`.
-    pub fn start(id: JobId, reference: Arc<Image>, display: Display, store: Arc<Store>) -> Self {
+    /// Starts the lane of job `id`, reporting to `targets`.
+    pub fn start(id: JobId, targets: LaneTargets) -> Self {
         let inner = Arc::new(Inner {
             state: Mutex::new(LaneState::default()),
             changed: Condvar::new(),
         });
         let lane = inner.clone();
+        let targets = Arc::new(targets);
+        let on_lane = targets.clone();
         let thread = std::thread::Builder::new()
-            .name(format!("metrics-{id}"))
+            .name(format!("report-{id}"))
             .spawn(move || {
                 let mut noted = false;
                 loop {
@@ -108,14 +160,7 @@ impl MetricsLane {
                             None => return,
                         }
                     };
-                    let Work {
-                        image,
-                        mut progress,
-                        snapshot,
-                    } = work;
-                    add_metrics(&mut progress, &image, &reference, display, &mut noted);
-                    let _ = store.append_event(id, "progress", progress);
-                    let _ = store.append_event(id, "snapshot", snapshot);
+                    report(id, work, &on_lane, &mut noted);
                     lane.lock().busy = false;
                     lane.changed.notify_all();
                 }
@@ -123,25 +168,32 @@ impl MetricsLane {
         let thread = match thread {
             Ok(t) => Some(t),
             Err(e) => {
-                tracing::warn!(job = id, error = %e, "starting the metrics thread");
+                tracing::warn!(job = id, error = %e, "starting the report thread");
                 None
             }
         };
-        MetricsLane { inner, thread }
+        MetricsLane {
+            inner,
+            thread,
+            targets,
+            noted: Mutex::new(false),
+            id,
+        }
     }
 
-    /// Whether the thread runs (if it could not be started, the caller reports inline).
-    pub fn running(&self) -> bool {
-        self.thread.is_some()
-    }
-
-    /// Queues a snapshot's events (replacing a pending older one, which is then not reported).
-    pub fn submit(&self, image: Image, progress: Value, snapshot: Value) {
-        self.inner.lock().pending = Some(Work {
+    /// Queues a snapshot (replacing a pending older one, which is then not reported).
+    pub fn submit(&self, image: SnapshotImage, spp: u32, progress: Value, snapshot: Value) {
+        let work = Work {
             image,
+            spp,
             progress,
             snapshot,
-        });
+        };
+        if self.thread.is_none() {
+            let mut noted = self.noted.lock().unwrap_or_else(|e| e.into_inner());
+            return report(self.id, work, &self.targets, &mut noted);
+        }
+        self.inner.lock().pending = Some(work);
         self.inner.changed.notify_all();
     }
 
@@ -212,12 +264,21 @@ mod tests {
             exposure_ev: 0.0,
             tonemap: Tonemap::Clamp,
         };
-        let lane = MetricsLane::start(id, Arc::new(image(0.5, 0.0)), display, store.clone());
-        assert!(lane.running());
+        let shared = Arc::new(Shared::default());
+        let lane = MetricsLane::start(
+            id,
+            LaneTargets {
+                store: store.clone(),
+                shared: shared.clone(),
+                reference: Some((Arc::new(image(0.5, 0.0)), display)),
+            },
+        );
+        assert!(lane.thread.is_some());
         // Errors falling with k; submitted faster than measured, so some may be replaced.
         for k in 1..=6u32 {
             let bump = 0.4 / k as f32;
-            lane.submit(image(0.5, bump), json!({"spp": k}), json!({"spp": k}));
+            let img = SnapshotImage::Image(image(0.5, bump));
+            lane.submit(img, k, json!({"spp": k}), json!({"spp": k}));
         }
         lane.flush();
         let events = store.events_after(id, 0).unwrap();
@@ -225,7 +286,10 @@ mod tests {
         // The insert's `state`, then progress/snapshot pairs in submission order.
         assert_eq!(kinds[0], "state");
         let rest = &events[1..];
-        assert!(!rest.is_empty() && rest.len() % 2 == 0, "{kinds:?}");
+        assert!(
+            !rest.is_empty() && rest.len().is_multiple_of(2),
+            "{kinds:?}"
+        );
         let mut last_spp = 0;
         let mut last_rel = f64::INFINITY;
         for pair in rest.chunks(2) {
@@ -250,8 +314,11 @@ mod tests {
             .count();
         assert_eq!(notes, 1);
         // Dropping reports what is pending, then joins.
-        lane.submit(image(0.5, 0.01), json!({"spp": 7}), json!({"spp": 7}));
+        assert_eq!(shared.snapshot(id).map(|s| s.spp), Some(6));
+        let img = SnapshotImage::Image(image(0.5, 0.01));
+        lane.submit(img, 7, json!({"spp": 7}), json!({"spp": 7}));
         drop(lane);
+        assert_eq!(shared.snapshot(id).map(|s| s.spp), Some(7));
         let events = store.events_after(id, 0).unwrap();
         assert_eq!(events.last().unwrap().data["spp"].as_u64(), Some(7));
         let _ = std::fs::remove_dir_all(&dir);

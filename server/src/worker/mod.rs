@@ -14,8 +14,9 @@ mod checkpoint;
 mod metrics_lane;
 mod outcome;
 mod scheduler;
+mod warmup;
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::{mpsc, Arc};
 use std::thread::JoinHandle;
@@ -24,7 +25,7 @@ use std::time::{Duration, Instant};
 use renderer::accel::AccelRequest;
 use renderer::gpu::{GpuContext, GpuError, GpuOptions};
 use renderer::prepare::{prepare, PrepareOptions};
-use renderer::render::RenderError;
+use renderer::render::{CompletedPass, RenderError, PIPELINE_DEPTH};
 use tracing::{error, info, warn};
 
 use crate::config::ServerConfig;
@@ -77,6 +78,7 @@ pub fn spawn(
                 rx,
                 ctx: None,
                 active: BTreeMap::new(),
+                queued: VecDeque::new(),
                 sched: Scheduler::default(),
                 dirty: true,
                 last_open: None,
@@ -108,6 +110,9 @@ struct Worker {
     rx: mpsc::Receiver<Msg>,
     ctx: Option<Arc<GpuContext>>,
     active: BTreeMap<JobId, ActiveJob>,
+    /// The job of every pass queued on the GPU, oldest first (all sessions share the queue:
+    /// passes complete in this order).
+    queued: VecDeque<JobId>,
     sched: Scheduler,
     /// The store may hold changes the worker has not looked at.
     dirty: bool,
@@ -180,6 +185,7 @@ impl Worker {
         let opts = GpuOptions {
             device: self.config.device.clone(),
             validation: self.config.validation,
+            kernel_cache: self.config.kernel_cache.clone(),
         };
         match catch_unwind(|| GpuContext::new(&opts)) {
             Ok(Ok(ctx)) => {
@@ -189,7 +195,9 @@ impl Worker {
                     device: Some(ctx.info.clone()),
                     error: None,
                 });
-                self.ctx = Some(Arc::new(ctx));
+                let ctx = Arc::new(ctx);
+                warmup::start(&ctx, &self.config, &self.shared);
+                self.ctx = Some(ctx);
                 self.dirty = true;
                 self.open_failures = 0;
                 true
@@ -220,6 +228,7 @@ impl Worker {
     /// Drops every session and the device; the jobs stay running and resume from checkpoints.
     fn reset_device(&mut self, why: &str) {
         warn!(why, "resetting the GPU device");
+        self.queued.clear();
         self.active.clear();
         self.sched.clear();
         self.ctx = None;
@@ -334,6 +343,8 @@ impl Worker {
             }
         }
         info!(job = id, name = %rec.name, "rendering");
+        // New pipelines go to the kernel cache folder, off this thread.
+        ctx.save_pipeline_cache_later();
         self.active.insert(id, ActiveJob::new(session, s, paths));
         self.sched.add(id, priority);
     }
@@ -341,6 +352,7 @@ impl Worker {
     /// Drops the session of a job that left the runnable states, saving what it rendered.
     fn retire(&mut self, id: JobId) {
         self.sched.remove(id);
+        self.queued.retain(|j| *j != id);
         let Some(mut job) = self.active.remove(&id) else {
             return;
         };
@@ -362,16 +374,41 @@ impl Worker {
             }
             _ => {}
         }
+        job.flush_metrics();
         self.shared.forget(id);
     }
 
-    /// Runs one pass of job `id` and whatever falls due after it.
+    /// Queues the next pass of job `id` behind the passes in flight (after completing the
+    /// oldest when [`PIPELINE_DEPTH`] are queued), so the GPU always has the next pass; a job
+    /// with nothing left to queue waits for its queued passes and finishes.
     fn step(&mut self, id: JobId) {
+        // Step 1: room in the queue, by completing the oldest pass (whichever job's).
+        while self.queued.len() >= PIPELINE_DEPTH {
+            self.complete_oldest();
+        }
+        // Passes of a third of the snapshot interval at most, and a snapshot asked for with the
+        // pass that starts closest to the interval after the last: the cadence is honoured
+        // whatever the pass size.
+        let interval = self.config.snapshot_interval;
+        let target = self.config.pass_target.min(interval / 3);
         let Some(job) = self.active.get_mut(&id) else {
             return self.sched.remove(id);
         };
-        if job.finished() {
-            return self.finish(id);
+        // Step 2: the pass's size; nothing left to queue: complete this job's passes.
+        let spp = job.next_pass_spp(target);
+        if spp == 0 {
+            while self
+                .active
+                .get(&id)
+                .is_some_and(|j| j.session.in_flight() > 0)
+                && !self.queued.is_empty()
+            {
+                self.complete_oldest();
+            }
+            if self.active.get(&id).is_some_and(|j| j.finished()) {
+                self.finish(id);
+            }
+            return;
         }
         self.passes += 1;
         if self.inject_loss_at == Some(self.passes) {
@@ -383,34 +420,69 @@ impl Worker {
         let Some(job) = self.active.get_mut(&id) else {
             return;
         };
-        let spp = job.next_pass_spp(self.config.pass_target);
-        let pixels = job.settings.width as u64 * job.settings.height as u64;
-        let result = catch_unwind(AssertUnwindSafe(|| job.session.run_pass(spp)));
-        let stats = match result {
-            Ok(Ok(stats)) => stats,
+        // Step 3: queue it, with a copy of the accumulation when a snapshot is due.
+        let snapshot = job.snapshot_due(interval.saturating_sub(target / 2));
+        let result = catch_unwind(AssertUnwindSafe(|| job.session.submit_pass(spp, snapshot)));
+        let done = match result {
+            Ok(Ok(done)) => done,
             Ok(Err(e)) => return self.render_failed(id, e, "render pass"),
             Err(_) => return self.panicked(id, "render pass"),
         };
+        if snapshot {
+            job.last_snapshot = Some(Instant::now());
+        }
+        self.queued.push_back(id);
+        for p in done {
+            self.after_pass(id, p);
+        }
+    }
+
+    /// Waits for the oldest queued pass and handles it.
+    fn complete_oldest(&mut self) {
+        let Some(id) = self.queued.pop_front() else {
+            return;
+        };
+        let Some(job) = self.active.get_mut(&id) else {
+            return;
+        };
+        match catch_unwind(AssertUnwindSafe(|| job.session.complete_oldest())) {
+            Ok(Ok(Some(p))) => self.after_pass(id, p),
+            Ok(Ok(None)) => {}
+            Ok(Err(e)) => self.render_failed(id, e, "render pass"),
+            Err(_) => self.panicked(id, "render pass"),
+        }
+    }
+
+    /// A pass of job `id` completed: counters, scheduling, its snapshot, and whatever falls
+    /// due (the end, a checkpoint).
+    fn after_pass(&mut self, id: JobId, p: CompletedPass) {
+        let Some(job) = self.active.get_mut(&id) else {
+            return;
+        };
+        let stats = p.stats;
         job.record_pass(&stats);
-        self.sched.charge(id, stats.wall.as_secs_f64());
+        let pixels = job.settings.width as u64 * job.settings.height as u64;
         let busy = if stats.gpu.is_zero() {
             stats.wall
         } else {
             stats.gpu
         };
+        // GPU time where known: a pass's wall time may include another job's pass ahead of it.
+        self.sched.charge(id, busy.as_secs_f64());
         use std::sync::atomic::Ordering::Relaxed;
         self.shared
             .samples_total
-            .fetch_add(spp as u64 * pixels, Relaxed);
+            .fetch_add(stats.spp as u64 * pixels, Relaxed);
         self.shared
             .gpu_busy_ns
             .fetch_add(busy.as_nanos() as u64, Relaxed);
         self.shared.passes_total.fetch_add(1, Relaxed);
+        // The last pass's image is the final one, which `finish` reports.
         if job.finished() {
             return self.finish(id);
         }
-        if job.snapshot_due(self.config.snapshot_interval) {
-            self.snapshot(id);
+        if let Some(snap) = p.snapshot {
+            self.snapshot(id, snap);
         }
         let Some(job) = self.active.get_mut(&id) else {
             return;
@@ -440,6 +512,7 @@ impl Worker {
                 }
             }
         }
+        self.queued.clear();
         self.active.clear();
         self.sched.clear();
         self.ctx = None;

@@ -2,9 +2,9 @@
 //! `snapshot` events), the end (final image on disk, `done` with the stats), and failures
 //! (`error`, and a device rebuild when the device itself is in doubt).
 
-use std::time::Instant;
+use renderer::render::{AccumSnapshot, RenderError};
 
-use renderer::render::RenderError;
+use super::metrics_lane::SnapshotImage;
 use serde_json::json;
 use tracing::{error, info, warn};
 
@@ -14,27 +14,29 @@ use crate::jobs::model::{JobId, JobState};
 use crate::store::{StoreError, Transition};
 
 impl Worker {
-    /// Publishes the current image and a progress + snapshot event.
-    pub(super) fn snapshot(&mut self, id: JobId) {
+    /// Hands the accumulation a pass copied out (`snap`) to the job's report lane, which
+    /// resolves and publishes the image and appends a progress + snapshot event.
+    pub(super) fn snapshot(&mut self, id: JobId, snap: AccumSnapshot) {
         let Some(job) = self.active.get_mut(&id) else {
             return;
         };
-        let image = match job.session.image() {
-            Ok(i) => i,
-            Err(e) => return self.render_failed(id, e, "reading the image"),
-        };
-        job.last_snapshot = Some(Instant::now());
-        let spp = job.session.spp();
+        let spp = snap.spp();
         let _ = self.store.set_progress(id, &job.session.progress());
-        // Published first, so the snapshot event never announces an older image.
-        let measured = job.has_reference().then(|| image.clone());
-        self.shared.publish(id, image, spp);
-        job.report_snapshot(&self.store, id, measured, snapshot_data(id, spp));
+        let data = snapshot_data(id, spp);
+        job.report_snapshot(
+            &self.store,
+            &self.shared,
+            id,
+            SnapshotImage::Accum(snap),
+            spp,
+            data,
+        );
     }
 
     /// The budget is reached: final image on disk, final events, state done.
     pub(super) fn finish(&mut self, id: JobId) {
         self.sched.remove(id);
+        self.queued.retain(|j| *j != id);
         let Some(mut job) = self.active.remove(&id) else {
             return;
         };
@@ -52,9 +54,15 @@ impl Worker {
         let stats = job.session.stats();
         let progress = job.session.progress();
         let spp = progress.spp;
-        let measured = job.has_reference().then(|| image.clone());
-        self.shared.publish(id, image, spp);
-        job.report_snapshot(&self.store, id, measured, snapshot_data(id, spp));
+        let data = snapshot_data(id, spp);
+        job.report_snapshot(
+            &self.store,
+            &self.shared,
+            id,
+            SnapshotImage::Image(image),
+            spp,
+            data,
+        );
         // The final progress and snapshot events come before `done`.
         job.flush_metrics();
         let stats_json = serde_json::to_value(&stats).unwrap_or_default();
@@ -87,7 +95,9 @@ impl Worker {
     /// Fails job `id` with `message` (no effect on the device).
     pub(super) fn fail(&mut self, id: JobId, message: String) {
         self.sched.remove(id);
+        self.queued.retain(|j| *j != id);
         if let Some(job) = self.active.remove(&id) {
+            job.flush_metrics();
             let _ = std::fs::remove_file(job.paths.checkpoint());
         }
         self.shared.forget(id);

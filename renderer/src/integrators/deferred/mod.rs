@@ -237,6 +237,17 @@ impl Integrator for DeferredIntegrator {
         self.max_depth
     }
 
+    fn kernels(&self, defines: &ShaderDefines) -> Vec<(String, ShaderDefines)> {
+        [
+            "deferred/gbuffer.comp",
+            "deferred/cull.comp",
+            "deferred/shade.comp",
+        ]
+        .into_iter()
+        .map(|k| (k.to_string(), defines.clone()))
+        .collect()
+    }
+
     fn setup(
         &mut self,
         ctx: &Arc<GpuContext>,
@@ -278,6 +289,11 @@ impl Integrator for DeferredIntegrator {
 
     fn dispatches_per_pass(&self, spp: u32) -> u32 {
         3 * spp.min(MAX_SPP_PER_PASS)
+    }
+
+    /// Passes are per-sample stage chains over 16×16 culling tiles: no lanes, no bands.
+    fn shapes_dispatch(&self) -> bool {
+        false
     }
 
     fn record_pass(

@@ -10,7 +10,7 @@ use bytemuck::{Pod, Zeroable};
 
 use super::lights::{DeferredLight, LightSet};
 use crate::error::RenderError;
-use crate::gpu::{compile_glsl, Binding, Buffer, BufferUsage, ComputePipeline, GpuContext};
+use crate::gpu::{Binding, Buffer, BufferUsage, ComputePipeline, GpuContext};
 use crate::gpu::{GpuResult, Recorder, ShaderDefines};
 use crate::layout::GpuPush;
 
@@ -145,7 +145,7 @@ impl Stages {
         // Step 3: the stage pipelines, for the scene's feature set.
         let push = std::mem::size_of::<GpuPush>() as u32;
         let build = |kernel: &str| -> Result<ComputePipeline, RenderError> {
-            let spirv = compile_glsl(kernel, defines)?;
+            let spirv = ctx.kernel(kernel, defines)?;
             Ok(ComputePipeline::new(ctx, kernel, &spirv, &bindings, push)?)
         };
         let gbuffer = build("deferred/gbuffer.comp")?;

@@ -1,10 +1,12 @@
-//! Building the volume on the GPU: (1) conservative voxelization into a fragment list (a
-//! counting pass, one readback of the count, the emitting pass), (2) the storage: the sparse
-//! voxel octree level by level (flag / alloc / mark per depth, all recorded in one submission:
-//! no CPU round trip per level; one readback of the level ranges at the end, repeated with a
-//! larger pool in the rare case the node-pool estimate was too small) or the dense grid,
-//! (3) per-voxel attributes averaged from the fragments. Lighting (injection, filtering,
-//! bounces) is in light.rs.
+//! Building the volume on the GPU, in named steps ([`build`]): (1) [`Builder::new`]: the grid
+//! and the parameter buffers; (2) [`Builder::voxelize`]: conservative voxelization into a
+//! fragment list (a counting pass, one readback of the count, the emitting pass); (3)
+//! [`Builder::octree`] or [`Builder::dense`]: the storage — the sparse voxel octree level by
+//! level (flag / alloc / mark per depth, all recorded in one submission: no CPU round trip per
+//! level; one readback of the level ranges at the end, repeated with a larger pool in the rare
+//! case the node-pool estimate was too small) or the dense grid; (4) [`Builder::attributes`]:
+//! per-voxel attributes averaged from the fragments; (5) [`Builder::filtered_storage`]: the
+//! buffers of the filtered levels. Lighting (injection, filtering, bounces) is in light.rs.
 
 use std::sync::Arc;
 
@@ -14,6 +16,10 @@ use super::volume::{fit_grid, StageTimes, Volume};
 use crate::compile::CompiledScene;
 use crate::error::RenderError;
 use crate::gpu::{Binding, Buffer, BufferUsage, GpuContext, ShaderDefines};
+
+/// Rows of the primitive's second-longest axis one voxelization thread covers (mirrors
+/// VOX_ROWS in shaders/vct/voxelize.comp).
+const VOX_ROWS: u32 = 4;
 
 fn storage_buffer(ctx: &Arc<GpuContext>, name: &str, bytes: u64) -> Result<Buffer, RenderError> {
     Ok(Buffer::new(ctx, name, bytes, BufferUsage::Storage)?)
@@ -43,86 +49,206 @@ pub fn build(
     defines: &ShaderDefines,
     s: &Settings,
 ) -> Result<Volume, RenderError> {
+    // Step 1: the grid and the parameters.
+    let mut b = Builder::new(ctx, scene, shared, defines, s)?;
+    // Step 2: the fragments.
+    let (frags, frag_count) = b.voxelize()?;
+    // Step 3: the storage.
+    let (nodes, info, slots, nodes_used) = match s.storage {
+        VctStorage::Octree => b.octree(&frags, frag_count)?,
+        VctStorage::Dense => b.dense()?,
+    };
+    // Step 4: the voxels' attributes (the fragments are freed after).
+    let attrs = b.attributes(frags, frag_count, &nodes, slots)?;
+    // Step 5: the filtered levels' storage.
+    let (mip, leaf) = b.filtered_storage(&info)?;
     let r = s.resolution;
-    let levels = r.trailing_zeros();
-    let octree = s.storage == VctStorage::Octree;
-    let mut times = StageTimes::default();
-    // Step 1: parameters.
-    let (min, voxel) = fit_grid(scene, r);
-    let tan_half = (0.5 * s.cone_aperture_deg).to_radians().tan();
-    let side = voxel * r as f32;
-    let ao_voxels = s.ao_distance.unwrap_or(side / 8.0) / voxel;
-    let mut params = VctParams {
-        grid: [min[0], min[1], min[2], voxel],
-        dims: [r, levels, octree as u32, s.max_level],
-        cone: [tan_half, s.cones as f32, s.step, ao_voxels],
-        mode: [
-            s.ao as u32,
-            (s.shadows == super::VctShadows::Cone) as u32,
-            s.inject_samples,
-            0,
-        ],
-        caps: [0; 4],
-        mip_offset: [0; gpu::LEVELS_MAX],
-    };
-    let params_buf = storage_buffer(ctx, "vct params", std::mem::size_of::<VctParams>() as u64)?;
-    ctx.upload(&params_buf, 0, bytemuck::bytes_of(&params))?;
-    let info_buf = storage_buffer(ctx, "vct info", std::mem::size_of::<VctInfo>() as u64)?;
-    ctx.fill_zero(&info_buf)?;
-    let dummy = storage_buffer(ctx, "vct placeholder", 16)?;
-    ctx.fill_zero(&dummy)?;
-    let read_info = |ctx: &Arc<GpuContext>| -> Result<VctInfo, RenderError> {
-        Ok(ctx.download_vec::<VctInfo>(&info_buf, 1)?[0])
-    };
+    Ok(Volume {
+        world_min: [0, 1, 2].map(|i| b.params.grid[i] as f64 + scene.camera_position[i]),
+        params: b.params,
+        params_buf: b.params_buf,
+        info_buf: b.info_buf,
+        dummy: b.dummy,
+        nodes,
+        attr: attrs.attr,
+        emit: attrs.emit,
+        rad: attrs.rad,
+        mip,
+        leaf,
+        bounce: None,
+        storage: s.storage,
+        resolution: r,
+        levels: r.trailing_zeros(),
+        fragments: frag_count,
+        nodes_used,
+        slots,
+        voxels: attrs.info.voxel_count,
+        info: attrs.info,
+        build_peak_bytes: attrs.peak_bytes,
+        build_times: b.times,
+        light_times: StageTimes::default(),
+        lights_key: None,
+    })
+}
 
-    // Step 2: voxelization, counting then emitting (thread = primitive × slice of its box).
-    let nprims = scene.prims.len() as u64;
-    let slices = max_slices(scene, min, voxel, r);
-    let vox_groups = [(nprims.div_ceil(64).max(1)) as u32, slices, 1];
-    let mut frag_count = 0u32;
-    if nprims > 0 {
-        let b = bindings(shared, &params_buf, &info_buf, &dummy, &Set::default());
-        let count_pipe = pipeline(ctx, "vct/voxelize.comp", defines, &b)?;
-        let t = ctx.record(1, |rec| {
-            rec.dispatch(
-                &count_pipe,
-                bytemuck::bytes_of(&push(0, 0, 0)),
-                vox_groups,
-                "vct voxelize count",
-            )
-        })?;
-        times.voxelize_ms += sum_ms(&t);
-        frag_count = read_info(ctx)?.frag_count;
-    }
-    let frags = storage_buffer(ctx, "vct fragments", frag_count as u64 * 8)?;
-    if frag_count > 0 {
-        ctx.fill_zero(&info_buf)?;
-        params.caps[0] = frag_count;
-        ctx.upload(&params_buf, 0, bytemuck::bytes_of(&params))?;
-        let set = Set {
-            frags: Some(&frags),
-            ..Default::default()
+/// What the build keeps between its steps.
+struct Builder<'a> {
+    ctx: &'a Arc<GpuContext>,
+    scene: &'a CompiledScene,
+    shared: &'a [Binding<'a>],
+    defines: &'a ShaderDefines,
+    params: VctParams,
+    params_buf: Buffer,
+    info_buf: Buffer,
+    dummy: Buffer,
+    times: StageTimes,
+}
+
+/// The per-voxel buffers made by [`Builder::attributes`].
+struct Attributes {
+    attr: Buffer,
+    emit: Buffer,
+    rad: Buffer,
+    info: VctInfo,
+    peak_bytes: u64,
+}
+
+impl<'a> Builder<'a> {
+    /// The grid fitted to the scene and the parameter, info and placeholder buffers.
+    fn new(
+        ctx: &'a Arc<GpuContext>,
+        scene: &'a CompiledScene,
+        shared: &'a [Binding<'a>],
+        defines: &'a ShaderDefines,
+        s: &Settings,
+    ) -> Result<Self, RenderError> {
+        let r = s.resolution;
+        let (min, voxel) = fit_grid(scene, r);
+        let tan_half = (0.5 * s.cone_aperture_deg).to_radians().tan();
+        let side = voxel * r as f32;
+        let ao_voxels = s.ao_distance.unwrap_or(side / 8.0) / voxel;
+        let params = VctParams {
+            grid: [min[0], min[1], min[2], voxel],
+            dims: [
+                r,
+                r.trailing_zeros(),
+                (s.storage == VctStorage::Octree) as u32,
+                s.max_level,
+            ],
+            cone: [tan_half, s.cones as f32, s.step, ao_voxels],
+            mode: [
+                s.ao as u32,
+                (s.shadows == super::VctShadows::Cone) as u32,
+                s.inject_samples,
+                s.cones_per_sample,
+            ],
+            caps: [0; 4],
+            mip_offset: [0; gpu::LEVELS_MAX],
         };
-        let b = bindings(shared, &params_buf, &info_buf, &dummy, &set);
-        let emit_pipe = pipeline(ctx, "vct/voxelize.comp", defines, &b)?;
-        let t = ctx.record(1, |rec| {
-            rec.dispatch(
-                &emit_pipe,
-                bytemuck::bytes_of(&push(0, 0, 0)),
-                vox_groups,
-                "vct voxelize",
-            )
-        })?;
-        times.voxelize_ms += sum_ms(&t);
+        let size = |n: usize| n as u64;
+        let params_buf = storage_buffer(ctx, "vct params", size(std::mem::size_of::<VctParams>()))?;
+        let info_buf = storage_buffer(ctx, "vct info", size(std::mem::size_of::<VctInfo>()))?;
+        let dummy = storage_buffer(ctx, "vct placeholder", 16)?;
+        ctx.fill_zero(&info_buf)?;
+        ctx.fill_zero(&dummy)?;
+        let b = Builder {
+            ctx,
+            scene,
+            shared,
+            defines,
+            params,
+            params_buf,
+            info_buf,
+            dummy,
+            times: StageTimes::default(),
+        };
+        b.upload_params()?;
+        Ok(b)
     }
 
-    // Step 3: the storage. Octree: level by level on the GPU.
-    let mut node_cap = if octree {
-        node_capacity(frag_count as u64, levels)
-    } else {
-        0
-    };
-    let (nodes, info, slots) = if octree {
+    fn upload_params(&self) -> Result<(), RenderError> {
+        Ok(self
+            .ctx
+            .upload(&self.params_buf, 0, bytemuck::bytes_of(&self.params))?)
+    }
+
+    fn read_info(&self) -> Result<VctInfo, RenderError> {
+        Ok(self.ctx.download_vec::<VctInfo>(&self.info_buf, 1)?[0])
+    }
+
+    /// The pipeline of `kernel` bound to the session's buffers, the parameters and `set`.
+    fn pipeline(
+        &self,
+        kernel: &str,
+        set: &Set<'_>,
+    ) -> Result<crate::gpu::ComputePipeline, RenderError> {
+        let b = bindings(
+            self.shared,
+            &self.params_buf,
+            &self.info_buf,
+            &self.dummy,
+            set,
+        );
+        pipeline(self.ctx, kernel, self.defines, &b)
+    }
+
+    /// Conservative voxelization, counting then emitting (thread = primitive × slice of its
+    /// box along the longest axis × VOX_ROWS rows of the second longest). Returns the fragment
+    /// list and its length.
+    fn voxelize(&mut self) -> Result<(Buffer, u32), RenderError> {
+        let nprims = self.scene.prims.len() as u64;
+        let (slices, rows) = box_extents(self.scene, &self.params);
+        let groups = [
+            (nprims.div_ceil(64).max(1)) as u32,
+            slices,
+            rows.div_ceil(VOX_ROWS),
+        ];
+        let mut frag_count = 0u32;
+        if nprims > 0 {
+            let count = self.pipeline("vct/voxelize.comp", &Set::default())?;
+            let t = self.ctx.record(1, |rec| {
+                rec.dispatch(
+                    &count,
+                    bytemuck::bytes_of(&push(0, 0, 0)),
+                    groups,
+                    "vct voxelize count",
+                )
+            })?;
+            self.times.voxelize_ms += sum_ms(&t);
+            frag_count = self.read_info()?.frag_count;
+        }
+        let frags = storage_buffer(self.ctx, "vct fragments", frag_count as u64 * 8)?;
+        if frag_count > 0 {
+            self.ctx.fill_zero(&self.info_buf)?;
+            self.params.caps[0] = frag_count;
+            self.upload_params()?;
+            let set = Set {
+                frags: Some(&frags),
+                ..Default::default()
+            };
+            let emit = self.pipeline("vct/voxelize.comp", &set)?;
+            let t = self.ctx.record(1, |rec| {
+                rec.dispatch(
+                    &emit,
+                    bytemuck::bytes_of(&push(0, 0, 0)),
+                    groups,
+                    "vct voxelize",
+                )
+            })?;
+            self.times.voxelize_ms += sum_ms(&t);
+        }
+        Ok((frags, frag_count))
+    }
+
+    /// The octree, level by level on the GPU; returns the node pool, the level ranges, the
+    /// slots (8 per leaf-parent node) and the nodes used.
+    fn octree(
+        &mut self,
+        frags: &Buffer,
+        frag_count: u32,
+    ) -> Result<(Buffer, VctInfo, u32, u32), RenderError> {
+        let levels = self.params.dims[1];
+        let mut node_cap = node_capacity(frag_count as u64, levels);
         loop {
             if node_cap > u32::MAX as u64 / 2 {
                 return Err(RenderError::Invalid(format!(
@@ -130,168 +256,160 @@ pub fn build(
                     u32::MAX / 2
                 )));
             }
-            let nodes = storage_buffer(ctx, "vct nodes", node_cap * 8)?;
-            ctx.fill_zero(&nodes)?;
-            params.caps[1] = node_cap as u32;
-            ctx.upload(&params_buf, 0, bytemuck::bytes_of(&params))?;
+            let nodes = storage_buffer(self.ctx, "vct nodes", node_cap * 8)?;
+            self.ctx.fill_zero(&nodes)?;
+            self.params.caps[1] = node_cap as u32;
+            self.upload_params()?;
             let set = Set {
-                frags: Some(&frags),
+                frags: Some(frags),
                 nodes: Some(&nodes),
                 ..Default::default()
             };
-            let b = bindings(shared, &params_buf, &info_buf, &dummy, &set);
-            let pipe = pipeline(ctx, "vct/octree.comp", defines, &b)?;
-            let t = ctx.record(1 + 3 * levels, |rec| {
+            let pipe = self.pipeline("vct/octree.comp", &set)?;
+            let t = self.ctx.record(1 + 3 * levels, |rec| {
+                let init = push(0, 0, 0);
                 rec.dispatch(
                     &pipe,
-                    bytemuck::bytes_of(&push(0, 0, 0)),
+                    bytemuck::bytes_of(&init),
                     [1, 1, 1],
                     "vct octree init",
                 )?;
                 for k in 0..levels - 1 {
-                    let p = push(k, frag_count, 1);
-                    rec.dispatch(
-                        &pipe,
-                        bytemuck::bytes_of(&p),
-                        groups_1d(frag_count as u64),
-                        "vct octree flag",
-                    )?;
+                    let flag = push(k, frag_count, 1);
+                    let groups = groups_1d(frag_count as u64);
+                    rec.dispatch(&pipe, bytemuck::bytes_of(&flag), groups, "vct octree flag")?;
                     let n = 8u64.saturating_pow(k).min(node_cap);
+                    let alloc = push(k, 0, 2);
                     rec.dispatch(
                         &pipe,
-                        bytemuck::bytes_of(&push(k, 0, 2)),
+                        bytemuck::bytes_of(&alloc),
                         groups_1d(n),
                         "vct octree alloc",
                     )?;
+                    let mark = push(k, 0, 3);
                     rec.dispatch(
                         &pipe,
-                        bytemuck::bytes_of(&push(k, 0, 3)),
+                        bytemuck::bytes_of(&mark),
                         [1, 1, 1],
                         "vct octree mark",
                     )?;
                 }
                 Ok(())
             })?;
-            times.build_ms += sum_ms(&t);
-            let info = read_info(ctx)?;
+            self.times.build_ms += sum_ms(&t);
+            let info = self.read_info()?;
             if info.overflow != 0 {
                 node_cap *= 4;
                 continue;
             }
             let k = (levels - 1) as usize;
             let slots = 8 * (info.level_end[k] - info.level_start[k]);
-            break (nodes, info, slots);
+            let used = info.node_count.min(node_cap as u32);
+            return Ok((nodes, info, slots, used));
         }
-    } else {
-        (
-            storage_buffer(ctx, "vct nodes (unused)", 16)?,
-            read_info(ctx)?,
-            r * r * r,
-        )
-    };
+    }
 
-    // Step 4: per-voxel attributes: fixed-point sums from the fragments, then averages.
-    let slots_u = slots as u64;
-    let acc = storage_buffer(ctx, "vct build sums", slots_u * ACC_WORDS * 4)?;
-    ctx.fill_zero(&acc)?;
-    let attr = storage_buffer(ctx, "vct attributes", slots_u * 16)?;
-    let emit = storage_buffer(ctx, "vct emission", slots_u * 8)?;
-    let rad = storage_buffer(ctx, "vct radiance", slots_u * 16)?;
-    ctx.fill_zero(&rad)?;
-    params.caps[2] = slots;
-    ctx.upload(&params_buf, 0, bytemuck::bytes_of(&params))?;
-    {
+    /// Dense storage: every voxel of the grid has a slot.
+    fn dense(&mut self) -> Result<(Buffer, VctInfo, u32, u32), RenderError> {
+        let r = self.params.dims[0];
+        let nodes = storage_buffer(self.ctx, "vct nodes (unused)", 16)?;
+        Ok((nodes, self.read_info()?, r * r * r, 0))
+    }
+
+    /// Per-voxel attributes: fixed-point sums from the fragments, then averages; the fragments
+    /// and the sums are freed after.
+    fn attributes(
+        &mut self,
+        frags: Buffer,
+        frag_count: u32,
+        nodes: &Buffer,
+        slots: u32,
+    ) -> Result<Attributes, RenderError> {
+        let n = slots as u64;
+        let acc = storage_buffer(self.ctx, "vct build sums", n * ACC_WORDS * 4)?;
+        self.ctx.fill_zero(&acc)?;
+        let attr = storage_buffer(self.ctx, "vct attributes", n * 16)?;
+        let emit = storage_buffer(self.ctx, "vct emission", n * 8)?;
+        let rad = storage_buffer(self.ctx, "vct radiance", n * 16)?;
+        self.ctx.fill_zero(&rad)?;
+        self.params.caps[2] = slots;
+        self.upload_params()?;
         let set = Set {
             frags: Some(&frags),
-            nodes: Some(&nodes),
+            nodes: Some(nodes),
             acc: Some(&acc),
             attr: Some(&attr),
             emit: Some(&emit),
             ..Default::default()
         };
-        let b = bindings(shared, &params_buf, &info_buf, &dummy, &set);
-        let attributes = pipeline(ctx, "vct/attributes.comp", defines, &b)?;
-        let normalize = pipeline(ctx, "vct/normalize.comp", defines, &b)?;
-        let t = ctx.record(2, |rec| {
+        let attributes = self.pipeline("vct/attributes.comp", &set)?;
+        let normalize = self.pipeline("vct/normalize.comp", &set)?;
+        let t = self.ctx.record(2, |rec| {
             if frag_count > 0 {
                 let p = push(0, frag_count, 0);
+                let groups = groups_1d(frag_count as u64);
                 rec.dispatch(
                     &attributes,
                     bytemuck::bytes_of(&p),
-                    groups_1d(frag_count as u64),
+                    groups,
                     "vct attributes",
                 )?;
             }
+            let p = push(0, slots, 0);
             rec.dispatch(
                 &normalize,
-                bytemuck::bytes_of(&push(0, slots, 0)),
-                groups_1d(slots_u),
+                bytemuck::bytes_of(&p),
+                groups_1d(n),
                 "vct normalize",
             )
         })?;
-        times.build_ms += sum_ms(&t);
+        self.times.build_ms += sum_ms(&t);
+        let info = self.read_info()?;
+        let peak_bytes = frags.size + acc.size;
+        Ok(Attributes {
+            attr,
+            emit,
+            rad,
+            info,
+            peak_bytes,
+        })
     }
-    let info_after = read_info(ctx)?;
-    let build_peak_bytes = frags.size + acc.size;
-    drop(acc);
-    drop(frags);
 
-    // Step 5: the filtered levels' storage.
-    let (mip, leaf) = if octree {
-        let k = (levels - 1) as usize;
-        let inner = info.level_start[k] as u64;
-        let leaves = (info.level_end[k] - info.level_start[k]) as u64;
-        (
-            storage_buffer(ctx, "vct brick pool", inner * 27 * 6 * 8)?,
-            storage_buffer(ctx, "vct leaf bricks", leaves * 27 * 4)?,
-        )
-    } else {
+    /// The filtered levels' buffers: the octree's brick pools, or the dense mip chain (whose
+    /// level offsets go into the parameters).
+    fn filtered_storage(&mut self, info: &VctInfo) -> Result<(Buffer, Buffer), RenderError> {
+        let (r, levels) = (self.params.dims[0], self.params.dims[1]);
+        if self.params.dims[2] == 1 {
+            let k = (levels - 1) as usize;
+            let inner = info.level_start[k] as u64;
+            let leaves = (info.level_end[k] - info.level_start[k]) as u64;
+            return Ok((
+                storage_buffer(self.ctx, "vct brick pool", inner * 27 * 6 * 8)?,
+                storage_buffer(self.ctx, "vct leaf bricks", leaves * 27 * 4)?,
+            ));
+        }
         let mut off = 0u32;
         for m in 1..levels {
-            params.mip_offset[m as usize] = off;
+            self.params.mip_offset[m as usize] = off;
             off += (r >> m).pow(3);
         }
-        ctx.upload(&params_buf, 0, bytemuck::bytes_of(&params))?;
-        (
-            storage_buffer(ctx, "vct mip levels", off as u64 * 6 * 8)?,
-            storage_buffer(ctx, "vct leaf bricks (unused)", 16)?,
-        )
-    };
-    Ok(Volume {
-        params,
-        params_buf,
-        info_buf,
-        dummy,
-        nodes,
-        attr,
-        emit,
-        rad,
-        mip,
-        leaf,
-        bounce: None,
-        storage: s.storage,
-        resolution: r,
-        levels,
-        fragments: frag_count,
-        nodes_used: if octree {
-            info.node_count.min(node_cap as u32)
-        } else {
-            0
-        },
-        slots,
-        voxels: info_after.voxel_count,
-        info: info_after,
-        build_peak_bytes,
-        build_times: times,
-        light_times: StageTimes::default(),
-        lights_key: None,
-        world_min: [0, 1, 2].map(|i| params.grid[i] as f64 + scene.camera_position[i]),
-    })
+        self.upload_params()?;
+        Ok((
+            storage_buffer(self.ctx, "vct mip levels", off as u64 * 6 * 8)?,
+            storage_buffer(self.ctx, "vct leaf bricks (unused)", 16)?,
+        ))
+    }
 }
 
-/// Threads per primitive the voxelizer needs: the longest side of any primitive's voxel box.
-fn max_slices(scene: &CompiledScene, min: [f32; 3], voxel: f32, r: u32) -> u32 {
-    let mut most = 1u32;
+/// The voxelization's thread grid: the most voxels any primitive's box spans along its longest
+/// axis (slices), and along its second longest (rows).
+fn box_extents(scene: &CompiledScene, params: &VctParams) -> (u32, u32) {
+    let (min, voxel, r) = (
+        [params.grid[0], params.grid[1], params.grid[2]],
+        params.grid[3],
+        params.dims[0],
+    );
+    let (mut slices, mut rows) = (1u32, 1u32);
     for p in &scene.prims {
         let sphere = p.a[3].to_bits() & crate::layout::PRIM_SPHERE != 0;
         let (lo, hi) = if sphere {
@@ -305,15 +423,14 @@ fn max_slices(scene: &CompiledScene, min: [f32; 3], voxel: f32, r: u32) -> u32 {
                 [0, 1, 2].map(|i| p.a[i].max(p.b[i]).max(p.c[i])),
             )
         };
+        let mut ext = [0u32; 3];
         for i in 0..3 {
-            let a = ((lo[i] - min[i]) / voxel)
-                .floor()
-                .clamp(0.0, (r - 1) as f32);
-            let b = ((hi[i] - min[i]) / voxel)
-                .floor()
-                .clamp(0.0, (r - 1) as f32);
-            most = most.max((b - a) as u32 + 2);
+            let cell = |x: f32| ((x - min[i]) / voxel).floor().clamp(0.0, (r - 1) as f32);
+            ext[i] = (cell(hi[i]) - cell(lo[i])) as u32 + 2;
         }
+        ext.sort_unstable();
+        slices = slices.max(ext[2]);
+        rows = rows.max(ext[1]);
     }
-    most.min(r + 1)
+    (slices.min(r + 1), rows.min(r + 1))
 }

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use bytemuck::{Pod, Zeroable};
 
 use crate::error::RenderError;
-use crate::gpu::{compile_glsl, Binding, Buffer, ComputePipeline, GpuContext, ShaderDefines};
+use crate::gpu::{Binding, Buffer, ComputePipeline, GpuContext, ShaderDefines};
 use crate::layout::GpuPush;
 
 /// Binding indices of vct's buffers (after the session's, which end at 12), as `B_VCT_*`.
@@ -40,7 +40,7 @@ pub struct VctParams {
     pub dims: [u32; 4],
     /// tan of the diffuse cones' half-angle, diffuse cone count, step factor, AO distance (voxels).
     pub cone: [f32; 4],
-    /// AO output, shadow cones, injection samples, 0.
+    /// AO output, shadow cones, injection samples, diffuse cones traced per sample.
     pub mode: [u32; 4],
     /// Fragment, node and slot capacities, 0.
     pub caps: [u32; 4],
@@ -85,7 +85,7 @@ pub fn pipeline(
     defines: &ShaderDefines,
     bindings: &[Binding<'_>],
 ) -> Result<ComputePipeline, RenderError> {
-    let spirv = compile_glsl(kernel, defines)?;
+    let spirv = ctx.kernel(kernel, defines)?;
     Ok(ComputePipeline::new(
         ctx,
         kernel,

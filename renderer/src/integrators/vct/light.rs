@@ -108,7 +108,7 @@ impl Volume {
             s.ao as u32,
             (s.shadows == super::VctShadows::Cone) as u32,
             s.inject_samples,
-            0,
+            s.cones_per_sample,
         ];
         ctx.upload(&self.params_buf, 0, bytemuck::bytes_of(&self.params))?;
         Ok(())

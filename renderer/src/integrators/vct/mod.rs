@@ -104,6 +104,36 @@ impl Integrator for VctIntegrator {
         self.max_depth
     }
 
+    fn kernels(&self, defines: &ShaderDefines) -> Vec<(String, ShaderDefines)> {
+        let Ok(s) = self.options.settings() else {
+            return Vec::new();
+        };
+        if !self.needs_volume(&s) {
+            return Vec::new();
+        }
+        let mut list = vec![
+            "vct/voxelize.comp",
+            "vct/attributes.comp",
+            "vct/normalize.comp",
+            "vct/inject.comp",
+        ];
+        match s.storage {
+            VctStorage::Octree => list.extend(["vct/octree.comp", "vct/brick.comp"]),
+            VctStorage::Dense => list.push("vct/dense_mip.comp"),
+        }
+        if s.bounces >= 2 && (self.max_depth < 0 || self.max_depth >= 4) {
+            list.push("vct/bounce.comp");
+        }
+        let mut out: Vec<(String, ShaderDefines)> = list
+            .into_iter()
+            .map(|k| (k.to_string(), defines.clone()))
+            .collect();
+        let mut volume = defines.clone();
+        volume.push(("VCT_VOLUME".into(), "1".into()));
+        out.push(("vct/vct.comp".into(), volume));
+        out
+    }
+
     fn setup(
         &mut self,
         ctx: &Arc<GpuContext>,

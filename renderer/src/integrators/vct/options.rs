@@ -42,6 +42,11 @@ pub struct VctOptions {
     pub storage: Option<VctStorage>,
     /// Diffuse cones per shaded point (1..=32, default 6).
     pub cones: Option<u32>,
+    /// Diffuse cones traced per sample (1..=cones, default 1): each sample traces this many
+    /// consecutive directions of the `cones` spiral from a random one, weighted by
+    /// cones / cones_per_sample, so the expected image is the same as with all of them and a
+    /// frame is cheaper (on an H100 one cone per sample reached a lower error in equal time).
+    pub cones_per_sample: Option<u32>,
     /// Full aperture of the diffuse cones in degrees (1..=120, default 60).
     pub cone_aperture: Option<f32>,
     /// Cone step as a fraction of the cone's diameter (0.1..=2, default 0.5).
@@ -85,6 +90,11 @@ impl OptionsInfo for VctOptions {
             name: "cones",
             kind: "integer",
             help: "diffuse cones per shaded point, 1..=32 (default 6)",
+        },
+        OptionField {
+            name: "cones_per_sample",
+            kind: "integer",
+            help: "diffuse cones traced per sample, 1..=cones (default 1): a random run of them, weighted so the expected image is the same as with all",
         },
         OptionField {
             name: "cone_aperture",
@@ -147,6 +157,7 @@ pub struct Settings {
     pub resolution: u32,
     pub storage: VctStorage,
     pub cones: u32,
+    pub cones_per_sample: u32,
     pub cone_aperture_deg: f32,
     pub step: f32,
     pub bounces: u32,
@@ -184,6 +195,13 @@ impl VctOptions {
         let cones = self.cones.unwrap_or(6);
         if !(1..=32).contains(&cones) {
             return Err(bad("cones", format!("must be 1..=32, got {cones}")));
+        }
+        let cones_per_sample = self.cones_per_sample.unwrap_or(1);
+        if !(1..=cones).contains(&cones_per_sample) {
+            return Err(bad(
+                "cones_per_sample",
+                format!("must be 1..=cones ({cones}), got {cones_per_sample}"),
+            ));
         }
         let cone_aperture_deg = self.cone_aperture.unwrap_or(60.0);
         if !(1.0..=120.0).contains(&cone_aperture_deg) {
@@ -224,6 +242,7 @@ impl VctOptions {
             resolution,
             storage,
             cones,
+            cones_per_sample,
             cone_aperture_deg,
             step,
             bounces,
@@ -256,6 +275,7 @@ mod tests {
             (r#"{"resolution":512,"storage":"dense"}"#, "storage"),
             (r#"{"bounces":3}"#, "bounces"),
             (r#"{"cones":0}"#, "cones"),
+            (r#"{"cones":4,"cones_per_sample":5}"#, "cones_per_sample"),
         ] {
             let o: VctOptions = serde_json::from_str(json).unwrap();
             let e = o.settings().unwrap_err().to_string();

@@ -1,0 +1,38 @@
+// `bdpt`, split design, light pass (renderer/src/integrators/bdpt.rs): one thread per pixel of
+// the band traces the pixel's light subpath of sample pc.sample_base (the same subpath the
+// per-pixel design traces: dimensions 256 on), evaluates its light-tracing strategies (t = 1,
+// splatted) and stores the vertices for the camera pass (bdpt.comp with BDPT_SPLIT) to join.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#ifdef BDPT_FLOAT_SPLATS
+#extension GL_EXT_shader_atomic_float : require
+#endif
+#define BDPT_LIGHT_PASS 1
+
+#include "common/bindings.glsl"
+#include "common/film.glsl"
+#include "common/dispatch.glsl"
+#include "bdpt/subpath.glsl"
+#include "bdpt/strategies.glsl"
+#include "bdpt/store.glsl"
+
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+void main() {
+    FilmTask t = film_task();
+    if (!t.valid) return;
+    int max_depth = pc.max_depth < 0 ? BDPT_DEPTH_CAP : min(pc.max_depth, BDPT_DEPTH_CAP);
+    bdpt_mis = (pc.flags & PUSH_FLAG_BDPT_NO_MIS) == 0u;
+    bdpt_path = (t.px.y - (pc.dispatch >> 8)) * g.film.x + t.px.x;
+    uint rays = 0u, dropped = 0u;
+    // Step 1: the light subpath.
+    Rng rng = rng_init(t.pixel, pc.sample_base, pc.seed_lo, pc.seed_hi);
+    int nc, nl;
+    trace_subpaths(t.px, max_depth, rng, rays, nc, nl);
+    // Step 2: light tracing (t = 1), splatted.
+    bdpt_strategies(1, nl, 1, max_depth, rng, rays, dropped);
+    // Step 3: the vertices, for the camera pass.
+    for (int v = 0; v < nl; ++v) light_vertex_store(v, vtx[LGT(v)]);
+    light_counts[bdpt_path] = uint(nl);
+    film_count(rays, dropped);
+}

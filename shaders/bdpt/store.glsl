@@ -1,0 +1,53 @@
+// bdpt's split design: the light subpaths of a band of pixels (one sample each), kept between the
+// light pass (light.comp writes them) and the camera pass (bdpt.comp with BDPT_SPLIT reads them).
+// Seven vec4 per vertex, stored plane by plane so that neighbouring pixels' threads read
+// neighbouring memory: vertex v, word k of path p at (v·7 + k)·paths + p, where paths (the
+// band's capacity) = the buffer's length / (7 · BDPT_MAX_LIGHT). A path's vertex count is in
+// B_BDPT_LIGHT_COUNTS. The position error p_err is not kept (only the light pass, which has the
+// vertex itself, spawns rays from light vertices).
+#ifndef BDPT_STORE_GLSL
+#define BDPT_STORE_GLSL
+#include "bdpt/vertex.glsl"
+
+layout(set = 0, binding = B_BDPT_LIGHT_VERTICES, scalar) buffer LightVertices { vec4 light_vertices[]; };
+layout(set = 0, binding = B_BDPT_LIGHT_COUNTS, scalar) buffer LightCounts { uint light_counts[]; };
+
+#define LV_WORDS 7u
+
+// The path (within the band) this thread reads or writes; set by main.
+uint bdpt_path = 0u;
+
+uint lv_paths() { return uint(light_vertices.length()) / (LV_WORDS * uint(BDPT_MAX_LIGHT)); }
+uint lv_at(int v, uint k) { return (uint(v) * LV_WORDS + k) * lv_paths() + bdpt_path; }
+
+void light_vertex_store(int v, Vertex x) {
+    light_vertices[lv_at(v, 0u)] = vec4(x.p, uintBitsToFloat(x.kind));
+    light_vertices[lv_at(v, 1u)] = vec4(x.ng, uintBitsToFloat(x.flags));
+    light_vertices[lv_at(v, 2u)] = vec4(x.ns, uintBitsToFloat(x.material));
+    light_vertices[lv_at(v, 3u)] = vec4(x.tangent, uintBitsToFloat(x.light));
+    light_vertices[lv_at(v, 4u)] = vec4(x.wo, x.pdf_rev);
+    light_vertices[lv_at(v, 5u)] = vec4(x.beta, x.pdf_fwd);
+    light_vertices[lv_at(v, 6u)] = vec4(x.uv, 0.0, 0.0);
+}
+
+Vertex light_vertex_load(int v) {
+    Vertex x;
+    vec4 w = light_vertices[lv_at(v, 0u)];
+    x.p = w.xyz; x.kind = floatBitsToUint(w.w);
+    w = light_vertices[lv_at(v, 1u)];
+    x.ng = w.xyz; x.flags = floatBitsToUint(w.w);
+    w = light_vertices[lv_at(v, 2u)];
+    x.ns = w.xyz; x.material = floatBitsToUint(w.w);
+    w = light_vertices[lv_at(v, 3u)];
+    x.tangent = w.xyz; x.light = floatBitsToUint(w.w);
+    w = light_vertices[lv_at(v, 4u)];
+    x.wo = w.xyz; x.pdf_rev = w.w;
+    w = light_vertices[lv_at(v, 5u)];
+    x.beta = w.xyz; x.pdf_fwd = w.w;
+    x.uv = light_vertices[lv_at(v, 6u)].xy;
+    x.p_err = vec3(0.0);
+    x.pad = 0.0;
+    return x;
+}
+
+#endif
