@@ -3,8 +3,8 @@
 //!    read independently here from the scene document and its mesh files: none missed (a kernel
 //!    without a feature the scene needs renders it wrongly) and none extra (it would compile code
 //!    the scene never runs);
-//! 2. for every scene and integrator, the specialised kernels render the same image as the
-//!    generic ones (every feature compiled in), to float tolerance (8×8 pixels, 2 spp: building
+//! 2. for every scene (and one scene per material model) and integrator, the specialised
+//!    kernels render the same image as the generic ones (every feature compiled in), to float tolerance (8×8 pixels, 2 spp: building
 //!    the kernels on lavapipe is what costs).
 
 use std::collections::BTreeSet;
@@ -27,6 +27,47 @@ fn project_scenes() -> Vec<PathBuf> {
     v.sort();
     assert!(v.len() >= 8, "expected the project's scenes, found {v:?}");
     v
+}
+
+/// Scenes of one material model each (written to a scratch folder), besides the project's: an
+/// integrator may light a model through another's code (whitted lights smooth principled
+/// surfaces as a Lambertian lobe), which only shows when that other model is absent.
+fn single_model_scenes() -> Vec<PathBuf> {
+    let dir = candela_tests::scratch("kernels_single_model");
+    let models = [
+        ("diffuse", r#"{"type": "diffuse", "reflectance": 0.6}"#),
+        ("conductor", r#"{"type": "conductor", "roughness": 0.05}"#),
+        ("dielectric", r#"{"type": "dielectric", "ior": 1.5}"#),
+        (
+            "principled_smooth",
+            r#"{"type": "principled", "roughness": 0.05, "base_color": [0.7, 0.3, 0.2]}"#,
+        ),
+        (
+            "principled_rough",
+            r#"{"type": "principled", "roughness": 0.6, "metallic": 0.5}"#,
+        ),
+        (
+            "phong",
+            r#"{"type": "phong", "diffuse": 0.4, "specular": 0.3}"#,
+        ),
+    ];
+    models
+        .iter()
+        .map(|(name, material)| {
+            let scene = format!(
+                r#"{{"version": 1, "camera": {{"position": [0, 1, 4], "look_at": [0, 0, 0]}},
+                "film": {{"width": 8, "height": 8}},
+                "materials": {{"m": {material}}},
+                "objects": [{{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"}},
+                            {{"type": "quad", "origin": [-3, -1, -3], "edge_u": [0, 0, 6], "edge_v": [6, 0, 0], "material": "m"}}],
+                "lights": [{{"type": "point", "position": [2, 3, 2], "intensity": [20, 20, 20]}}],
+                "environment": {{"type": "constant", "radiance": [0.2, 0.2, 0.2]}}}}"#
+            );
+            let p = dir.join(format!("{name}.json"));
+            std::fs::write(&p, scene).unwrap();
+            p
+        })
+        .collect()
 }
 
 /// `usemtl` names of an OBJ file, and whether it has texture coordinates.
@@ -143,7 +184,7 @@ fn max_rel_diff(a: &renderer::film::Image, b: &renderer::film::Image) -> f32 {
 fn specialised_and_generic_kernels_render_the_same_image() {
     let ctx = gpu();
     let mut worst = 0.0f32;
-    for path in project_scenes() {
+    for path in project_scenes().into_iter().chain(single_model_scenes()) {
         let scene = renderer::scene::load_file(&path).unwrap();
         let compiled = compile(&scene, 8, 8).unwrap();
         for name in names() {

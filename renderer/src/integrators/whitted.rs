@@ -224,6 +224,10 @@ impl Integrator for WhittedIntegrator {
                     finite_or_zero(self.mirror_roughness).clamp(0.0, 1e30)
                 ),
             ),
+            // shaders/whitted/shade.glsl lights the diffuse part of smooth principled
+            // materials as a Lambertian lobe: the kernel needs that model whatever the scene's
+            // own materials are (a specialised kernel compiles only the scene's).
+            ("HAS_MAT_DIFFUSE".into(), "1".into()),
         ]
     }
     fn setup(
