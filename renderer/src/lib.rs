@@ -8,6 +8,7 @@ pub mod cache_file;
 pub mod compile;
 pub mod error;
 pub mod film;
+pub mod fuzz;
 pub mod gpu;
 pub mod import;
 pub mod integrators;

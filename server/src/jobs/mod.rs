@@ -4,3 +4,5 @@
 pub mod model;
 pub mod request;
 pub mod upload;
+#[cfg(test)]
+mod upload_fuzz;

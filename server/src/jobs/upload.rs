@@ -437,6 +437,22 @@ fn extract(archive: &Path, dest: &Path, budget: &mut Budget<'_>) -> Result<(), A
     }
 }
 
+/// [`extract`] with the server's default limits, for the fuzz test (upload_fuzz.rs).
+#[cfg(test)]
+pub(crate) fn fuzz_extract(archive: &Path, dest: &Path) -> Result<(), ApiError> {
+    let limits = RequestLimits {
+        max_upload_bytes: 1 << 20,
+        max_upload_files: 64,
+        ..Default::default()
+    };
+    let mut budget = Budget {
+        limits: &limits,
+        files: 0,
+        bytes: 0,
+    };
+    extract(archive, dest, &mut budget)
+}
+
 fn read_up_to(r: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
     let mut n = 0;
     while n < buf.len() {

@@ -73,6 +73,24 @@ impl Ctx {
 
 /// Imports the glTF file `path`.
 pub(crate) fn import(path: &Path, opts: &ImportOptions) -> ImportResult {
+    // The gltf crate indexes arrays it has not range-checked in places (found by fuzzing:
+    // gltf-json's mesh validation, image views), so a malformed file could panic inside it:
+    // that becomes an error naming the file, never a crash.
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| import_checked(path, opts)))
+        .unwrap_or_else(|panic| {
+            let what = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default();
+            let file: Arc<str> = Arc::from(path.display().to_string());
+            Err(Loc::file(&file).error(format!(
+                "malformed glTF (an index or size out of range; the glTF reader failed: {what})"
+            )))
+        })
+}
+
+fn import_checked(path: &Path, opts: &ImportOptions) -> ImportResult {
     let file: Arc<str> = Arc::from(path.display().to_string());
     let whole = Loc::file(&file);
     let bytes = super::read_file(path)?;

@@ -508,6 +508,11 @@ impl Ctx {
             "Integrator" => {
                 self.saw_integrator = true;
                 let depth = p.num("maxdepth")?.unwrap_or(5.0);
+                if !(depth.fract() == 0.0 && (0.0..=1e6).contains(&depth)) {
+                    return Err(loc.error(format!(
+                        "Integrator \"maxdepth\" must be a whole number in 0..=1000000, got {depth}"
+                    )));
+                }
                 let integrator = match ty {
                     "path" | "volpath" => "nee",
                     "bdpt" => "bdpt",

@@ -1,0 +1,3 @@
+//! libFuzzer target: renderer::fuzz::texture (see renderer/src/fuzz.rs).
+#![no_main]
+libfuzzer_sys::fuzz_target!(|data: &[u8]| renderer::fuzz::texture(data));

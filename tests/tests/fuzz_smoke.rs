@@ -1,0 +1,73 @@
+//! The fuzz targets of `renderer::fuzz` on the stable toolchain: every input of the corpus
+//! (fuzz/corpus/TARGET: seeds) and of fuzz/regressions/TARGET (inputs that once failed) is
+//! replayed, then mutations of them run for `CANDELA_FUZZ_SECONDS` (default 3) per target. Any
+//! panic, or an input running over 20 s, fails the test; the inputs are written to
+//! target/fuzz-failures/TARGET/ to add to fuzz/regressions once fixed. Long runs use cargo-fuzz
+//! (fuzz/, docs/fuzzing.md).
+
+use std::path::Path;
+use std::time::Duration;
+
+use candela_tests::repo_root;
+use renderer::fuzz::{run, TARGETS};
+
+/// The files of `dir` (none when it does not exist), in name order.
+fn inputs(dir: &Path) -> Vec<Vec<u8>> {
+    let mut paths: Vec<_> = std::fs::read_dir(dir)
+        .map(|rd| {
+            rd.flatten()
+                .map(|e| e.path())
+                .filter(|p| p.is_file())
+                .collect()
+        })
+        .unwrap_or_default();
+    paths.sort();
+    paths.iter().map(|p| std::fs::read(p).unwrap()).collect()
+}
+
+fn budget() -> Duration {
+    let s = std::env::var("CANDELA_FUZZ_SECONDS")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+        .unwrap_or(3.0);
+    Duration::from_secs_f64(s)
+}
+
+#[test]
+fn corpus_replays_and_mutations_never_panic() {
+    let root = repo_root().join("fuzz");
+    // Panics are collected with their messages by the driver; the default hook would print
+    // every one (the glTF reader's caught panics run to thousands).
+    std::panic::set_hook(Box::new(|_| {}));
+    let mut failed = Vec::new();
+    for (i, (name, target)) in TARGETS.iter().enumerate() {
+        let mut seeds = inputs(&root.join("corpus").join(name));
+        let regressions = inputs(&root.join("regressions").join(name));
+        assert!(!seeds.is_empty(), "fuzz/corpus/{name} has no seeds");
+        seeds.extend(regressions.iter().cloned());
+        let report = run(
+            *target,
+            &seeds,
+            0x5eed + i as u64,
+            budget(),
+            Duration::from_secs(20),
+        );
+        println!(
+            "{name}: {} seeds ({} regressions), {} executions, {} failures",
+            seeds.len(),
+            regressions.len(),
+            report.executions,
+            report.failures.len()
+        );
+        if !report.failures.is_empty() {
+            let dir = repo_root().join("target/fuzz-failures").join(name);
+            std::fs::create_dir_all(&dir).unwrap();
+            for (k, f) in report.failures.iter().enumerate() {
+                let p = dir.join(format!("failure-{k}"));
+                std::fs::write(&p, &f.input).unwrap();
+                failed.push(format!("{name}: {} ({})", f.message, p.display()));
+            }
+        }
+    }
+    assert!(failed.is_empty(), "fuzz failures:\n{}", failed.join("\n"));
+}
