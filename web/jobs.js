@@ -209,7 +209,7 @@ export function pauseResume(id) {
 
 export function cancelJob(id) {
   const job = state.jobs.get(id);
-  return jobAction(id, () => api(jobLinks(job).self, { method: 'DELETE' }));
+  return jobAction(id, () => api(`${jobLinks(job).self}/cancel`, { method: 'POST' }));
 }
 
 export function setPriority(id, input) {

@@ -29,9 +29,10 @@ pub fn app(state: AppState) -> Router {
         .route(
             "/api/jobs/{id}",
             get(routes::jobs::get_one)
-                .delete(routes::jobs::cancel)
+                .delete(routes::jobs::remove)
                 .patch(routes::jobs::patch),
         )
+        .route("/api/jobs/{id}/cancel", post(routes::jobs::cancel))
         .route("/api/jobs/{id}/pause", post(routes::jobs::pause))
         .route("/api/jobs/{id}/resume", post(routes::jobs::resume))
         .route("/api/jobs/{id}/events", get(routes::events::stream))

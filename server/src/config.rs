@@ -1,6 +1,6 @@
 //! The server's configuration (from `candela serve`'s flags): where data lives, the token, the
-//! intervals of snapshots and checkpoints, scheduling targets, and the limits on what a client
-//! may ask for.
+//! intervals of snapshots and checkpoints, scheduling targets, the limits on what a client
+//! may ask for, and retention.
 
 use std::path::PathBuf;
 use std::time::Duration;
@@ -78,6 +78,14 @@ pub struct ServerConfig {
     /// Which integrators' kernels to build at start, for the built-in scenes' feature sets.
     pub warm_kernels: WarmKernels,
     pub limits: RequestLimits,
+    /// Which finished jobs are removed, and how often the server looks (retention.rs).
+    pub retention: crate::retention::Policy,
+    pub gc_interval: Duration,
+    /// Below this many free bytes on the data directory's filesystem new jobs are refused (507);
+    /// jobs held for a storage fault resume only above it (storage.rs).
+    pub min_free_space: u64,
+    /// How often the worker measures free space (and tries to resume held jobs).
+    pub storage_check_interval: Duration,
 }
 
 /// Which kernels the server builds when its device opens (worker/warmup.rs).
@@ -146,6 +154,10 @@ impl ServerConfig {
             kernel_cache: Some(data_dir.join("kernel-cache")),
             warm_kernels: WarmKernels::Auto,
             limits: RequestLimits::default(),
+            retention: crate::retention::Policy::server_default(),
+            gc_interval: Duration::from_secs(600),
+            min_free_space: 500_000_000,
+            storage_check_interval: Duration::from_secs(5),
         }
     }
 

@@ -6,7 +6,8 @@
 //!
 //! The server's modules: `app` (router, auth), `state` (what handlers reach), `routes/` (handlers), `jobs/` (model, requests,
 //! uploads), `store/` (SQLite jobs and event log), `worker/` (GPU thread, scheduler,
-//! checkpoints), `shared` (snapshots, metrics), `builtin_scenes`, `config`, `api_error`.
+//! checkpoints), `shared` (snapshots, metrics), `retention` (deleting finished jobs), `storage` (free space), `builtin_scenes`,
+//! `config`, `units`, `api_error`.
 
 mod api_error;
 mod app;
@@ -15,10 +16,13 @@ mod builtin_scenes;
 mod cli;
 mod config;
 mod jobs;
+mod retention;
 mod routes;
 mod shared;
 mod state;
+mod storage;
 mod store;
+mod units;
 mod worker;
 
 use std::process::ExitCode;

@@ -3,6 +3,7 @@
 mod bench;
 mod compare;
 mod convert;
+mod gc;
 mod render;
 mod scene_file;
 mod serve;
@@ -138,6 +139,8 @@ pub enum Command {
     Compare(compare::CompareArgs),
     /// Convert a scene: any format to candela JSON, or candela JSON to Mitsuba 3 XML.
     Convert(convert::ConvertArgs),
+    /// Remove finished jobs and prune event logs of a server's data directory, by hand.
+    Gc(gc::GcArgs),
     /// List the Vulkan devices candela can use.
     Devices {
         /// Print JSON.
@@ -153,6 +156,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Bench(a) => bench::run(a),
         Command::Compare(a) => compare::run(a),
         Command::Convert(a) => convert::run(a),
+        Command::Gc(a) => gc::run(a),
         Command::Devices { json } => {
             let devices =
                 renderer::gpu::list_devices().map_err(|e| CliError::failure(e.to_string()))?;

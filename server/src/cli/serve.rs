@@ -79,6 +79,30 @@ pub struct ServeArgs {
     /// background: auto (all on a GPU, none on a CPU device), all, none, or a list (nee,bdpt).
     #[arg(long, value_name = "LIST", default_value = "auto")]
     pub warm_kernels: String,
+    /// Remove finished jobs (record, events, files) that ended longer ago than this (30d, 12h;
+    /// 0: keep them however old).
+    #[arg(long, value_name = "AGE", default_value = "30d")]
+    pub retain_age: String,
+    /// Keep at most this many finished jobs, the newest (0: no limit).
+    #[arg(long, value_name = "N", default_value_t = 1000)]
+    pub retain_jobs: u64,
+    /// Remove the oldest finished jobs while the job files exceed this (20GB, 500MB; 0: no limit).
+    #[arg(long, value_name = "SIZE", default_value = "20GB")]
+    pub retain_size: String,
+    /// Prune the event logs of jobs that finished longer ago than this to their final events
+    /// (0: at once).
+    #[arg(long, value_name = "AGE", default_value = "1h")]
+    pub prune_events_after: String,
+    /// Refuse new jobs (507) while the data directory's filesystem has less free space than
+    /// this; jobs paused for a full disk resume only above it (500MB, 2GB; 0: never refuse).
+    #[arg(long, value_name = "SIZE", default_value = "500MB")]
+    pub min_free_space: String,
+    /// Seconds between free-space checks (which also resume jobs paused for a full disk).
+    #[arg(long, default_value_t = 5.0)]
+    pub storage_check_interval: f64,
+    /// How often retention runs (10m, 1h).
+    #[arg(long, value_name = "INTERVAL", default_value = "10m")]
+    pub gc_interval: String,
 }
 
 fn seconds(flag: &str, v: f64) -> Result<Duration, CliError> {
@@ -146,7 +170,80 @@ fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), CliError> {
     c.limits.max_time_s = a.max_time;
     c.limits.max_triangles = a.max_triangles;
     c.limits.max_unfinished_jobs = a.max_queued;
+    c.retention = retention_policy(a)?;
+    c.min_free_space = crate::units::parse_size(&a.min_free_space)
+        .map_err(|e| CliError::input(format!("--min-free-space: {e}")))?;
+    c.storage_check_interval = seconds("--storage-check-interval", a.storage_check_interval)?;
+    c.gc_interval = crate::units::parse_duration(&a.gc_interval)
+        .ok()
+        .filter(|d| !d.is_zero())
+        .ok_or_else(|| {
+            CliError::input(format!(
+                "--gc-interval {}: expected a duration such as 10m",
+                a.gc_interval
+            ))
+        })?;
     Ok((c, addr))
+}
+
+/// The `--retain-*` and `--prune-events-after` flags (0: no limit of that kind).
+fn retention_policy(a: &ServeArgs) -> Result<crate::retention::Policy, CliError> {
+    use crate::units::{parse_duration, parse_size};
+    let age = |flag: &str, v: &str| {
+        parse_duration(v)
+            .map(|d| Some(d).filter(|d| !d.is_zero()))
+            .map_err(|e| CliError::input(format!("{flag}: {e}")))
+    };
+    Ok(crate::retention::Policy {
+        max_age: age("--retain-age", &a.retain_age)?,
+        max_finished: Some(a.retain_jobs).filter(|n| *n > 0),
+        max_bytes: parse_size(&a.retain_size)
+            .map(|b| Some(b).filter(|b| *b > 0))
+            .map_err(|e| CliError::input(format!("--retain-size: {e}")))?,
+        prune_events_after: Some(
+            parse_duration(&a.prune_events_after)
+                .map_err(|e| CliError::input(format!("--prune-events-after: {e}")))?,
+        ),
+    })
+}
+
+/// Applies the retention policy now and every `gc_interval`, until shutdown.
+async fn retention_task(st: AppState) {
+    let mut stop = st.shutdown.clone();
+    loop {
+        let (store, config) = (st.store.clone(), st.config.clone());
+        let pass = tokio::task::spawn_blocking(move || {
+            crate::retention::run(
+                &store,
+                &config.data_dir,
+                &config.retention,
+                crate::jobs::model::now_s(),
+                false,
+            )
+        })
+        .await;
+        match pass {
+            Ok(Ok(report)) => {
+                for r in &report.removed {
+                    st.shared.forget(r.job.id);
+                    tracing::info!(job = r.job.id, bytes = r.bytes, reason = %r.reason, "retention removed a job");
+                }
+                if report.events_pruned > 0 || !report.orphans.is_empty() {
+                    tracing::info!(
+                        events = report.events_pruned,
+                        orphans = report.orphans.len(),
+                        "retention pruned"
+                    );
+                }
+            }
+            Ok(Err(e)) => tracing::warn!(error = %e, "retention pass"),
+            Err(e) => tracing::warn!(error = %e, "retention pass panicked"),
+        }
+        tokio::select! {
+            _ = tokio::time::sleep(st.config.gc_interval) => {}
+            _ = stop.wait_for(|s| *s) => return,
+        }
+    }
 }
 
 /// Resolves on SIGTERM or Ctrl-C.
@@ -209,11 +306,9 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
         .map_err(|e| CliError::failure(format!("{}: {e}", dir.join("candela.db").display())))?;
     crate::builtin_scenes::install(&config.builtin_dir())
         .map_err(|e| CliError::failure(format!("writing the built-in scenes: {e}")))?;
-    let (store, shared, config) = (
-        Arc::new(store),
-        Arc::new(Shared::default()),
-        Arc::new(config),
-    );
+    let shared = Shared::default();
+    shared.set_storage(crate::storage::status(dir, config.min_free_space));
+    let (store, shared, config) = (Arc::new(store), Arc::new(shared), Arc::new(config));
 
     // Step 2: the runtime, the socket, the worker.
     let rt = tokio::runtime::Builder::new_multi_thread()
@@ -254,6 +349,7 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
             // Keep the sender alive so receivers see `true`, not a closed channel.
             std::future::pending::<()>().await;
         });
+        tokio::spawn(retention_task(state.clone()));
         let server = axum::serve(listener, app(state)).with_graceful_shutdown(async {
             let _ = sig_rx.await;
         });

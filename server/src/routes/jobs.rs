@@ -1,5 +1,6 @@
 //! `/api/jobs`: submit (JSON or multipart upload, optionally waiting for the end), list, get,
-//! cancel (`DELETE`), pause, resume and reprioritise (`PATCH`). State changes go through the
+//! cancel, pause, resume, reprioritise (`PATCH`) and delete (`DELETE`, a finished job with its
+//! files). State changes go through the
 //! store's transition table (409 on an invalid one) and wake the GPU worker.
 
 use std::collections::HashMap;
@@ -127,8 +128,9 @@ pub async fn create(
     if st.shutting_down() {
         return Err(ApiError::Unavailable("the server is shutting down".into()));
     }
-    // Step 1: room in the queue.
+    // Step 1: room in the queue and on the disk.
     check_room(&st)?;
+    check_space(&st)?;
     // Step 2: the request, JSON or multipart, checked and its scene loaded.
     let (new_job, upload) = read_job(&st, req).await?;
     // Step 3: store it (moving uploaded assets into the job's folder) and wake the worker.
@@ -168,6 +170,24 @@ fn check_room(st: &AppState) -> Result<(), ApiError> {
     if unfinished >= limit {
         return Err(ApiError::TooManyJobs(format!(
             "{unfinished} jobs are unfinished (queued, running or paused); this server accepts at most {limit}: retry when some have ended"
+        )));
+    }
+    Ok(())
+}
+
+/// 507 while the data directory's filesystem has less free space than `--min-free-space`.
+fn check_space(st: &AppState) -> Result<(), ApiError> {
+    let dir = &st.config.data_dir;
+    let min = st.config.min_free_space;
+    let free = crate::storage::free_bytes(dir).unwrap_or(u64::MAX);
+    st.shared.update_free_space(free, free < min);
+    if free < min {
+        use crate::units::format_bytes;
+        return Err(ApiError::InsufficientStorage(format!(
+            "the data directory {} has {} ({free} bytes) free, below this server's minimum of {} ({min} bytes, --min-free-space): free some space or delete finished jobs (DELETE /api/jobs/ID, candela gc)",
+            dir.display(),
+            format_bytes(free),
+            format_bytes(min),
         )));
     }
     Ok(())
@@ -371,12 +391,28 @@ async fn change_state(
     Ok(Json(rec.to_json()))
 }
 
-/// `DELETE /api/jobs/{id}`: cancel (409 once it has ended).
+/// `POST /api/jobs/{id}/cancel`: queued, running or paused → canceled (409 once it has ended).
 pub async fn cancel(
     State(st): State<AppState>,
     JobIdPath(id): JobIdPath,
 ) -> Result<Json<Value>, ApiError> {
     change_state(&st, id, JobState::Canceled, "cancel").await
+}
+
+/// `DELETE /api/jobs/{id}`: removes a finished job (done, failed, canceled): its record, events
+/// and files (204); an unfinished one is 409 (cancel it first).
+pub async fn remove(
+    State(st): State<AppState>,
+    JobIdPath(id): JobIdPath,
+) -> Result<StatusCode, ApiError> {
+    let (store, data_dir) = (st.store.clone(), st.config.data_dir.clone());
+    let (rec, bytes) =
+        tokio::task::spawn_blocking(move || crate::retention::remove_job(&store, &data_dir, id))
+            .await
+            .map_err(ApiError::internal)??;
+    st.shared.forget(id);
+    tracing::info!(job = id, state = rec.state.as_str(), bytes, "job deleted");
+    Ok(StatusCode::NO_CONTENT)
 }
 
 /// `POST /api/jobs/{id}/pause`: queued or running → paused (checkpointed).

@@ -1,7 +1,7 @@
 //! Operations: `GET /api/health` (always open: status, version, device, kernel warm-up, jobs by
-//! state) and
+//! state, storage) and
 //! `GET /metrics` (Prometheus text: jobs by state, samples rendered, GPU busy seconds, passes,
-//! queue-wait histogram, open event streams).
+//! queue-wait histogram, open event streams, free space).
 
 use axum::extract::State;
 use axum::http::header;
@@ -30,6 +30,7 @@ pub async fn health(State(st): State<AppState>) -> Result<Json<Value>, ApiError>
         "kernels": st.shared.kernels(),
         "jobs": jobs,
         "auth": st.config.token.is_some(),
+        "storage": st.shared.storage(),
     })))
 }
 

@@ -8,6 +8,7 @@
 
 mod events;
 mod jobs;
+mod retention;
 
 pub use events::StoredEvent;
 pub use jobs::Transition;
@@ -20,7 +21,7 @@ use tokio::sync::broadcast;
 
 use crate::jobs::model::JobId;
 
-/// The schema; `user_version` 1.
+/// The schema of version 1 (`user_version`); [`MIGRATE_V2`] brings it to 2.
 const SCHEMA: &str = "
 CREATE TABLE IF NOT EXISTS jobs (
     id          INTEGER PRIMARY KEY AUTOINCREMENT,
@@ -49,8 +50,24 @@ CREATE TABLE IF NOT EXISTS events (
     at     REAL NOT NULL,
     PRIMARY KEY (job_id, seq)
 ) WITHOUT ROWID;
-PRAGMA user_version = 1;
 ";
+
+/// Version 2: who submitted each job (`owner`), why the server holds a job paused (`hold`,
+/// e.g. a full disk; NULL when paused by a user), and the named tokens (`users`).
+const MIGRATE_V2: &str = "
+ALTER TABLE jobs ADD COLUMN owner TEXT;
+ALTER TABLE jobs ADD COLUMN hold TEXT;
+CREATE TABLE IF NOT EXISTS users (
+    name         TEXT PRIMARY KEY,
+    role         TEXT NOT NULL,
+    token_sha256 TEXT NOT NULL UNIQUE,
+    created_at   REAL NOT NULL
+);
+PRAGMA user_version = 2;
+";
+
+/// The schema version this build writes.
+const SCHEMA_VERSION: i64 = 2;
 
 /// The database plus the broadcast channel of new events.
 pub struct Store {
@@ -110,13 +127,31 @@ impl Store {
         conn.pragma_update(None, "foreign_keys", "ON")?;
         conn.busy_timeout(std::time::Duration::from_secs(5))?;
         let version: i64 = conn.pragma_query_value(None, "user_version", |r| r.get(0))?;
-        if version > 1 {
+        if version > SCHEMA_VERSION {
             return Err(StoreError::Db(format!(
                 "{} was written by a newer candela (schema {version})",
                 path.display()
             )));
         }
         conn.execute_batch(SCHEMA)?;
+        if version < 2 {
+            // Immediate: another process (`candela gc`) opening the same file waits, then finds
+            // it migrated.
+            conn.execute_batch("BEGIN IMMEDIATE")?;
+            let now: i64 = conn.pragma_query_value(None, "user_version", |r| r.get(0))?;
+            let migrated = if now < 2 {
+                conn.execute_batch(MIGRATE_V2)
+            } else {
+                Ok(())
+            };
+            match migrated {
+                Ok(()) => conn.execute_batch("COMMIT")?,
+                Err(e) => {
+                    let _ = conn.execute_batch("ROLLBACK");
+                    return Err(e.into());
+                }
+            }
+        }
         let (events, _) = broadcast::channel(1024);
         Ok(Store {
             conn: Mutex::new(conn),
