@@ -4,6 +4,10 @@
 //! is full"). The worker pauses a job on such an error and resumes it when the probe succeeds
 //! (worker/storage_hold.rs); `POST /api/jobs` answers 507 while space is low.
 //!
+//! A reserve file (`<data>/space-reserve`, 1 MiB) is kept so that, when the disk fills up, the
+//! worker can delete it and still record the pause in the store; it is made again before held
+//! jobs resume.
+//!
 //! Test hook: while the file named by `CANDELA_TEST_DISK_FULL_FILE` exists, every job-file write
 //! (checkpoint, image) and the probe fail with ENOSPC, as on a full disk.
 
@@ -69,6 +73,41 @@ pub fn injected_fault() -> io::Result<()> {
         Some(f) if Path::new(&f).exists() => Err(io::Error::from_raw_os_error(libc::ENOSPC)),
         _ => Ok(()),
     }
+}
+
+/// Size of the reserve file.
+pub const RESERVE_BYTES: u64 = 1 << 20;
+
+fn reserve_path(data_dir: &Path) -> std::path::PathBuf {
+    data_dir.join("space-reserve")
+}
+
+/// Whether the reserve file is in place.
+pub fn has_reserve(data_dir: &Path) -> bool {
+    std::fs::metadata(reserve_path(data_dir)).is_ok_and(|m| m.len() == RESERVE_BYTES)
+}
+
+/// Makes the reserve file (if it is not there), written and synced so its blocks are allocated.
+pub fn make_reserve(data_dir: &Path) -> io::Result<()> {
+    use std::io::Write;
+    if has_reserve(data_dir) {
+        return Ok(());
+    }
+    injected_fault()?;
+    let path = reserve_path(data_dir);
+    let made = std::fs::File::create(&path).and_then(|mut f| {
+        f.write_all(&vec![0xa5u8; RESERVE_BYTES as usize])?;
+        f.sync_all()
+    });
+    if made.is_err() {
+        let _ = std::fs::remove_file(&path);
+    }
+    made
+}
+
+/// Deletes the reserve file to make room; whether there was one.
+pub fn release_reserve(data_dir: &Path) -> bool {
+    std::fs::remove_file(reserve_path(data_dir)).is_ok()
 }
 
 /// Whether space to write is back: writes, syncs and removes a 64 KiB file in `data_dir`.

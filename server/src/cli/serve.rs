@@ -306,6 +306,9 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
         .map_err(|e| CliError::failure(format!("{}: {e}", dir.join("candela.db").display())))?;
     crate::builtin_scenes::install(&config.builtin_dir())
         .map_err(|e| CliError::failure(format!("writing the built-in scenes: {e}")))?;
+    if let Err(e) = crate::storage::make_reserve(dir) {
+        tracing::warn!(error = %e, "could not make the space reserve");
+    }
     let shared = Shared::default();
     shared.set_storage(crate::storage::status(dir, config.min_free_space));
     let (store, shared, config) = (Arc::new(store), Arc::new(shared), Arc::new(config));

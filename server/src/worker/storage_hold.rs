@@ -1,7 +1,8 @@
 //! Storage faults: a job whose checkpoint, image or state could not be written for lack of space
 //! is held — its session dropped (its last checkpoint kept), `paused` in the store with `hold`
 //! naming the reason — and queued again once free space is above the minimum and a probe write
-//! succeeds. When even the store cannot be written, the job stays out of the active set all the
+//! succeeds. When the store cannot be written either, the space reserve is deleted to make room
+//! (storage.rs), and made again before the jobs resume. If even that fails, the job stays out of the active set all the
 //! same (the worker remembers it) and the pause is written as soon as the store accepts it; a
 //! job whose pause never reached the store is simply re-admitted from its checkpoint. Jobs held
 //! before a restart are found by their `hold`.
@@ -32,7 +33,7 @@ impl Worker {
         let reason = format!("disk full: {what}: {error}");
         warn!(job = id, %reason, "holding the job until space returns");
         self.held.insert(id, reason);
-        self.write_hold(id);
+        self.write_hold_or_release(id);
         self.publish_held();
     }
 
@@ -59,6 +60,14 @@ impl Worker {
                 true
             }
             Err(_) => false,
+        }
+    }
+
+    /// [`Self::write_hold`]; if the store refused, deletes the space reserve and tries again.
+    fn write_hold_or_release(&mut self, id: JobId) {
+        if !self.write_hold(id) && storage::release_reserve(&self.config.data_dir) {
+            warn!(job = id, "released the space reserve to record the pause");
+            self.write_hold(id);
         }
     }
 
@@ -90,11 +99,21 @@ impl Worker {
         if self.held.is_empty() {
             return self.shared.set_storage(status);
         }
-        // Step 2: space still short: write the pauses the store refused before.
-        if status.low || storage::probe(&data_dir).is_err() {
+        // Step 2: space still short (below the minimum, or too little to make the reserve again,
+        // or the probe write fails): write the pauses the store refused before.
+        let reserve = if storage::has_reserve(&data_dir) {
+            0
+        } else {
+            2 * storage::RESERVE_BYTES
+        };
+        let short = status.low
+            || status.free_bytes < status.min_free_bytes.saturating_add(reserve)
+            || storage::make_reserve(&data_dir).is_err()
+            || storage::probe(&data_dir).is_err();
+        if short {
             let ids: Vec<JobId> = self.held.keys().copied().collect();
             for id in ids {
-                self.write_hold(id);
+                self.write_hold_or_release(id);
             }
             status.held_jobs = self.held.len() as u64;
             return self.shared.set_storage(status);
