@@ -14,6 +14,9 @@ pub enum ApiError {
     BadRequest { code: &'static str, message: String },
     /// 401: missing or wrong bearer token.
     Unauthorized,
+    /// 403: the caller's role does not allow it (a viewer writing, a submitter touching another's
+    /// job).
+    Forbidden(String),
     /// 404: no such job, scene, image or route.
     NotFound(String),
     /// 405: the route exists but not with this method.
@@ -66,6 +69,7 @@ impl ApiError {
         match self {
             ApiError::BadRequest { .. } => StatusCode::BAD_REQUEST,
             ApiError::Unauthorized => StatusCode::UNAUTHORIZED,
+            ApiError::Forbidden(_) => StatusCode::FORBIDDEN,
             ApiError::NotFound(_) => StatusCode::NOT_FOUND,
             ApiError::MethodNotAllowed => StatusCode::METHOD_NOT_ALLOWED,
             ApiError::Conflict(_) => StatusCode::CONFLICT,
@@ -83,6 +87,7 @@ impl ApiError {
         match self {
             ApiError::BadRequest { code, .. } | ApiError::Unprocessable { code, .. } => code,
             ApiError::Unauthorized => "unauthorized",
+            ApiError::Forbidden(_) => "forbidden",
             ApiError::NotFound(_) => "not_found",
             ApiError::MethodNotAllowed => "method_not_allowed",
             ApiError::Conflict(_) => "conflict",
@@ -104,6 +109,7 @@ impl ApiError {
                 "missing or wrong token: send the header \"Authorization: Bearer TOKEN\"".into()
             }
             ApiError::NotFound(m)
+            | ApiError::Forbidden(m)
             | ApiError::Conflict(m)
             | ApiError::PayloadTooLarge(m)
             | ApiError::TooManyJobs(m)

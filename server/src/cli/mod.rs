@@ -7,6 +7,7 @@ mod gc;
 mod render;
 mod scene_file;
 mod serve;
+mod users;
 
 use clap::{Parser, Subcommand};
 
@@ -141,6 +142,8 @@ pub enum Command {
     Convert(convert::ConvertArgs),
     /// Remove finished jobs and prune event logs of a server's data directory, by hand.
     Gc(gc::GcArgs),
+    /// Manage the named tokens (users and their roles) of a server's data directory.
+    Users(users::UsersArgs),
     /// List the Vulkan devices candela can use.
     Devices {
         /// Print JSON.
@@ -157,6 +160,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Compare(a) => compare::run(a),
         Command::Convert(a) => convert::run(a),
         Command::Gc(a) => gc::run(a),
+        Command::Users(a) => users::run(a),
         Command::Devices { json } => {
             let devices =
                 renderer::gpu::list_devices().map_err(|e| CliError::failure(e.to_string()))?;

@@ -5,7 +5,7 @@
 //!
 //! Prints `candela: listening on http://ADDR` on stdout once the socket is bound (the actual
 //! port when `--bind` asks for port 0). Refuses (exit 2) to bind a non-loopback address
-//! without a token: anyone who can reach it could use the GPU.
+//! without a token or users (`candela users`): anyone who can reach it could use the GPU.
 
 use std::net::{SocketAddr, ToSocketAddrs};
 use std::path::PathBuf;
@@ -115,6 +115,15 @@ fn seconds(flag: &str, v: f64) -> Result<Duration, CliError> {
     }
 }
 
+/// Whether the data directory's store has users (then every request needs a token).
+fn has_users(data_dir: &std::path::Path) -> bool {
+    let db = data_dir.join("candela.db");
+    db.is_file()
+        && Store::open(&db)
+            .and_then(|s| s.user_count())
+            .is_ok_and(|n| n > 0)
+}
+
 /// Checks the flags and builds the configuration and bind address.
 fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), CliError> {
     let addrs: Vec<SocketAddr> = a
@@ -130,9 +139,9 @@ fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), CliError> {
         .clone()
         .or_else(|| std::env::var("CANDELA_TOKEN").ok())
         .filter(|t| !t.trim().is_empty());
-    if token.is_none() && !addrs.iter().all(|a| a.ip().is_loopback()) {
+    if token.is_none() && !addrs.iter().all(|a| a.ip().is_loopback()) && !has_users(&a.data_dir) {
         return Err(CliError::input(format!(
-            "--bind {}: refusing to listen on a non-loopback address without a token; give --token TOKEN (or set CANDELA_TOKEN)",
+            "--bind {}: refusing to listen on a non-loopback address without a token; give --token TOKEN (or set CANDELA_TOKEN), or add users (candela users add NAME --role R)",
             a.bind
         )));
     }

@@ -298,6 +298,8 @@ pub struct NewJob {
     pub scene: String,
     pub scene_name: Option<String>,
     pub source: SceneSource,
+    /// The submitting user (None: open server or the shared token).
+    pub owner: Option<String>,
 }
 
 #[cfg(test)]

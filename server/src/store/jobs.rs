@@ -84,7 +84,7 @@ impl Store {
             serde_json::to_string(&job.settings).map_err(|e| StoreError::Db(e.to_string()))?;
         tx.execute(
             "INSERT INTO jobs (name, state, priority, settings, scene, scene_name, source, \
-             created_at, updated_at) VALUES (?1, 'queued', ?2, ?3, ?4, ?5, ?6, ?7, ?7)",
+             created_at, updated_at, owner) VALUES (?1, 'queued', ?2, ?3, ?4, ?5, ?6, ?7, ?7, ?8)",
             params![
                 job.name,
                 job.priority,
@@ -92,16 +92,16 @@ impl Store {
                 job.scene,
                 job.scene_name,
                 job.source.as_str(),
-                now
+                now,
+                job.owner,
             ],
         )?;
         let id = tx.last_insert_rowid();
-        let event = append_in(
-            &tx,
-            id,
-            "state",
-            &json!({"state": "queued", "previous": null}),
-        )?;
+        let mut data = json!({"state": "queued", "previous": null});
+        if let Some(by) = &job.owner {
+            data["by"] = json!(by);
+        }
+        let event = append_in(&tx, id, "state", &data)?;
         before_commit(id).map_err(StoreError::Db)?;
         let rec = tx.query_row(
             &format!("SELECT {COLUMNS} FROM jobs WHERE id = ?1"),
@@ -276,9 +276,16 @@ impl Store {
         Ok(rows.collect::<Result<Vec<_>, _>>()?)
     }
 
-    /// Changes a job's priority (any non-terminal state).
-    pub fn set_priority(&self, id: JobId, priority: u32) -> Result<JobRecord, StoreError> {
-        let conn = self.conn();
+    /// Changes a job's priority (any non-terminal state); appends a `priority` event saying who
+    /// (`by`) changed it from what.
+    pub fn set_priority(
+        &self,
+        id: JobId,
+        priority: u32,
+        by: Option<&str>,
+    ) -> Result<JobRecord, StoreError> {
+        let mut conn = self.conn();
+        let conn = conn.transaction()?;
         let state: Option<String> = conn
             .query_row("SELECT state FROM jobs WHERE id = ?1", params![id], |r| {
                 r.get(0)
@@ -297,15 +304,28 @@ impl Store {
                 ),
             });
         }
+        let previous: u32 = conn.query_row(
+            "SELECT priority FROM jobs WHERE id = ?1",
+            params![id],
+            |r| r.get(0),
+        )?;
         conn.execute(
             "UPDATE jobs SET priority = ?2, updated_at = ?3 WHERE id = ?1",
             params![id, priority, now_s()],
         )?;
-        Ok(conn.query_row(
+        let mut data = json!({"priority": priority, "previous": previous});
+        if let Some(by) = by {
+            data["by"] = json!(by);
+        }
+        let event = append_in(&conn, id, "priority", &data)?;
+        let rec = conn.query_row(
             &format!("SELECT {COLUMNS} FROM jobs WHERE id = ?1"),
             params![id],
             record,
-        )?)
+        )?;
+        conn.commit()?;
+        self.broadcast(vec![event]);
+        Ok(rec)
     }
 
     /// Records a job's progress counters.

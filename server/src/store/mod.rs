@@ -9,6 +9,7 @@
 mod events;
 mod jobs;
 mod retention;
+mod users;
 
 pub use events::StoredEvent;
 pub use jobs::Transition;
