@@ -52,6 +52,32 @@ impl RequestLimits {
     }
 }
 
+/// Which finished jobs the server keeps (applied by retention.rs). `None`: no limit of that kind.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RetentionPolicy {
+    /// Finished jobs that ended longer ago than this go.
+    pub max_age: Option<Duration>,
+    /// At most this many finished jobs are kept (the newest).
+    pub max_finished: Option<u64>,
+    /// The files of all jobs together are kept under this many bytes (oldest finished go first).
+    pub max_bytes: Option<u64>,
+    /// The event logs of jobs that finished longer ago than this are pruned.
+    pub prune_events_after: Option<Duration>,
+}
+
+impl RetentionPolicy {
+    /// The server's default: 30 days, 1000 finished jobs, 20 GB of job files; event logs pruned
+    /// an hour after the end.
+    pub fn server_default() -> RetentionPolicy {
+        RetentionPolicy {
+            max_age: Some(Duration::from_secs(30 * 86400)),
+            max_finished: Some(1000),
+            max_bytes: Some(20_000_000_000),
+            prune_events_after: Some(Duration::from_secs(3600)),
+        }
+    }
+}
+
 /// Everything the server needs to know at startup.
 #[derive(Debug, Clone)]
 pub struct ServerConfig {
@@ -79,7 +105,7 @@ pub struct ServerConfig {
     pub warm_kernels: WarmKernels,
     pub limits: RequestLimits,
     /// Which finished jobs are removed, and how often the server looks (retention.rs).
-    pub retention: crate::retention::Policy,
+    pub retention: RetentionPolicy,
     pub gc_interval: Duration,
     /// Below this many free bytes on the data directory's filesystem new jobs are refused (507);
     /// jobs held for a storage fault resume only above it (storage.rs).
@@ -154,7 +180,7 @@ impl ServerConfig {
             kernel_cache: Some(data_dir.join("kernel-cache")),
             warm_kernels: WarmKernels::Auto,
             limits: RequestLimits::default(),
-            retention: crate::retention::Policy::server_default(),
+            retention: RetentionPolicy::server_default(),
             gc_interval: Duration::from_secs(600),
             min_free_space: 500_000_000,
             storage_check_interval: Duration::from_secs(5),

@@ -11,35 +11,10 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+pub use crate::config::RetentionPolicy as Policy;
 use crate::jobs::model::{JobId, JobRecord};
 use crate::store::{JobPaths, Store, StoreError};
 use crate::units::format_bytes;
-
-/// What to keep. `None`: no limit of that kind.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Policy {
-    /// Finished jobs that ended longer ago than this go.
-    pub max_age: Option<Duration>,
-    /// At most this many finished jobs are kept (the newest).
-    pub max_finished: Option<u64>,
-    /// The files of all jobs together are kept under this many bytes (oldest finished go first).
-    pub max_bytes: Option<u64>,
-    /// The event logs of jobs that finished longer ago than this are pruned.
-    pub prune_events_after: Option<Duration>,
-}
-
-impl Policy {
-    /// The server's default: 30 days, 1000 finished jobs, 20 GB of job files; event logs pruned
-    /// an hour after the end.
-    pub fn server_default() -> Policy {
-        Policy {
-            max_age: Some(Duration::from_secs(30 * 86400)),
-            max_finished: Some(1000),
-            max_bytes: Some(20_000_000_000),
-            prune_events_after: Some(Duration::from_secs(3600)),
-        }
-    }
-}
 
 /// A finished job to remove, and why.
 #[derive(Debug)]

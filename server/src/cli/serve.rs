@@ -196,14 +196,14 @@ fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), CliError> {
 }
 
 /// The `--retain-*` and `--prune-events-after` flags (0: no limit of that kind).
-fn retention_policy(a: &ServeArgs) -> Result<crate::retention::Policy, CliError> {
+fn retention_policy(a: &ServeArgs) -> Result<crate::config::RetentionPolicy, CliError> {
     use crate::units::{parse_duration, parse_size};
     let age = |flag: &str, v: &str| {
         parse_duration(v)
             .map(|d| Some(d).filter(|d| !d.is_zero()))
             .map_err(|e| CliError::input(format!("{flag}: {e}")))
     };
-    Ok(crate::retention::Policy {
+    Ok(crate::config::RetentionPolicy {
         max_age: age("--retain-age", &a.retain_age)?,
         max_finished: Some(a.retain_jobs).filter(|n| *n > 0),
         max_bytes: parse_size(&a.retain_size)
