@@ -85,6 +85,28 @@ fn roles_are_enforced_and_changes_record_who() {
         403
     );
 
+    // Every read route is open to a viewer; every write route is 403.
+    for path in [
+        "/api/jobs",
+        &at(""),
+        "/api/me",
+        "/api/scenes",
+        "/api/integrators",
+        "/metrics",
+    ] {
+        let (st, _) = as_(&vera, Method::GET, path, None);
+        assert_eq!(st, 200, "viewer GET {path}");
+    }
+    for (method, path) in [
+        (Method::POST, at("/pause")),
+        (Method::POST, at("/resume")),
+        (Method::PATCH, at("")),
+        (Method::DELETE, at("")),
+    ] {
+        let (st, e) = as_(&vera, method.clone(), &path, Some(json!({"priority": 5})));
+        assert_eq!(st, 403, "viewer {method} {path}: {e}");
+    }
+
     // Another submitter: reads, but cannot touch Alice's job.
     assert_eq!(as_(&bob, Method::GET, &at(""), None).0, 200);
     let (st, e) = as_(&bob, Method::POST, &at("/cancel"), Some(json!({})));
