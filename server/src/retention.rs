@@ -207,3 +207,97 @@ pub fn run(
     }
     Ok(report)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::jobs::model::{JobSettings, JobState, NewJob, SceneSource};
+    use crate::store::Transition;
+
+    /// A store in a fresh folder with `n` done jobs, each with a folder of `bytes` bytes.
+    fn store_with_done_jobs(name: &str, n: usize, bytes: usize) -> (Store, PathBuf, Vec<JobId>) {
+        let dir =
+            std::env::temp_dir().join(format!("candela-retention-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let store = Store::open(&dir.join("candela.db")).unwrap();
+        let settings: JobSettings = serde_json::from_value(serde_json::json!({
+            "integrator": {"type": "nee"}, "spp": 1, "time_s": null, "seed": 0, "width": 4,
+            "height": 4, "scene_max_depth": null, "exposure": 0.0, "tonemap": "clamp"
+        }))
+        .unwrap();
+        let mut ids = Vec::new();
+        for i in 0..n {
+            let job = NewJob {
+                name: format!("j{i}"),
+                priority: 10,
+                settings: settings.clone(),
+                scene: "{}".into(),
+                scene_name: None,
+                source: SceneSource::Inline,
+                owner: None,
+            };
+            let id = store.insert_job(&job, |_| Ok(())).unwrap().id;
+            for to in [JobState::Running, JobState::Done] {
+                store.transition(id, to, Transition::default()).unwrap();
+            }
+            let folder = JobPaths::new(&dir, id).dir;
+            std::fs::create_dir_all(&folder).unwrap();
+            std::fs::write(folder.join("image.exr"), vec![0u8; bytes]).unwrap();
+            ids.push(id);
+        }
+        (store, dir, ids)
+    }
+
+    fn ids(plan: &[Removal]) -> Vec<JobId> {
+        plan.iter().map(|r| r.job.id).collect()
+    }
+
+    #[test]
+    fn plans_by_age_count_and_size() {
+        let (store, dir, j) = store_with_done_jobs("plan", 4, 1000);
+        let now = crate::jobs::model::now_s();
+        let none = Policy {
+            max_age: None,
+            max_finished: None,
+            max_bytes: None,
+            prune_events_after: None,
+        };
+        assert!(plan(&store, &dir, &none, now).unwrap().is_empty());
+        // Age: nothing is a day old now; everything is 8 days later.
+        let week = Policy {
+            max_age: Some(Duration::from_secs(7 * 86400)),
+            ..none.clone()
+        };
+        assert!(plan(&store, &dir, &week, now).unwrap().is_empty());
+        assert_eq!(
+            ids(&plan(&store, &dir, &week, now + 8.0 * 86400.0).unwrap()),
+            j
+        );
+        // Count: the oldest beyond the newest 3.
+        let three = Policy {
+            max_finished: Some(3),
+            ..none.clone()
+        };
+        assert_eq!(ids(&plan(&store, &dir, &three, now).unwrap()), vec![j[0]]);
+        // Size: 4000 bytes of folders, at most 2500: the two oldest go.
+        let size = Policy {
+            max_bytes: Some(2500),
+            ..none.clone()
+        };
+        let p = plan(&store, &dir, &size, now).unwrap();
+        assert_eq!(ids(&p), vec![j[0], j[1]]);
+        assert!(p
+            .iter()
+            .all(|r| r.bytes == 1000 && r.reason.contains("over")));
+        // Unfinished jobs are never planned, and a removal takes the folder.
+        let (rec, bytes) = remove_job(&store, &dir, j[0]).unwrap();
+        assert_eq!((rec.id, bytes), (j[0], 1000));
+        assert!(!JobPaths::new(&dir, j[0]).dir.exists());
+        assert!(matches!(
+            remove_job(&store, &dir, j[0]),
+            Err(StoreError::NotFound(_))
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -171,6 +171,43 @@ impl Store {
     }
 }
 
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A version 1 database (before owners, holds and users) opens, migrated, with its jobs.
+    #[test]
+    fn migrates_a_version_1_store() {
+        let dir = std::env::temp_dir().join(format!("candela-store-v1-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("candela.db");
+        {
+            let conn = Connection::open(&path).unwrap();
+            conn.execute_batch(SCHEMA).unwrap();
+            conn.execute_batch(
+                "PRAGMA user_version = 1; INSERT INTO jobs (name, state, priority, settings, \
+                 scene, source, created_at, updated_at) VALUES ('old', 'done', 10, \
+                 '{\"integrator\": {\"type\": \"nee\"}, \"spp\": 1, \"time_s\": null, \"seed\": 0, \
+                 \"width\": 4, \"height\": 4, \"scene_max_depth\": null, \"exposure\": 0.0, \
+                 \"tonemap\": \"clamp\"}', '{}', 'inline', 1.0, 1.0);",
+            )
+            .unwrap();
+        }
+        let store = Store::open(&path).unwrap();
+        let job = store.get_job(1).unwrap();
+        assert_eq!(
+            (job.name.as_str(), job.owner, job.hold),
+            ("old", None, None)
+        );
+        assert_eq!(store.user_count().unwrap(), 0);
+        drop(store);
+        // Opening again is a no-op.
+        assert!(Store::open(&path).unwrap().get_job(1).is_ok());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
+
 /// Where a job's files live under the data directory.
 #[derive(Debug, Clone)]
 pub struct JobPaths {
