@@ -46,6 +46,8 @@ pub fn free_bytes(dir: &Path) -> io::Result<u64> {
     }
     // SAFETY: initialised by the successful call above.
     let st = unsafe { st.assume_init() };
+    // (The field types vary by platform: 32-bit on some.)
+    #[allow(clippy::unnecessary_cast)]
     Ok((st.f_bavail as u64).saturating_mul(st.f_frsize as u64))
 }
 

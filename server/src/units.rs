@@ -25,7 +25,7 @@ pub fn parse_duration(text: &str) -> Result<Duration, String> {
         }
     };
     let s = n * scale;
-    if !(s.is_finite() && s >= 0.0 && s <= 100.0 * 365.0 * 86400.0) {
+    if !(0.0..=100.0 * 365.0 * 86400.0).contains(&s) {
         return Err(format!("\"{text}\": out of range"));
     }
     Ok(Duration::from_secs_f64(s))
@@ -57,7 +57,7 @@ pub fn parse_size(text: &str) -> Result<u64, String> {
         }
     };
     let b = n * scale;
-    if !(b.is_finite() && b >= 0.0 && b < 1.8e19) {
+    if !(0.0..1.8e19).contains(&b) {
         return Err(format!("\"{text}\": out of range"));
     }
     Ok(b.round() as u64)
