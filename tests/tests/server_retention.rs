@@ -64,13 +64,21 @@ fn delete_removes_finished_jobs_only() {
     // references/).
     let a = quick(&s, "a", json!({}));
     assert!(job_dir(&data, a).join("image.exr").is_file());
-    let b = quick(&s, "b", json!({"reference": {"job": a}}));
+    // (A second of rendering: many progress events before pruning.)
+    let (st, job) = s.post(
+        "/api/jobs?wait=true",
+        &json!({"scene_name": "furnace", "time_s": 1.0, "width": 8, "height": 8, "name": "b",
+                "reference": {"job": a}}),
+    );
+    assert_eq!((st, job["state"].as_str()), (201, Some("done")), "{job}");
+    let b = job["id"].as_i64().unwrap();
     assert_eq!(files_in(&data.join("references")), 1);
 
-    // Event logs of finished jobs are pruned to the last progress and snapshot; the state
+    // Event logs of finished jobs are pruned to the last progress and snapshot (the full log,
+    // Last-Event-ID 0, not the compacted replay); the state
     // changes and `done` stay.
     let pruned = |id: i64| {
-        let ev = s.events(id, None).collect_all();
+        let ev = s.events(id, Some(0)).collect_all();
         let n = |k: &str| ev.iter().filter(|e| e.event == k).count();
         (n("progress"), n("snapshot"), n("done"), n("state"))
     };
@@ -147,7 +155,8 @@ fn retention_pass_and_gc_command() {
     assert_eq!(s.job(second)["state"], "done");
     s.terminate(T);
 
-    // Three more finished jobs under a server that keeps everything.
+    // Three more finished jobs under a server that keeps everything, its event logs included;
+    // the last one renders for a second, with many progress events.
     let mut s = Server::start(
         &data,
         &[
@@ -157,11 +166,28 @@ fn retention_pass_and_gc_command() {
             "0",
             "--retain-size",
             "0",
+            "--prune-events-after",
+            "30d",
+            "--snapshot-interval",
+            "0.1",
         ],
     );
-    let ids: Vec<i64> = (0..3)
+    let mut ids: Vec<i64> = (0..2)
         .map(|i| quick(&s, &format!("j{i}"), json!({})))
         .collect();
+    let timed = json!({"scene_name": "furnace", "time_s": 1.0, "width": 8, "height": 8});
+    let (st, job) = s.post("/api/jobs?wait=true", &timed);
+    assert_eq!((st, job["state"].as_str()), (201, Some("done")), "{job}");
+    ids.push(job["id"].as_i64().unwrap());
+    let kinds = |s: &Server, id: i64, kind: &str| {
+        s.events(id, Some(0))
+            .collect_all()
+            .iter()
+            .filter(|e| e.event == kind)
+            .count()
+    };
+    let progress_before = kinds(&s, ids[2], "progress");
+    assert!(progress_before >= 3, "{progress_before} progress events");
     s.terminate(T);
 
     // A folder no job owns, old enough to be an orphan rather than a submission in progress.
@@ -193,6 +219,11 @@ fn retention_pass_and_gc_command() {
     assert!(!job_dir(&data, second).exists() && !job_dir(&data, ids[0]).exists());
     assert!(!orphan.exists());
     assert!(job_dir(&data, ids[1]).exists() && job_dir(&data, ids[2]).exists());
+    let pruned: u64 = out
+        .lines()
+        .find_map(|l| l.strip_prefix("pruned ")?.split(' ').next()?.parse().ok())
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(pruned as usize >= progress_before - 1, "{out}");
 
     // Age: nothing finished 7 days ago.
     let o = run_candela(&["gc", "--data", &data_s, "--older-than", "7d"]);
@@ -211,4 +242,13 @@ fn retention_pass_and_gc_command() {
         .map(|j| j["id"].as_i64().unwrap())
         .collect();
     assert_eq!(left, vec![ids[2], ids[1]]);
+    // Its event log keeps how it ended: the last progress and snapshot, the done.
+    for (kind, n) in [("progress", 1), ("snapshot", 1), ("done", 1)] {
+        assert_eq!(
+            kinds(&s, ids[2], kind),
+            n,
+            "{kind} events of job {}",
+            ids[2]
+        );
+    }
 }
