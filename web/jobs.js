@@ -184,8 +184,10 @@ export function updateJobRow(li, job) {
 
   const err = q('.job-error');
   const message = job.error && (job.error.message || job.error);
-  err.hidden = !(st === 'failed' && message);
-  err.textContent = st === 'failed' && message ? String(message) : '';
+  // A failed job's error, or why the server holds a paused job (a full disk).
+  const note = st === 'failed' && message ? String(message) : st === 'paused' && job.hold ? `Held: ${job.hold}` : '';
+  err.hidden = !note;
+  err.textContent = note;
 }
 
 export async function jobAction(id, fn) {
