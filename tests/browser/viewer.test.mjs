@@ -5,7 +5,7 @@
 //
 // It opens the viewer, submits the Cornell box at 32×32, checks the image refines live (at least
 // two snapshots with increasing spp) and the job reaches "done" in the list, exercises exposure
-// and tonemap, the EXR download, the A/B view with two jobs, pause/resume/priority/cancel, the
+// and tonemap, the EXR download, the A/B view with two jobs, pause/resume/priority/cancel/delete, the
 // other scene sources (pasted JSON, a scene file with assets, a .tar folder) and the error display,
 // then a job with job A as its reference: its live error chart (relMSE, log scale) beside the image
 // at 1360 px and below it at 640 px, its last value against the job's progress events. It saves
@@ -453,6 +453,14 @@ await step('pause, resume, priority and cancel from the job list', async () => {
   await row.getByRole('button', { name: /^Cancel / }).click();
   await waitRowState(jobC, 'canceled', 30_000);
   check(await row.getByRole('button', { name: /^Cancel / }).isDisabled(), 'cancel stays enabled on a canceled job');
+
+  // A finished job can be deleted (after a confirmation): its row goes, the server forgets it.
+  page.once('dialog', (d) => d.accept());
+  await row.getByRole('button', { name: /^Delete / }).click();
+  await row.waitFor({ state: 'detached', timeout: 10_000 })
+    .catch(() => { throw new Failure('the deleted job stayed in the list'); });
+  const gone = await page.request.get(new URL(`/api/jobs/${jobC}`, base).href, { headers });
+  check(gone.status() === 404, `the deleted job is still on the server (${gone.status()})`);
 });
 
 await step('other scene sources: pasted JSON, a scene file with its assets, a .tar folder', async () => {

@@ -196,6 +196,10 @@ pub struct JobRecord {
     pub started_at: Option<f64>,
     pub finished_at: Option<f64>,
     pub updated_at: f64,
+    /// The user who submitted it (None: no named users, or submitted before they existed).
+    pub owner: Option<String>,
+    /// Why the server holds it paused (a full disk); None when a user paused it.
+    pub hold: Option<String>,
 }
 
 /// The links of a job, relative to the server root.
@@ -245,6 +249,8 @@ impl JobRecord {
             "started_at": self.started_at.map(rfc3339),
             "finished_at": self.finished_at.map(rfc3339),
             "updated_at": rfc3339(self.updated_at),
+            "owner": self.owner,
+            "hold": self.hold,
             "links": job_links(self.id),
         })
     }
@@ -292,6 +298,8 @@ pub struct NewJob {
     pub scene: String,
     pub scene_name: Option<String>,
     pub source: SceneSource,
+    /// The submitting user (None: open server or the shared token).
+    pub owner: Option<String>,
 }
 
 #[cfg(test)]

@@ -371,6 +371,7 @@ pub fn prepare(
         scene: text,
         scene_name: req.scene_name,
         source,
+        owner: None,
     })
 }
 

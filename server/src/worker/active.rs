@@ -201,6 +201,7 @@ impl ActiveJob {
 
     /// Writes the checkpoint and the image it implies; returns the progress saved.
     pub fn write_checkpoint(&mut self) -> Result<Progress, CheckpointError> {
+        crate::storage::injected_fault().map_err(CheckpointError::Io)?;
         // (Waits for the job's queued passes.)
         let acc = self
             .session
@@ -225,6 +226,7 @@ impl ActiveJob {
 
     /// Writes `image` as the job's on-disk image (EXR, atomically).
     pub fn write_image(&self, image: &Image) -> Result<(), CheckpointError> {
+        crate::storage::injected_fault().map_err(CheckpointError::Io)?;
         std::fs::create_dir_all(&self.paths.dir).map_err(CheckpointError::Io)?;
         renderer::film::write_exr(&self.paths.image(), image)
             .map_err(|e| CheckpointError::Io(std::io::Error::other(e.to_string())))

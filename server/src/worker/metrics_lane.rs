@@ -258,6 +258,7 @@ mod tests {
             scene: "{}".into(),
             scene_name: None,
             source: SceneSource::Inline,
+            owner: None,
         };
         let id = store.insert_job(&job, |_| Ok(())).unwrap().id;
         let display = Display {

@@ -4,7 +4,8 @@
 //! for the job the stride scheduler picks (scheduler.rs), publishing snapshots, progress events
 //! and checkpoints at their intervals.
 //!
-//! Failures: a scene or shader error fails that job; a device error (a Vulkan call failing, or
+//! Failures: a write that fails for lack of space holds the job paused until space returns
+//! (storage_hold.rs); a scene or shader error fails that job; a device error (a Vulkan call failing, or
 //! a panic inside the renderer) fails the job whose pass it was, drops every session and
 //! rebuilds the device; the other jobs resume from their checkpoints, exactly. On shutdown every
 //! active job is checkpointed and stays `running` in the store, to be resumed at the next start.
@@ -14,6 +15,7 @@ mod checkpoint;
 mod metrics_lane;
 mod outcome;
 mod scheduler;
+mod storage_hold;
 mod warmup;
 
 use std::collections::{BTreeMap, VecDeque};
@@ -84,6 +86,8 @@ pub fn spawn(
                 last_open: None,
                 open_failures: 0,
                 passes: 0,
+                held: BTreeMap::new(),
+                last_storage_check: None,
                 inject_loss_at: std::env::var("CANDELA_TEST_DEVICE_LOSS_AT_PASS")
                     .ok()
                     .and_then(|v| v.parse().ok()),
@@ -121,6 +125,9 @@ struct Worker {
     open_failures: u32,
     /// Passes run (or attempted) since start.
     passes: u64,
+    /// Jobs held for a storage fault, with the reason (storage_hold.rs).
+    held: BTreeMap<JobId, String>,
+    last_storage_check: Option<Instant>,
     /// Test hook: pretend the device is lost at this pass (`CANDELA_TEST_DEVICE_LOSS_AT_PASS`).
     inject_loss_at: Option<u64>,
 }
@@ -159,16 +166,18 @@ impl Worker {
                     }
                 }
             }
-            // Step 2: a device.
+            // Step 2: free space (and held jobs resumed when it returns).
+            self.check_storage();
+            // Step 3: a device.
             if self.ctx.is_none() && !self.open_device() {
                 continue;
             }
-            // Step 3: which jobs to render.
+            // Step 4: which jobs to render.
             if self.dirty {
                 self.dirty = false;
                 self.reconcile();
             }
-            // Step 4: one pass of the job the scheduler picks.
+            // Step 5: one pass of the job the scheduler picks.
             if let Some(id) = self.sched.pick() {
                 self.step(id);
             }
@@ -260,6 +269,8 @@ impl Worker {
         for (id, state, priority) in runnable {
             if self.active.contains_key(&id) {
                 self.sched.set_weight(id, priority);
+            } else if self.held.contains_key(&id) {
+                // Held for a storage fault: waits for space (storage_hold.rs).
             } else if self.active.len() < self.config.max_active.max(1) && self.ctx.is_some() {
                 self.admit(id, state, priority);
             }

@@ -1,6 +1,7 @@
 //! What a job's render produces, as seen from the worker: snapshots (image + `progress` and
 //! `snapshot` events), the end (final image on disk, `done` with the stats), and failures
-//! (`error`, and a device rebuild when the device itself is in doubt).
+//! (`error`, and a device rebuild when the device itself is in doubt; a hold when the disk is
+//! full).
 
 use renderer::render::{AccumSnapshot, RenderError};
 
@@ -9,8 +10,10 @@ use serde_json::json;
 use tracing::{error, info, warn};
 
 use super::active::CheckpointError;
+use super::storage_hold::is_storage_fault;
 use super::{is_device_error, Worker};
 use crate::jobs::model::{JobId, JobState};
+use crate::storage::is_storage_message;
 use crate::store::{StoreError, Transition};
 
 impl Worker {
@@ -46,6 +49,11 @@ impl Worker {
         };
         if let Err(e) = job.write_image(&image) {
             let msg = match e {
+                CheckpointError::Io(e) if is_storage_fault(&e) => {
+                    // Back in the active set only to be held: it resumes from its checkpoint.
+                    self.active.insert(id, job);
+                    return self.hold_for_storage(id, "writing the final image", e.to_string());
+                }
                 CheckpointError::Io(e) => e.to_string(),
                 CheckpointError::Render(e) => e.to_string(),
             };
@@ -87,6 +95,11 @@ impl Worker {
                     self.checkpoint_failed(id, e);
                 }
             }
+            // The store is full: held, to finish again from the checkpoint when space returns.
+            Err(StoreError::Db(m)) if is_storage_message(&m) => {
+                self.active.insert(id, job);
+                return self.hold_for_storage(id, "recording the end", m);
+            }
             Err(e) => warn!(job = id, error = %e, "finishing job"),
         }
         self.shared.forget(id);
@@ -110,6 +123,12 @@ impl Worker {
         };
         if let Err(e) = self.store.transition(id, JobState::Failed, t) {
             warn!(job = id, error = %e, "marking job failed");
+            // Not recorded for lack of space: kept out of the active set until space returns,
+            // then admitted (and failed) again.
+            if matches!(&e, StoreError::Db(m) if is_storage_message(m)) {
+                self.held
+                    .insert(id, format!("disk full: recording the failure: {e}"));
+            }
         }
     }
 
@@ -131,7 +150,11 @@ impl Worker {
     pub(super) fn checkpoint_failed(&mut self, id: JobId, e: CheckpointError) {
         match e {
             CheckpointError::Render(e) => self.render_failed(id, e, "reading the checkpoint"),
-            // A full disk is not the job's fault: keep rendering, try again next interval.
+            // A full disk is not the job's fault: held until space returns.
+            CheckpointError::Io(e) if is_storage_fault(&e) => {
+                self.hold_for_storage(id, "writing the checkpoint", e.to_string())
+            }
+            // Other trouble: keep rendering, try again next interval.
             CheckpointError::Io(e) => warn!(job = id, error = %e, "writing checkpoint"),
         }
     }
