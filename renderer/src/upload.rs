@@ -6,11 +6,17 @@ use std::sync::Arc;
 
 use crate::compile::CompiledScene;
 use crate::gpu::{Binding, Buffer, GpuContext, GpuResult};
-use crate::layout::binding;
+use crate::layout::{binding, NONE};
 
 /// Uploads every scene buffer; returns (binding, buffer) pairs.
 pub fn upload_scene(ctx: &Arc<GpuContext>, scene: &CompiledScene) -> GpuResult<Vec<(u32, Buffer)>> {
     let up = |name: &str, bytes: &[u8]| Buffer::from_slice(ctx, name, bytes);
+    // The parent pointers exist only for trees deeper than the traversal's stack.
+    let parents: &[u32] = if scene.bvh_parents.is_empty() {
+        &[NONE]
+    } else {
+        &scene.bvh_parents
+    };
     let mut buffers = vec![
         (
             binding::GLOBALS,
@@ -19,6 +25,10 @@ pub fn upload_scene(ctx: &Arc<GpuContext>, scene: &CompiledScene) -> GpuResult<V
         (
             binding::BVH_NODES,
             up("bvh nodes", bytemuck::cast_slice(&scene.nodes))?,
+        ),
+        (
+            binding::BVH_PARENTS,
+            up("bvh parents", bytemuck::cast_slice(parents))?,
         ),
         (
             binding::PRIMS,

@@ -3,6 +3,11 @@
 //!
 //! Precision: every position is `world − camera` computed in f64 and only then rounded to f32,
 //! so a scene translated by 1e5 units renders exactly like one at the origin.
+//!
+//! The BVH is built in the scene frame (`world − centre of the scene's bounds`, boxes rounded
+//! outwards) so that it, and its cache key, do not depend on the camera; its node boxes are then
+//! moved to the camera frame in f64 and rounded outwards again (`place_nodes`), so each still
+//! contains its primitives exactly as uploaded.
 
 mod features;
 mod lights;
@@ -14,7 +19,7 @@ use std::time::Duration;
 use glam::{DVec3, Vec3};
 
 use crate::accel::grid::Grid;
-use crate::accel::{self, AccelError, AccelInfo, AccelOptions, PrimBounds};
+use crate::accel::{self, AccelInfo, AccelOptions, PrimBounds};
 use crate::layout::*;
 use crate::scene::{Environment, Filter, Light, Scene};
 pub use features::{FeatureSet, KernelMode};
@@ -39,6 +44,9 @@ pub struct CompiledScene {
     pub triangle_count: usize,
     pub bvh_depth: usize,
     pub bvh_build_time: Duration,
+    /// Each BVH node's parent, for the traversal's stackless fallback: only for trees deeper
+    /// than `accel::STACK_DEPTH` (empty otherwise; a one-word placeholder is uploaded).
+    pub bvh_parents: Vec<u32>,
     /// The uniform grid when `accel` is "grid" (then `nodes` is empty and the kernels are built
     /// with `ACCEL_GRID`).
     pub grid: Option<Grid>,
@@ -87,8 +95,6 @@ pub struct CompileOptions<'a> {
 
 #[derive(Debug, thiserror::Error)]
 pub enum CompileError {
-    #[error(transparent)]
-    Accel(#[from] AccelError),
     #[error("scene has {0} primitives; at most {max} are supported", max = PRIM_MATERIAL_MASK)]
     TooManyPrims(usize),
 }
@@ -102,6 +108,73 @@ enum Shape {
 
 fn f3(v: DVec3) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
+}
+
+/// The largest f32 ≤ x.
+fn f32_down(x: f64) -> f32 {
+    let f = x as f32;
+    if f as f64 > x {
+        f.next_down()
+    } else {
+        f
+    }
+}
+
+/// The smallest f32 ≥ x.
+fn f32_up(x: f64) -> f32 {
+    let f = x as f32;
+    if (f as f64) < x {
+        f.next_up()
+    } else {
+        f
+    }
+}
+
+/// An f64 box rounded outwards to f32.
+fn outward(min: DVec3, max: DVec3) -> PrimBounds {
+    PrimBounds {
+        min: min.to_array().map(f32_down),
+        max: max.to_array().map(f32_up),
+    }
+}
+
+/// The centre of the scene's geometry (world space, f64): the origin of the frame the BVH is
+/// built in.
+fn scene_centre(scene: &Scene) -> DVec3 {
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for m in &scene.meshes {
+        for p in &m.positions {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+    }
+    for s in &scene.spheres {
+        lo = lo.min(s.center - DVec3::splat(s.radius));
+        hi = hi.max(s.center + DVec3::splat(s.radius));
+    }
+    if lo.x <= hi.x {
+        0.5 * (lo + hi)
+    } else {
+        DVec3::ZERO
+    }
+}
+
+/// Moves BVH node boxes from the scene frame to the camera frame (`box − offset`, offset = camera
+/// − scene centre), in f64 and rounded outwards with a few ulps of slack for the f32 rounding of
+/// the camera-relative primitives (a sphere's centre), so every box still contains its
+/// primitives as the GPU sees them.
+fn place_nodes(nodes: &mut [GpuBvhNode], offset: DVec3) {
+    let place = |mn: &mut [f32; 3], mx: &mut [f32; 3]| {
+        let lo = DVec3::from(mn.map(f64::from)) - offset;
+        let hi = DVec3::from(mx.map(f64::from)) - offset;
+        let slack = lo.abs().max(hi.abs()) * 1e-6;
+        let b = outward(lo - slack, hi + slack);
+        (*mn, *mx) = (b.min, b.max);
+    };
+    for n in nodes {
+        place(&mut n.l_min, &mut n.l_max);
+        place(&mut n.r_min, &mut n.r_max);
+    }
 }
 
 /// Compiles `scene` for a film of `width` × `height` (the job may override the scene's film),
@@ -137,6 +210,9 @@ pub fn compile_with(
     // Step 2: primitives in input order, with bounds, camera-relative.
     let mut prims: Vec<GpuPrim> = Vec::new();
     let mut bounds: Vec<PrimBounds> = Vec::new();
+    // The same boxes in the scene frame (rounded outwards): the BVH's input.
+    let centre = scene_centre(scene);
+    let mut bvh_bounds: Vec<PrimBounds> = Vec::new();
     let mut tri_shading: Vec<GpuTriShading> = Vec::new();
     // Camera-relative f64 geometry of each primitive, for exact light areas and centres.
     let mut shapes: Vec<Shape> = Vec::new();
@@ -190,6 +266,8 @@ pub fn compile_with(
                 min: f3(mn),
                 max: f3(mx),
             });
+            let w = idx.map(|i| mesh.positions[i as usize] - centre);
+            bvh_bounds.push(outward(w[0].min(w[1]).min(w[2]), w[0].max(w[1]).max(w[2])));
             shapes.push(Shape::Triangle(p));
             triangle_count += 1;
         }
@@ -213,6 +291,9 @@ pub fn compile_with(
             min: f3(c - r - pad),
             max: f3(c + r + pad),
         });
+        let cs = s.center - centre;
+        let pad_s = cs.abs() * 1e-6;
+        bvh_bounds.push(outward(cs - r - pad_s, cs + r + pad_s));
         shapes.push(Shape::Sphere {
             center: c,
             radius: s.radius,
@@ -223,7 +304,8 @@ pub fn compile_with(
     }
 
     // Step 3: the BVH (or grid), and primitives reordered into its order.
-    let bvh = accel::build_accel(&options.accel, &prims, &bounds, options.cache)?;
+    let mut bvh = accel::build_accel(&options.accel, &prims, &bounds, &bvh_bounds, options.cache);
+    place_nodes(&mut bvh.nodes, origin - centre);
     let mut sorted: Vec<GpuPrim> = bvh.order.iter().map(|&i| prims[i as usize]).collect();
 
     // Step 4: scene bounds (camera-relative) for directional and environment lights.
@@ -375,6 +457,7 @@ pub fn compile_with(
         height,
         triangle_count,
         bvh_depth: bvh.depth,
+        bvh_parents: bvh.parents,
         bvh_build_time: if bvh.grid.is_none() {
             bvh.info.build_time
         } else {
