@@ -14,6 +14,13 @@
 #include "common/intersect.glsl"
 #include "common/texture.glsl"
 
+// Tests shorten the stack (TEST_BVH_STACK) to run the fallback on ordinary scenes.
+#ifdef TEST_BVH_STACK
+#define STACK_ENTRIES TEST_BVH_STACK
+#else
+#define STACK_ENTRIES BVH_STACK
+#endif
+
 layout(set = 0, binding = B_BVH_PARENTS, scalar) readonly buffer BvhParents { uint bvh_parents[]; };
 
 struct Hit {
@@ -105,7 +112,7 @@ bool traverse(Ray r, bool any_hit, out Hit hit) {
     hit.t = r.tmax; hit.prim = NONE; hit.b12 = vec2(0.0);
     if (g.counts.x == 0u) return false; // empty scene
     RayPre pre = ray_precompute(r.d);
-    uint stack[BVH_STACK];
+    uint stack[STACK_ENTRIES];
     int sp = 0;
     uint node = 0u;
     while (true) {
@@ -127,7 +134,7 @@ bool traverse(Ray r, bool any_hit, out Hit hit) {
             hr = false;
         }
         if (hl && hr) {
-            if (sp == BVH_STACK) {
+            if (sp == STACK_ENTRIES) {
                 // The tree is deeper than the stack: finish without one (see the top).
                 return traverse_stackless(r, pre, any_hit, hit) || hit.prim != NONE;
             }

@@ -47,6 +47,9 @@ pub struct CompiledScene {
     /// Each BVH node's parent, for the traversal's stackless fallback: only for trees deeper
     /// than `accel::STACK_DEPTH` (empty otherwise; a one-word placeholder is uploaded).
     pub bvh_parents: Vec<u32>,
+    /// Entries of the traversal's short stack the kernels are built with: `accel::STACK_DEPTH`,
+    /// or fewer through [`CompiledScene::with_traversal_stack`] (a testing aid).
+    pub traversal_stack: usize,
     /// The uniform grid when `accel` is "grid" (then `nodes` is empty and the kernels are built
     /// with `ACCEL_GRID`).
     pub grid: Option<Grid>,
@@ -58,6 +61,18 @@ pub struct CompiledScene {
     /// the same wherever the camera is: caches of structures built from the geometry key on it
     /// and place them with `camera_position`.
     pub geometry_hash: u64,
+}
+
+impl CompiledScene {
+    /// A testing aid: kernels whose traversal stack holds only `entries` (1..=STACK_DEPTH), so
+    /// the stackless fallback for deep trees runs on any scene (the parent pointers are made).
+    pub fn with_traversal_stack(mut self, entries: usize) -> Self {
+        self.traversal_stack = entries.clamp(1, accel::STACK_DEPTH);
+        if self.bvh_parents.is_empty() && self.grid.is_none() {
+            self.bvh_parents = accel::parents(&self.nodes);
+        }
+        self
+    }
 }
 
 /// [`CompiledScene::geometry_hash`] of a scene.
@@ -458,6 +473,7 @@ pub fn compile_with(
         triangle_count,
         bvh_depth: bvh.depth,
         bvh_parents: bvh.parents,
+        traversal_stack: accel::STACK_DEPTH,
         bvh_build_time: if bvh.grid.is_none() {
             bvh.info.build_time
         } else {

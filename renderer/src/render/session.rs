@@ -254,6 +254,10 @@ impl RenderSession {
         if scene.grid.is_some() {
             defines.push(("ACCEL_GRID".to_string(), "1".to_string()));
         }
+        if scene.traversal_stack < crate::accel::STACK_DEPTH {
+            let n = scene.traversal_stack.to_string();
+            defines.push(("TEST_BVH_STACK".to_string(), n));
+        }
         defines.extend(integrator.defines());
         defines
     }
