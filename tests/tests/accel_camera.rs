@@ -23,7 +23,8 @@ fn compiled(scene: &Scene, cache: Option<&std::path::Path>) -> CompiledScene {
 fn image(scene: &Scene, c: &CompiledScene) -> Image {
     let ctx = gpu();
     let options = IntegratorOptions::from_name("nee").unwrap();
-    let mut session = RenderSession::new(&ctx, c, &options, Some(3), 9).expect("session");
+    let mut session =
+        RenderSession::new(&ctx, c, &options, scene.render.max_depth, 9).expect("session");
     render(&mut session, Budget::Spp(2)).expect("render").0
 }
 

@@ -47,6 +47,11 @@ pub struct CompiledScene {
     /// Each BVH node's parent, for the traversal's stackless fallback: only for trees deeper
     /// than `accel::STACK_DEPTH` (empty otherwise; a one-word placeholder is uploaded).
     pub bvh_parents: Vec<u32>,
+    /// Seconds spent loading the scene before it was compiled (set by `prepare` from its
+    /// caller's measure; zero when unknown), and compiling it (this function, including the
+    /// acceleration structure's build or cache load).
+    pub load_time: Duration,
+    pub compile_time: Duration,
     /// Entries of the traversal's short stack the kernels are built with: `accel::STACK_DEPTH`,
     /// or fewer through [`CompiledScene::with_traversal_stack`] (a testing aid).
     pub traversal_stack: usize,
@@ -205,6 +210,7 @@ pub fn compile_with(
     height: u32,
     options: &CompileOptions<'_>,
 ) -> Result<CompiledScene, CompileError> {
+    let start = std::time::Instant::now();
     let origin = scene.camera.position;
     let rel = |p: DVec3| p - origin;
     let features = FeatureSet::detect(scene);
@@ -474,6 +480,8 @@ pub fn compile_with(
         bvh_depth: bvh.depth,
         bvh_parents: bvh.parents,
         traversal_stack: accel::STACK_DEPTH,
+        load_time: Duration::ZERO,
+        compile_time: start.elapsed(),
         bvh_build_time: if bvh.grid.is_none() {
             bvh.info.build_time
         } else {
