@@ -11,7 +11,7 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// Descriptor binding indices (set 0), `B_*` in the shaders. 0–15 belong to the
+/// Descriptor binding indices (set 0), `B_*` in the shaders. 0–15 and 50–59 belong to the
 /// session (scene, film, acceleration structure); integrators' own stages take their own
 /// ranges: vct 16–29 (renderer/src/integrators/vct/gpu.rs), deferred 30–39
 /// (renderer/src/integrators/deferred/stages.rs), bdpt 40–49 (below).
@@ -39,6 +39,10 @@ pub mod binding {
     /// the band being rendered, and each path's vertex count.
     pub const BDPT_LIGHT_VERTICES: u32 = 40;
     pub const BDPT_LIGHT_COUNTS: u32 = 41;
+    /// Each BVH node's parent (u32, NONE for the root), read only by the traversal's stackless
+    /// fallback for trees deeper than its short stack (`accel::STACK_DEPTH`); one placeholder
+    /// word otherwise. See shaders/common/traverse.glsl.
+    pub const BVH_PARENTS: u32 = 50;
 }
 
 /// Marks "none" in u32 index fields.
@@ -272,6 +276,9 @@ pub fn glsl_constants() -> String {
         ("B_GRID_PRIMS", binding::GRID_PRIMS),
         ("B_BDPT_LIGHT_VERTICES", binding::BDPT_LIGHT_VERTICES),
         ("B_BDPT_LIGHT_COUNTS", binding::BDPT_LIGHT_COUNTS),
+        ("B_BVH_PARENTS", binding::BVH_PARENTS),
+        // Entries of the traversal's short stack (plain integer: an array size).
+        ("BVH_STACK", crate::accel::STACK_DEPTH as u32),
     ];
     let flags = [
         ("NONE", NONE),

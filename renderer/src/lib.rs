@@ -13,6 +13,7 @@ pub mod gpu;
 pub mod import;
 pub mod integrators;
 pub mod layout;
+pub mod memory;
 pub mod metrics;
 pub mod prepare;
 pub mod render;

@@ -57,6 +57,9 @@ pub struct GpuContext {
     pub(crate) timestamp_period_ns: f64,
     pub(crate) timestamps_supported: bool,
     pub info: DeviceInfo,
+    /// The largest storage buffer and device-local heap (crate::memory checks scenes against
+    /// them before uploading).
+    pub limits: crate::memory::DeviceLimits,
     pub validation_enabled: bool,
     /// The driver's pipeline cache, loaded from and saved to `kernel_dir`.
     pub(crate) pipelines: PipelineCache,
@@ -472,6 +475,16 @@ impl GpuContext {
             && props.limits.timestamp_compute_and_graphics == vk::TRUE;
         let pipelines =
             PipelineCache::open(&device, DriverKey::of(&props), opts.kernel_cache.as_deref())?;
+        // SAFETY: valid physical device.
+        let mem = unsafe { instance.get_physical_device_memory_properties(physical) };
+        let heap = mem.memory_heaps[..mem.memory_heap_count as usize]
+            .iter()
+            .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+            .map(|h| h.size)
+            .max()
+            .unwrap_or(0);
+        let limits =
+            crate::memory::DeviceLimits::new(props.limits.max_storage_buffer_range as u64, heap);
         tracing::info!(device = %info.name, driver = %info.driver, validation, float_atomics, "Vulkan device ready");
         Ok(GpuContext {
             entry,
@@ -489,6 +502,7 @@ impl GpuContext {
             timestamp_period_ns: props.limits.timestamp_period as f64,
             timestamps_supported,
             info,
+            limits,
             validation_enabled: validation,
             pipelines,
             pipeline_objects: PipelineObjects::default(),

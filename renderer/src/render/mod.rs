@@ -81,8 +81,22 @@ pub struct RenderStats {
     pub accel: String,
     /// Seconds to obtain it: its build, or loading it from the cache on a hit.
     pub accel_build_s: f64,
-    /// Bytes of its GPU buffers.
+    /// Bytes of its GPU buffers (BVH nodes and parent pointers, or the grid's buffers).
     pub accel_bytes: u64,
+    /// GPU bytes of the geometry: primitives and per-triangle shading data.
+    pub geometry_bytes: u64,
+    /// GPU bytes of every scene buffer (geometry, accel, materials, textures, lights, ...).
+    pub scene_gpu_bytes: u64,
+    /// (geometry_bytes + accel_bytes) / triangles (0 without triangles).
+    pub gpu_bytes_per_triangle: f64,
+    /// The host process's peak resident memory so far (VmHWM; absent where unknown). In the
+    /// server it covers every job the process has run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub peak_rss_bytes: Option<u64>,
+    /// Seconds to load the scene (parse, read meshes and textures); 0 when not measured.
+    pub load_s: f64,
+    /// Seconds to compile it for the GPU, including `accel_build_s`.
+    pub compile_s: f64,
     /// "hit", "miss" (built and stored) or "off" (no cache).
     pub accel_cache: crate::accel::CacheStatus,
     /// Grid only: cells along x, y, z.

@@ -93,6 +93,9 @@ struct SceneInfo {
     features: crate::compile::FeatureSet,
     kernels: KernelMode,
     accel: crate::accel::AccelInfo,
+    bytes: crate::memory::SceneBytes,
+    load_time: Duration,
+    compile_time: Duration,
 }
 
 impl RenderSession {
@@ -239,6 +242,9 @@ impl RenderSession {
                 features,
                 kernels,
                 accel: scene.accel.clone(),
+                bytes: crate::memory::scene_bytes(scene),
+                load_time: scene.load_time,
+                compile_time: scene.compile_time,
             },
         })
     }
@@ -253,6 +259,10 @@ impl RenderSession {
         let mut defines = scene.features.for_mode(mode).defines();
         if scene.grid.is_some() {
             defines.push(("ACCEL_GRID".to_string(), "1".to_string()));
+        }
+        if scene.traversal_stack < crate::accel::STACK_DEPTH {
+            let n = scene.traversal_stack.to_string();
+            defines.push(("TEST_BVH_STACK".to_string(), n));
         }
         defines.extend(integrator.defines());
         defines
@@ -639,7 +649,18 @@ impl RenderSession {
             kernels: self.info.kernels,
             accel: self.info.accel.kind.name().to_string(),
             accel_build_s: self.info.accel.build_time.as_secs_f64(),
-            accel_bytes: self.info.accel.bytes,
+            accel_bytes: self.info.bytes.accel,
+            geometry_bytes: self.info.bytes.geometry,
+            scene_gpu_bytes: self.info.bytes.total(),
+            gpu_bytes_per_triangle: if self.info.triangles > 0 {
+                (self.info.bytes.geometry + self.info.bytes.accel) as f64
+                    / self.info.triangles as f64
+            } else {
+                0.0
+            },
+            peak_rss_bytes: crate::memory::peak_rss_bytes(),
+            load_s: self.info.load_time.as_secs_f64(),
+            compile_s: self.info.compile_time.as_secs_f64(),
             accel_cache: self.info.accel.cache,
             grid_resolution: self.info.accel.grid_resolution,
             grid_refs: self.info.accel.grid_refs,

@@ -152,7 +152,9 @@ fn check_args(a: &RenderArgs) -> Result<(), CliError> {
 pub fn run(a: RenderArgs) -> Result<(), CliError> {
     check_args(&a)?;
     // Step 1: the scene and the integrator.
+    let load_start = std::time::Instant::now();
     let scene = super::scene_file::load_scene(&a.scene, &a.import)?;
+    let load_time = load_start.elapsed();
     let mut options = integrator_options(&a, scene.render.integrator.as_deref())?;
     if let Some(d) = a.max_depth {
         options.set_max_depth(d);
@@ -183,6 +185,7 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
             },
             cache: cache.as_deref(),
             kernels: a.kernels,
+            load_time,
         },
     )
     .map_err(|e| CliError::input(format!("{}: {e}", a.scene.display())))?;
@@ -260,6 +263,20 @@ fn print_report(stats: &RenderStats, output: &std::path::Path) {
             .ok()
             .and_then(|v| v.as_str().map(String::from))
             .unwrap_or_default()
+    );
+    println!(
+        "memory      GPU {} bytes (geometry {}, accel {}; {:.1} per triangle), host peak {}",
+        stats.scene_gpu_bytes,
+        stats.geometry_bytes,
+        stats.accel_bytes,
+        stats.gpu_bytes_per_triangle,
+        stats
+            .peak_rss_bytes
+            .map_or("unknown".to_string(), |b| format!("{b} bytes"))
+    );
+    println!(
+        "load        {:.3} s, compile {:.3} s (accel {:.3} s)",
+        stats.load_s, stats.compile_s, stats.accel_build_s
     );
     println!(
         "kernels     {}: {}",

@@ -293,6 +293,7 @@ impl Worker {
             SceneSource::Upload => Some(paths.assets()),
         };
         let limits = self.config.limits.scene_limits();
+        let load_start = std::time::Instant::now();
         let scene = match renderer::scene::load_str_with_limits(&text, base.as_deref(), &limits) {
             Ok(s) => s,
             Err(e) => return self.fail(id, format!("scene: {e}")),
@@ -310,6 +311,7 @@ impl Worker {
             },
             cache: Some(&cache),
             kernels: s.kernels,
+            load_time: load_start.elapsed(),
         };
         let prepared = match prepare(&scene, &options) {
             Ok(p) => p,
