@@ -11,9 +11,9 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// Descriptor binding indices (set 0), `B_*` in the shaders. 0–15 belong to the
-/// session (scene, film, acceleration structure); integrators' own stages take their own
-/// ranges: vct 16–29 (renderer/src/integrators/vct/gpu.rs), deferred 30–39
+/// Descriptor binding indices (set 0), `B_*` in the shaders. 0–15 and 50–59 belong to the
+/// session (scene, film, acceleration structure, light sampler); integrators' own stages take
+/// their own ranges: vct 16–29 (renderer/src/integrators/vct/gpu.rs), deferred 30–39
 /// (renderer/src/integrators/deferred/stages.rs), bdpt 40–49 (below).
 pub mod binding {
     pub const GLOBALS: u32 = 0;
@@ -39,6 +39,10 @@ pub mod binding {
     /// the band being rendered, and each path's vertex count.
     pub const BDPT_LIGHT_VERTICES: u32 = 40;
     pub const BDPT_LIGHT_COUNTS: u32 = 41;
+    /// The session's second range (50–59). The odd-indexed samples' share of ACCUM, per pixel
+    /// (Σr, Σg, Σb, samples kept): the second half of the error estimate (shaders/common/film.glsl,
+    /// renderer/src/metrics/estimate.rs).
+    pub const ACCUM_ODD: u32 = 50;
 }
 
 /// Marks "none" in u32 index fields.
@@ -272,6 +276,7 @@ pub fn glsl_constants() -> String {
         ("B_GRID_PRIMS", binding::GRID_PRIMS),
         ("B_BDPT_LIGHT_VERTICES", binding::BDPT_LIGHT_VERTICES),
         ("B_BDPT_LIGHT_COUNTS", binding::BDPT_LIGHT_COUNTS),
+        ("B_ACCUM_ODD", binding::ACCUM_ODD),
     ];
     let flags = [
         ("NONE", NONE),

@@ -1,5 +1,6 @@
-//! `candela render SCENE.json -o OUT.{exr,png}`: load, compile, render to an spp or time budget,
-//! write the image, report what happened (human-readable, or one JSON object with --json).
+//! `candela render SCENE.json -o OUT.{exr,png}`: load, compile, render to an spp or time budget
+//! (or until the estimated relMSE reaches a target, that budget being the cap), write the image,
+//! report what happened (human-readable, or one JSON object with --json).
 
 use std::path::PathBuf;
 
@@ -8,7 +9,7 @@ use renderer::accel::{AccelKind, AccelRequest};
 use renderer::compile::KernelMode;
 use renderer::integrators::{IntegratorOptions, DEFAULT_INTEGRATOR};
 use renderer::prepare::{prepare, FilmLimits, PrepareOptions};
-use renderer::render::{render, Budget, RenderStats};
+use renderer::render::{render, render_until, Budget, RenderStats};
 
 use super::CliError;
 
@@ -33,6 +34,11 @@ pub struct RenderArgs {
     /// Render for this many seconds instead of a sample count.
     #[arg(long)]
     pub time: Option<f64>,
+    /// Stop as soon as the relMSE estimated without a reference (from the even and odd halves of
+    /// the samples; `rel_mse_estimate` in the report) is at most X, after at least 8 spp; --spp or
+    /// --time (else the default spp) is the cap. The report's `stopped_by` says which ended it.
+    #[arg(long, value_name = "X")]
+    pub until_rel_mse: Option<f64>,
     /// Benchmarking: render this many seconds first, untimed and discarded, so that the timed
     /// render starts on a GPU already at its working clocks (after a cold kernel compile the
     /// device may have idled down).
@@ -94,6 +100,13 @@ fn check_args(a: &RenderArgs) -> Result<(), CliError> {
         if !(w.is_finite() && (0.0..=3600.0).contains(&w)) {
             return Err(CliError::input(format!(
                 "--warmup: must be a number of seconds in [0, 3600], got {w}"
+            )));
+        }
+    }
+    if let Some(x) = a.until_rel_mse {
+        if !(x.is_finite() && x > 0.0) {
+            return Err(CliError::input(format!(
+                "--until-rel-mse: must be a positive number, got {x}"
             )));
         }
     }
@@ -196,8 +209,8 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
             .and_then(|_| session.reset(a.seed))
             .map_err(|e| CliError::failure(format!("warm-up: {e}")))?;
     }
-    let (image, stats) =
-        render(&mut session, budget).map_err(|e| CliError::failure(e.to_string()))?;
+    let (image, stats) = render_until(&mut session, budget, a.until_rel_mse)
+        .map_err(|e| CliError::failure(e.to_string()))?;
     // Step 4: the image and the report.
     renderer::film::write_image(&a.output, &image, scene.film.exposure, scene.film.tonemap)
         .map_err(|e| CliError::failure(e.to_string()))?;
@@ -267,6 +280,11 @@ fn print_report(stats: &RenderStats, output: &std::path::Path) {
         stats.features.join(", ")
     );
     println!("dropped     {} NaN/Inf samples", stats.dropped_samples);
+    let estimate = stats
+        .rel_mse_estimate
+        .map_or("-".to_string(), |e| format!("{e:.3e}"));
+    let stopped = stats.stopped_by.map_or("-", |s| s.name());
+    println!("error       estimated relMSE {estimate} (no reference), stopped by {stopped}");
     println!("wrote       {}", output.display());
 }
 
