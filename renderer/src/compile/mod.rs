@@ -5,6 +5,7 @@
 //! so a scene translated by 1e5 units renders exactly like one at the origin.
 
 mod features;
+pub mod light_bvh;
 mod lights;
 mod materials;
 
@@ -32,6 +33,8 @@ pub struct CompiledScene {
     pub texels: Vec<[f32; 4]>,
     pub lights: Vec<GpuLight>,
     pub alias: Vec<GpuAlias>,
+    /// The light BVH's nodes (`render.light_sampler: "bvh"`; empty with the power sampler).
+    pub light_bvh: Vec<GpuLightNode>,
     pub env_dist: Vec<f32>,
     pub features: FeatureSet,
     pub width: u32,
@@ -320,7 +323,19 @@ pub fn compile_with(
         }
         _ => {}
     }
-    let (gpu_lights, alias) = lb.finish();
+    // The light BVH, when asked for, over the lights before their pick probabilities are set.
+    let light_bvh = (scene.render.light_sampler.as_deref() == Some("bvh") && !lb.lights.is_empty())
+        .then(|| light_bvh::LightBvh::build(&lb.lights, &lb.power));
+    let (mut gpu_lights, alias) = lb.finish();
+    if let Some(t) = &light_bvh {
+        for (l, trail) in gpu_lights.iter_mut().zip(&t.trails) {
+            l.bvh_trail = trail.map_or(0, |(_, bits)| bits);
+        }
+    }
+    let light_counts = light_bvh
+        .as_ref()
+        .map_or([0, 0], |t| [t.nodes.len() as u32, t.infinite.len() as u32]);
+    let light_bvh = light_bvh.map_or(Vec::new(), |t| t.gpu_nodes());
     let (textures, texels) = if features.textures || features.alpha {
         materials::pack_textures(&scene.textures, &clamp_rows)
     } else {
@@ -357,7 +372,12 @@ pub fn compile_with(
         ],
         env,
         env_params,
-        counts: [sorted.len() as u32, bvh.nodes.len() as u32, 0, 0],
+        counts: [
+            sorted.len() as u32,
+            bvh.nodes.len() as u32,
+            light_counts[0],
+            light_counts[1],
+        ],
     };
     Ok(CompiledScene {
         globals,
@@ -369,6 +389,7 @@ pub fn compile_with(
         texels,
         lights: gpu_lights,
         alias,
+        light_bvh,
         env_dist,
         features,
         width,

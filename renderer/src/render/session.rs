@@ -264,6 +264,9 @@ impl RenderSession {
         if scene.grid.is_some() {
             defines.push(("ACCEL_GRID".to_string(), "1".to_string()));
         }
+        if !scene.light_bvh.is_empty() {
+            defines.push(("LIGHT_BVH".to_string(), "1".to_string()));
+        }
         defines.extend(integrator.defines());
         defines
     }
