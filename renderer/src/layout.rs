@@ -221,7 +221,8 @@ pub struct GpuGlobals {
     pub scene_sphere: [f32; 4],
     /// (environment light index or NONE, env map texture or NONE, env map width, env map height)
     pub env: [u32; 4],
-    /// (env scale, cos rotate_y, sin rotate_y, 0)
+    /// (env scale, cos rotate_y, sin rotate_y, the light BVH's probability of picking an
+    /// infinite light)
     pub env_params: [f32; 4],
     /// (number of primitives, number of BVH nodes, light BVH tree nodes, infinite lights after
     /// them; the last two 0 with the power light sampler)

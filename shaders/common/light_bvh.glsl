@@ -3,7 +3,8 @@
 // each child with probability ∝ its importance, an upper bound of the light it can send to p
 // (power · cosine of the smallest angle between its emission cone and p / distance²; Conty
 // Estevez & Kulla 2018, pbrt-v4's BVHLightSampler, without the receiver's cosine). Infinite
-// lights are picked first, uniformly, with probability n_inf / (n_inf + 1). The probability of a
+// lights are picked first, uniformly, with probability g.env_params.w (their share of the power).
+// The probability of a
 // given light is found again from its bit trail (light_bvh_pmf), with the same arithmetic, so
 // NEE and the MIS weights of BSDF samples that hit a light use the same value.
 // Needs common/bindings.glsl; g.counts.z = tree nodes, g.counts.w = infinite lights after them.
@@ -49,9 +50,7 @@ float light_node_importance(GpuLightNode n, vec3 p) {
 }
 
 float light_bvh_p_infinite() {
-    uint n_inf = g.counts.w;
-    uint tree = g.counts.z > 0u ? 1u : 0u;
-    return n_inf == 0u ? 0.0 : float(n_inf) / float(n_inf + tree);
+    return g.counts.w == 0u ? 0.0 : g.env_params.w;
 }
 
 // The probability of the first child of inner node i from p; false when neither can reach p.

@@ -6,7 +6,10 @@
 //! the light it can send towards p: power · (cosine of the smallest angle between its emission
 //! cone and p) / distance². The pick's probability is the product of the choices; the GPU finds
 //! it again for MIS from the light's path in the tree (its "bit trail"). Infinite lights
-//! (directional, environment) are picked first with probability n_inf / (n_inf + 1), uniformly.
+//! (directional, environment) are picked first, with the share of the total power they have in
+//! the power sampler, uniformly among them. (pbrt-v4 picks them with probability
+//! n_inf / (n_inf + 1): half the samples for one dim environment, which measured 1.7× the
+//! power sampler's noise on tests/tests/light_sampler.rs's scene.)
 //!
 //! This module is the reference implementation (build, importance, sampling, pmf), mirrored in
 //! shaders/common/light_bvh.glsl. The receiver's normal is not used (the GPU's MIS lookups know
@@ -204,8 +207,10 @@ pub struct LightBvh {
     pub nodes: Vec<Node>,
     /// Per light: Some((leaf node, bit trail)) for bounded lights in the tree.
     pub trails: Vec<Option<(u32, u32)>>,
-    /// Indices of the infinite lights (and of bounded lights of zero power: never picked).
+    /// Indices of the infinite lights.
     pub infinite: Vec<u32>,
+    /// The probability of picking an infinite light (their share of the total power).
+    pub p_infinite: f64,
 }
 
 /// One node: its bounds and either its second child (inner) or its light (leaf).
@@ -226,19 +231,31 @@ impl LightBvh {
             ..Default::default()
         };
         let mut bounded = Vec::new();
+        let (mut p_inf, mut p_tree) = (0.0, 0.0);
         for (i, (l, &phi)) in lights.iter().zip(power).enumerate() {
             match LightBounds::of(l, phi) {
-                Some(b) => bounded.push((i as u32, b)),
+                Some(b) => {
+                    bounded.push((i as u32, b));
+                    p_tree += phi;
+                }
                 None if matches!(
                     l.kind,
                     light::DIRECTIONAL | light::ENV_CONSTANT | light::ENV_MAP
                 ) =>
                 {
-                    bvh.infinite.push(i as u32)
+                    bvh.infinite.push(i as u32);
+                    p_inf += if phi.is_finite() { phi.max(0.0) } else { 0.0 };
                 }
                 None => {} // no power: never picked
             }
         }
+        bvh.p_infinite = match (bvh.infinite.is_empty(), bounded.is_empty()) {
+            (true, _) => 0.0,
+            (false, true) => 1.0,
+            // Infinite lights of no power are still picked a little (they may be all there is
+            // to see in some direction).
+            (false, false) => (p_inf / (p_inf + p_tree)).clamp(0.01, 0.99),
+        };
         if !bounded.is_empty() {
             bvh.build_node(&mut bounded, 0, 0);
         }
@@ -298,13 +315,7 @@ impl LightBvh {
 
     /// The probability of picking an infinite light (each has this over their count).
     pub fn p_infinite(&self) -> f64 {
-        let n = self.infinite.len() as f64;
-        let tree = if self.nodes.is_empty() { 0.0 } else { 1.0 };
-        if n + tree == 0.0 {
-            0.0
-        } else {
-            n / (n + tree)
-        }
+        self.p_infinite
     }
 
     /// The probability of choosing the first child of inner node `i` from `p` (None: neither
@@ -467,7 +478,11 @@ mod tests {
         fn walk(bvh: &LightBvh, i: usize, p: DVec3, mass: f64) -> f64 {
             let node = &bvh.nodes[i];
             if node.leaf {
-                return if node.bounds.importance(p) > 0.0 { 0.0 } else { mass };
+                return if node.bounds.importance(p) > 0.0 {
+                    0.0
+                } else {
+                    mass
+                };
             }
             match bvh.p_first(i, p) {
                 None => mass,
@@ -491,7 +506,10 @@ mod tests {
             let total: f64 = (0..lights.len() as u32).map(|l| bvh.pmf(p, l)).sum();
             let dead = dead_end_mass(&bvh, p);
             println!("{p}: Σ pmf {total:.6}, no light {dead:.6}");
-            assert!((total + dead - 1.0).abs() < 1e-9, "{p}: Σ pmf = {total}, dead {dead}");
+            assert!(
+                (total + dead - 1.0).abs() < 1e-9,
+                "{p}: Σ pmf = {total}, dead {dead}"
+            );
             // Every light that can send light to p (its own importance) can be picked.
             for (l, t) in bvh.trails.iter().enumerate() {
                 if let Some((leaf, _)) = t {

@@ -335,6 +335,7 @@ pub fn compile_with(
     let light_counts = light_bvh
         .as_ref()
         .map_or([0, 0], |t| [t.nodes.len() as u32, t.infinite.len() as u32]);
+    let p_infinite = light_bvh.as_ref().map_or(0.0, |t| t.p_infinite() as f32);
     let light_bvh = light_bvh.map_or(Vec::new(), |t| t.gpu_nodes());
     let (textures, texels) = if features.textures || features.alpha {
         materials::pack_textures(&scene.textures, &clamp_rows)
@@ -371,7 +372,7 @@ pub fn compile_with(
             radius as f32,
         ],
         env,
-        env_params,
+        env_params: [env_params[0], env_params[1], env_params[2], p_infinite],
         counts: [
             sorted.len() as u32,
             bvh.nodes.len() as u32,
