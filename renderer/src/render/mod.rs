@@ -104,6 +104,9 @@ pub struct RenderStats {
     /// even and odd halves of its samples ([`crate::metrics::rel_mse_estimate`]); set by
     /// [`render`] and the server (None before both halves have samples).
     pub rel_mse_estimate: Option<f64>,
+    /// How light sampling picked lights: "power" or "bvh" (`render.light_sampler`; bdpt always
+    /// "power").
+    pub light_sampler: &'static str,
     /// Why the render stopped (set by [`render`] and the server).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stopped_by: Option<StopReason>,

@@ -96,6 +96,7 @@ struct SceneInfo {
     features: crate::compile::FeatureSet,
     kernels: KernelMode,
     accel: crate::accel::AccelInfo,
+    light_sampler: &'static str,
 }
 
 impl RenderSession {
@@ -249,6 +250,14 @@ impl RenderSession {
                 features,
                 kernels,
                 accel: scene.accel.clone(),
+                // (bdpt keeps the power sampler: shaders/common/lights.glsl)
+                light_sampler: if !scene.light_bvh.is_empty()
+                    && !defines.iter().any(|(k, _)| k == "BDPT_DEPTH_CAP")
+                {
+                    "bvh"
+                } else {
+                    "power"
+                },
             },
         })
     }
@@ -696,6 +705,7 @@ impl RenderSession {
             details: self.integrator.details(),
             rel_mse_estimate: None,
             stopped_by: None,
+            light_sampler: self.info.light_sampler,
         }
     }
 }

@@ -44,6 +44,10 @@ pub struct RenderArgs {
     /// device may have idled down).
     #[arg(long, value_name = "SECONDS")]
     pub warmup: Option<f64>,
+    /// How light sampling picks a light: power or bvh (default: the scene's
+    /// render.light_sampler, else power; docs/light-sampler.md).
+    #[arg(long, value_name = "KIND")]
+    pub light_sampler: Option<String>,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -127,6 +131,14 @@ fn check_args(a: &RenderArgs) -> Result<(), CliError> {
             }
         }
     }
+    if let Some(s) = &a.light_sampler {
+        if !renderer::scene::LIGHT_SAMPLERS.contains(&s.as_str()) {
+            return Err(CliError::input(format!(
+                "--light-sampler: unknown light sampler \"{s}\", expected one of {}",
+                renderer::scene::LIGHT_SAMPLERS.join(", ")
+            )));
+        }
+    }
     if let Some(k) = &a.accel {
         if AccelKind::from_name(k).is_none() {
             return Err(CliError::input(format!(
@@ -165,7 +177,10 @@ fn check_args(a: &RenderArgs) -> Result<(), CliError> {
 pub fn run(a: RenderArgs) -> Result<(), CliError> {
     check_args(&a)?;
     // Step 1: the scene and the integrator.
-    let scene = super::scene_file::load_scene(&a.scene, &a.import)?;
+    let mut scene = super::scene_file::load_scene(&a.scene, &a.import)?;
+    if let Some(s) = &a.light_sampler {
+        scene.render.light_sampler = Some(s.clone());
+    }
     let mut options = integrator_options(&a, scene.render.integrator.as_deref())?;
     if let Some(d) = a.max_depth {
         options.set_max_depth(d);
@@ -257,8 +272,13 @@ fn print_report(stats: &RenderStats, output: &std::path::Path) {
         stats.rays_per_s * 1e-6
     );
     println!(
-        "scene       {} triangles, {} primitives, {} lights, BVH {} nodes (depth {})",
-        stats.triangles, stats.primitives, stats.lights, stats.bvh_nodes, stats.bvh_depth
+        "scene       {} triangles, {} primitives, {} lights ({} sampler), BVH {} nodes (depth {})",
+        stats.triangles,
+        stats.primitives,
+        stats.lights,
+        stats.light_sampler,
+        stats.bvh_nodes,
+        stats.bvh_depth
     );
     let grid = match (stats.grid_resolution, stats.grid_refs) {
         (Some([x, y, z]), Some(refs)) => format!(", {x}x{y}x{z} cells, {refs} references"),
