@@ -110,6 +110,27 @@ pub struct RenderStats {
     /// Why the render stopped (set by [`render`] and the server).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stopped_by: Option<StopReason>,
+    /// `auto` only: the integrator chosen and the pilots' figures (renderer::auto).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auto: Option<AutoChoice>,
+}
+
+/// One integrator's pilot of `auto` (renderer::auto).
+#[derive(Debug, Clone, Serialize)]
+pub struct Pilot {
+    pub integrator: &'static str,
+    pub spp: u32,
+    pub time_s: f64,
+    pub rel_mse_estimate: Option<f64>,
+    /// rel_mse_estimate × time_s: lower is better (None without an estimate).
+    pub cost: Option<f64>,
+}
+
+/// What `auto` chose and why (renderer::auto).
+#[derive(Debug, Clone, Serialize)]
+pub struct AutoChoice {
+    pub choice: &'static str,
+    pub pilots: Vec<Pilot>,
 }
 
 /// Why a render stopped: its spp or time cap, or its quality target (`until`).

@@ -706,6 +706,7 @@ impl RenderSession {
             rel_mse_estimate: None,
             stopped_by: None,
             light_sampler: self.info.light_sampler,
+            auto: None,
         }
     }
 }

@@ -181,7 +181,16 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
     if let Some(s) = &a.light_sampler {
         scene.render.light_sampler = Some(s.clone());
     }
-    let mut options = integrator_options(&a, scene.render.integrator.as_deref())?;
+    // `auto`: chosen by a pilot of every unbiased integrator (renderer::auto).
+    let auto = a.integrator.as_deref() == Some("auto");
+    let mut options = if auto {
+        IntegratorOptions::from_name(DEFAULT_INTEGRATOR).expect("the default integrator")
+    } else {
+        integrator_options(&a, scene.render.integrator.as_deref())?
+    };
+    if auto && a.options.is_some() {
+        return Err(CliError::input("--options: not with --integrator auto"));
+    }
     if let Some(d) = a.max_depth {
         options.set_max_depth(d);
         options
@@ -216,6 +225,18 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
     .map_err(|e| CliError::input(format!("{}: {e}", a.scene.display())))?;
     // Step 3: device, session, render.
     let ctx = super::open_device(a.device.as_deref(), a.kernel_cache.dir())?;
+    if auto {
+        if a.until_rel_mse.is_some() || a.warmup.is_some() {
+            return Err(CliError::input(
+                "--integrator auto: not with --until-rel-mse or --warmup",
+            ));
+        }
+        let max_depth = a.max_depth.or(scene.render.max_depth);
+        let (image, stats) =
+            renderer::auto::render_auto(&prepared, &ctx, a.seed, max_depth, budget)
+                .map_err(|e| CliError::failure(e.to_string()))?;
+        return report(&a, &scene, &image, &stats);
+    }
     let mut session = prepared
         .session(&ctx, &options, a.seed)
         .map_err(|e| CliError::failure(e.to_string()))?;
@@ -226,11 +247,20 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
     }
     let (image, stats) = render_until(&mut session, budget, a.until_rel_mse)
         .map_err(|e| CliError::failure(e.to_string()))?;
-    // Step 4: the image and the report.
-    renderer::film::write_image(&a.output, &image, scene.film.exposure, scene.film.tonemap)
+    report(&a, &scene, &image, &stats)
+}
+
+/// Step 4: the image and the report.
+fn report(
+    a: &RenderArgs,
+    scene: &renderer::scene::Scene,
+    image: &renderer::film::Image,
+    stats: &RenderStats,
+) -> Result<(), CliError> {
+    renderer::film::write_image(&a.output, image, scene.film.exposure, scene.film.tonemap)
         .map_err(|e| CliError::failure(e.to_string()))?;
     if a.json {
-        let mut v = serde_json::to_value(&stats).unwrap_or_default();
+        let mut v = serde_json::to_value(stats).unwrap_or_default();
         if let Some(o) = v.as_object_mut() {
             o.insert(
                 "output".into(),
@@ -243,7 +273,7 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
         }
         println!("{v}");
     } else {
-        print_report(&stats, &a.output);
+        print_report(stats, &a.output);
     }
     Ok(())
 }
@@ -305,6 +335,23 @@ fn print_report(stats: &RenderStats, output: &std::path::Path) {
         .map_or("-".to_string(), |e| format!("{e:.3e}"));
     let stopped = stats.stopped_by.map_or("-", |s| s.name());
     println!("error       estimated relMSE {estimate} (no reference), stopped by {stopped}");
+    if let Some(auto) = &stats.auto {
+        let pilots: Vec<String> = auto
+            .pilots
+            .iter()
+            .map(|p| {
+                let e = p
+                    .rel_mse_estimate
+                    .map_or("-".into(), |e| format!("{e:.2e}"));
+                format!("{} {e} in {:.3} s", p.integrator, p.time_s)
+            })
+            .collect();
+        println!(
+            "auto        chose {} (pilots: {})",
+            auto.choice,
+            pilots.join(", ")
+        );
+    }
     println!("wrote       {}", output.display());
 }
 
