@@ -13,6 +13,7 @@ mod camera;
 mod emitters;
 mod features;
 mod frame;
+pub mod light_bvh;
 mod lights;
 mod materials;
 mod prims;
@@ -39,6 +40,8 @@ pub struct CompiledScene {
     pub texels: Vec<[f32; 4]>,
     pub lights: Vec<GpuLight>,
     pub alias: Vec<GpuAlias>,
+    /// The light BVH's nodes (`render.light_sampler: "bvh"`; empty with the power sampler).
+    pub light_bvh: Vec<GpuLightNode>,
     pub env_dist: Vec<f32>,
     pub features: FeatureSet,
     pub width: u32,
@@ -186,6 +189,7 @@ pub fn compile_with(
             env_params: emitters.env_params,
             prim_count: sorted.len() as u32,
             node_count: bvh.nodes.len() as u32,
+            light_nodes: emitters.light_counts,
         },
     );
     Ok(CompiledScene {
@@ -198,6 +202,7 @@ pub fn compile_with(
         texels,
         lights: emitters.lights,
         alias: emitters.alias,
+        light_bvh: emitters.light_bvh,
         env_dist: emitters.env_dist,
         features,
         width,

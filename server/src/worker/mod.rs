@@ -35,6 +35,7 @@ use crate::jobs::model::{now_s, JobId, JobState, SceneSource};
 use crate::shared::{GpuStatus, Shared};
 use crate::store::{JobPaths, Store, StoreError, Transition};
 use active::{ActiveJob, CheckpointError};
+use metrics_lane::SnapshotImage;
 use scheduler::Scheduler;
 
 /// A message to the worker.
@@ -434,8 +435,10 @@ impl Worker {
             return;
         };
         // Step 3: queue it, with a copy of the accumulation when a snapshot is due.
+        // (A job with a quality target copies it with every pass, to check the target.)
         let snapshot = job.snapshot_due(interval.saturating_sub(target / 2));
-        let result = catch_unwind(AssertUnwindSafe(|| job.session.submit_pass(spp, snapshot)));
+        let copy = snapshot || job.settings.until_rel_mse.is_some();
+        let result = catch_unwind(AssertUnwindSafe(|| job.session.submit_pass(spp, copy)));
         let done = match result {
             Ok(Ok(done)) => done,
             Ok(Err(e)) => return self.render_failed(id, e, "render pass"),
@@ -444,6 +447,7 @@ impl Worker {
         if snapshot {
             job.last_snapshot = Some(Instant::now());
         }
+        job.report_flags.push_back(snapshot);
         self.queued.push_back(id);
         for p in done {
             self.after_pass(id, p);
@@ -474,6 +478,7 @@ impl Worker {
         };
         let stats = p.stats;
         job.record_pass(&stats);
+        let report = job.report_flags.pop_front().unwrap_or(true);
         let pixels = job.settings.width as u64 * job.settings.height as u64;
         let busy = if stats.gpu.is_zero() {
             stats.wall
@@ -490,11 +495,24 @@ impl Worker {
             .gpu_busy_ns
             .fetch_add(busy.as_nanos() as u64, Relaxed);
         self.shared.passes_total.fetch_add(1, Relaxed);
+        // A quality target: the snapshot's estimate, computed here to decide at once.
+        let mut snapshot = p.snapshot.map(SnapshotImage::Accum);
+        if job.settings.until_rel_mse.is_some() {
+            if let Some(SnapshotImage::Accum(snap)) = snapshot.take() {
+                match snap.image_and_estimate() {
+                    Ok((image, estimate)) => {
+                        job.observe_estimate(snap.spp(), estimate);
+                        snapshot = Some(SnapshotImage::Image(image, snap.spp()));
+                    }
+                    Err(e) => return self.render_failed(id, e, "estimating the error"),
+                }
+            }
+        }
         // The last pass's image is the final one, which `finish` reports.
         if job.finished() {
             return self.finish(id);
         }
-        if let Some(snap) = p.snapshot {
+        if let Some(snap) = snapshot.filter(|_| report) {
             self.snapshot(id, snap);
         }
         let Some(job) = self.active.get_mut(&id) else {
