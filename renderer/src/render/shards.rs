@@ -1,0 +1,343 @@
+//! One render split across several devices by sample index. Every sample of every integrator is
+//! keyed by its index (the counter-based RNG, `rng_init(pixel, sample_index, seed)`), and the
+//! integrators' setup stages (vct's voxels, deferred's light culling) depend on the scene only,
+//! so sessions of the same scene, integrator and seed that render disjoint sets of sample
+//! indices have sums that add up to the sums of one session that rendered them all.
+//!
+//! The devices take sample indices from one shared counter ([`SampleDispenser`]): each claims
+//! the next block the size of its next pass, so a faster device takes more blocks and every
+//! index from 0 to the total is rendered exactly once, whether the budget is a sample count
+//! (split over the devices as they go) or a time (each device renders for that long). The
+//! shards' accumulations are then summed ([`merge_accumulation`]: the radiance sums and sample
+//! counts as floats, bdpt's fixed-point splats as 64-bit integers) and resolved once with the
+//! total spp. The image equals the single-device render of the same seed and spp up to the
+//! order of float additions.
+
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::time::{Duration, Instant};
+
+use super::inflight::PIPELINE_DEPTH;
+use super::{Budget, PassSizer, RenderError, RenderSession, RenderStats};
+use crate::film::Image;
+use crate::integrators::{ExtraBuffer, ExtraSum};
+
+/// Hands out consecutive blocks of sample indices, up to a limit (an spp budget) or without
+/// one (a time budget), until stopped (a device failed).
+#[derive(Debug)]
+pub struct SampleDispenser {
+    next: AtomicU32,
+    limit: u32,
+    stopped: AtomicBool,
+}
+
+impl SampleDispenser {
+    /// Indices `0..limit` (`u32::MAX`: as many as are asked for).
+    pub fn new(limit: u32) -> Self {
+        SampleDispenser {
+            next: AtomicU32::new(0),
+            limit,
+            stopped: AtomicBool::new(false),
+        }
+    }
+
+    /// The next block of at most `want` indices: (first, count); None when all are given out
+    /// or the dispenser was stopped.
+    pub fn claim(&self, want: u32) -> Option<(u32, u32)> {
+        if self.stopped.load(Ordering::Acquire) {
+            return None;
+        }
+        let mut first = self.next.load(Ordering::Acquire);
+        loop {
+            let n = want.max(1).min(self.limit.saturating_sub(first));
+            if n == 0 {
+                return None;
+            }
+            match self.next.compare_exchange_weak(
+                first,
+                first + n,
+                Ordering::AcqRel,
+                Ordering::Acquire,
+            ) {
+                Ok(_) => return Some((first, n)),
+                Err(now) => first = now,
+            }
+        }
+    }
+
+    /// Indices given out so far.
+    pub fn given(&self) -> u32 {
+        self.next.load(Ordering::Acquire)
+    }
+
+    /// Gives out nothing more.
+    pub fn stop(&self) {
+        self.stopped.store(true, Ordering::Release);
+    }
+}
+
+/// What a split render did: the image, the total spp, and each device's own statistics (its
+/// spp, passes, time and Msamples/s).
+#[derive(Debug, Clone)]
+pub struct SplitRender {
+    pub image: Image,
+    pub spp: u32,
+    /// Wall time from the first pass queued to the last shard's sums downloaded.
+    pub wall: Duration,
+    pub shards: Vec<RenderStats>,
+}
+
+impl SplitRender {
+    /// The statistics of the whole render: the first shard's description (scene, integrator,
+    /// setup) with the totals: spp, passes, rays, dropped samples, GPU time summed; time the
+    /// longest shard's pass time; Msamples/s and rays/s the sums of the devices' rates.
+    pub fn total(&self) -> RenderStats {
+        let mut t = self.shards[0].clone();
+        t.spp = self.spp;
+        t.passes = self.shards.iter().map(|s| s.passes).sum();
+        t.rays = self.shards.iter().map(|s| s.rays).sum();
+        t.dropped_samples = self.shards.iter().map(|s| s.dropped_samples).sum();
+        t.gpu_time_s = self.shards.iter().map(|s| s.gpu_time_s).sum();
+        t.time_s = self.shards.iter().map(|s| s.time_s).fold(0.0, f64::max);
+        t.msamples_per_s = self.shards.iter().map(|s| s.msamples_per_s).sum();
+        t.rays_per_s = self.shards.iter().map(|s| s.rays_per_s).sum();
+        t.setup_s = self.shards.iter().map(|s| s.setup_s).fold(0.0, f64::max);
+        t.first_pass = None;
+        t
+    }
+}
+
+/// Adds `from` to `into`, two [`RenderSession::accumulation`]s of one layout: `pixels` entries
+/// of (Σr, Σg, Σb, samples kept) added as floats, then each extra buffer as its
+/// [`ExtraSum`] says.
+pub fn merge_accumulation(
+    into: &mut [[f32; 4]],
+    from: &[[f32; 4]],
+    pixels: usize,
+    extra: &[ExtraBuffer],
+) -> Result<(), RenderError> {
+    let want = pixels
+        + extra
+            .iter()
+            .map(|e| pixels * e.entries_per_pixel as usize)
+            .sum::<usize>();
+    if into.len() != want || from.len() != want {
+        return Err(RenderError::Invalid(format!(
+            "merging accumulations of {} and {} entries, the layout has {want}",
+            into.len(),
+            from.len()
+        )));
+    }
+    let add_floats = |a: &mut [[f32; 4]], b: &[[f32; 4]]| {
+        for (x, y) in a.iter_mut().zip(b) {
+            for c in 0..4 {
+                x[c] += y[c];
+            }
+        }
+    };
+    // Step 1: the radiance sums and sample counts.
+    add_floats(&mut into[..pixels], &from[..pixels]);
+    // Step 2: the extra buffers, in order.
+    let mut at = pixels;
+    for e in extra {
+        let len = pixels * e.entries_per_pixel as usize;
+        let (a, b) = (&mut into[at..at + len], &from[at..at + len]);
+        match e.sum {
+            ExtraSum::Float => add_floats(a, b),
+            ExtraSum::Fixed64 => {
+                for (pa, pb) in a.chunks_exact_mut(2).zip(b.chunks_exact(2)) {
+                    for c in 0..4 {
+                        let word = |p: &[[f32; 4]]| {
+                            ((p[1][c].to_bits() as u64) << 32) | p[0][c].to_bits() as u64
+                        };
+                        let sum = word(pa).wrapping_add(word(pb));
+                        pa[0][c] = f32::from_bits(sum as u32);
+                        pa[1][c] = f32::from_bits((sum >> 32) as u32);
+                    }
+                }
+            }
+        }
+        at += len;
+    }
+    Ok(())
+}
+
+/// Renders one image on every session at once (one thread each), taking sample indices from a
+/// shared [`SampleDispenser`]: [`Budget::Spp`] is the total over the sessions, [`Budget::Time`]
+/// each session's time. The sessions must be of the same prepared scene, integrator options and
+/// seed, freshly made (or reset). Their sums are merged and resolved once.
+pub fn render_split(
+    sessions: &mut [RenderSession],
+    budget: Budget,
+) -> Result<SplitRender, RenderError> {
+    let Some(first) = sessions.first() else {
+        return Err(RenderError::Invalid(
+            "a split render needs a session".into(),
+        ));
+    };
+    // Step 1: every shard must sum in the same layout (bdpt's splats are floats on devices with
+    // float atomics, fixed point elsewhere).
+    let (len, extra) = (first.accumulation_len(), first.extra_buffers());
+    if let Some(other) = sessions
+        .iter()
+        .find(|s| s.accumulation_len() != len || s.extra_buffers() != extra)
+    {
+        return Err(RenderError::Invalid(format!(
+            "the devices keep different accumulation formats ({} and {}: {:?} vs {:?}); \
+             render on devices of one kind",
+            first.stats().device.name,
+            other.stats().device.name,
+            extra,
+            other.extra_buffers()
+        )));
+    }
+    let dispenser = SampleDispenser::new(match budget {
+        Budget::Spp(n) => n,
+        Budget::Time(_) => u32::MAX,
+    });
+    // Step 2: drive every shard on its own thread.
+    let start = Instant::now();
+    let results: Vec<Result<Vec<[f32; 4]>, RenderError>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = sessions
+            .iter_mut()
+            .map(|s| {
+                let d = &dispenser;
+                scope.spawn(move || {
+                    let r = drive_shard(s, budget, d).and_then(|_| s.accumulation());
+                    if r.is_err() {
+                        d.stop();
+                    }
+                    r
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| {
+                h.join().unwrap_or_else(|_| {
+                    Err(RenderError::Invalid("a device thread panicked".into()))
+                })
+            })
+            .collect()
+    });
+    let wall = start.elapsed();
+    // Step 3: sum the shards' accumulations and resolve once with the total spp.
+    let mut sums: Option<Vec<[f32; 4]>> = None;
+    for r in results {
+        let acc = r?;
+        match &mut sums {
+            None => sums = Some(acc),
+            Some(into) => merge_accumulation(into, &acc, pixels_in(len, &extra), &extra)?,
+        }
+    }
+    let spp: u32 = sessions.iter().map(|s| s.spp()).sum();
+    if spp != dispenser.given() {
+        return Err(RenderError::Invalid(format!(
+            "the shards rendered {spp} spp of the {} given out",
+            dispenser.given()
+        )));
+    }
+    let sums = sums.unwrap_or_default();
+    let image = sessions[0].resolve_spp(&sums, spp);
+    Ok(SplitRender {
+        image,
+        spp,
+        wall,
+        shards: sessions.iter().map(|s| s.stats()).collect(),
+    })
+}
+
+/// The pixels of an accumulation of `len` entries with `extra` buffers.
+fn pixels_in(len: usize, extra: &[ExtraBuffer]) -> usize {
+    len / (1 + extra
+        .iter()
+        .map(|e| e.entries_per_pixel as usize)
+        .sum::<usize>())
+}
+
+/// One shard's loop, as [`super::render`]'s, but each pass starts at the block of indices it
+/// claims from `dispenser`.
+fn drive_shard(
+    session: &mut RenderSession,
+    budget: Budget,
+    dispenser: &SampleDispenser,
+) -> Result<(), RenderError> {
+    let target = Duration::from_millis(250);
+    let mut sizer = PassSizer::default();
+    loop {
+        // Step 1: keep the queue full while the budget has room.
+        while session.in_flight() < PIPELINE_DEPTH
+            && (sizer.knows_cost() || session.in_flight() == 0)
+        {
+            let want = match budget {
+                Budget::Spp(_) => sizer.next(target),
+                Budget::Time(seconds) => {
+                    let committed = session.elapsed().as_secs_f64()
+                        + sizer.seconds(session.submitted_spp() - session.spp());
+                    let left = seconds.max(0.0) - committed;
+                    if left <= 0.0 && session.submitted_spp() > 0 {
+                        break;
+                    }
+                    sizer.next(target.min(Duration::from_secs_f64(left.max(0.0))))
+                }
+            };
+            let Some((first, n)) = dispenser.claim(want) else {
+                break;
+            };
+            session.set_next_sample(first);
+            for p in session.submit_pass(n, false)? {
+                sizer.observe(&p.stats);
+            }
+        }
+        // Step 2: the oldest pass; done when none is left.
+        match session.complete_oldest()? {
+            Some(p) => sizer.observe(&p.stats),
+            None => return Ok(()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_dispenser_gives_every_index_once() {
+        let d = SampleDispenser::new(10);
+        let mut got = Vec::new();
+        while let Some((first, n)) = d.claim(3) {
+            got.extend(first..first + n);
+        }
+        assert_eq!(got, (0..10).collect::<Vec<_>>());
+        assert_eq!(d.given(), 10);
+        let d = SampleDispenser::new(u32::MAX);
+        assert_eq!(d.claim(0), Some((0, 1)));
+        d.stop();
+        assert_eq!(d.claim(4), None);
+    }
+
+    #[test]
+    fn fixed_point_splats_add_with_carry() {
+        let e = [ExtraBuffer {
+            binding: 0,
+            name: "splat",
+            entries_per_pixel: 2,
+            sum: ExtraSum::Fixed64,
+        }];
+        let fixed = |v: u64| {
+            [
+                [f32::from_bits(v as u32); 4],
+                [f32::from_bits((v >> 32) as u32); 4],
+            ]
+        };
+        let acc = |v: u64, w: f32| {
+            let [lo, hi] = fixed(v);
+            vec![[0.5, 1.0, 2.0, w], lo, hi]
+        };
+        let mut a = acc(0xffff_fff0, 1.0);
+        merge_accumulation(&mut a, &acc(0x20, 2.0), 1, &e).unwrap();
+        assert_eq!(a[0], [1.0, 2.0, 4.0, 3.0]);
+        assert_eq!(a[1][2].to_bits(), 0x10);
+        assert_eq!(a[2][2].to_bits(), 1);
+        assert!(merge_accumulation(&mut a, &[[0.0; 4]; 2], 1, &e).is_err());
+    }
+}
