@@ -49,11 +49,16 @@ fn shard_spp(report: &serde_json::Value) -> Vec<u64> {
 
 /// Two shards on one device give the single-device image of the same seed and spp; returns the
 /// folder of both images (one.exr, two.exr).
-fn split_equals_single(integrator: &str) -> std::path::PathBuf {
-    let dir = scratch(&format!("multi_device_{integrator}"));
+fn split_equals_single(integrator: &str, options: &str) -> std::path::PathBuf {
+    let dir = scratch(&format!("multi_device_{integrator}_{}", options.len()));
     let (one, two) = (dir.join("one.exr"), dir.join("two.exr"));
-    let single = render(&one, integrator, 7, &["--spp", "6"]);
-    let split = render(&two, integrator, 7, &["--spp", "6", "--devices", "0,0"]);
+    let single = render(&one, integrator, 7, &["--spp", "6", "--options", options]);
+    let split = render(
+        &two,
+        integrator,
+        7,
+        &["--spp", "6", "--options", options, "--devices", "0,0"],
+    );
     assert_eq!(single["spp"], 6);
     assert_eq!(split["spp"], 6);
     let spp = shard_spp(&split);
@@ -67,7 +72,7 @@ fn split_equals_single(integrator: &str) -> std::path::PathBuf {
 
 #[test]
 fn nee_split_over_two_contexts_equals_one_device() {
-    let dir = split_equals_single("nee");
+    let dir = split_equals_single("nee", "{}");
     // The comparison can tell renders apart: another seed is far from equal.
     let other = dir.join("other.exr");
     render(&other, "nee", 8, &["--spp", "6"]);
@@ -78,7 +83,10 @@ fn nee_split_over_two_contexts_equals_one_device() {
 
 #[test]
 fn bdpt_split_merges_light_splats() {
-    split_equals_single("bdpt");
+    // Float splats where the device has float atomics (lavapipe may not), and 64-bit fixed
+    // point, whose two words per channel must add with carry.
+    split_equals_single("bdpt", "{}");
+    split_equals_single("bdpt", r#"{"fixed_point_splats": true}"#);
 }
 
 #[test]
