@@ -7,7 +7,9 @@ use std::path::Path;
 
 use candela_tests::{assert_bad_input, run_candela as run, scene_path, scratch, text};
 use renderer::film::read_exr;
+use renderer::integrators::{ExtraBuffer, ExtraSum};
 use renderer::metrics::rel_mse;
+use renderer::render::{merge_accumulation, SampleDispenser};
 
 /// Renders Cornell at 48×48 with `extra` arguments; returns the JSON report.
 fn render(out: &Path, integrator: &str, seed: u64, extra: &[&str]) -> serde_json::Value {
@@ -121,4 +123,67 @@ fn bad_device_lists_are_refused() {
         ]);
         assert_bad_input(&o, &["--devices", needle]);
     }
+}
+
+#[test]
+fn the_dispenser_gives_every_index_once() {
+    let d = SampleDispenser::new(10);
+    let mut got = Vec::new();
+    while let Some((first, n)) = d.claim(3) {
+        got.extend(first..first + n);
+    }
+    assert_eq!(got, (0..10).collect::<Vec<_>>());
+    assert_eq!(d.given(), 10);
+    let d = SampleDispenser::new(u32::MAX);
+    assert_eq!(d.claim(0), Some((0, 1)));
+    d.stop();
+    assert_eq!(d.claim(4), None);
+}
+
+#[test]
+fn fixed_point_splats_add_with_carry() {
+    let e = [ExtraBuffer {
+        binding: 0,
+        name: "splat",
+        entries_per_pixel: 2,
+        sum: ExtraSum::Fixed64,
+    }];
+    let fixed = |v: u64| {
+        [
+            [f32::from_bits(v as u32); 4],
+            [f32::from_bits((v >> 32) as u32); 4],
+        ]
+    };
+    let acc = |v: u64, w: f32| {
+        let [lo, hi] = fixed(v);
+        vec![[0.5, 1.0, 2.0, w], lo, hi]
+    };
+    let mut a = acc(0xffff_fff0, 1.0);
+    merge_accumulation(&mut a, &acc(0x20, 2.0), 1, &e).unwrap();
+    assert_eq!(a[0], [1.0, 2.0, 4.0, 3.0]);
+    assert_eq!(a[1][2].to_bits(), 0x10);
+    assert_eq!(a[2][2].to_bits(), 1);
+    assert!(merge_accumulation(&mut a, &[[0.0; 4]; 2], 1, &e).is_err());
+}
+
+#[test]
+fn threads_claiming_at_once_share_the_indices_exactly() {
+    let d = SampleDispenser::new(10_000);
+    let mut all: Vec<u32> = std::thread::scope(|s| {
+        let hs: Vec<_> = (1..=4u32)
+            .map(|k| {
+                let d = &d;
+                s.spawn(move || {
+                    let mut mine = Vec::new();
+                    while let Some((first, n)) = d.claim(k * 7) {
+                        mine.extend(first..first + n);
+                    }
+                    mine
+                })
+            })
+            .collect();
+        hs.into_iter().flat_map(|h| h.join().unwrap()).collect()
+    });
+    all.sort_unstable();
+    assert_eq!(all, (0..10_000).collect::<Vec<_>>());
 }

