@@ -134,6 +134,14 @@ fn the_dispenser_gives_every_index_once() {
     }
     assert_eq!(got, (0..10).collect::<Vec<_>>());
     assert_eq!(d.given(), 10);
+    // Shared by 3: at most a third of what is left (rounded up) per block.
+    let d = SampleDispenser::new(10).shared_by(3);
+    assert_eq!(d.claim(100), Some((0, 4)));
+    assert_eq!(d.claim(100), Some((4, 2)));
+    assert_eq!(d.claim(100), Some((6, 2)));
+    assert_eq!(d.claim(100), Some((8, 1)));
+    assert_eq!(d.claim(100), Some((9, 1)));
+    assert_eq!(d.claim(100), None);
     let d = SampleDispenser::new(u32::MAX);
     assert_eq!(d.claim(0), Some((0, 1)));
     d.stop();

@@ -27,6 +27,9 @@ use crate::integrators::{ExtraBuffer, ExtraSum};
 pub struct SampleDispenser {
     next: AtomicU32,
     limit: u32,
+    /// Claimants: near the limit, a block is at most an even share of what is left, so that
+    /// one device does not take a large last pass while the others idle.
+    shares: u32,
     stopped: AtomicBool,
 }
 
@@ -36,8 +39,15 @@ impl SampleDispenser {
         SampleDispenser {
             next: AtomicU32::new(0),
             limit,
+            shares: 1,
             stopped: AtomicBool::new(false),
         }
+    }
+
+    /// Limits each block to an even share of the indices left among `n` claimants.
+    pub fn shared_by(mut self, n: u32) -> Self {
+        self.shares = n.max(1);
+        self
     }
 
     /// The next block of at most `want` indices: (first, count); None when all are given out
@@ -48,7 +58,8 @@ impl SampleDispenser {
         }
         let mut first = self.next.load(Ordering::Acquire);
         loop {
-            let n = want.max(1).min(self.limit.saturating_sub(first));
+            let left = self.limit.saturating_sub(first);
+            let n = want.max(1).min(left.div_ceil(self.shares)).min(left);
             if n == 0 {
                 return None;
             }
@@ -196,7 +207,8 @@ pub fn render_split(
     let dispenser = SampleDispenser::new(match budget {
         Budget::Spp(n) => n,
         Budget::Time(_) => u32::MAX,
-    });
+    })
+    .shared_by(sessions.len() as u32);
     // Step 2: drive every shard on its own thread.
     let start = Instant::now();
     let results: Vec<Result<Vec<[f32; 4]>, RenderError>> = std::thread::scope(|scope| {
