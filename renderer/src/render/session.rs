@@ -437,7 +437,6 @@ impl RenderSession {
             None
         };
         let mut slot = self.ring.take(&self.ctx)?;
-        self.next_sample = self.next_sample.wrapping_add(spp);
         let (integrator, pipeline) = (&self.integrator, &self.pipeline);
         let most: u32 = dispatches
             .iter()
@@ -465,6 +464,7 @@ impl RenderSession {
             self.ring.spare.push(slot);
             return Err(e.into());
         }
+        self.next_sample = self.next_sample.wrapping_add(spp);
         self.ring.in_flight.push_back(InFlight {
             slot,
             spp,
