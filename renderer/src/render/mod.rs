@@ -2,16 +2,19 @@
 //! the integrator's pipeline, and runs passes of N samples per pixel, queued back to back
 //! (inflight.rs) and cut into dispatches sized to the GPU (dispatch.rs). Sample indices are the
 //! RNG key, so the image depends only on (seed, total spp), never on the pass split or the
-//! dispatch shape. `render` drives a session to an spp or wall-time budget.
+//! dispatch shape. `render` drives a session to an spp or wall-time budget; `render_split`
+//! drives several sessions (devices) on disjoint sample indices and merges their sums.
 
 mod dispatch;
 mod inflight;
 mod session;
+mod shards;
 
 pub use crate::error::RenderError;
 pub use dispatch::{DispatchShape, MAX_LANES};
 pub use inflight::{AccumSnapshot, CompletedPass, PassStats, PIPELINE_DEPTH};
 pub use session::{Progress, RenderSession, LLVMPIPE_MAX_DISPATCHES};
+pub use shards::{merge_accumulation, render_split, SampleDispenser, SplitRender};
 
 use std::time::Duration;
 

@@ -64,6 +64,9 @@ pub struct RenderSession {
     height: u32,
     seed: u64,
     spp: u32,
+    /// The sample index the next pass starts at: the samples submitted so far, unless
+    /// [`RenderSession::set_next_sample`] moved it (a shard of a multi-device render).
+    next_sample: u32,
     passes: u32,
     rays: u64,
     dropped: u64,
@@ -226,6 +229,7 @@ impl RenderSession {
             height: h,
             seed,
             spp: 0,
+            next_sample: 0,
             passes: 0,
             rays: 0,
             dropped: 0,
@@ -369,6 +373,7 @@ impl RenderSession {
         }
         self.seed = seed;
         self.spp = 0;
+        self.next_sample = 0;
         self.first_pass = None;
         self.passes = 0;
         self.rays = 0;
@@ -376,6 +381,14 @@ impl RenderSession {
         self.elapsed = Duration::ZERO;
         self.gpu_time = Duration::ZERO;
         Ok(())
+    }
+
+    /// Starts the next pass at sample index `first` instead of right after the samples
+    /// submitted so far. A render split over devices (shards.rs) gives each session disjoint
+    /// ranges of sample indices this way; since samples are keyed by index, the sessions' sums
+    /// add up to the accumulation of one session that rendered every index.
+    pub fn set_next_sample(&mut self, first: u32) {
+        self.next_sample = first;
     }
 
     /// Samples per pixel rendered so far.
@@ -429,7 +442,7 @@ impl RenderSession {
         let push = GpuPush {
             seed_lo: self.seed as u32,
             seed_hi: (self.seed >> 32) as u32,
-            sample_base: self.submitted_spp(),
+            sample_base: self.next_sample,
             spp,
             flags: self.flags,
             ..Default::default()
@@ -490,6 +503,7 @@ impl RenderSession {
             self.ring.spare.push(slot);
             return Err(e.into());
         }
+        self.next_sample = self.next_sample.wrapping_add(spp);
         self.ring.in_flight.push_back(InFlight {
             slot,
             spp,
@@ -559,6 +573,11 @@ impl RenderSession {
         }
     }
 
+    /// The integrator's extra per-pixel buffers, in [`Self::accumulation`] order.
+    pub fn extra_buffers(&self) -> Vec<ExtraBuffer> {
+        self.extra.iter().map(|(e, _)| *e).collect()
+    }
+
     /// Entries (`[f32; 4]`) in [`Self::accumulation`]: width·height, plus the integrator's extra
     /// buffers (bdpt: one or two per pixel), plus width·height of the odd half.
     pub fn accumulation_len(&self) -> usize {
@@ -621,6 +640,7 @@ impl RenderSession {
             bytemuck::cast_slice(&accumulation[at..]),
         )?;
         self.spp = progress.spp;
+        self.next_sample = progress.spp;
         self.passes = progress.passes;
         self.rays = progress.rays;
         self.dropped = progress.dropped_samples;
@@ -655,6 +675,12 @@ impl RenderSession {
 
     /// The image of `all`, an [`Self::accumulation`] of this session (at its current spp).
     pub fn resolve(&self, all: &[[f32; 4]]) -> Image {
+        self.resolve_spp(all, self.spp)
+    }
+
+    /// The image of `all`, an accumulation of this session's layout holding `spp` samples per
+    /// pixel (e.g. the merged sums of several shards, shards.rs).
+    pub fn resolve_spp(&self, all: &[[f32; 4]], spp: u32) -> Image {
         let n = (self.width * self.height) as usize;
         let mut parts = vec![&all[..n.min(all.len())]];
         let mut at = n;
@@ -663,7 +689,7 @@ impl RenderSession {
             parts.push(all.get(at..at + len).unwrap_or(&[]));
             at += len;
         }
-        let pixels = (self.integrator.resolver())(parts[0], &parts[1..], self.spp);
+        let pixels = (self.integrator.resolver())(parts[0], &parts[1..], spp);
         Image {
             width: self.width,
             height: self.height,

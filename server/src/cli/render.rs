@@ -61,8 +61,13 @@ pub struct RenderArgs {
     #[arg(long)]
     pub height: Option<u32>,
     /// Use the first Vulkan device whose name contains this text.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "devices")]
     pub device: Option<String>,
+    /// Split the render across devices by sample index: "all" (every GPU of the best kind) or
+    /// indices from `candela devices`, e.g. 0,1 (an index may repeat: two contexts on one
+    /// device). --spp is the total over the devices, --time each device's.
+    #[arg(long, value_name = "all|0,1")]
+    pub devices: Option<String>,
     /// Print the report as one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -226,7 +231,39 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
         },
     )
     .map_err(|e| CliError::input(format!("{}: {e}", a.scene.display())))?;
-    // Step 3: device, session, render.
+    // Step 3: device(s), session(s), render.
+    if let Some(spec) = &a.devices {
+        if auto || a.until_rel_mse.is_some() {
+            return Err(CliError::input(
+                "--devices: not with --integrator auto or --until-rel-mse (one device only)",
+            ));
+        }
+        let indices = super::multi_device::parse_devices(spec)?;
+        let mut sessions = super::multi_device::open_sessions(
+            &indices,
+            &prepared,
+            &options,
+            a.seed,
+            a.kernel_cache.dir(),
+        )?;
+        let split =
+            super::multi_device::render_on_devices(&mut sessions, budget, a.warmup, a.seed)?;
+        let stats = split.total();
+        let mut extra = serde_json::Map::new();
+        extra.insert(
+            "devices".into(),
+            super::multi_device::device_json(&indices, &split),
+        );
+        extra.insert("wall_s".into(), split.wall.as_secs_f64().into());
+        return finish(
+            &a,
+            &scene,
+            &split.image,
+            &stats,
+            extra,
+            &super::multi_device::device_lines(&indices, &split),
+        );
+    }
     let ctx = super::open_device(a.device.as_deref(), a.kernel_cache.dir())?;
     if auto {
         if a.until_rel_mse.is_some() || a.warmup.is_some() {
@@ -238,7 +275,7 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
         let (image, stats) =
             renderer::auto::render_auto(&prepared, &ctx, a.seed, max_depth, budget)
                 .map_err(|e| CliError::failure(e.to_string()))?;
-        return report(&a, &scene, &image, &stats);
+        return finish(&a, &scene, &image, &stats, serde_json::Map::new(), &[]);
     }
     let mut session = prepared
         .session(&ctx, &options, a.seed)
@@ -250,21 +287,24 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
     }
     let (image, stats) = render_until(&mut session, budget, a.until_rel_mse)
         .map_err(|e| CliError::failure(e.to_string()))?;
-    report(&a, &scene, &image, &stats)
+    finish(&a, &scene, &image, &stats, serde_json::Map::new(), &[])
 }
 
-/// Step 4: the image and the report.
-fn report(
+/// Step 4: the image and the report (`extra` joins the JSON object, `lines` the text report).
+fn finish(
     a: &RenderArgs,
     scene: &renderer::scene::Scene,
     image: &renderer::film::Image,
     stats: &RenderStats,
+    extra: serde_json::Map<String, serde_json::Value>,
+    lines: &[String],
 ) -> Result<(), CliError> {
     renderer::film::write_image(&a.output, image, scene.film.exposure, scene.film.tonemap)
         .map_err(|e| CliError::failure(e.to_string()))?;
     if a.json {
         let mut v = serde_json::to_value(stats).unwrap_or_default();
         if let Some(o) = v.as_object_mut() {
+            o.extend(extra);
             o.insert(
                 "output".into(),
                 serde_json::Value::String(a.output.display().to_string()),
@@ -277,6 +317,9 @@ fn report(
         println!("{v}");
     } else {
         print_report(stats, &a.output);
+        for l in lines {
+            println!("{l}");
+        }
     }
     Ok(())
 }

@@ -194,6 +194,7 @@ impl Worker {
         self.last_open = Some(Instant::now());
         let opts = GpuOptions {
             device: self.config.device.clone(),
+            index: None,
             validation: self.config.validation,
             kernel_cache: self.config.kernel_cache.clone(),
         };
