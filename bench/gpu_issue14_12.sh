@@ -62,7 +62,7 @@ if has big; then
   : > "$out/big.jsonl"
   for n in 2000000 8000000; do
     python3 bench/make_big_scene.py /tmp/big$n --triangles $n > /dev/null
-    /usr/bin/time -v "$bin" render /tmp/big$n/scene.json -o /tmp/b.exr --integrator nee --max-depth 6 \
+    /usr/bin/time -v "$bin" render /tmp/big$n/big.json -o /tmp/b.exr --integrator nee --max-depth 6 \
       --warmup 1 --time 3 $R --json 2> /tmp/time.txt | tag "{'triangles_asked': $n}" >> "$out/big.jsonl"
     grep -E "Maximum resident|Elapsed" /tmp/time.txt
   done

@@ -56,7 +56,12 @@ pub fn render_auto(
             options.set_max_depth(d);
         }
         let mut session = prepared.session(ctx, &options, seed)?;
-        let (_, stats) = render(&mut session, pilot_budget)?;
+        let (_, mut stats) = render(&mut session, pilot_budget)?;
+        // A time share too short for the estimate (a slow integrator on a large film) is
+        // topped up to the fewest samples it needs; the cost counts the whole time.
+        if stats.spp < PILOT_MIN_SPP {
+            stats = render(&mut session, Budget::Spp(PILOT_MIN_SPP))?.1;
+        }
         let cost = stats
             .rel_mse_estimate
             .map(|e| e * stats.time_s)
