@@ -95,6 +95,8 @@ pub struct ServerConfig {
     pub checkpoint_interval: Duration,
     /// Target wall time of one pass.
     pub pass_target: Duration,
+    /// The pass watchdog's limits (worker/watchdog.rs).
+    pub pass_limits: crate::worker::PassLimits,
     /// Most render sessions kept on the GPU at once.
     pub max_active: usize,
     /// SSE keep-alive comment interval.
@@ -175,6 +177,10 @@ impl ServerConfig {
             snapshot_interval: Duration::from_secs(1),
             checkpoint_interval: Duration::from_secs(10),
             pass_target: Duration::from_millis(150),
+            pass_limits: crate::worker::PassLimits {
+                timeout: None,
+                floor: Duration::from_secs(30),
+            },
             max_active: 4,
             sse_keepalive: Duration::from_secs(15),
             kernel_cache: Some(data_dir.join("kernel-cache")),
