@@ -23,8 +23,6 @@ mod storage_hold;
 mod warmup;
 mod watchdog;
 
-pub use watchdog::PassLimits;
-
 use std::collections::{BTreeMap, VecDeque};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::PathBuf;

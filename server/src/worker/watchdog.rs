@@ -11,27 +11,18 @@
 //! max(`--pass-timeout-floor`, 10 × the median of the job's recent passes).
 
 use std::collections::VecDeque;
-use std::time::Duration;
 
 use serde_json::json;
 use tracing::warn;
 
 use super::Worker;
+use crate::config::PassLimits;
 use crate::jobs::model::JobId;
 
 /// How many recent pass times the median is taken over.
 const RECENT: usize = 15;
 /// A pass is "far past its expected time" at this many times the median.
 const FACTOR: f64 = 10.0;
-
-/// The configured limits (config.rs).
-#[derive(Debug, Clone, Copy)]
-pub struct PassLimits {
-    /// Absolute limit of one pass; None: relative to the job's median.
-    pub timeout: Option<Duration>,
-    /// Smallest relative limit.
-    pub floor: Duration,
-}
 
 /// What the watchdog decided about a completed pass.
 #[derive(Debug, Clone, PartialEq)]
@@ -124,6 +115,7 @@ impl Worker {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::time::Duration;
 
     fn relative() -> PassLimits {
         PassLimits {
