@@ -389,6 +389,19 @@ impl Worker {
             }
             _ => {}
         }
+        // Canceled and deleted before (or while) the worker let go of it: a checkpoint or image
+        // it wrote meanwhile would be left in a folder of no job (found by bench/soak.py).
+        if matches!(self.store.get_job(id), Err(StoreError::NotFound(_))) {
+            if let Err(e) = std::fs::remove_dir_all(&job.paths.dir) {
+                if e.kind() != std::io::ErrorKind::NotFound {
+                    warn!(job = id, error = %e, "removing a deleted job's files");
+                }
+            }
+            info!(
+                job = id,
+                "deleted while the worker held it; its files removed"
+            );
+        }
         job.flush_metrics();
         self.shared.forget(id);
     }
