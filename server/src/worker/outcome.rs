@@ -87,9 +87,10 @@ impl Worker {
                 info!(job = id, spp, time_s = stats.time_s, "done");
                 let _ = std::fs::remove_file(job.paths.checkpoint());
             }
-            // Paused at the last moment: keep the checkpoint so a resume ends at once.
+            // Paused at the last moment (and perhaps resumed already: queued): keep the
+            // checkpoint so the resume ends at once instead of rendering from an older one.
             Err(StoreError::Conflict {
-                state: JobState::Paused,
+                state: JobState::Paused | JobState::Queued,
                 ..
             }) => {
                 if let Err(e) = job.write_checkpoint() {
