@@ -95,6 +95,8 @@ pub struct ServerConfig {
     pub checkpoint_interval: Duration,
     /// Target wall time of one pass.
     pub pass_target: Duration,
+    /// The pass watchdog's limits (worker/watchdog.rs).
+    pub pass_limits: PassLimits,
     /// Most render sessions kept on the GPU at once.
     pub max_active: usize,
     /// SSE keep-alive comment interval.
@@ -175,6 +177,10 @@ impl ServerConfig {
             snapshot_interval: Duration::from_secs(1),
             checkpoint_interval: Duration::from_secs(10),
             pass_target: Duration::from_millis(150),
+            pass_limits: PassLimits {
+                timeout: None,
+                floor: Duration::from_secs(30),
+            },
             max_active: 4,
             sse_keepalive: Duration::from_secs(15),
             kernel_cache: Some(data_dir.join("kernel-cache")),
@@ -196,4 +202,13 @@ impl ServerConfig {
     pub fn tmp_dir(&self) -> PathBuf {
         self.data_dir.join("tmp")
     }
+}
+
+/// The pass watchdog's limits (worker/watchdog.rs).
+#[derive(Debug, Clone, Copy)]
+pub struct PassLimits {
+    /// Absolute limit of one pass (`--pass-timeout`); None: relative to the job's median.
+    pub timeout: Option<Duration>,
+    /// Smallest relative limit (`--pass-timeout-floor`).
+    pub floor: Duration,
 }

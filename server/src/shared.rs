@@ -89,6 +89,8 @@ pub struct Shared {
     pub gpu_busy_ns: AtomicU64,
     /// Passes since start.
     pub passes_total: AtomicU64,
+    /// Device losses since start (each one rebuilt the device).
+    pub device_losses: AtomicU64,
     /// Jobs accepted since start.
     pub jobs_submitted: AtomicU64,
     /// Open SSE streams.
@@ -114,6 +116,7 @@ impl Default for Shared {
             samples_total: AtomicU64::new(0),
             gpu_busy_ns: AtomicU64::new(0),
             passes_total: AtomicU64::new(0),
+            device_losses: AtomicU64::new(0),
             jobs_submitted: AtomicU64::new(0),
             sse_clients: AtomicI64::new(0),
             queue_wait: Mutex::new(Histogram::default()),
@@ -232,6 +235,12 @@ impl Shared {
             "counter",
             "Render passes run since the server started.",
             self.passes_total.load(Ordering::Relaxed).to_string(),
+        );
+        line(
+            "candela_gpu_device_losses_total",
+            "counter",
+            "Times the GPU device was lost and rebuilt (jobs resumed from checkpoints).",
+            self.device_losses.load(Ordering::Relaxed).to_string(),
         );
         line(
             "candela_jobs_submitted_total",

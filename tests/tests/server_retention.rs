@@ -252,3 +252,28 @@ fn retention_pass_and_gc_command() {
         );
     }
 }
+
+/// Canceled and deleted while the worker is still inside the job's (long) pass: the checkpoint
+/// and image the worker writes when that pass completes must not outlive the job (bench/soak.py
+/// found such an orphaned folder).
+#[test]
+fn a_job_deleted_mid_pass_leaves_no_files() {
+    let dir = scratch("server_retention_mid_pass");
+    let data = dir.join("data");
+    let s = Server::start(&data, &["--checkpoint-interval", "0.1"]);
+    // One sample per pixel of a 256² Cornell box: over a second on lavapipe.
+    let job = s.submit(&json!({"scene_name": "cornell", "spp": 1000, "width": 256, "height": 256}));
+    let id = job["id"].as_i64().unwrap();
+    s.wait_job(id, T, |j| j["state"] == "running");
+    std::thread::sleep(Duration::from_millis(200));
+    let (st, _) = s.send(s.request(Method::POST, &format!("/api/jobs/{id}/cancel")));
+    assert_eq!(st, 200);
+    assert_eq!(delete(&s, id).0, 204);
+    // The worker lets go of it once the pass completes.
+    let deadline = std::time::Instant::now() + T;
+    while !s.log().contains("deleted while the worker held it") {
+        assert!(std::time::Instant::now() < deadline, "{}", s.log());
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    assert!(!job_dir(&data, id).exists(), "{}", s.log());
+}

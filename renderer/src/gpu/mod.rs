@@ -32,6 +32,10 @@ pub enum GpuError {
     Loader(String),
     #[error("no Vulkan 1.2 device found{0}")]
     NoDevice(String),
+    /// `VK_ERROR_DEVICE_LOST` from any call: the device and everything made on it must be
+    /// dropped and created again (the server's worker does, resuming jobs from checkpoints).
+    #[error("{stage}: device lost (VK_ERROR_DEVICE_LOST)")]
+    DeviceLost { stage: &'static str },
     #[error("{stage}: {result}")]
     Vk {
         stage: &'static str,
@@ -52,8 +56,17 @@ pub enum GpuError {
 }
 
 impl GpuError {
+    /// Maps a Vulkan result of `stage`; `VK_ERROR_DEVICE_LOST` becomes [`GpuError::DeviceLost`].
     pub(crate) fn vk(stage: &'static str) -> impl FnOnce(ash::vk::Result) -> GpuError {
-        move |result| GpuError::Vk { stage, result }
+        move |result| match result {
+            ash::vk::Result::ERROR_DEVICE_LOST => GpuError::DeviceLost { stage },
+            result => GpuError::Vk { stage, result },
+        }
+    }
+
+    /// Whether the device was lost (drop it and everything made on it, then start again).
+    pub fn is_device_lost(&self) -> bool {
+        matches!(self, GpuError::DeviceLost { .. })
     }
 }
 

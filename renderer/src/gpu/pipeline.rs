@@ -137,10 +137,7 @@ fn create_object(
             dev.destroy_shader_module(module, None);
             super::kernel_cache::note_pipeline(start.elapsed().as_secs_f64() * 1e3);
             ctx.pipelines.note_created();
-            o.pipeline = r.map_err(|(_, e)| GpuError::Vk {
-                stage: "create compute pipeline",
-                result: e,
-            })?[0];
+            o.pipeline = r.map_err(|(_, e)| GpuError::vk("create compute pipeline")(e))?[0];
             ctx.set_name(o.pipeline, name);
             Ok(())
         })()

@@ -66,6 +66,14 @@ pub struct ServeArgs {
     /// Target duration of one render pass, milliseconds.
     #[arg(long, default_value_t = 150)]
     pub pass_ms: u64,
+    /// Pass watchdog: a pass longer than this many seconds shrinks its job's passes, and at one
+    /// sample per pixel stops the job (0: relative, see --pass-timeout-floor).
+    #[arg(long, default_value_t = 0.0)]
+    pub pass_timeout: f64,
+    /// Without --pass-timeout, the limit of a pass is max(this many seconds, 10 × the median of
+    /// the job's recent passes).
+    #[arg(long, default_value_t = 30.0)]
+    pub pass_timeout_floor: f64,
     /// Seconds between SSE keep-alive comments.
     #[arg(long, default_value_t = 15.0)]
     pub sse_keepalive: f64,
@@ -163,6 +171,11 @@ fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), CliError> {
     c.checkpoint_interval = seconds("--checkpoint-interval", a.checkpoint_interval)?;
     c.sse_keepalive = seconds("--sse-keepalive", a.sse_keepalive)?;
     c.pass_target = Duration::from_millis(a.pass_ms.clamp(1, 10_000));
+    c.pass_limits.floor = seconds("--pass-timeout-floor", a.pass_timeout_floor)?;
+    c.pass_limits.timeout = match a.pass_timeout {
+        t if t == 0.0 => None,
+        t => Some(seconds("--pass-timeout", t)?),
+    };
     c.max_active = a.max_active;
     if a.no_kernel_cache {
         c.kernel_cache = None;

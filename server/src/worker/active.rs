@@ -15,6 +15,7 @@ use serde_json::{json, Value};
 
 use super::checkpoint;
 use super::metrics_lane::{LaneTargets, MetricsLane, SnapshotImage};
+use super::watchdog::PassWatch;
 use crate::jobs::model::{JobId, JobSettings};
 use crate::shared::Shared;
 use crate::store::{JobPaths, Store};
@@ -35,6 +36,8 @@ pub struct ActiveJob {
     pub paths: JobPaths,
     /// Sizes the passes from the cost of the last one.
     sizer: PassSizer,
+    /// Pass times against the watchdog's limit, and the cap it set (watchdog.rs).
+    pub watch: PassWatch,
     /// When the last snapshot was asked for (None: with the next pass).
     pub last_snapshot: Option<Instant>,
     pub last_checkpoint: Instant,
@@ -78,6 +81,7 @@ impl ActiveJob {
             settings,
             paths,
             sizer: PassSizer::default(),
+            watch: PassWatch::default(),
             last_snapshot: None,
             last_checkpoint: Instant::now(),
             admitted: Instant::now(),
@@ -118,7 +122,13 @@ impl ActiveJob {
     /// Samples per pixel of the next pass, sized from the last one to take about `target` and
     /// never past the budget, counting the passes still queued; 0 when no more should be
     /// queued (yet: the first pass is queued alone, until it shows what a sample costs).
+    /// Never above the watchdog's cap.
     pub fn next_pass_spp(&mut self, target: Duration) -> u32 {
+        let n = self.sized_pass_spp(target);
+        self.watch.cap.map_or(n, |cap| n.min(cap))
+    }
+
+    fn sized_pass_spp(&mut self, target: Duration) -> u32 {
         let submitted = self.session.submitted_spp();
         if self.target_reached {
             return 0;

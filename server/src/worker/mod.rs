@@ -5,21 +5,27 @@
 //! and checkpoints at their intervals.
 //!
 //! Failures: a write that fails for lack of space holds the job paused until space returns
-//! (storage_hold.rs); a scene or shader error fails that job; a device error (a Vulkan call failing, or
-//! a panic inside the renderer) fails the job whose pass it was, drops every session and
-//! rebuilds the device; the other jobs resume from their checkpoints, exactly. On shutdown every
-//! active job is checkpointed and stays `running` in the store, to be resumed at the next start.
+//! (storage_hold.rs); a scene or shader error fails that job; a lost device fails no job: every
+//! session is dropped, the device rebuilt and every job resumed from its checkpoint, exactly
+//! (device_loss.rs); another device error (a Vulkan call failing, or a panic inside the
+//! renderer) fails the job whose pass it was, then the same rebuild resumes the others. A pass
+//! far past its expected time shrinks its job's passes, or stops the job (watchdog.rs). On
+//! shutdown every active job is checkpointed and stays `running` in the store, to be resumed at
+//! the next start.
 
 mod active;
 mod checkpoint;
+mod device_loss;
 mod metrics_lane;
 mod outcome;
 mod scheduler;
 mod storage_hold;
 mod warmup;
+mod watchdog;
 
 use std::collections::{BTreeMap, VecDeque};
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::PathBuf;
 use std::sync::{mpsc, Arc};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -86,12 +92,10 @@ pub fn spawn(
                 dirty: true,
                 last_open: None,
                 open_failures: 0,
-                passes: 0,
                 held: BTreeMap::new(),
                 last_storage_check: None,
-                inject_loss_at: std::env::var("CANDELA_TEST_DEVICE_LOSS_AT_PASS")
-                    .ok()
-                    .and_then(|v| v.parse().ok()),
+                loss_trigger: device_loss::trigger_from_env(),
+                losses: BTreeMap::new(),
             };
             // A panic outside a pass (which is caught where it happens) restarts the loop with
             // a fresh device rather than ending the thread.
@@ -124,20 +128,20 @@ struct Worker {
     /// The last attempt to create the device, and failures in a row.
     last_open: Option<Instant>,
     open_failures: u32,
-    /// Passes run (or attempted) since start.
-    passes: u64,
     /// Jobs held for a storage fault, with the reason (storage_hold.rs).
     held: BTreeMap<JobId, String>,
     last_storage_check: Option<Instant>,
-    /// Test hook: pretend the device is lost at this pass (`CANDELA_TEST_DEVICE_LOSS_AT_PASS`).
-    inject_loss_at: Option<u64>,
+    /// Test hook: lose the device when this file exists (device_loss.rs).
+    loss_trigger: Option<PathBuf>,
+    /// Device losses in a row during each job's work (device_loss.rs).
+    losses: BTreeMap<JobId, u32>,
 }
 
 /// Whether an error means the device itself is in doubt (rebuild it).
 fn is_device_error(e: &RenderError) -> bool {
     matches!(
         e,
-        RenderError::Gpu(GpuError::Vk { .. } | GpuError::Other(_))
+        RenderError::Gpu(GpuError::Vk { .. } | GpuError::Other(_) | GpuError::DeviceLost { .. })
     )
 }
 
@@ -389,6 +393,19 @@ impl Worker {
             }
             _ => {}
         }
+        // Canceled and deleted before (or while) the worker let go of it: a checkpoint or image
+        // it wrote meanwhile would be left in a folder of no job (found by bench/soak.py).
+        if matches!(self.store.get_job(id), Err(StoreError::NotFound(_))) {
+            if let Err(e) = std::fs::remove_dir_all(&job.paths.dir) {
+                if e.kind() != std::io::ErrorKind::NotFound {
+                    warn!(job = id, error = %e, "removing a deleted job's files");
+                }
+            }
+            info!(
+                job = id,
+                "deleted while the worker held it; its files removed"
+            );
+        }
         job.flush_metrics();
         self.shared.forget(id);
     }
@@ -425,16 +442,6 @@ impl Worker {
             }
             return;
         }
-        self.passes += 1;
-        if self.inject_loss_at == Some(self.passes) {
-            let e = GpuError::Other(
-                "device lost (injected by CANDELA_TEST_DEVICE_LOSS_AT_PASS)".into(),
-            );
-            return self.render_failed(id, RenderError::Gpu(e), "render pass");
-        }
-        let Some(job) = self.active.get_mut(&id) else {
-            return;
-        };
         // Step 3: queue it, with a copy of the accumulation when a snapshot is due.
         // (A job with a quality target copies it with every pass, to check the target.)
         let snapshot = job.snapshot_due(interval.saturating_sub(target / 2));
@@ -463,7 +470,9 @@ impl Worker {
         let Some(job) = self.active.get_mut(&id) else {
             return;
         };
-        match catch_unwind(AssertUnwindSafe(|| job.session.complete_oldest())) {
+        let result = catch_unwind(AssertUnwindSafe(|| job.session.complete_oldest()))
+            .map(|r| self.injected_loss(r));
+        match result {
             Ok(Ok(Some(p))) => self.after_pass(id, p),
             Ok(Ok(None)) => {}
             Ok(Err(e)) => self.render_failed(id, e, "render pass"),
@@ -488,6 +497,11 @@ impl Worker {
         };
         // GPU time where known: a pass's wall time may include another job's pass ahead of it.
         self.sched.charge(id, busy.as_secs_f64());
+        let verdict = job
+            .watch
+            .observe(stats.spp, busy.as_secs_f64(), &self.config.pass_limits);
+        // Its losses in a row end (device_loss.rs).
+        self.losses.remove(&id);
         use std::sync::atomic::Ordering::Relaxed;
         self.shared
             .samples_total
@@ -496,6 +510,12 @@ impl Worker {
             .gpu_busy_ns
             .fetch_add(busy.as_nanos() as u64, Relaxed);
         self.shared.passes_total.fetch_add(1, Relaxed);
+        if !self.watchdog(id, verdict) {
+            return;
+        }
+        let Some(job) = self.active.get_mut(&id) else {
+            return;
+        };
         // A quality target: the snapshot's estimate, computed here to decide at once.
         let mut snapshot = p.snapshot.map(SnapshotImage::Accum);
         if job.settings.until_rel_mse.is_some() {

@@ -10,6 +10,7 @@ use serde_json::json;
 use tracing::{error, info, warn};
 
 use super::active::CheckpointError;
+use super::device_loss::is_device_lost;
 use super::storage_hold::is_storage_fault;
 use super::{is_device_error, Worker};
 use crate::jobs::model::{JobId, JobState};
@@ -84,9 +85,10 @@ impl Worker {
                 info!(job = id, spp, time_s = stats.time_s, "done");
                 let _ = std::fs::remove_file(job.paths.checkpoint());
             }
-            // Paused at the last moment: keep the checkpoint so a resume ends at once.
+            // Paused at the last moment (and perhaps resumed already: queued): keep the
+            // checkpoint so the resume ends at once instead of rendering from an older one.
             Err(StoreError::Conflict {
-                state: JobState::Paused,
+                state: JobState::Paused | JobState::Queued,
                 ..
             }) => {
                 if let Err(e) = job.write_checkpoint() {
@@ -130,8 +132,12 @@ impl Worker {
         }
     }
 
-    /// A renderer error: fail the job; rebuild the device if the error was the device's.
+    /// A renderer error: fail the job; rebuild the device if the error was the device's. A lost
+    /// device fails no job (device_loss.rs).
     pub(super) fn render_failed(&mut self, id: JobId, e: RenderError, stage: &str) {
+        if is_device_lost(&e) {
+            return self.device_lost(id, &format!("{stage}: {e}"));
+        }
         let device = is_device_error(&e);
         self.fail(id, format!("{stage}: {e}"));
         if device {

@@ -1,0 +1,473 @@
+#!/usr/bin/env python3
+"""Soak test of `candela serve` (issue 18): hours of mixed traffic with kill -9 of the server.
+
+Starts `candela serve` on a temporary data directory and, for --duration seconds, submits a
+mix of small jobs (every integrator the server lists, small films, spp and time budgets,
+random priorities), cancels some, pauses and resumes some, changes priorities, deletes finished
+ones, and kills the server with SIGKILL at random intervals, restarting it on the same data
+directory. Then it stops making trouble, resumes what is paused, waits for every job to end and
+checks the invariants:
+
+  1. every job ended done, canceled or failed, and every failed job has a reason;
+  2. every done job with an spp budget has exactly that spp (also those deleted, checked just
+     before deleting them);
+  3. no orphaned files: every folder under <data>/jobs belongs to a job the server lists, and
+     no deleted job's folder is left;
+  4. memory is flat: the server's RSS, sampled every few seconds, fitted with a line per server
+     lifetime (after a warm-up), has a slope under --rss-slope-limit MB/hour on the longest.
+
+It prints a summary and writes everything to --json. Python 3 standard library only.
+
+    python3 bench/soak.py --duration 600 --json bench/results/soak-lavapipe-600s.json
+    python3 bench/soak.py --duration 20 --kill-every 6:10      # smoke run
+"""
+
+import argparse
+import json
+import os
+import random
+import shutil
+import signal
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import urllib.error
+import urllib.request
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+TERMINAL = ("done", "canceled", "failed")
+
+
+def parse_args():
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--duration", type=float, default=3600, help="seconds of traffic (default 3600)")
+    p.add_argument("--candela", default=os.path.join(REPO, "target", "debug", "candela"),
+                   help="the candela binary (default: target/debug/candela)")
+    p.add_argument("--data-dir", help="data directory (default: a new temporary one, removed "
+                   "after a passing run)")
+    p.add_argument("--json", default="soak.json", help="where to write the results")
+    p.add_argument("--seed", type=int, default=1, help="random seed of the traffic")
+    p.add_argument("--kill-every", default="45:120", metavar="MIN:MAX",
+                   help="seconds between kill -9 of the server, uniform (default 45:120; 0: never)")
+    p.add_argument("--max-unfinished", type=int, default=10,
+                   help="most unfinished jobs the script keeps (default 10)")
+    p.add_argument("--tick", type=float, default=0.5, help="seconds between actions")
+    p.add_argument("--rss-every", type=float, default=2.0, help="seconds between RSS samples")
+    p.add_argument("--rss-warmup", type=float, default=20.0,
+                   help="seconds of each server lifetime left out of the RSS fit")
+    p.add_argument("--rss-slope-limit", type=float, default=50.0,
+                   help="largest RSS slope, MB/hour, that counts as flat (default 50)")
+    p.add_argument("--drain-timeout", type=float, default=300.0,
+                   help="seconds to wait for the last jobs to end")
+    p.add_argument("--server-arg", action="append", default=[],
+                   help="extra argument for candela serve (repeatable)")
+    return p.parse_args()
+
+
+class Server:
+    """`candela serve` on a data dir, restarted on the same dir after each kill."""
+
+    def __init__(self, binary, data_dir, log_path, extra):
+        self.binary, self.data_dir, self.log_path, self.extra = binary, data_dir, log_path, extra
+        self.proc = None
+        self.url = None
+        self.starts = []
+
+    def start(self):
+        args = [self.binary, "serve", "--bind", "127.0.0.1:0", "--data-dir", self.data_dir,
+                "--checkpoint-interval", "1", "--snapshot-interval", "0.5", "--max-active", "3",
+                "--pass-ms", "50", "--min-free-space", "0"] + self.extra
+        log = open(self.log_path, "a")
+        log.write(f"\n==== start {time.strftime('%H:%M:%S')}: {' '.join(args)}\n")
+        log.flush()
+        env = dict(os.environ, CANDELA_LOG=os.environ.get("CANDELA_LOG", "info"))
+        env.pop("CANDELA_TOKEN", None)
+        self.proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=log, cwd=REPO, env=env,
+                                     text=True)
+        t0 = time.time()
+        for line in self.proc.stdout:  # the address line comes first on stdout
+            log.write(line)
+            if line.startswith("candela: listening on "):
+                self.url = line.split("listening on ", 1)[1].strip()
+                break
+        else:
+            raise RuntimeError(f"candela serve exited without an address; see {self.log_path}")
+        # Keep draining stdout into the log.
+        threading.Thread(target=self._pump, args=(self.proc.stdout, log), daemon=True).start()
+        self.starts.append({"t": time.time(), "pid": self.proc.pid,
+                            "startup_s": round(time.time() - t0, 3)})
+
+    @staticmethod
+    def _pump(stream, log):
+        for line in stream:
+            log.write(line)
+            log.flush()
+
+    def kill9(self):
+        os.kill(self.proc.pid, signal.SIGKILL)
+        self.proc.wait()
+
+    def terminate(self, timeout=60):
+        self.proc.send_signal(signal.SIGTERM)
+        try:
+            return self.proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            self.kill9()
+            return "killed after SIGTERM timeout"
+
+    def rss_mb(self):
+        try:
+            with open(f"/proc/{self.proc.pid}/status") as f:
+                for line in f:
+                    if line.startswith("VmRSS:"):
+                        return int(line.split()[1]) / 1024.0
+        except OSError:
+            return None
+        return None
+
+    def call(self, method, path, body=None, timeout=30):
+        """(status, parsed JSON or None); status 0 when the server could not be reached."""
+        data = None if body is None else json.dumps(body).encode()
+        req = urllib.request.Request(self.url + path, data=data, method=method,
+                                     headers={"Content-Type": "application/json"})
+        try:
+            with urllib.request.urlopen(req, timeout=timeout) as r:
+                raw = r.read()
+                return r.status, (json.loads(raw) if raw else None)
+        except urllib.error.HTTPError as e:
+            raw = e.read()
+            try:
+                return e.code, json.loads(raw)
+            except ValueError:
+                return e.code, None
+        except (urllib.error.URLError, ConnectionError, TimeoutError, OSError):
+            return 0, None
+
+
+def fit_slope(samples):
+    """Least-squares slope of (t, mb) samples, MB per hour; None with fewer than 3."""
+    if len(samples) < 3:
+        return None
+    ts = [t for t, _ in samples]
+    ms = [m for _, m in samples]
+    mt, mm = statistics.fmean(ts), statistics.fmean(ms)
+    var = sum((t - mt) ** 2 for t in ts)
+    if var == 0:
+        return None
+    return sum((t - mt) * (m - mm) for t, m in zip(ts, ms)) / var * 3600.0
+
+
+class Soak:
+    def __init__(self, args):
+        self.args = args
+        self.rng = random.Random(args.seed)
+        self.counts = {k: 0 for k in ("submitted", "refused", "cancel", "pause", "resume",
+                                       "priority", "delete", "kills", "unreachable")}
+        self.refusals = {}
+        self.jobs = {}  # id -> {"budget": ("spp", n) | ("time", s), "integrator", ...}
+        self.deleted = {}  # id -> final record (just before DELETE)
+        self.rss = []  # (t, mb, lifetime index)
+        self.kill_range = None
+        if args.kill_every not in ("0", ""):
+            lo, hi = (float(x) for x in args.kill_every.split(":"))
+            self.kill_range = (lo, hi)
+
+    def pick_job(self, server):
+        """Integrator, scene and budget of a new small job."""
+        integrators = self.integrators
+        body = {
+            "scene_name": self.rng.choice(self.scenes),
+            "integrator": self.rng.choice(integrators),
+            "width": self.rng.choice([8, 12, 16, 24, 32]),
+            "height": self.rng.choice([8, 12, 16, 24]),
+            "seed": self.rng.randrange(1 << 31),
+            "priority": self.rng.choice([1, 5, 10, 10, 10, 50, 100]),
+        }
+        if self.rng.random() < 0.75:
+            body["spp"] = self.rng.choice([1, 4, 16, 32, 64, 128, 256])
+        else:
+            body["time_s"] = self.rng.choice([0.2, 0.5, 1.0, 2.0])
+        body["name"] = f"soak {body['integrator']} {body['scene_name']}"
+        return body
+
+    def list_jobs(self, server):
+        st, body = server.call("GET", "/api/jobs?limit=100000")
+        return body["jobs"] if st == 200 and body else None
+
+    def act(self, server):
+        """One random action."""
+        jobs = self.list_jobs(server)
+        if jobs is None:
+            self.counts["unreachable"] += 1
+            return
+        by_state = {}
+        for j in jobs:
+            by_state.setdefault(j["state"], []).append(j)
+        unfinished = sum(len(by_state.get(s, [])) for s in ("queued", "running", "paused"))
+        r = self.rng.random()
+        if r < 0.35 and unfinished < self.args.max_unfinished:
+            body = self.pick_job(server)
+            st, job = server.call("POST", "/api/jobs", body)
+            if st == 201:
+                self.counts["submitted"] += 1
+                budget = ("spp", body["spp"]) if "spp" in body else ("time", body["time_s"])
+                self.jobs[job["id"]] = {"budget": budget, "integrator": body["integrator"],
+                                        "scene": body["scene_name"]}
+            elif st != 0:
+                self.counts["refused"] += 1
+                err = (job or {}).get("error")
+                code = err.get("code", "") if isinstance(err, dict) else ""
+                key = f"{st} {code}: {err.get('message', '')[:80] if isinstance(err, dict) else ''}"
+                self.refusals[key] = self.refusals.get(key, 0) + 1
+        elif r < 0.45 and (by_state.get("running") or by_state.get("queued")):
+            j = self.rng.choice(by_state.get("running", []) + by_state.get("queued", []))
+            if server.call("POST", f"/api/jobs/{j['id']}/cancel")[0] == 200:
+                self.counts["cancel"] += 1
+        elif r < 0.55 and by_state.get("running"):
+            j = self.rng.choice(by_state["running"])
+            if server.call("POST", f"/api/jobs/{j['id']}/pause")[0] == 200:
+                self.counts["pause"] += 1
+        elif r < 0.70 and by_state.get("paused"):
+            j = self.rng.choice(by_state["paused"])
+            if server.call("POST", f"/api/jobs/{j['id']}/resume")[0] == 200:
+                self.counts["resume"] += 1
+        elif r < 0.80 and unfinished:
+            j = self.rng.choice([j for s in ("queued", "running", "paused")
+                                 for j in by_state.get(s, [])])
+            p = self.rng.choice([1, 10, 50, 100])
+            if server.call("PATCH", f"/api/jobs/{j['id']}", {"priority": p})[0] == 200:
+                self.counts["priority"] += 1
+        elif r < 0.95:
+            finished = [j for s in TERMINAL for j in by_state.get(s, [])]
+            if finished:
+                j = self.rng.choice(finished)
+                st, rec = server.call("GET", f"/api/jobs/{j['id']}")
+                if st == 200 and server.call("DELETE", f"/api/jobs/{j['id']}")[0] == 204:
+                    self.counts["delete"] += 1
+                    self.deleted[j["id"]] = rec
+
+    def run(self):
+        a = self.args
+        data_dir = a.data_dir or tempfile.mkdtemp(prefix="candela-soak-")
+        os.makedirs(data_dir, exist_ok=True)
+        log_path = os.path.join(data_dir, "..", os.path.basename(data_dir) + ".log")
+        log_path = os.path.abspath(log_path)
+        server = Server(a.candela, data_dir, log_path, a.server_arg)
+        t_start = time.time()
+        server.start()
+        st, ints = server.call("GET", "/api/integrators")
+        self.integrators = [i["name"] for i in ints["integrators"]]
+        st, scenes = server.call("GET", "/api/scenes")
+        self.scenes = [s["name"] for s in scenes["scenes"]]
+        print(f"soak: {a.duration:.0f} s on {data_dir} (log {log_path}); integrators "
+              f"{', '.join(self.integrators)}; scenes {', '.join(self.scenes)}", flush=True)
+
+        # Step 1: traffic, RSS samples and kills until the duration is over.
+        next_kill = self.next_kill_time()
+        next_rss = time.time()
+        next_report = time.time() + 60
+        while time.time() - t_start < a.duration:
+            now = time.time()
+            if now >= next_rss:
+                mb = server.rss_mb()
+                if mb is not None:
+                    self.rss.append((now - t_start, mb, len(server.starts) - 1))
+                next_rss = now + a.rss_every
+            if next_kill is not None and now >= next_kill:
+                server.kill9()
+                self.counts["kills"] += 1
+                server.start()
+                next_kill = self.next_kill_time()
+            self.act(server)
+            if now >= next_report:
+                print(f"soak: {now - t_start:.0f} s, {self.counts}", flush=True)
+                next_report = now + 60
+            time.sleep(a.tick)
+
+        # Step 2: drain: resume what is paused, wait for every job to end.
+        t_drain = time.time()
+        jobs = []
+        while time.time() - t_drain < a.drain_timeout:
+            jobs = self.list_jobs(server) or []
+            for j in jobs:
+                if j["state"] == "paused":
+                    server.call("POST", f"/api/jobs/{j['id']}/resume")
+            if all(j["state"] in TERMINAL for j in jobs):
+                break
+            mb = server.rss_mb()
+            if mb is not None:
+                self.rss.append((time.time() - t_start, mb, len(server.starts) - 1))
+            time.sleep(1)
+        drain_s = time.time() - t_drain
+        jobs = self.list_jobs(server) or []
+
+        # Step 3: the invariants, with the server stopped.
+        exit_status = server.terminate()
+        result = self.check(jobs, data_dir)
+        result.update({
+            "duration_s": a.duration,
+            "wall_s": round(time.time() - t_start, 1),
+            "drain_s": round(drain_s, 1),
+            "seed": a.seed,
+            "kill_every": a.kill_every,
+            "counts": self.counts,
+            "refusals": self.refusals,
+            "server_starts": server.starts,
+            "final_exit": exit_status,
+            "data_dir": data_dir,
+            "log": log_path,
+            "candela": a.candela,
+            "rss_samples": [(round(t, 1), round(m, 2), k) for t, m, k in self.rss],
+        })
+        self.report(result)
+        with open(a.json, "w") as f:
+            json.dump(result, f, indent=1)
+        print(f"soak: wrote {a.json}")
+        if result["ok"] and not a.data_dir:
+            shutil.rmtree(data_dir, ignore_errors=True)
+        return 0 if result["ok"] else 1
+
+    def next_kill_time(self):
+        if self.kill_range is None:
+            return None
+        return time.time() + self.rng.uniform(*self.kill_range)
+
+    def check(self, jobs, data_dir):
+        listed = {j["id"]: j for j in jobs}
+        problems = []
+        states = {}
+        for j in jobs:
+            states[j["state"]] = states.get(j["state"], 0) + 1
+        # 1. Every job ended; failures say why.
+        for j in jobs:
+            if j["state"] not in TERMINAL:
+                problems.append(f"job {j['id']} still {j['state']}")
+            if j["state"] == "failed" and not (j.get("error") or "").strip():
+                problems.append(f"job {j['id']} failed without a reason")
+        failures = {}
+        for j in list(jobs) + list(self.deleted.values()):
+            if j and j["state"] == "failed":
+                key = (j.get("error") or "")[:120]
+                failures[key] = failures.get(key, 0) + 1
+        # 2. Exact spp for done spp-budget jobs (listed, or checked before deletion).
+        spp_checked = 0
+        for j in list(jobs) + list(self.deleted.values()):
+            if not j or j["state"] != "done":
+                continue
+            want = j["settings"].get("spp")
+            if want is None:
+                continue
+            spp_checked += 1
+            got = j["progress"]["spp"]
+            if got != want:
+                problems.append(f"job {j['id']} done with {got} spp, budget {want}")
+        # Jobs the script submitted that vanished without being deleted by it.
+        for jid in self.jobs:
+            if jid not in listed and jid not in self.deleted:
+                problems.append(f"job {jid} is gone but was never deleted")
+        # 3. Orphaned files.
+        jobs_dir = os.path.join(data_dir, "jobs")
+        orphans, stray_tmp = [], []
+        for name in sorted(os.listdir(jobs_dir)) if os.path.isdir(jobs_dir) else []:
+            path = os.path.join(jobs_dir, name)
+            if not name.isdigit() or int(name) not in listed:
+                orphans.append(name)
+                continue
+            for root, _, files in os.walk(path):
+                stray_tmp += [os.path.join(root, f) for f in files if f.endswith(".tmp")]
+        for jid in self.deleted:
+            if os.path.exists(os.path.join(jobs_dir, str(jid))) and str(jid) not in orphans:
+                orphans.append(str(jid))
+        if orphans:
+            problems.append(f"orphaned job folders: {orphans}")
+        # 4. Memory: slope per server lifetime after the warm-up; the longest one decides.
+        lifetimes = {}
+        for t, mb, k in self.rss:
+            lifetimes.setdefault(k, []).append((t, mb))
+        segments = []
+        for k, s in sorted(lifetimes.items()):
+            t0 = s[0][0]
+            warm = [(t, m) for t, m in s if t - t0 >= self.args.rss_warmup]
+            segments.append({
+                "lifetime": k, "start_s": round(t0, 1), "length_s": round(s[-1][0] - t0, 1),
+                "rss_first_mb": round(s[0][1], 1), "rss_last_mb": round(s[-1][1], 1),
+                "rss_max_mb": round(max(m for _, m in s), 1),
+                "slope_mb_per_h": None if fit_slope(warm) is None else round(fit_slope(warm), 2),
+            })
+        fitted = [s for s in segments if s["slope_mb_per_h"] is not None]
+        longest = max(fitted, key=lambda s: s["length_s"]) if fitted else None
+        rss_flat = None
+        if longest is not None:
+            rss_flat = longest["slope_mb_per_h"] <= self.args.rss_slope_limit
+            if not rss_flat:
+                problems.append(f"RSS grows {longest['slope_mb_per_h']} MB/h over the longest "
+                                f"server lifetime ({longest['length_s']} s)")
+        invariants = {
+            "all_jobs_ended_with_reasons": not any(("still" in p or "without a reason" in p)
+                                                   for p in problems),
+            "done_spp_exact": not any("done with" in p for p in problems),
+            "no_lost_jobs": not any("never deleted" in p for p in problems),
+            "no_orphaned_folders": not orphans,
+            "rss_flat": rss_flat,
+        }
+        return {
+            "ok": not problems,
+            "problems": problems,
+            "invariants": invariants,
+            "final_states": states,
+            "jobs_listed": len(jobs),
+            "jobs_deleted": len(self.deleted),
+            "deleted_states": {s: sum(1 for r in self.deleted.values() if r and r["state"] == s)
+                               for s in TERMINAL},
+            "done_spp_checked": spp_checked,
+            "failures": failures,
+            "stray_tmp_files": stray_tmp,
+            "rss_segments": segments,
+            "rss_longest": longest,
+        }
+
+    def report(self, r):
+        c = r["counts"]
+        done = r["final_states"].get("done", 0) + r["deleted_states"]["done"]
+        canceled = r["final_states"].get("canceled", 0) + r["deleted_states"]["canceled"]
+        failed = r["final_states"].get("failed", 0) + r["deleted_states"]["failed"]
+        print("\n=== candela soak summary ===")
+        print(f"traffic: {r['duration_s']:.0f} s (+{r['drain_s']} s drain), kill -9 every "
+              f"{r['kill_every']} s: {c['kills']} kills, {len(r['server_starts'])} server starts")
+        print(f"jobs: {c['submitted']} submitted ({c['refused']} refused), {done} done, "
+              f"{canceled} canceled, {failed} failed; {c['delete']} deleted")
+        print(f"actions: {c['cancel']} cancels, {c['pause']} pauses, {c['resume']} resumes, "
+              f"{c['priority']} priority changes; {c['unreachable']} ticks with the server down")
+        if r["failures"]:
+            print("failure reasons: " + "; ".join(f"{n}x {k}" for k, n in r["failures"].items()))
+        for name, ok in r["invariants"].items():
+            print(f"  {'PASS' if ok else ('n/a ' if ok is None else 'FAIL')}  {name}")
+        print(f"  done jobs with exact spp checked: {r['done_spp_checked']}")
+        lg = r["rss_longest"]
+        seg = r["rss_segments"]
+        if seg:
+            print(f"RSS: first {seg[0]['rss_first_mb']} MB, last {seg[-1]['rss_last_mb']} MB, "
+                  f"max {max(s['rss_max_mb'] for s in seg)} MB")
+        if lg:
+            print(f"RSS slope over the longest lifetime ({lg['length_s']} s, after "
+                  f"{self.args.rss_warmup:.0f} s warm-up): {lg['slope_mb_per_h']} MB/h "
+                  f"({lg['rss_first_mb']} -> {lg['rss_last_mb']} MB)")
+        if r["stray_tmp_files"]:
+            print(f"note: {len(r['stray_tmp_files'])} .tmp files in job folders")
+        for p in r["problems"]:
+            print(f"PROBLEM: {p}")
+        print("RESULT:", "PASS" if r["ok"] else "FAIL")
+
+
+def main():
+    args = parse_args()
+    if not os.path.exists(args.candela):
+        sys.exit(f"soak: no candela binary at {args.candela} (cargo build, or --candela PATH)")
+    sys.exit(Soak(args).run())
+
+
+if __name__ == "__main__":
+    main()

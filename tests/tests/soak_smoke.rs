@@ -1,0 +1,50 @@
+//! The soak script's smoke mode (bench/soak.py --duration 20): 20 s of mixed traffic with kill -9
+//! of the real server every 6–10 s, then its invariants (every job ended with a reason, exact
+//! spp, nothing lost, no orphaned folders). About 25 s on lavapipe; the hour-long soak is run by
+//! hand (docs/operations.md, "Soak").
+
+use std::process::Command;
+
+use candela_tests::{candela, repo_root, scratch};
+use serde_json::Value;
+
+#[test]
+fn soak_smoke_run_keeps_every_invariant() {
+    let dir = scratch("soak_smoke");
+    let out = dir.join("soak.json");
+    let started = std::time::Instant::now();
+    let o = Command::new("python3")
+        .arg(repo_root().join("bench/soak.py"))
+        .args(["--duration", "20", "--kill-every", "6:10", "--seed", "7"])
+        .arg("--candela")
+        .arg(candela())
+        .arg("--data-dir")
+        .arg(dir.join("data"))
+        .arg("--json")
+        .arg(&out)
+        .current_dir(repo_root())
+        .output()
+        .expect("python3");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let r: Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    assert_eq!(r["ok"], true, "{r}");
+    for name in [
+        "all_jobs_ended_with_reasons",
+        "done_spp_exact",
+        "no_lost_jobs",
+        "no_orphaned_folders",
+    ] {
+        assert_eq!(r["invariants"][name], true, "{name}: {stdout}");
+    }
+    // It did make trouble: kills, submissions, and done jobs whose spp was checked.
+    assert!(r["counts"]["kills"].as_u64().unwrap() >= 1, "{stdout}");
+    assert!(r["counts"]["submitted"].as_u64().unwrap() >= 3, "{stdout}");
+    assert!(r["done_spp_checked"].as_u64().unwrap() >= 1, "{stdout}");
+    assert!(stdout.contains("RESULT: PASS"), "{stdout}");
+    assert!(started.elapsed().as_secs() < 40, "{:?}", started.elapsed());
+}
