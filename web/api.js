@@ -200,6 +200,23 @@ export function setServerStatus(text, kind = '') {
   s.dataset.kind = kind;
 }
 
+// The banner shown while the data directory is short of space (new jobs get 507) or jobs are
+// held paused after a write failed for lack of space.
+function renderStorage(s) {
+  const b = $('storage-banner');
+  if (!b) return;
+  const gb = (n) => `${(n / 1e9).toFixed(2)} GB`;
+  const bits = [];
+  if (s && s.low) {
+    bits.push(`Disk space low: ${gb(s.free_bytes)} free in ${s.data_dir}, below the server's minimum of ${gb(s.min_free_bytes)}; new jobs are refused until space is freed (delete finished jobs).`);
+  }
+  if (s && s.held_jobs > 0) {
+    bits.push(`${s.held_jobs} job(s) paused because the disk is full; they resume when space returns.`);
+  }
+  b.textContent = bits.join(' ');
+  b.hidden = bits.length === 0;
+}
+
 export async function checkHealth() {
   try {
     const h = await api('/api/health');
@@ -215,6 +232,7 @@ export async function checkHealth() {
     if (dev) bits.push(typeof dev === 'string' ? dev : dev.name || '');
     if (gpu.state && gpu.state !== 'ready') bits.push(`GPU ${gpu.state}${gpu.error ? `: ${gpu.error}` : ''}`);
     if (h && h.version) bits.push(`candela ${h.version}`);
+    renderStorage(h && h.storage);
     setServerStatus(bits.filter(Boolean).join(' · '), h && h.status && h.status !== 'ok' ? 'warn' : 'ok');
   } catch (err) {
     if (err.status === 401) return; // noteUnauthorized said it

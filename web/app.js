@@ -75,6 +75,7 @@ function init() {
   });
 
   checkHealth();
+  setInterval(checkHealth, 15000); // free space and held jobs (the storage banner)
   loadScenes();
   loadIntegrators();
   refreshJobs();

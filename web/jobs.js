@@ -1,5 +1,5 @@
 // candela web viewer: the job list (polled, keyed in-place row updates), per-job controls
-// (pause/resume, cancel, priority, compare as A/B) and the form's reference-job selector.
+// (pause/resume, cancel, delete, priority, compare as A/B) and the form's reference-job selector.
 
 import { $, TERMINAL, el } from './util.js';
 import { api, checkHealth, setServerStatus } from './api.js';
@@ -120,6 +120,8 @@ export function buildJobRow(id) {
   const pause = el('button', { class: 'job-pause secondary small', type: 'button', onclick: () => pauseResume(id) });
   const cancel = el('button', { class: 'job-cancel danger small', type: 'button', onclick: () => cancelJob(id) });
   cancel.textContent = 'Cancel';
+  const del = el('button', { class: 'job-delete danger small', type: 'button', hidden: '', onclick: () => deleteJob(id) });
+  del.textContent = 'Delete';
   const setA = el('button', { class: 'job-set-a secondary small', type: 'button', text: 'A', onclick: () => emit('set-ab', 'a', id) });
   const setB = el('button', { class: 'job-set-b secondary small', type: 'button', text: 'B', onclick: () => emit('set-ab', 'b', id) });
   li.append(
@@ -127,7 +129,7 @@ export function buildJobRow(id) {
     el('div', { class: 'job-mid' }, progress, budget),
     el('div', { class: 'job-actions' },
       el('label', { class: 'job-prio-label', for: prioId, text: 'Priority' }), prio,
-      pause, cancel,
+      pause, cancel, del,
       el('span', { class: 'job-ab', role: 'group', 'aria-label': 'Compare' }, setA, setB)),
     el('p', { class: 'job-error error', hidden: '' }),
   );
@@ -172,6 +174,9 @@ export function updateJobRow(li, job) {
   const cancel = q('.job-cancel');
   cancel.setAttribute('aria-label', `Cancel ${name}`);
   cancel.disabled = TERMINAL.has(st);
+  const del = q('.job-delete');
+  del.setAttribute('aria-label', `Delete ${name}`);
+  del.hidden = !TERMINAL.has(st); // only finished jobs can be deleted (the server says 409 otherwise)
   q('.job-set-a').setAttribute('aria-label', `Compare ${name} as A`);
   q('.job-set-b').setAttribute('aria-label', `Compare ${name} as B`);
   q('.job-set-a').setAttribute('aria-pressed', String(state.ab.a === id));
@@ -179,8 +184,10 @@ export function updateJobRow(li, job) {
 
   const err = q('.job-error');
   const message = job.error && (job.error.message || job.error);
-  err.hidden = !(st === 'failed' && message);
-  err.textContent = st === 'failed' && message ? String(message) : '';
+  // A failed job's error, or why the server holds a paused job (a full disk).
+  const note = st === 'failed' && message ? String(message) : st === 'paused' && job.hold ? `Held: ${job.hold}` : '';
+  err.hidden = !note;
+  err.textContent = note;
 }
 
 export async function jobAction(id, fn) {
@@ -209,7 +216,20 @@ export function pauseResume(id) {
 
 export function cancelJob(id) {
   const job = state.jobs.get(id);
-  return jobAction(id, () => api(jobLinks(job).self, { method: 'DELETE' }));
+  return jobAction(id, () => api(`${jobLinks(job).self}/cancel`, { method: 'POST' }));
+}
+
+/** Deletes a finished job with its image and events (DELETE /api/jobs/{id}), after asking. */
+export function deleteJob(id) {
+  const job = state.jobs.get(id);
+  if (!window.confirm(`Delete ${jobName(job)} with its image and events? This cannot be undone.`)) return null;
+  return jobAction(id, async () => {
+    await api(jobLinks(job).self, { method: 'DELETE' });
+    state.jobs.delete(id);
+    state.order = state.order.filter((j) => j !== id);
+    refreshJobs();
+    return null;
+  });
 }
 
 export function setPriority(id, input) {

@@ -4,6 +4,7 @@
 //! → `accel` (BVH) → `gpu` (device, pipelines) → `integrators` (passes) → `film` (EXR/PNG).
 
 pub mod accel;
+pub mod auto;
 pub mod cache_file;
 pub mod compile;
 pub mod error;

@@ -66,6 +66,13 @@ pub fn upload_scene(ctx: &Arc<GpuContext>, scene: &CompiledScene) -> GpuResult<V
             up("env distribution", bytemuck::cast_slice(&scene.env_dist))?,
         ),
     ];
+    // The light BVH exists only with the BVH light sampler.
+    if !scene.light_bvh.is_empty() {
+        buffers.push((
+            binding::LIGHT_BVH,
+            up("light bvh", bytemuck::cast_slice(&scene.light_bvh))?,
+        ));
+    }
     // The uniform grid's buffers exist only when the scene uses it.
     if let Some(grid) = &scene.grid {
         buffers.push((binding::GRID, up("grid", bytemuck::bytes_of(&grid.info))?));

@@ -14,6 +14,9 @@ pub enum ApiError {
     BadRequest { code: &'static str, message: String },
     /// 401: missing or wrong bearer token.
     Unauthorized,
+    /// 403: the caller's role does not allow it (a viewer writing, a submitter touching another's
+    /// job).
+    Forbidden(String),
     /// 404: no such job, scene, image or route.
     NotFound(String),
     /// 405: the route exists but not with this method.
@@ -30,6 +33,8 @@ pub enum ApiError {
     },
     /// 429: too many unfinished jobs; retry later.
     TooManyJobs(String),
+    /// 507: the data directory's free space is below the server's minimum.
+    InsufficientStorage(String),
     /// 503: the server is shutting down.
     Unavailable(String),
     /// 500: something on our side; the detail is logged, not sent.
@@ -64,6 +69,7 @@ impl ApiError {
         match self {
             ApiError::BadRequest { .. } => StatusCode::BAD_REQUEST,
             ApiError::Unauthorized => StatusCode::UNAUTHORIZED,
+            ApiError::Forbidden(_) => StatusCode::FORBIDDEN,
             ApiError::NotFound(_) => StatusCode::NOT_FOUND,
             ApiError::MethodNotAllowed => StatusCode::METHOD_NOT_ALLOWED,
             ApiError::Conflict(_) => StatusCode::CONFLICT,
@@ -71,6 +77,7 @@ impl ApiError {
             ApiError::Unprocessable { .. } => StatusCode::UNPROCESSABLE_ENTITY,
             ApiError::TooManyJobs(_) => StatusCode::TOO_MANY_REQUESTS,
             ApiError::Unavailable(_) => StatusCode::SERVICE_UNAVAILABLE,
+            ApiError::InsufficientStorage(_) => StatusCode::INSUFFICIENT_STORAGE,
             ApiError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
         }
     }
@@ -80,12 +87,14 @@ impl ApiError {
         match self {
             ApiError::BadRequest { code, .. } | ApiError::Unprocessable { code, .. } => code,
             ApiError::Unauthorized => "unauthorized",
+            ApiError::Forbidden(_) => "forbidden",
             ApiError::NotFound(_) => "not_found",
             ApiError::MethodNotAllowed => "method_not_allowed",
             ApiError::Conflict(_) => "conflict",
             ApiError::PayloadTooLarge(_) => "payload_too_large",
             ApiError::TooManyJobs(_) => "too_many_jobs",
             ApiError::Unavailable(_) => "unavailable",
+            ApiError::InsufficientStorage(_) => "insufficient_storage",
             ApiError::Internal(_) => "internal",
         }
     }
@@ -100,10 +109,12 @@ impl ApiError {
                 "missing or wrong token: send the header \"Authorization: Bearer TOKEN\"".into()
             }
             ApiError::NotFound(m)
+            | ApiError::Forbidden(m)
             | ApiError::Conflict(m)
             | ApiError::PayloadTooLarge(m)
             | ApiError::TooManyJobs(m)
-            | ApiError::Unavailable(m) => m.clone(),
+            | ApiError::Unavailable(m)
+            | ApiError::InsufficientStorage(m) => m.clone(),
             ApiError::MethodNotAllowed => "method not allowed on this path".into(),
             ApiError::Internal(_) => "internal server error (see the server log)".into(),
         }

@@ -1,6 +1,6 @@
 //! The server's configuration (from `candela serve`'s flags): where data lives, the token, the
-//! intervals of snapshots and checkpoints, scheduling targets, and the limits on what a client
-//! may ask for.
+//! intervals of snapshots and checkpoints, scheduling targets, the limits on what a client
+//! may ask for, and retention.
 
 use std::path::PathBuf;
 use std::time::Duration;
@@ -52,6 +52,32 @@ impl RequestLimits {
     }
 }
 
+/// Which finished jobs the server keeps (applied by retention.rs). `None`: no limit of that kind.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RetentionPolicy {
+    /// Finished jobs that ended longer ago than this go.
+    pub max_age: Option<Duration>,
+    /// At most this many finished jobs are kept (the newest).
+    pub max_finished: Option<u64>,
+    /// The files of all jobs together are kept under this many bytes (oldest finished go first).
+    pub max_bytes: Option<u64>,
+    /// The event logs of jobs that finished longer ago than this are pruned.
+    pub prune_events_after: Option<Duration>,
+}
+
+impl RetentionPolicy {
+    /// The server's default: 30 days, 1000 finished jobs, 20 GB of job files; event logs pruned
+    /// an hour after the end.
+    pub fn server_default() -> RetentionPolicy {
+        RetentionPolicy {
+            max_age: Some(Duration::from_secs(30 * 86400)),
+            max_finished: Some(1000),
+            max_bytes: Some(20_000_000_000),
+            prune_events_after: Some(Duration::from_secs(3600)),
+        }
+    }
+}
+
 /// Everything the server needs to know at startup.
 #[derive(Debug, Clone)]
 pub struct ServerConfig {
@@ -78,6 +104,14 @@ pub struct ServerConfig {
     /// Which integrators' kernels to build at start, for the built-in scenes' feature sets.
     pub warm_kernels: WarmKernels,
     pub limits: RequestLimits,
+    /// Which finished jobs are removed, and how often the server looks (retention.rs).
+    pub retention: RetentionPolicy,
+    pub gc_interval: Duration,
+    /// Below this many free bytes on the data directory's filesystem new jobs are refused (507);
+    /// jobs held for a storage fault resume only above it (storage.rs).
+    pub min_free_space: u64,
+    /// How often the worker measures free space (and tries to resume held jobs).
+    pub storage_check_interval: Duration,
 }
 
 /// Which kernels the server builds when its device opens (worker/warmup.rs).
@@ -146,6 +180,10 @@ impl ServerConfig {
             kernel_cache: Some(data_dir.join("kernel-cache")),
             warm_kernels: WarmKernels::Auto,
             limits: RequestLimits::default(),
+            retention: RetentionPolicy::server_default(),
+            gc_interval: Duration::from_secs(600),
+            min_free_space: 500_000_000,
+            storage_check_interval: Duration::from_secs(5),
         }
     }
 

@@ -1,24 +1,31 @@
 //! `candela`: the render server's single binary. Subcommands: `render` (one image from a scene
-//! file), `serve` (the HTTP render server and web viewer), `bench`, `compare`, `devices`.
+//! file), `serve` (the HTTP render server and web viewer), `bench`, `compare`, `convert`, `gc`,
+//! `users`, `devices`.
 //!
 //! Exit codes: 0 success, 2 bad input (a one-line error naming what and where), 1 any other
 //! failure. No input may make it panic.
 //!
-//! The server's modules: `app` (router, auth), `state` (what handlers reach), `routes/` (handlers), `jobs/` (model, requests,
-//! uploads), `store/` (SQLite jobs and event log), `worker/` (GPU thread, scheduler,
-//! checkpoints), `shared` (snapshots, metrics), `builtin_scenes`, `config`, `api_error`.
+//! The server's modules: `app` (router), `auth` (tokens, roles), `state` (what handlers reach),
+//! `routes/` (handlers), `jobs/` (model, requests, uploads), `store/` (SQLite jobs, event log,
+//! users), `worker/` (GPU thread, scheduler, checkpoints, storage holds), `shared` (snapshots,
+//! metrics), `retention` (deleting finished jobs), `storage` (free space), `builtin_scenes`,
+//! `config`, `units`, `api_error`.
 
 mod api_error;
 mod app;
+mod auth;
 mod benchmark;
 mod builtin_scenes;
 mod cli;
 mod config;
 mod jobs;
+mod retention;
 mod routes;
 mod shared;
 mod state;
+mod storage;
 mod store;
+mod units;
 mod worker;
 
 use std::process::ExitCode;

@@ -94,6 +94,7 @@ pub struct Shared {
     /// Open SSE streams.
     pub sse_clients: AtomicI64,
     queue_wait: Mutex<Histogram>,
+    storage: Mutex<crate::storage::StorageStatus>,
     started: std::time::Instant,
 }
 
@@ -116,6 +117,7 @@ impl Default for Shared {
             jobs_submitted: AtomicU64::new(0),
             sse_clients: AtomicI64::new(0),
             queue_wait: Mutex::new(Histogram::default()),
+            storage: Mutex::new(Default::default()),
             started: std::time::Instant::now(),
         }
     }
@@ -155,6 +157,23 @@ impl Shared {
     /// Sets the kernel warm-up's progress.
     pub fn set_kernels(&self, k: KernelWarmup) {
         *lock(&self.kernels) = k;
+    }
+
+    /// The data directory's storage as last measured.
+    pub fn storage(&self) -> crate::storage::StorageStatus {
+        lock(&self.storage).clone()
+    }
+
+    /// Records a measurement of the storage.
+    pub fn set_storage(&self, s: crate::storage::StorageStatus) {
+        *lock(&self.storage) = s;
+    }
+
+    /// Records a fresh free-space measurement, keeping the held-job count.
+    pub fn update_free_space(&self, free_bytes: u64, low: bool) {
+        let mut s = lock(&self.storage);
+        s.free_bytes = free_bytes;
+        s.low = low;
     }
 
     /// Seconds since start.
@@ -237,6 +256,31 @@ impl Shared {
             "gauge",
             "Seconds since the server started.",
             format!("{:.3}", self.uptime_s()),
+        );
+        let storage = self.storage();
+        line(
+            "candela_storage_free_bytes",
+            "gauge",
+            "Free bytes on the data directory's filesystem.",
+            storage.free_bytes.to_string(),
+        );
+        line(
+            "candela_storage_min_free_bytes",
+            "gauge",
+            "Free space below which new jobs are refused (--min-free-space).",
+            storage.min_free_bytes.to_string(),
+        );
+        line(
+            "candela_storage_low",
+            "gauge",
+            "1 while free space is below the minimum (new jobs get 507).",
+            u8::from(storage.low).to_string(),
+        );
+        line(
+            "candela_jobs_held_for_storage",
+            "gauge",
+            "Jobs paused by the server after a write failed for lack of space.",
+            storage.held_jobs.to_string(),
         );
         let h = lock(&self.queue_wait);
         let _ = writeln!(

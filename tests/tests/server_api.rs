@@ -202,14 +202,14 @@ fn jobs_endpoints_and_errors() {
     );
     assert!(e["message"].as_str().unwrap().contains("done"), "{e}");
     assert_error(
-        &s.send(s.request(Method::DELETE, &format!("/api/jobs/{q}"))),
+        &s.send(s.request(Method::POST, &format!("/api/jobs/{q}/cancel"))),
         409,
         "conflict",
     );
-    let (st, canceled) = s.send(s.request(Method::DELETE, &format!("/api/jobs/{l}")));
+    let (st, canceled) = s.send(s.request(Method::POST, &format!("/api/jobs/{l}/cancel")));
     assert_eq!((st, state(&canceled)), (200, "canceled"), "{canceled}");
     assert_error(
-        &s.send(s.request(Method::DELETE, &format!("/api/jobs/{l}"))),
+        &s.send(s.request(Method::POST, &format!("/api/jobs/{l}/cancel"))),
         409,
         "conflict",
     );
@@ -391,11 +391,11 @@ fn limits_give_clear_errors() {
     let body: Value = r.json().unwrap();
     assert_eq!(body["error"]["code"], "too_many_jobs", "{body}");
     for id in [a, b] {
-        let (st, _) = s.send(s.request(Method::DELETE, &format!("/api/jobs/{id}")));
+        let (st, _) = s.send(s.request(Method::POST, &format!("/api/jobs/{id}/cancel")));
         assert_eq!(st, 200);
     }
     let c = s.submit(&job)["id"].as_i64().unwrap();
-    s.send(s.request(Method::DELETE, &format!("/api/jobs/{c}")));
+    s.send(s.request(Method::POST, &format!("/api/jobs/{c}/cancel")));
 }
 
 #[test]

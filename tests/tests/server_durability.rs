@@ -169,7 +169,7 @@ fn sigterm_writes_a_final_checkpoint_and_exits_zero() {
         line.contains(&format!("spp={saved}")),
         "{line} (saved {saved})"
     );
-    let (st, _) = s.send(s.request(Method::DELETE, &format!("/api/jobs/{id}")));
+    let (st, _) = s.send(s.request(Method::POST, &format!("/api/jobs/{id}/cancel")));
     assert_eq!(st, 200);
 }
 

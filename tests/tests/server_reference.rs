@@ -120,6 +120,6 @@ fn progress_metrics_against_a_reference_job() {
     let long = long["id"].as_i64().unwrap();
     let (st, body) = bad(json!({"job": long}), 24);
     assert_eq!((st, path_of(&body)), (422, "reference.job"), "{body}");
-    let (st, _) = s.send(s.request(Method::DELETE, &format!("/api/jobs/{long}")));
+    let (st, _) = s.send(s.request(Method::POST, &format!("/api/jobs/{long}/cancel")));
     assert!(st < 300);
 }

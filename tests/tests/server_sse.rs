@@ -156,7 +156,7 @@ fn keep_alive_comments_while_paused() {
         let h = scope.spawn(|| r.collect_all());
         std::thread::sleep(Duration::from_millis(1200));
         let st = s
-            .send(s.request(Method::DELETE, &format!("/api/jobs/{id}")))
+            .send(s.request(Method::POST, &format!("/api/jobs/{id}/cancel")))
             .0;
         (st, h.join().unwrap())
     });
@@ -188,6 +188,6 @@ fn small_job_finishes_while_long_one_runs() {
     let before = l["progress"]["spp"].as_u64().unwrap();
     let l = s.wait_job(long, T, |j| j["progress"]["spp"].as_u64().unwrap() > before);
     assert_eq!(l["state"], "running");
-    let (st, _) = s.send(s.request(Method::DELETE, &format!("/api/jobs/{long}")));
+    let (st, _) = s.send(s.request(Method::POST, &format!("/api/jobs/{long}/cancel")));
     assert_eq!(st, 200);
 }

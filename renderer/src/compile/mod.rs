@@ -6,22 +6,25 @@
 //!
 //! The BVH is built in the scene frame (`world − centre of the scene's bounds`, boxes rounded
 //! outwards) so that it, and its cache key, do not depend on the camera; its node boxes are then
-//! moved to the camera frame in f64 and rounded outwards again (`place_nodes`), so each still
-//! contains its primitives exactly as uploaded.
+//! moved to the camera frame in f64 and rounded outwards again (`frame::place_nodes`), so each
+//! still contains its primitives exactly as uploaded.
 
+mod camera;
+mod emitters;
 mod features;
+mod frame;
+pub mod light_bvh;
 mod lights;
 mod materials;
+mod prims;
 
 use std::path::Path;
 use std::time::Duration;
 
-use glam::{DVec3, Vec3};
-
 use crate::accel::grid::Grid;
-use crate::accel::{self, AccelInfo, AccelOptions, PrimBounds};
+use crate::accel::{self, AccelInfo, AccelOptions};
 use crate::layout::*;
-use crate::scene::{Environment, Filter, Light, Scene};
+use crate::scene::Scene;
 pub use features::{FeatureSet, KernelMode};
 pub use lights::{alias_table, luminance};
 
@@ -37,6 +40,8 @@ pub struct CompiledScene {
     pub texels: Vec<[f32; 4]>,
     pub lights: Vec<GpuLight>,
     pub alias: Vec<GpuAlias>,
+    /// The light BVH's nodes (`render.light_sampler: "bvh"`; empty with the power sampler).
+    pub light_bvh: Vec<GpuLightNode>,
     pub env_dist: Vec<f32>,
     pub features: FeatureSet,
     pub width: u32,
@@ -119,84 +124,6 @@ pub enum CompileError {
     TooManyPrims(usize),
 }
 
-/// A primitive's exact (f64, camera-relative) geometry.
-#[derive(Clone, Copy)]
-enum Shape {
-    Triangle([DVec3; 3]),
-    Sphere { center: DVec3, radius: f64 },
-}
-
-fn f3(v: DVec3) -> [f32; 3] {
-    [v.x as f32, v.y as f32, v.z as f32]
-}
-
-/// The largest f32 ≤ x.
-fn f32_down(x: f64) -> f32 {
-    let f = x as f32;
-    if f as f64 > x {
-        f.next_down()
-    } else {
-        f
-    }
-}
-
-/// The smallest f32 ≥ x.
-fn f32_up(x: f64) -> f32 {
-    let f = x as f32;
-    if (f as f64) < x {
-        f.next_up()
-    } else {
-        f
-    }
-}
-
-/// An f64 box rounded outwards to f32.
-fn outward(min: DVec3, max: DVec3) -> PrimBounds {
-    PrimBounds {
-        min: min.to_array().map(f32_down),
-        max: max.to_array().map(f32_up),
-    }
-}
-
-/// The centre of the scene's geometry (world space, f64): the origin of the frame the BVH is
-/// built in.
-fn scene_centre(scene: &Scene) -> DVec3 {
-    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for m in &scene.meshes {
-        for p in &m.positions {
-            lo = lo.min(*p);
-            hi = hi.max(*p);
-        }
-    }
-    for s in &scene.spheres {
-        lo = lo.min(s.center - DVec3::splat(s.radius));
-        hi = hi.max(s.center + DVec3::splat(s.radius));
-    }
-    if lo.x <= hi.x {
-        0.5 * (lo + hi)
-    } else {
-        DVec3::ZERO
-    }
-}
-
-/// Moves BVH node boxes from the scene frame to the camera frame (`box − offset`, offset = camera
-/// − scene centre), in f64 and rounded outwards with a few ulps of slack for the f32 rounding of
-/// the camera-relative primitives (a sphere's centre), so every box still contains its
-/// primitives as the GPU sees them.
-fn place_nodes(nodes: &mut [GpuBvhNode], offset: DVec3) {
-    let place = |mn: &mut [f32; 3], mx: &mut [f32; 3]| {
-        let lo = DVec3::from(mn.map(f64::from)) - offset;
-        let hi = DVec3::from(mx.map(f64::from)) - offset;
-        let slack = lo.abs().max(hi.abs()) * 1e-6;
-        let b = outward(lo - slack, hi + slack);
-        (*mn, *mx) = (b.min, b.max);
-    };
-    for n in nodes {
-        place(&mut n.l_min, &mut n.l_max);
-        place(&mut n.r_min, &mut n.r_max);
-    }
-}
-
 /// Compiles `scene` for a film of `width` × `height` (the job may override the scene's film),
 /// with a BVH and no cache.
 pub fn compile(scene: &Scene, width: u32, height: u32) -> Result<CompiledScene, CompileError> {
@@ -212,271 +139,75 @@ pub fn compile_with(
 ) -> Result<CompiledScene, CompileError> {
     let start = std::time::Instant::now();
     let origin = scene.camera.position;
-    let rel = |p: DVec3| p - origin;
     let features = FeatureSet::detect(scene);
 
-    // Step 1: materials and textures.
+    // Step 1: materials (textures are packed with the lights, which mark the environment's).
     let materials: Vec<GpuMaterial> = scene
         .materials
         .iter()
         .map(materials::gpu_material)
         .collect();
-    let alpha_material: Vec<bool> = scene
-        .materials
-        .iter()
-        .map(|m| m.alpha_mask.is_some())
-        .collect();
-    let emission: Vec<Vec3> = scene.materials.iter().map(|m| m.emission).collect();
 
-    // Step 2: primitives in input order, with bounds, camera-relative.
-    let mut prims: Vec<GpuPrim> = Vec::new();
-    let mut bounds: Vec<PrimBounds> = Vec::new();
-    // The same boxes in the scene frame (rounded outwards): the BVH's input.
-    let centre = scene_centre(scene);
-    let mut bvh_bounds: Vec<PrimBounds> = Vec::new();
-    let mut tri_shading: Vec<GpuTriShading> = Vec::new();
-    // Camera-relative f64 geometry of each primitive, for exact light areas and centres.
-    let mut shapes: Vec<Shape> = Vec::new();
-    let mut triangle_count = 0usize;
-    for mesh in &scene.meshes {
-        let shaded = mesh.normals.is_some() || mesh.uvs.is_some();
-        for (t, idx) in mesh.indices.iter().enumerate() {
-            let p = idx.map(|i| rel(mesh.positions[i as usize]));
-            let m = mesh.materials.get(t).copied().unwrap_or(0);
-            let mut flags = m & PRIM_MATERIAL_MASK;
-            if alpha_material.get(m as usize).copied().unwrap_or(false) {
-                flags |= PRIM_ALPHA;
-            }
-            let shading = if shaded {
-                let n = |k: usize| {
-                    mesh.normals
-                        .as_ref()
-                        .map(|ns| ns[idx[k] as usize])
-                        .unwrap_or(Vec3::ZERO)
-                };
-                let uv = |k: usize| {
-                    mesh.uvs
-                        .as_ref()
-                        .map(|u| u[idx[k] as usize])
-                        .unwrap_or(glam::Vec2::ZERO)
-                };
-                tri_shading.push(GpuTriShading {
-                    n0: [n(0).x, n(0).y, n(0).z, uv(0).x],
-                    n1: [n(1).x, n(1).y, n(1).z, uv(1).x],
-                    n2: [n(2).x, n(2).y, n(2).z, uv(2).x],
-                    uv_v: [
-                        uv(0).y,
-                        uv(1).y,
-                        uv(2).y,
-                        if mesh.normals.is_some() { 1.0 } else { 0.0 },
-                    ],
-                });
-                (tri_shading.len() - 1) as u32
-            } else {
-                NONE
-            };
-            let [a, b, c] = p.map(f3);
-            prims.push(GpuPrim {
-                a: [a[0], a[1], a[2], f32::from_bits(flags)],
-                b: [b[0], b[1], b[2], f32::from_bits(NONE)],
-                c: [c[0], c[1], c[2], f32::from_bits(shading)],
-            });
-            let mn = p[0].min(p[1]).min(p[2]);
-            let mx = p[0].max(p[1]).max(p[2]);
-            bounds.push(PrimBounds {
-                min: f3(mn),
-                max: f3(mx),
-            });
-            let w = idx.map(|i| mesh.positions[i as usize] - centre);
-            bvh_bounds.push(outward(w[0].min(w[1]).min(w[2]), w[0].max(w[1]).max(w[2])));
-            shapes.push(Shape::Triangle(p));
-            triangle_count += 1;
-        }
-    }
-    for s in &scene.spheres {
-        let c = rel(s.center);
-        let mut flags = PRIM_SPHERE | (s.material & PRIM_MATERIAL_MASK);
-        if s.flip_normals {
-            flags |= PRIM_FLIP_NORMALS;
-        }
-        let cf = f3(c);
-        prims.push(GpuPrim {
-            a: [cf[0], cf[1], cf[2], f32::from_bits(flags)],
-            b: [s.radius as f32, 0.0, 0.0, f32::from_bits(NONE)],
-            c: [0.0, 0.0, 0.0, f32::from_bits(NONE)],
-        });
-        // Bounds padded by a few ulps so rounding of centre and radius cannot clip the sphere.
-        let r = DVec3::splat(s.radius * (1.0 + 1e-6));
-        let pad = c.abs() * 1e-6;
-        bounds.push(PrimBounds {
-            min: f3(c - r - pad),
-            max: f3(c + r + pad),
-        });
-        let cs = s.center - centre;
-        let pad_s = cs.abs() * 1e-6;
-        bvh_bounds.push(outward(cs - r - pad_s, cs + r + pad_s));
-        shapes.push(Shape::Sphere {
-            center: c,
-            radius: s.radius,
-        });
-    }
-    if prims.len() > PRIM_MATERIAL_MASK as usize {
-        return Err(CompileError::TooManyPrims(prims.len()));
-    }
+    // Step 2: primitives in input order, with bounds, camera-relative (and in the scene frame,
+    // for the BVH).
+    let centre = frame::scene_centre(scene);
+    let prims = prims::gather(scene, origin, centre)?;
 
-    // Step 3: the BVH (or grid), and primitives reordered into its order.
-    let mut bvh = accel::build_accel(&options.accel, &prims, &bounds, &bvh_bounds, options.cache);
-    place_nodes(&mut bvh.nodes, origin - centre);
-    let mut sorted: Vec<GpuPrim> = bvh.order.iter().map(|&i| prims[i as usize]).collect();
+    // Step 3: the BVH (or grid) built in the scene frame and placed in the camera's, and
+    // primitives reordered into its order.
+    let mut bvh = accel::build_accel(
+        &options.accel,
+        &prims.gpu,
+        &prims.bounds,
+        &prims.bvh_bounds,
+        options.cache,
+    );
+    frame::place_nodes(&mut bvh.nodes, origin - centre);
+    let mut sorted: Vec<GpuPrim> = bvh.order.iter().map(|&i| prims.gpu[i as usize]).collect();
 
     // Step 4: scene bounds (camera-relative) for directional and environment lights.
-    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for b in &bounds {
-        lo = lo.min(DVec3::from(b.min.map(f64::from)));
-        hi = hi.max(DVec3::from(b.max.map(f64::from)));
-    }
-    for l in &scene.lights {
-        if let Light::Point { position, .. } | Light::Spot { position, .. } = l {
-            lo = lo.min(rel(*position));
-            hi = hi.max(rel(*position));
-        }
-    }
-    let (center, radius) = if lo.x <= hi.x {
-        (0.5 * (lo + hi), 0.5 * (hi - lo).length().max(1e-6))
-    } else {
-        (DVec3::ZERO, 1.0)
-    };
+    let (center, radius) = prims::scene_sphere(scene, &prims.bounds, origin);
 
     // Step 5: lights: emissive primitives, then delta lights, then the environment.
-    let mut lb = lights::LightBuilder::new();
-    for (slot, &orig) in bvh.order.iter().enumerate() {
-        let orig = orig as usize;
-        let bits = sorted[slot].a[3].to_bits();
-        let e = emission
-            .get((bits & PRIM_MATERIAL_MASK) as usize)
-            .copied()
-            .unwrap_or(Vec3::ZERO);
-        if e.max_element() <= 0.0 {
-            continue;
-        }
-        let li = match shapes[orig] {
-            Shape::Sphere { center, radius } => lb.sphere(
-                slot as u32,
-                center,
-                radius,
-                bits & PRIM_FLIP_NORMALS != 0,
-                e,
-            ),
-            Shape::Triangle(p) => lb.triangle(slot as u32, p, e),
-        };
-        sorted[slot].b[3] = f32::from_bits(li);
-    }
-    for l in &scene.lights {
-        match l {
-            Light::Point {
-                position,
-                intensity,
-            } => lb.point(rel(*position), *intensity),
-            Light::Spot {
-                position,
-                direction,
-                intensity,
-                cutoff_angle,
-                beam_width,
-            } => lb.spot(
-                rel(*position),
-                *direction,
-                *intensity,
-                *cutoff_angle,
-                *beam_width,
-            ),
-            Light::Directional {
-                direction,
-                irradiance,
-            } => lb.directional(*direction, *irradiance, radius),
-        };
-    }
-    let mut env = [NONE, NONE, 0, 0];
-    let mut env_params = [1.0f32, 1.0, 0.0, 0.0];
-    let mut env_dist = Vec::new();
-    let mut clamp_rows = vec![false; scene.textures.len()];
-    match &scene.environment {
-        Some(Environment::Constant { radiance }) if radiance.max_element() > 0.0 => {
-            env[0] = lb.env_constant(*radiance, radius);
-        }
-        Some(Environment::Map {
-            texture,
-            scale,
-            rotate_y,
-        }) => {
-            if let Some(tex) = scene.textures.get(*texture as usize) {
-                let (dist, mean) = lights::env_distribution(tex);
-                env_dist = dist;
-                env[0] = lb.env_map(*scale, mean, radius);
-                env[1] = *texture;
-                env[2] = tex.width;
-                env[3] = tex.height;
-                let a = rotate_y.to_radians();
-                env_params = [*scale, a.cos(), a.sin(), 0.0];
-                clamp_rows[*texture as usize] = true;
-            }
-        }
-        _ => {}
-    }
-    let (gpu_lights, alias) = lb.finish();
+    let emitters = emitters::gather(scene, &bvh.order, &mut sorted, &prims.shapes, radius);
     let (textures, texels) = if features.textures || features.alpha {
-        materials::pack_textures(&scene.textures, &clamp_rows)
+        materials::pack_textures(&scene.textures, &emitters.clamp_rows)
     } else {
         (Vec::new(), Vec::new())
     };
 
     // Step 6: camera and film.
-    let cam = &scene.camera;
-    let forward = (cam.look_at - cam.position).normalize();
-    let right = forward.cross(cam.up).normalize();
-    let up = right.cross(forward);
-    let tan_half = (cam.fov_y.to_radians() * 0.5).tan();
-    let (filter_kind, stddev) = match scene.film.filter {
-        Filter::Box => (0, 0.5),
-        Filter::Gaussian { stddev } => (1, stddev),
-    };
-    let globals = GpuGlobals {
-        cam_forward: [forward.x as f32, forward.y as f32, forward.z as f32, 0.0],
-        cam_right: [right.x as f32, right.y as f32, right.z as f32, 0.0],
-        cam_up: [up.x as f32, up.y as f32, up.z as f32, 0.0],
-        lens: [
-            tan_half as f32,
-            width as f32 / height as f32,
-            cam.aperture_radius as f32,
-            cam.focus_distance as f32,
-        ],
-        film: [width, height, filter_kind, gpu_lights.len() as u32],
-        filter: [stddev, 4.0 * stddev, 0.0, 0.0],
-        scene_sphere: [
-            center.x as f32,
-            center.y as f32,
-            center.z as f32,
-            radius as f32,
-        ],
-        env,
-        env_params,
-        counts: [sorted.len() as u32, bvh.nodes.len() as u32, 0, 0],
-    };
+    let globals = camera::globals(
+        scene,
+        width,
+        height,
+        camera::SceneFacts {
+            center,
+            radius,
+            light_count: emitters.lights.len() as u32,
+            env: emitters.env,
+            env_params: emitters.env_params,
+            prim_count: sorted.len() as u32,
+            node_count: bvh.nodes.len() as u32,
+            light_nodes: emitters.light_counts,
+        },
+    );
     Ok(CompiledScene {
         globals,
         nodes: bvh.nodes,
         prims: sorted,
-        tri_shading,
+        tri_shading: prims.tri_shading,
         materials,
         textures,
         texels,
-        lights: gpu_lights,
-        alias,
-        env_dist,
+        lights: emitters.lights,
+        alias: emitters.alias,
+        light_bvh: emitters.light_bvh,
+        env_dist: emitters.env_dist,
         features,
         width,
         height,
-        triangle_count,
+        triangle_count: prims.triangle_count,
         bvh_depth: bvh.depth,
         bvh_parents: bvh.parents,
         traversal_stack: accel::STACK_DEPTH,

@@ -19,6 +19,9 @@ pub struct GpuOptions {
     /// Pick the first device whose name contains this text (case-insensitive); `None`: prefer a
     /// discrete GPU, then integrated, then anything (lavapipe).
     pub device: Option<String>,
+    /// Pick the device at this position of [`list_devices`] (`candela devices` prints them in
+    /// that order; `--devices 0,1`); takes precedence over `device`.
+    pub index: Option<usize>,
     /// Enable the Khronos validation layer if installed; its messages become errors.
     pub validation: bool,
     /// The kernel cache folder (compiled SPIR-V and the driver's pipeline cache, see
@@ -294,12 +297,27 @@ fn create_instance(entry: &ash::Entry, want_validation: bool) -> GpuResult<Insta
     })
 }
 
-/// The physical device: the first whose name contains `filter`, else the best by kind
-/// (discrete, integrated, virtual, other).
-fn pick_device(instance: &ash::Instance, filter: Option<&str>) -> GpuResult<Candidate> {
+/// The physical device: the one at `index` of the candidates, else the first whose name
+/// contains `filter`, else the best by kind (discrete, integrated, virtual, other).
+fn pick_device(
+    instance: &ash::Instance,
+    index: Option<usize>,
+    filter: Option<&str>,
+) -> GpuResult<Candidate> {
     let cands = candidates(instance)?;
-    let pick = match filter {
-        Some(want) => {
+    let pick = match (index, filter) {
+        (Some(i), _) => {
+            if i >= cands.len() {
+                let names: Vec<_> = cands.iter().map(|c| c.2.name.clone()).collect();
+                return Err(GpuError::NoDevice(format!(
+                    " at index {i} ({} available: {})",
+                    cands.len(),
+                    names.join(", ")
+                )));
+            }
+            i
+        }
+        (None, Some(want)) => {
             let w = want.to_lowercase();
             cands
                 .iter()
@@ -312,7 +330,7 @@ fn pick_device(instance: &ash::Instance, filter: Option<&str>) -> GpuResult<Cand
                     ))
                 })?
         }
-        None => {
+        (None, None) => {
             let rank = |c: &Candidate| match c.3.device_type {
                 vk::PhysicalDeviceType::DISCRETE_GPU => 0,
                 vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
@@ -444,7 +462,8 @@ impl GpuContext {
             debug_messenger,
         } = create_instance(&entry, opts.validation)?;
         // Step 2: the physical device.
-        let (physical, queue_family, info, props) = pick_device(&instance, opts.device.as_deref())?;
+        let (physical, queue_family, info, props) =
+            pick_device(&instance, opts.index, opts.device.as_deref())?;
         // Step 3: the logical device with the features the kernels use.
         let DeviceParts {
             device,

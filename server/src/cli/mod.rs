@@ -3,9 +3,12 @@
 mod bench;
 mod compare;
 mod convert;
+mod gc;
+mod multi_device;
 mod render;
 mod scene_file;
 mod serve;
+mod users;
 
 use clap::{Parser, Subcommand};
 
@@ -77,6 +80,7 @@ pub fn open_device(
     use renderer::gpu::{GpuContext, GpuError, GpuOptions};
     GpuContext::new(&GpuOptions {
         device: filter.map(String::from),
+        index: None,
         validation: false,
         kernel_cache,
     })
@@ -138,6 +142,10 @@ pub enum Command {
     Compare(compare::CompareArgs),
     /// Convert a scene: any format to candela JSON, or candela JSON to Mitsuba 3 XML.
     Convert(convert::ConvertArgs),
+    /// Remove finished jobs and prune event logs of a server's data directory, by hand.
+    Gc(gc::GcArgs),
+    /// Manage the named tokens (users and their roles) of a server's data directory.
+    Users(users::UsersArgs),
     /// List the Vulkan devices candela can use.
     Devices {
         /// Print JSON.
@@ -153,15 +161,17 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Bench(a) => bench::run(a),
         Command::Compare(a) => compare::run(a),
         Command::Convert(a) => convert::run(a),
+        Command::Gc(a) => gc::run(a),
+        Command::Users(a) => users::run(a),
         Command::Devices { json } => {
             let devices =
                 renderer::gpu::list_devices().map_err(|e| CliError::failure(e.to_string()))?;
             if json {
                 println!("{}", serde_json::to_string(&devices).unwrap_or_default());
             } else {
-                for d in devices {
+                for (i, d) in devices.iter().enumerate() {
                     println!(
-                        "{} ({}, Vulkan {}, {})",
+                        "{i}: {} ({}, Vulkan {}, {})",
                         d.name, d.kind, d.api_version, d.driver
                     );
                 }

@@ -5,7 +5,7 @@
 //!
 //! Prints `candela: listening on http://ADDR` on stdout once the socket is bound (the actual
 //! port when `--bind` asks for port 0). Refuses (exit 2) to bind a non-loopback address
-//! without a token: anyone who can reach it could use the GPU.
+//! without a token or users (`candela users`): anyone who can reach it could use the GPU.
 
 use std::net::{SocketAddr, ToSocketAddrs};
 use std::path::PathBuf;
@@ -79,6 +79,30 @@ pub struct ServeArgs {
     /// background: auto (all on a GPU, none on a CPU device), all, none, or a list (nee,bdpt).
     #[arg(long, value_name = "LIST", default_value = "auto")]
     pub warm_kernels: String,
+    /// Remove finished jobs (record, events, files) that ended longer ago than this (30d, 12h;
+    /// 0: keep them however old).
+    #[arg(long, value_name = "AGE", default_value = "30d")]
+    pub retain_age: String,
+    /// Keep at most this many finished jobs, the newest (0: no limit).
+    #[arg(long, value_name = "N", default_value_t = 1000)]
+    pub retain_jobs: u64,
+    /// Remove the oldest finished jobs while the job files exceed this (20GB, 500MB; 0: no limit).
+    #[arg(long, value_name = "SIZE", default_value = "20GB")]
+    pub retain_size: String,
+    /// Prune the event logs of jobs that finished longer ago than this to their final events
+    /// (0: at once).
+    #[arg(long, value_name = "AGE", default_value = "1h")]
+    pub prune_events_after: String,
+    /// Refuse new jobs (507) while the data directory's filesystem has less free space than
+    /// this; jobs paused for a full disk resume only above it (500MB, 2GB; 0: never refuse).
+    #[arg(long, value_name = "SIZE", default_value = "500MB")]
+    pub min_free_space: String,
+    /// Seconds between free-space checks (which also resume jobs paused for a full disk).
+    #[arg(long, default_value_t = 5.0)]
+    pub storage_check_interval: f64,
+    /// How often retention runs (10m, 1h).
+    #[arg(long, value_name = "INTERVAL", default_value = "10m")]
+    pub gc_interval: String,
 }
 
 fn seconds(flag: &str, v: f64) -> Result<Duration, CliError> {
@@ -89,6 +113,15 @@ fn seconds(flag: &str, v: f64) -> Result<Duration, CliError> {
             "{flag}: must be a number of seconds in (0, 86400], got {v}"
         )))
     }
+}
+
+/// Whether the data directory's store has users (then every request needs a token).
+fn has_users(data_dir: &std::path::Path) -> bool {
+    let db = data_dir.join("candela.db");
+    db.is_file()
+        && Store::open(&db)
+            .and_then(|s| s.user_count())
+            .is_ok_and(|n| n > 0)
 }
 
 /// Checks the flags and builds the configuration and bind address.
@@ -106,9 +139,9 @@ fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), CliError> {
         .clone()
         .or_else(|| std::env::var("CANDELA_TOKEN").ok())
         .filter(|t| !t.trim().is_empty());
-    if token.is_none() && !addrs.iter().all(|a| a.ip().is_loopback()) {
+    if token.is_none() && !addrs.iter().all(|a| a.ip().is_loopback()) && !has_users(&a.data_dir) {
         return Err(CliError::input(format!(
-            "--bind {}: refusing to listen on a non-loopback address without a token; give --token TOKEN (or set CANDELA_TOKEN)",
+            "--bind {}: refusing to listen on a non-loopback address without a token; give --token TOKEN (or set CANDELA_TOKEN), or add users (candela users add NAME --role R)",
             a.bind
         )));
     }
@@ -146,7 +179,80 @@ fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), CliError> {
     c.limits.max_time_s = a.max_time;
     c.limits.max_triangles = a.max_triangles;
     c.limits.max_unfinished_jobs = a.max_queued;
+    c.retention = retention_policy(a)?;
+    c.min_free_space = crate::units::parse_size(&a.min_free_space)
+        .map_err(|e| CliError::input(format!("--min-free-space: {e}")))?;
+    c.storage_check_interval = seconds("--storage-check-interval", a.storage_check_interval)?;
+    c.gc_interval = crate::units::parse_duration(&a.gc_interval)
+        .ok()
+        .filter(|d| !d.is_zero())
+        .ok_or_else(|| {
+            CliError::input(format!(
+                "--gc-interval {}: expected a duration such as 10m",
+                a.gc_interval
+            ))
+        })?;
     Ok((c, addr))
+}
+
+/// The `--retain-*` and `--prune-events-after` flags (0: no limit of that kind).
+fn retention_policy(a: &ServeArgs) -> Result<crate::config::RetentionPolicy, CliError> {
+    use crate::units::{parse_duration, parse_size};
+    let age = |flag: &str, v: &str| {
+        parse_duration(v)
+            .map(|d| Some(d).filter(|d| !d.is_zero()))
+            .map_err(|e| CliError::input(format!("{flag}: {e}")))
+    };
+    Ok(crate::config::RetentionPolicy {
+        max_age: age("--retain-age", &a.retain_age)?,
+        max_finished: Some(a.retain_jobs).filter(|n| *n > 0),
+        max_bytes: parse_size(&a.retain_size)
+            .map(|b| Some(b).filter(|b| *b > 0))
+            .map_err(|e| CliError::input(format!("--retain-size: {e}")))?,
+        prune_events_after: Some(
+            parse_duration(&a.prune_events_after)
+                .map_err(|e| CliError::input(format!("--prune-events-after: {e}")))?,
+        ),
+    })
+}
+
+/// Applies the retention policy now and every `gc_interval`, until shutdown.
+async fn retention_task(st: AppState) {
+    let mut stop = st.shutdown.clone();
+    loop {
+        let (store, config) = (st.store.clone(), st.config.clone());
+        let pass = tokio::task::spawn_blocking(move || {
+            crate::retention::run(
+                &store,
+                &config.data_dir,
+                &config.retention,
+                crate::jobs::model::now_s(),
+                false,
+            )
+        })
+        .await;
+        match pass {
+            Ok(Ok(report)) => {
+                for r in &report.removed {
+                    st.shared.forget(r.job.id);
+                    tracing::info!(job = r.job.id, bytes = r.bytes, reason = %r.reason, "retention removed a job");
+                }
+                if report.events_pruned > 0 || !report.orphans.is_empty() {
+                    tracing::info!(
+                        events = report.events_pruned,
+                        orphans = report.orphans.len(),
+                        "retention pruned"
+                    );
+                }
+            }
+            Ok(Err(e)) => tracing::warn!(error = %e, "retention pass"),
+            Err(e) => tracing::warn!(error = %e, "retention pass panicked"),
+        }
+        tokio::select! {
+            _ = tokio::time::sleep(st.config.gc_interval) => {}
+            _ = stop.wait_for(|s| *s) => return,
+        }
+    }
 }
 
 /// Resolves on SIGTERM or Ctrl-C.
@@ -209,11 +315,12 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
         .map_err(|e| CliError::failure(format!("{}: {e}", dir.join("candela.db").display())))?;
     crate::builtin_scenes::install(&config.builtin_dir())
         .map_err(|e| CliError::failure(format!("writing the built-in scenes: {e}")))?;
-    let (store, shared, config) = (
-        Arc::new(store),
-        Arc::new(Shared::default()),
-        Arc::new(config),
-    );
+    if let Err(e) = crate::storage::make_reserve(dir) {
+        tracing::warn!(error = %e, "could not make the space reserve");
+    }
+    let shared = Shared::default();
+    shared.set_storage(crate::storage::status(dir, config.min_free_space));
+    let (store, shared, config) = (Arc::new(store), Arc::new(shared), Arc::new(config));
 
     // Step 2: the runtime, the socket, the worker.
     let rt = tokio::runtime::Builder::new_multi_thread()
@@ -254,6 +361,7 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
             // Keep the sender alive so receivers see `true`, not a closed channel.
             std::future::pending::<()>().await;
         });
+        tokio::spawn(retention_task(state.clone()));
         let server = axum::serve(listener, app(state)).with_graceful_shutdown(async {
             let _ = sig_rx.await;
         });

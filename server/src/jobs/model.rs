@@ -99,6 +99,11 @@ pub struct JobSettings {
     pub spp: Option<u32>,
     /// Seconds of the job's own render time (exclusive with `spp`).
     pub time_s: Option<f64>,
+    /// Quality target: the job stops once its estimated relMSE is at most this (after
+    /// `renderer::render::UNTIL_MIN_SPP` spp); spp or time_s is the cap (request field
+    /// `until: {"rel_mse": X}`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub until_rel_mse: Option<f64>,
     /// RNG seed.
     pub seed: u64,
     /// Film size.
@@ -196,6 +201,10 @@ pub struct JobRecord {
     pub started_at: Option<f64>,
     pub finished_at: Option<f64>,
     pub updated_at: f64,
+    /// The user who submitted it (None: no named users, or submitted before they existed).
+    pub owner: Option<String>,
+    /// Why the server holds it paused (a full disk); None when a user paused it.
+    pub hold: Option<String>,
 }
 
 /// The links of a job, relative to the server root.
@@ -245,6 +254,8 @@ impl JobRecord {
             "started_at": self.started_at.map(rfc3339),
             "finished_at": self.finished_at.map(rfc3339),
             "updated_at": rfc3339(self.updated_at),
+            "owner": self.owner,
+            "hold": self.hold,
             "links": job_links(self.id),
         })
     }
@@ -292,6 +303,8 @@ pub struct NewJob {
     pub scene: String,
     pub scene_name: Option<String>,
     pub source: SceneSource,
+    /// The submitting user (None: open server or the shared token).
+    pub owner: Option<String>,
 }
 
 #[cfg(test)]

@@ -1,5 +1,7 @@
 //! `/api/jobs`: submit (JSON or multipart upload, optionally waiting for the end), list, get,
-//! cancel (`DELETE`), pause, resume and reprioritise (`PATCH`). State changes go through the
+//! cancel, pause, resume, reprioritise (`PATCH`) and delete (`DELETE`, a finished job with its
+//! files). Who may do what is auth.rs's (a submitter manages only its own jobs); every change
+//! records who made it (`by` in the job's events). State changes go through the
 //! store's transition table (409 on an invalid one) and wake the GPU worker.
 
 use std::collections::HashMap;
@@ -15,6 +17,7 @@ use tokio::sync::broadcast::error::RecvError;
 
 use super::extract::{JobIdPath, QueryMap};
 use crate::api_error::ApiError;
+use crate::auth::Caller;
 use crate::jobs::model::{JobId, JobRecord, JobState, NewJob, MAX_PRIORITY};
 use crate::jobs::request::{
     parse_object, parse_request, prepare, JobRequest, ReferenceSpec, SceneInput,
@@ -120,17 +123,21 @@ fn resolve_reference(
 /// `POST /api/jobs[?wait=true]`: 201 with the job (after it ended, with `wait`).
 pub async fn create(
     State(st): State<AppState>,
+    caller: Caller,
     QueryMap(q): QueryMap,
     req: Request,
 ) -> Result<Response, ApiError> {
+    caller.may_write()?;
     let wait = query_bool(&q, "wait")?;
     if st.shutting_down() {
         return Err(ApiError::Unavailable("the server is shutting down".into()));
     }
-    // Step 1: room in the queue.
+    // Step 1: room in the queue and on the disk.
     check_room(&st)?;
+    check_space(&st)?;
     // Step 2: the request, JSON or multipart, checked and its scene loaded.
-    let (new_job, upload) = read_job(&st, req).await?;
+    let (mut new_job, upload) = read_job(&st, req).await?;
+    new_job.owner = caller.name.clone();
     // Step 3: store it (moving uploaded assets into the job's folder) and wake the worker.
     let rec = store_job(&st, new_job, upload).await?;
     // Step 4: with `wait`, answer once it has ended.
@@ -168,6 +175,24 @@ fn check_room(st: &AppState) -> Result<(), ApiError> {
     if unfinished >= limit {
         return Err(ApiError::TooManyJobs(format!(
             "{unfinished} jobs are unfinished (queued, running or paused); this server accepts at most {limit}: retry when some have ended"
+        )));
+    }
+    Ok(())
+}
+
+/// 507 while the data directory's filesystem has less free space than `--min-free-space`.
+fn check_space(st: &AppState) -> Result<(), ApiError> {
+    let dir = &st.config.data_dir;
+    let min = st.config.min_free_space;
+    let free = crate::storage::free_bytes(dir).unwrap_or(u64::MAX);
+    st.shared.update_free_space(free, free < min);
+    if free < min {
+        use crate::units::format_bytes;
+        return Err(ApiError::InsufficientStorage(format!(
+            "the data directory {} has {} ({free} bytes) free, below this server's minimum of {} ({min} bytes, --min-free-space): free some space or delete finished jobs (DELETE /api/jobs/ID, candela gc)",
+            dir.display(),
+            format_bytes(free),
+            format_bytes(min),
         )));
     }
     Ok(())
@@ -353,12 +378,15 @@ pub async fn get_one(
 
 async fn change_state(
     st: &AppState,
+    caller: &Caller,
     id: JobId,
     to: JobState,
     verb: &'static str,
 ) -> Result<Json<Value>, ApiError> {
+    caller.may_manage(&st.store.get_job(id)?)?;
     let t = Transition {
         verb,
+        by: caller.name.clone(),
         ..Default::default()
     };
     let rec = st.store.transition(id, to, t)?;
@@ -371,28 +399,57 @@ async fn change_state(
     Ok(Json(rec.to_json()))
 }
 
-/// `DELETE /api/jobs/{id}`: cancel (409 once it has ended).
+/// `POST /api/jobs/{id}/cancel`: queued, running or paused → canceled (409 once it has ended).
 pub async fn cancel(
     State(st): State<AppState>,
+    caller: Caller,
     JobIdPath(id): JobIdPath,
 ) -> Result<Json<Value>, ApiError> {
-    change_state(&st, id, JobState::Canceled, "cancel").await
+    change_state(&st, &caller, id, JobState::Canceled, "cancel").await
+}
+
+/// `DELETE /api/jobs/{id}`: removes a finished job (done, failed, canceled): its record, events
+/// and files (204); an unfinished one is 409 (cancel it first).
+pub async fn remove(
+    State(st): State<AppState>,
+    caller: Caller,
+    JobIdPath(id): JobIdPath,
+) -> Result<StatusCode, ApiError> {
+    caller.may_manage(&st.store.get_job(id)?)?;
+    let (store, data_dir) = (st.store.clone(), st.config.data_dir.clone());
+    let (rec, bytes) =
+        tokio::task::spawn_blocking(move || crate::retention::remove_job(&store, &data_dir, id))
+            .await
+            .map_err(ApiError::internal)??;
+    st.shared.forget(id);
+    // The job's events go with it: who deleted it is in the server's log.
+    let by = caller.name.as_deref().unwrap_or("-");
+    tracing::info!(
+        job = id,
+        state = rec.state.as_str(),
+        bytes,
+        by,
+        "job deleted"
+    );
+    Ok(StatusCode::NO_CONTENT)
 }
 
 /// `POST /api/jobs/{id}/pause`: queued or running → paused (checkpointed).
 pub async fn pause(
     State(st): State<AppState>,
+    caller: Caller,
     JobIdPath(id): JobIdPath,
 ) -> Result<Json<Value>, ApiError> {
-    change_state(&st, id, JobState::Paused, "pause").await
+    change_state(&st, &caller, id, JobState::Paused, "pause").await
 }
 
 /// `POST /api/jobs/{id}/resume`: paused → queued.
 pub async fn resume(
     State(st): State<AppState>,
+    caller: Caller,
     JobIdPath(id): JobIdPath,
 ) -> Result<Json<Value>, ApiError> {
-    change_state(&st, id, JobState::Queued, "resume").await
+    change_state(&st, &caller, id, JobState::Queued, "resume").await
 }
 
 /// The fields `PATCH` accepts.
@@ -405,6 +462,7 @@ struct JobPatch {
 /// `PATCH /api/jobs/{id}` with `{"priority": P}`.
 pub async fn patch(
     State(st): State<AppState>,
+    caller: Caller,
     JobIdPath(id): JobIdPath,
     body: Result<Bytes, axum::extract::rejection::BytesRejection>,
 ) -> Result<Json<Value>, ApiError> {
@@ -423,7 +481,10 @@ pub async fn patch(
             format!("priority: must be in 1..={MAX_PRIORITY}, got {priority}"),
         ));
     }
-    let rec = st.store.set_priority(id, priority)?;
+    caller.may_manage(&st.store.get_job(id)?)?;
+    let rec = st
+        .store
+        .set_priority(id, priority, caller.name.as_deref())?;
     st.worker.wake();
     Ok(Json(rec.to_json()))
 }

@@ -1,7 +1,7 @@
 //! Operations: `GET /api/health` (always open: status, version, device, kernel warm-up, jobs by
-//! state) and
+//! state, storage), `GET /api/me` (the caller's name and role) and
 //! `GET /metrics` (Prometheus text: jobs by state, samples rendered, GPU busy seconds, passes,
-//! queue-wait histogram, open event streams).
+//! queue-wait histogram, open event streams, free space).
 
 use axum::extract::State;
 use axum::http::header;
@@ -29,8 +29,14 @@ pub async fn health(State(st): State<AppState>) -> Result<Json<Value>, ApiError>
         "gpu": gpu,
         "kernels": st.shared.kernels(),
         "jobs": jobs,
-        "auth": st.config.token.is_some(),
+        "auth": crate::auth::required(&st.config, &st.store)?,
+        "storage": st.shared.storage(),
     })))
+}
+
+/// `GET /api/me`: the caller's name and role.
+pub async fn me(caller: crate::auth::Caller) -> Json<Value> {
+    Json(json!({"name": caller.name, "role": caller.role.as_str()}))
 }
 
 /// Prometheus exposition.

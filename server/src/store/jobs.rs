@@ -21,10 +21,18 @@ pub struct Transition {
     pub progress: Option<Progress>,
     /// Events appended after the `state` event: (kind, data).
     pub extra_events: Vec<(&'static str, Value)>,
+    /// Why the change happened, given as the `state` event's `reason`.
+    pub reason: Option<String>,
+    /// The server holds the job paused for `reason` (a storage fault): stored in `hold`. Every
+    /// other transition clears the hold.
+    pub hold: bool,
+    /// Who asked for the change (a user's name), recorded in the `state` event as `by`.
+    pub by: Option<String>,
 }
 
-const COLUMNS: &str = "id, name, state, priority, settings, scene_name, source, progress, stats, \
-                       error, created_at, started_at, finished_at, updated_at";
+pub(super) const COLUMNS: &str =
+    "id, name, state, priority, settings, scene_name, source, progress, stats, \
+                       error, created_at, started_at, finished_at, updated_at, owner, hold";
 
 fn bad_column(i: usize, what: &str) -> rusqlite::Error {
     rusqlite::Error::FromSqlConversionFailure(
@@ -34,7 +42,7 @@ fn bad_column(i: usize, what: &str) -> rusqlite::Error {
     )
 }
 
-fn record(r: &Row<'_>) -> rusqlite::Result<JobRecord> {
+pub(super) fn record(r: &Row<'_>) -> rusqlite::Result<JobRecord> {
     let state: String = r.get(2)?;
     let settings: String = r.get(4)?;
     let source: String = r.get(6)?;
@@ -55,6 +63,8 @@ fn record(r: &Row<'_>) -> rusqlite::Result<JobRecord> {
         started_at: r.get(11)?,
         finished_at: r.get(12)?,
         updated_at: r.get(13)?,
+        owner: r.get(14)?,
+        hold: r.get(15)?,
     })
 }
 
@@ -74,7 +84,7 @@ impl Store {
             serde_json::to_string(&job.settings).map_err(|e| StoreError::Db(e.to_string()))?;
         tx.execute(
             "INSERT INTO jobs (name, state, priority, settings, scene, scene_name, source, \
-             created_at, updated_at) VALUES (?1, 'queued', ?2, ?3, ?4, ?5, ?6, ?7, ?7)",
+             created_at, updated_at, owner) VALUES (?1, 'queued', ?2, ?3, ?4, ?5, ?6, ?7, ?7, ?8)",
             params![
                 job.name,
                 job.priority,
@@ -82,16 +92,16 @@ impl Store {
                 job.scene,
                 job.scene_name,
                 job.source.as_str(),
-                now
+                now,
+                job.owner,
             ],
         )?;
         let id = tx.last_insert_rowid();
-        let event = append_in(
-            &tx,
-            id,
-            "state",
-            &json!({"state": "queued", "previous": null}),
-        )?;
+        let mut data = json!({"state": "queued", "previous": null});
+        if let Some(by) = &job.owner {
+            data["by"] = json!(by);
+        }
+        let event = append_in(&tx, id, "state", &data)?;
         before_commit(id).map_err(StoreError::Db)?;
         let rec = tx.query_row(
             &format!("SELECT {COLUMNS} FROM jobs WHERE id = ?1"),
@@ -225,7 +235,7 @@ impl Store {
              started_at = CASE WHEN ?2 = 'running' AND started_at IS NULL THEN ?3 ELSE started_at END, \
              finished_at = CASE WHEN ?2 IN ('done', 'failed', 'canceled') THEN ?3 ELSE finished_at END, \
              error = COALESCE(?4, error), stats = COALESCE(?5, stats), \
-             progress = COALESCE(?6, progress) WHERE id = ?1",
+             progress = COALESCE(?6, progress), hold = ?7 WHERE id = ?1",
             params![
                 id,
                 to.as_str(),
@@ -233,14 +243,17 @@ impl Store {
                 t.error,
                 t.stats.as_ref().map(|s| s.to_string()),
                 t.progress.as_ref().and_then(|p| serde_json::to_string(p).ok()),
+                t.reason.as_ref().filter(|_| t.hold),
             ],
         )?;
-        let mut events = vec![append_in(
-            &tx,
-            id,
-            "state",
-            &json!({"state": to.as_str(), "previous": from.as_str()}),
-        )?];
+        let mut data = json!({"state": to.as_str(), "previous": from.as_str()});
+        if let Some(reason) = &t.reason {
+            data["reason"] = json!(reason);
+        }
+        if let Some(by) = &t.by {
+            data["by"] = json!(by);
+        }
+        let mut events = vec![append_in(&tx, id, "state", &data)?];
         for (kind, data) in &t.extra_events {
             events.push(append_in(&tx, id, kind, data)?);
         }
@@ -254,9 +267,25 @@ impl Store {
         Ok(rec)
     }
 
-    /// Changes a job's priority (any non-terminal state).
-    pub fn set_priority(&self, id: JobId, priority: u32) -> Result<JobRecord, StoreError> {
+    /// Paused jobs the server holds for a storage fault (`hold` set).
+    pub fn held_jobs(&self) -> Result<Vec<JobId>, StoreError> {
         let conn = self.conn();
+        let mut stmt =
+            conn.prepare_cached("SELECT id FROM jobs WHERE state = 'paused' AND hold IS NOT NULL")?;
+        let rows = stmt.query_map([], |r| r.get(0))?;
+        Ok(rows.collect::<Result<Vec<_>, _>>()?)
+    }
+
+    /// Changes a job's priority (any non-terminal state); appends a `priority` event saying who
+    /// (`by`) changed it from what.
+    pub fn set_priority(
+        &self,
+        id: JobId,
+        priority: u32,
+        by: Option<&str>,
+    ) -> Result<JobRecord, StoreError> {
+        let mut conn = self.conn();
+        let conn = conn.transaction()?;
         let state: Option<String> = conn
             .query_row("SELECT state FROM jobs WHERE id = ?1", params![id], |r| {
                 r.get(0)
@@ -275,15 +304,28 @@ impl Store {
                 ),
             });
         }
+        let previous: u32 = conn.query_row(
+            "SELECT priority FROM jobs WHERE id = ?1",
+            params![id],
+            |r| r.get(0),
+        )?;
         conn.execute(
             "UPDATE jobs SET priority = ?2, updated_at = ?3 WHERE id = ?1",
             params![id, priority, now_s()],
         )?;
-        Ok(conn.query_row(
+        let mut data = json!({"priority": priority, "previous": previous});
+        if let Some(by) = by {
+            data["by"] = json!(by);
+        }
+        let event = append_in(&conn, id, "priority", &data)?;
+        let rec = conn.query_row(
             &format!("SELECT {COLUMNS} FROM jobs WHERE id = ?1"),
             params![id],
             record,
-        )?)
+        )?;
+        conn.commit()?;
+        self.broadcast(vec![event]);
+        Ok(rec)
     }
 
     /// Records a job's progress counters.

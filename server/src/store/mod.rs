@@ -8,6 +8,8 @@
 
 mod events;
 mod jobs;
+mod retention;
+mod users;
 
 pub use events::StoredEvent;
 pub use jobs::Transition;
@@ -20,7 +22,7 @@ use tokio::sync::broadcast;
 
 use crate::jobs::model::JobId;
 
-/// The schema; `user_version` 1.
+/// The schema of version 1 (`user_version`); [`MIGRATE_V2`] brings it to 2.
 const SCHEMA: &str = "
 CREATE TABLE IF NOT EXISTS jobs (
     id          INTEGER PRIMARY KEY AUTOINCREMENT,
@@ -49,8 +51,24 @@ CREATE TABLE IF NOT EXISTS events (
     at     REAL NOT NULL,
     PRIMARY KEY (job_id, seq)
 ) WITHOUT ROWID;
-PRAGMA user_version = 1;
 ";
+
+/// Version 2: who submitted each job (`owner`), why the server holds a job paused (`hold`,
+/// e.g. a full disk; NULL when paused by a user), and the named tokens (`users`).
+const MIGRATE_V2: &str = "
+ALTER TABLE jobs ADD COLUMN owner TEXT;
+ALTER TABLE jobs ADD COLUMN hold TEXT;
+CREATE TABLE IF NOT EXISTS users (
+    name         TEXT PRIMARY KEY,
+    role         TEXT NOT NULL,
+    token_sha256 TEXT NOT NULL UNIQUE,
+    created_at   REAL NOT NULL
+);
+PRAGMA user_version = 2;
+";
+
+/// The schema version this build writes.
+const SCHEMA_VERSION: i64 = 2;
 
 /// The database plus the broadcast channel of new events.
 pub struct Store {
@@ -110,13 +128,31 @@ impl Store {
         conn.pragma_update(None, "foreign_keys", "ON")?;
         conn.busy_timeout(std::time::Duration::from_secs(5))?;
         let version: i64 = conn.pragma_query_value(None, "user_version", |r| r.get(0))?;
-        if version > 1 {
+        if version > SCHEMA_VERSION {
             return Err(StoreError::Db(format!(
                 "{} was written by a newer candela (schema {version})",
                 path.display()
             )));
         }
         conn.execute_batch(SCHEMA)?;
+        if version < 2 {
+            // Immediate: another process (`candela gc`) opening the same file waits, then finds
+            // it migrated.
+            conn.execute_batch("BEGIN IMMEDIATE")?;
+            let now: i64 = conn.pragma_query_value(None, "user_version", |r| r.get(0))?;
+            let migrated = if now < 2 {
+                conn.execute_batch(MIGRATE_V2)
+            } else {
+                Ok(())
+            };
+            match migrated {
+                Ok(()) => conn.execute_batch("COMMIT")?,
+                Err(e) => {
+                    let _ = conn.execute_batch("ROLLBACK");
+                    return Err(e.into());
+                }
+            }
+        }
         let (events, _) = broadcast::channel(1024);
         Ok(Store {
             conn: Mutex::new(conn),
@@ -132,6 +168,43 @@ impl Store {
     /// Receives every event appended from now on (all jobs).
     pub fn subscribe(&self) -> broadcast::Receiver<StoredEvent> {
         self.events.subscribe()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A version 1 database (before owners, holds and users) opens, migrated, with its jobs.
+    #[test]
+    fn migrates_a_version_1_store() {
+        let dir = std::env::temp_dir().join(format!("candela-store-v1-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("candela.db");
+        {
+            let conn = Connection::open(&path).unwrap();
+            conn.execute_batch(SCHEMA).unwrap();
+            conn.execute_batch(
+                "PRAGMA user_version = 1; INSERT INTO jobs (name, state, priority, settings, \
+                 scene, source, created_at, updated_at) VALUES ('old', 'done', 10, \
+                 '{\"integrator\": {\"type\": \"nee\"}, \"spp\": 1, \"time_s\": null, \"seed\": 0, \
+                 \"width\": 4, \"height\": 4, \"scene_max_depth\": null, \"exposure\": 0.0, \
+                 \"tonemap\": \"clamp\"}', '{}', 'inline', 1.0, 1.0);",
+            )
+            .unwrap();
+        }
+        let store = Store::open(&path).unwrap();
+        let job = store.get_job(1).unwrap();
+        assert_eq!(
+            (job.name.as_str(), job.owner, job.hold),
+            ("old", None, None)
+        );
+        assert_eq!(store.user_count().unwrap(), 0);
+        drop(store);
+        // Opening again is a no-op.
+        assert!(Store::open(&path).unwrap().get_job(1).is_ok());
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }
 

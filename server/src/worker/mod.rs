@@ -4,7 +4,8 @@
 //! for the job the stride scheduler picks (scheduler.rs), publishing snapshots, progress events
 //! and checkpoints at their intervals.
 //!
-//! Failures: a scene or shader error fails that job; a device error (a Vulkan call failing, or
+//! Failures: a write that fails for lack of space holds the job paused until space returns
+//! (storage_hold.rs); a scene or shader error fails that job; a device error (a Vulkan call failing, or
 //! a panic inside the renderer) fails the job whose pass it was, drops every session and
 //! rebuilds the device; the other jobs resume from their checkpoints, exactly. On shutdown every
 //! active job is checkpointed and stays `running` in the store, to be resumed at the next start.
@@ -14,6 +15,7 @@ mod checkpoint;
 mod metrics_lane;
 mod outcome;
 mod scheduler;
+mod storage_hold;
 mod warmup;
 
 use std::collections::{BTreeMap, VecDeque};
@@ -33,6 +35,7 @@ use crate::jobs::model::{now_s, JobId, JobState, SceneSource};
 use crate::shared::{GpuStatus, Shared};
 use crate::store::{JobPaths, Store, StoreError, Transition};
 use active::{ActiveJob, CheckpointError};
+use metrics_lane::SnapshotImage;
 use scheduler::Scheduler;
 
 /// A message to the worker.
@@ -84,6 +87,8 @@ pub fn spawn(
                 last_open: None,
                 open_failures: 0,
                 passes: 0,
+                held: BTreeMap::new(),
+                last_storage_check: None,
                 inject_loss_at: std::env::var("CANDELA_TEST_DEVICE_LOSS_AT_PASS")
                     .ok()
                     .and_then(|v| v.parse().ok()),
@@ -121,6 +126,9 @@ struct Worker {
     open_failures: u32,
     /// Passes run (or attempted) since start.
     passes: u64,
+    /// Jobs held for a storage fault, with the reason (storage_hold.rs).
+    held: BTreeMap<JobId, String>,
+    last_storage_check: Option<Instant>,
     /// Test hook: pretend the device is lost at this pass (`CANDELA_TEST_DEVICE_LOSS_AT_PASS`).
     inject_loss_at: Option<u64>,
 }
@@ -159,16 +167,18 @@ impl Worker {
                     }
                 }
             }
-            // Step 2: a device.
+            // Step 2: free space (and held jobs resumed when it returns).
+            self.check_storage();
+            // Step 3: a device.
             if self.ctx.is_none() && !self.open_device() {
                 continue;
             }
-            // Step 3: which jobs to render.
+            // Step 4: which jobs to render.
             if self.dirty {
                 self.dirty = false;
                 self.reconcile();
             }
-            // Step 4: one pass of the job the scheduler picks.
+            // Step 5: one pass of the job the scheduler picks.
             if let Some(id) = self.sched.pick() {
                 self.step(id);
             }
@@ -184,6 +194,7 @@ impl Worker {
         self.last_open = Some(Instant::now());
         let opts = GpuOptions {
             device: self.config.device.clone(),
+            index: None,
             validation: self.config.validation,
             kernel_cache: self.config.kernel_cache.clone(),
         };
@@ -260,6 +271,8 @@ impl Worker {
         for (id, state, priority) in runnable {
             if self.active.contains_key(&id) {
                 self.sched.set_weight(id, priority);
+            } else if self.held.contains_key(&id) {
+                // Held for a storage fault: waits for space (storage_hold.rs).
             } else if self.active.len() < self.config.max_active.max(1) && self.ctx.is_some() {
                 self.admit(id, state, priority);
             }
@@ -423,8 +436,10 @@ impl Worker {
             return;
         };
         // Step 3: queue it, with a copy of the accumulation when a snapshot is due.
+        // (A job with a quality target copies it with every pass, to check the target.)
         let snapshot = job.snapshot_due(interval.saturating_sub(target / 2));
-        let result = catch_unwind(AssertUnwindSafe(|| job.session.submit_pass(spp, snapshot)));
+        let copy = snapshot || job.settings.until_rel_mse.is_some();
+        let result = catch_unwind(AssertUnwindSafe(|| job.session.submit_pass(spp, copy)));
         let done = match result {
             Ok(Ok(done)) => done,
             Ok(Err(e)) => return self.render_failed(id, e, "render pass"),
@@ -433,6 +448,7 @@ impl Worker {
         if snapshot {
             job.last_snapshot = Some(Instant::now());
         }
+        job.report_flags.push_back(snapshot);
         self.queued.push_back(id);
         for p in done {
             self.after_pass(id, p);
@@ -463,6 +479,7 @@ impl Worker {
         };
         let stats = p.stats;
         job.record_pass(&stats);
+        let report = job.report_flags.pop_front().unwrap_or(true);
         let pixels = job.settings.width as u64 * job.settings.height as u64;
         let busy = if stats.gpu.is_zero() {
             stats.wall
@@ -479,11 +496,24 @@ impl Worker {
             .gpu_busy_ns
             .fetch_add(busy.as_nanos() as u64, Relaxed);
         self.shared.passes_total.fetch_add(1, Relaxed);
+        // A quality target: the snapshot's estimate, computed here to decide at once.
+        let mut snapshot = p.snapshot.map(SnapshotImage::Accum);
+        if job.settings.until_rel_mse.is_some() {
+            if let Some(SnapshotImage::Accum(snap)) = snapshot.take() {
+                match snap.image_and_estimate() {
+                    Ok((image, estimate)) => {
+                        job.observe_estimate(snap.spp(), estimate);
+                        snapshot = Some(SnapshotImage::Image(image, snap.spp()));
+                    }
+                    Err(e) => return self.render_failed(id, e, "estimating the error"),
+                }
+            }
+        }
         // The last pass's image is the final one, which `finish` reports.
         if job.finished() {
             return self.finish(id);
         }
-        if let Some(snap) = p.snapshot {
+        if let Some(snap) = snapshot.filter(|_| report) {
             self.snapshot(id, snap);
         }
         let Some(job) = self.active.get_mut(&id) else {

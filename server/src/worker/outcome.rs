@@ -1,36 +1,32 @@
 //! What a job's render produces, as seen from the worker: snapshots (image + `progress` and
 //! `snapshot` events), the end (final image on disk, `done` with the stats), and failures
-//! (`error`, and a device rebuild when the device itself is in doubt).
+//! (`error`, and a device rebuild when the device itself is in doubt; a hold when the disk is
+//! full).
 
-use renderer::render::{AccumSnapshot, RenderError};
+use renderer::render::RenderError;
 
 use super::metrics_lane::SnapshotImage;
 use serde_json::json;
 use tracing::{error, info, warn};
 
 use super::active::CheckpointError;
+use super::storage_hold::is_storage_fault;
 use super::{is_device_error, Worker};
 use crate::jobs::model::{JobId, JobState};
+use crate::storage::is_storage_message;
 use crate::store::{StoreError, Transition};
 
 impl Worker {
     /// Hands the accumulation a pass copied out (`snap`) to the job's report lane, which
     /// resolves and publishes the image and appends a progress + snapshot event.
-    pub(super) fn snapshot(&mut self, id: JobId, snap: AccumSnapshot) {
+    pub(super) fn snapshot(&mut self, id: JobId, snap: SnapshotImage) {
         let Some(job) = self.active.get_mut(&id) else {
             return;
         };
         let spp = snap.spp();
         let _ = self.store.set_progress(id, &job.session.progress());
         let data = snapshot_data(id, spp);
-        job.report_snapshot(
-            &self.store,
-            &self.shared,
-            id,
-            SnapshotImage::Accum(snap),
-            spp,
-            data,
-        );
+        job.report_snapshot(&self.store, &self.shared, id, snap, spp, data);
     }
 
     /// The budget is reached: final image on disk, final events, state done.
@@ -40,18 +36,28 @@ impl Worker {
         let Some(mut job) = self.active.remove(&id) else {
             return;
         };
-        let image = match job.session.image() {
-            Ok(i) => i,
+        let image = match job.session.image_and_estimate() {
+            Ok((i, estimate)) => {
+                job.estimate = estimate;
+                i
+            }
             Err(e) => return self.render_failed(id, e, "reading the final image"),
         };
         if let Err(e) = job.write_image(&image) {
             let msg = match e {
+                CheckpointError::Io(e) if is_storage_fault(&e) => {
+                    // Back in the active set only to be held: it resumes from its checkpoint.
+                    self.active.insert(id, job);
+                    return self.hold_for_storage(id, "writing the final image", e.to_string());
+                }
                 CheckpointError::Io(e) => e.to_string(),
                 CheckpointError::Render(e) => e.to_string(),
             };
             return self.fail(id, format!("writing the final image: {msg}"));
         }
-        let stats = job.session.stats();
+        let mut stats = job.session.stats();
+        stats.rel_mse_estimate = job.estimate;
+        stats.stopped_by = job.stop_reason();
         let progress = job.session.progress();
         let spp = progress.spp;
         let data = snapshot_data(id, spp);
@@ -59,7 +65,7 @@ impl Worker {
             &self.store,
             &self.shared,
             id,
-            SnapshotImage::Image(image),
+            SnapshotImage::Image(image, spp),
             spp,
             data,
         );
@@ -87,6 +93,11 @@ impl Worker {
                     self.checkpoint_failed(id, e);
                 }
             }
+            // The store is full: held, to finish again from the checkpoint when space returns.
+            Err(StoreError::Db(m)) if is_storage_message(&m) => {
+                self.active.insert(id, job);
+                return self.hold_for_storage(id, "recording the end", m);
+            }
             Err(e) => warn!(job = id, error = %e, "finishing job"),
         }
         self.shared.forget(id);
@@ -110,6 +121,12 @@ impl Worker {
         };
         if let Err(e) = self.store.transition(id, JobState::Failed, t) {
             warn!(job = id, error = %e, "marking job failed");
+            // Not recorded for lack of space: kept out of the active set until space returns,
+            // then admitted (and failed) again.
+            if matches!(&e, StoreError::Db(m) if is_storage_message(m)) {
+                self.held
+                    .insert(id, format!("disk full: recording the failure: {e}"));
+            }
         }
     }
 
@@ -131,7 +148,11 @@ impl Worker {
     pub(super) fn checkpoint_failed(&mut self, id: JobId, e: CheckpointError) {
         match e {
             CheckpointError::Render(e) => self.render_failed(id, e, "reading the checkpoint"),
-            // A full disk is not the job's fault: keep rendering, try again next interval.
+            // A full disk is not the job's fault: held until space returns.
+            CheckpointError::Io(e) if is_storage_fault(&e) => {
+                self.hold_for_storage(id, "writing the checkpoint", e.to_string())
+            }
+            // Other trouble: keep rendering, try again next interval.
             CheckpointError::Io(e) => warn!(job = id, error = %e, "writing checkpoint"),
         }
     }

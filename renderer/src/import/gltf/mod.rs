@@ -125,6 +125,7 @@ fn import_checked(path: &Path, opts: &ImportOptions) -> ImportResult {
             report.warn(&whole, format!("extension {ext} is not supported: ignored"));
         }
     }
+    precheck(&root).map_err(|e| whole.error(format!("invalid glTF: {e}")))?;
     let document = ::gltf::Document::from_json(root).map_err(|e| match e {
         ::gltf::Error::Validation(errors) => {
             let list: Vec<String> = errors
@@ -191,6 +192,36 @@ fn import_checked(path: &Path, opts: &ImportOptions) -> ImportResult {
 }
 
 /// Every buffer: the .glb's binary chunk, a `data:` URI, or a file beside the glTF.
+/// What the gltf crate assumes instead of checking (it panics on these): every primitive's
+/// POSITION accessor exists, and every image has a buffer view with a MIME type or a URI.
+fn precheck(root: &::gltf::json::Root) -> Result<(), String> {
+    use ::gltf::json::mesh::Semantic;
+    use ::gltf::json::validation::Checked;
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            if let Some(a) = prim.attributes.get(&Checked::Valid(Semantic::Positions)) {
+                if a.value() >= root.accessors.len() {
+                    return Err(format!(
+                        "meshes[{m}].primitives[{p}].attributes.POSITION: accessor {} does not exist ({} accessors)",
+                        a.value(),
+                        root.accessors.len()
+                    ));
+                }
+            }
+        }
+    }
+    for (i, image) in root.images.iter().enumerate() {
+        match (&image.buffer_view, &image.uri) {
+            (Some(_), _) if image.mime_type.is_none() => {
+                return Err(format!("images[{i}]: a bufferView image needs a mimeType"))
+            }
+            (None, None) => return Err(format!("images[{i}]: neither uri nor bufferView")),
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 fn load_buffers(
     document: &::gltf::Document,
     file: &Arc<str>,

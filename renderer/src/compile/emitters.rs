@@ -1,0 +1,158 @@
+//! Compile step 5: the light table. Emissive primitives (in BVH order, so a primitive's slot
+//! names its light), then point, spot and directional lights, then the environment; and which
+//! textures are environment maps (their rows clamp instead of wrapping).
+
+use glam::{DVec3, Vec3};
+
+use super::light_bvh::LightBvh;
+use super::lights::{self, LightBuilder};
+use super::prims::Shape;
+use crate::layout::*;
+use crate::scene::{Environment, Light, Scene};
+
+/// The scene's lights in GPU form.
+pub(super) struct Emitters {
+    pub lights: Vec<GpuLight>,
+    pub alias: Vec<GpuAlias>,
+    /// The light BVH's nodes (`render.light_sampler: "bvh"`; empty with the power sampler), its
+    /// node and infinite-light counts.
+    pub light_bvh: Vec<GpuLightNode>,
+    pub light_counts: [u32; 2],
+    /// `GpuGlobals::env`: light index, texture, width, height.
+    pub env: [u32; 4],
+    /// `GpuGlobals::env_params`: scale, cos and sin of the y rotation; the light BVH's
+    /// probability of picking an infinite light.
+    pub env_params: [f32; 4],
+    pub env_dist: Vec<f32>,
+    /// Per texture: true where it is the environment map.
+    pub clamp_rows: Vec<bool>,
+}
+
+/// Builds the light table; marks each emissive primitive of `sorted` (BVH order, `order[slot]` its
+/// input index into `shapes`) with its light index. `radius`: the scene's bounding sphere.
+pub(super) fn gather(
+    scene: &Scene,
+    order: &[u32],
+    sorted: &mut [GpuPrim],
+    shapes: &[Shape],
+    radius: f64,
+) -> Emitters {
+    let origin = scene.camera.position;
+    let mut lb = LightBuilder::new();
+    emissive_prims(scene, order, sorted, shapes, &mut lb);
+    for l in &scene.lights {
+        delta_light(l, origin, radius, &mut lb);
+    }
+    let mut out = Emitters {
+        lights: Vec::new(),
+        alias: Vec::new(),
+        light_bvh: Vec::new(),
+        light_counts: [0, 0],
+        env: [NONE, NONE, 0, 0],
+        env_params: [1.0, 1.0, 0.0, 0.0],
+        env_dist: Vec::new(),
+        clamp_rows: vec![false; scene.textures.len()],
+    };
+    environment(scene, radius, &mut lb, &mut out);
+    // The light BVH, when asked for, over the lights before their pick probabilities are set.
+    let tree = (scene.render.light_sampler.as_deref() == Some("bvh") && !lb.lights.is_empty())
+        .then(|| LightBvh::build(&lb.lights, &lb.power));
+    (out.lights, out.alias) = lb.finish();
+    if let Some(t) = tree {
+        for (l, trail) in out.lights.iter_mut().zip(&t.trails) {
+            l.bvh_trail = trail.map_or(0, |(_, bits)| bits);
+        }
+        out.light_counts = [t.nodes.len() as u32, t.infinite.len() as u32];
+        out.env_params[3] = t.p_infinite() as f32;
+        out.light_bvh = t.gpu_nodes();
+    }
+    out
+}
+
+/// Every primitive whose material emits becomes an area light.
+fn emissive_prims(
+    scene: &Scene,
+    order: &[u32],
+    sorted: &mut [GpuPrim],
+    shapes: &[Shape],
+    lb: &mut LightBuilder,
+) {
+    let emission: Vec<Vec3> = scene.materials.iter().map(|m| m.emission).collect();
+    for (slot, &orig) in order.iter().enumerate() {
+        let bits = sorted[slot].a[3].to_bits();
+        let e = emission
+            .get((bits & PRIM_MATERIAL_MASK) as usize)
+            .copied()
+            .unwrap_or(Vec3::ZERO);
+        if e.max_element() <= 0.0 {
+            continue;
+        }
+        let li = match shapes[orig as usize] {
+            Shape::Sphere { center, radius } => lb.sphere(
+                slot as u32,
+                center,
+                radius,
+                bits & PRIM_FLIP_NORMALS != 0,
+                e,
+            ),
+            Shape::Triangle(p) => lb.triangle(slot as u32, p, e),
+        };
+        sorted[slot].b[3] = f32::from_bits(li);
+    }
+}
+
+/// A point, spot or directional light, positioned relative to `origin`.
+fn delta_light(l: &Light, origin: DVec3, radius: f64, lb: &mut LightBuilder) {
+    match l {
+        Light::Point {
+            position,
+            intensity,
+        } => lb.point(*position - origin, *intensity),
+        Light::Spot {
+            position,
+            direction,
+            intensity,
+            cutoff_angle,
+            beam_width,
+        } => lb.spot(
+            *position - origin,
+            *direction,
+            *intensity,
+            *cutoff_angle,
+            *beam_width,
+        ),
+        Light::Directional {
+            direction,
+            irradiance,
+        } => lb.directional(*direction, *irradiance, radius),
+    };
+}
+
+/// A constant or image-based environment, with its sampling distribution.
+fn environment(scene: &Scene, radius: f64, lb: &mut LightBuilder, out: &mut Emitters) {
+    match &scene.environment {
+        Some(Environment::Constant { radiance }) if radiance.max_element() > 0.0 => {
+            out.env[0] = lb.env_constant(*radiance, radius);
+        }
+        Some(Environment::Map {
+            texture,
+            scale,
+            rotate_y,
+        }) => {
+            if let Some(tex) = scene.textures.get(*texture as usize) {
+                let (dist, mean) = lights::env_distribution(tex);
+                out.env_dist = dist;
+                out.env = [
+                    lb.env_map(*scale, mean, radius),
+                    *texture,
+                    tex.width,
+                    tex.height,
+                ];
+                let a = rotate_y.to_radians();
+                out.env_params = [*scale, a.cos(), a.sin(), 0.0];
+                out.clamp_rows[*texture as usize] = true;
+            }
+        }
+        _ => {}
+    }
+}
