@@ -50,6 +50,10 @@ pub mod binding {
     pub const LIGHT_BVH: u32 = 52;
 }
 
+/// Entries of the BVH traversal's short stack (`BVH_STACK` in the shaders): trees up to this
+/// many levels are walked with the stack alone (see renderer/src/accel/flatten.rs).
+pub const BVH_STACK_DEPTH: u32 = 64;
+
 /// Marks "none" in u32 index fields.
 pub const NONE: u32 = u32::MAX;
 
@@ -304,7 +308,7 @@ pub fn glsl_constants() -> String {
         ("B_BDPT_LIGHT_COUNTS", binding::BDPT_LIGHT_COUNTS),
         ("B_BVH_PARENTS", binding::BVH_PARENTS),
         // Entries of the traversal's short stack (plain integer: an array size).
-        ("BVH_STACK", crate::accel::STACK_DEPTH as u32),
+        ("BVH_STACK", BVH_STACK_DEPTH),
         ("B_ACCUM_ODD", binding::ACCUM_ODD),
         ("B_LIGHT_BVH", binding::LIGHT_BVH),
     ];

@@ -23,9 +23,9 @@ use obvhs::bvh2::Bvh2;
 use super::PrimBounds;
 use crate::layout::{GpuBvhNode, NONE};
 
-/// Entries of the traversal's short stack (`BVH_STACK` in the shaders): trees up to this many
-/// levels are walked with the stack alone.
-pub const STACK_DEPTH: usize = 64;
+/// Entries of the traversal's short stack (`BVH_STACK` in the shaders, declared in layout.rs):
+/// trees up to this many levels are walked with the stack alone.
+pub const STACK_DEPTH: usize = crate::layout::BVH_STACK_DEPTH as usize;
 /// Most primitives in one leaf (obvhs's `max_prims_per_leaf`, and the balanced rebuild's).
 pub const MAX_LEAF: usize = 4;
 

@@ -62,7 +62,7 @@ pub struct GpuContext {
     pub info: DeviceInfo,
     /// The largest storage buffer and device-local heap (crate::memory checks scenes against
     /// them before uploading).
-    pub limits: crate::memory::DeviceLimits,
+    pub limits: super::DeviceLimits,
     pub validation_enabled: bool,
     /// The driver's pipeline cache, loaded from and saved to `kernel_dir`.
     pub(crate) pipelines: PipelineCache,
@@ -502,8 +502,7 @@ impl GpuContext {
             .map(|h| h.size)
             .max()
             .unwrap_or(0);
-        let limits =
-            crate::memory::DeviceLimits::new(props.limits.max_storage_buffer_range as u64, heap);
+        let limits = super::DeviceLimits::new(props.limits.max_storage_buffer_range as u64, heap);
         tracing::info!(device = %info.name, driver = %info.driver, validation, float_atomics, "Vulkan device ready");
         Ok(GpuContext {
             entry,

@@ -12,6 +12,7 @@ mod buffer;
 mod commands;
 mod context;
 mod kernel_cache;
+mod limits;
 mod pipeline;
 mod shader;
 
@@ -22,6 +23,7 @@ pub use kernel_cache::{
     compile_glsl, compile_kernels, compile_uncached, kernel_spirv, kernel_stats, source_closure,
     spirv_key, spirv_path, DriverKey, KernelStats,
 };
+pub use limits::{DeviceLimits, BUFFER_LIMIT_ENV, MEMORY_LIMIT_ENV};
 pub use pipeline::{Binding, ComputePipeline};
 pub use shader::{shader_source, ShaderDefines, COMPILER_ID};
 
