@@ -42,6 +42,18 @@ function timeTicks(max) {
   return ticks;
 }
 
+/** Polyline coordinates at 0.1 px, one point per x: passes a fraction of a millisecond apart
+ *  (a time budget's last, short pass) land on one column, where the later point is kept. */
+function polyline(points) {
+  const out = [];
+  for (const [px, py] of points) {
+    const c = [px.toFixed(1), py.toFixed(1)];
+    if (out.length && out[out.length - 1][0] === c[0]) out[out.length - 1] = c;
+    else out.push(c);
+  }
+  return out.map((c) => c.join(','));
+}
+
 function svg(tag, attrs = {}, text) {
   const node = document.createElementNS(SVG_NS, tag);
   for (const [k, v] of Object.entries(attrs)) node.setAttribute(k, String(v));
@@ -191,7 +203,7 @@ class MetricsChart {
 
     // The estimate's curve (dashed) and its current value, under the reference curve.
     if (lastEst) {
-      const ecoords = est.map((q) => `${x(q.t).toFixed(1)},${y(q.e).toFixed(1)}`);
+      const ecoords = polyline(est.map((q) => [x(q.t), y(q.e)]));
       nodes.push(svg('polyline', { class: 'line estimate', id: 'metrics-estimate-line', points: ecoords.join(' ') }));
       const ex = x(lastEst.t);
       const ey = y(lastEst.e);
@@ -209,7 +221,7 @@ class MetricsChart {
       return;
     }
     // The curve, its last point and the current value next to it.
-    const coords = pts.map((q) => `${x(q.t).toFixed(1)},${y(q.m[this.metric]).toFixed(1)}`);
+    const coords = polyline(pts.map((q) => [x(q.t), y(q.m[this.metric])]));
     nodes.push(svg('polyline', { class: 'line', id: 'metrics-line', points: coords.join(' ') }));
     const lx = x(last.t);
     const ly = y(last.m[this.metric]);
