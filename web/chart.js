@@ -1,8 +1,10 @@
-// candela web viewer: the live error chart of a job that names a reference. Each `progress` event
-// of such a job carries `metrics` (rel_mse, flip, ssim, psnr_db, mse against the reference); the
-// chart plots the chosen error metric (relMSE by default, FLIP or MSE) on a log axis against the
-// elapsed render time, as inline SVG beside the image, with the current value labelled. Hidden
-// for jobs without a reference.
+// candela web viewer: the live error chart. Every `progress` event carries `rel_mse_estimate`,
+// the relMSE against the converged image estimated without a reference (from the even and odd
+// halves of the samples); a job that names a reference also gets `metrics` (rel_mse, flip, ssim,
+// psnr_db, mse against it). The chart plots the chosen error metric (relMSE by default, FLIP or
+// MSE) on a log axis against the elapsed render time, as inline SVG beside the image, with the
+// current value labelled, and with relMSE the estimate as a dashed second curve (alone for jobs
+// without a reference). Hidden until there is something to plot.
 
 import { $, el, fmtDuration, fmtNum } from './util.js';
 import { EventStream } from './api.js';
@@ -53,7 +55,8 @@ class MetricsChart {
     this.svg = $('metrics-chart');
     this.caption = $('metrics-text');
     this.select = $('metrics-metric');
-    this.points = []; // {t, m}: elapsed seconds and the metrics object of one progress event
+    this.heading = $('metrics-heading');
+    this.points = []; // {t, m, e}: elapsed seconds, the metrics object (or null) and the estimate
     this.hasReference = false;
     this.history = null; // EventStream replaying a finished job's progress events
     this.metric = 'rel_mse';
@@ -79,19 +82,21 @@ class MetricsChart {
     this.render();
   }
 
-  /** Adds the metrics of one progress event (ignored without metrics), kept in time order: a
-   *  replayed event lands before the job's latest point, one at the same time replaces it. */
+  /** Adds the metrics and the estimate of one progress event (ignored without either), kept in
+   *  time order: a replayed event lands before the job's latest point, one at the same time
+   *  replaces it. */
   add(p) {
-    const m = p && p.metrics;
-    if (!m || typeof m !== 'object') return;
+    const m = p && p.metrics && typeof p.metrics === 'object' ? p.metrics : null;
+    const e = p && Number.isFinite(p.rel_mse_estimate) ? p.rel_mse_estimate : null;
+    if (!m && e == null) return;
     const t = elapsedOf(p) ?? 0;
     if (!Number.isFinite(t)) return;
     const pts = this.points;
     let i = pts.length;
     while (i > 0 && pts[i - 1].t > t) i--;
-    if (i > 0 && pts[i - 1].t === t) pts[i - 1] = { t, m };
-    else pts.splice(i, 0, { t, m });
-    this.hasReference = true;
+    if (i > 0 && pts[i - 1].t === t) pts[i - 1] = { t, m: m || pts[i - 1].m, e: e ?? pts[i - 1].e };
+    else pts.splice(i, 0, { t, m, e });
+    if (m) this.hasReference = true;
     this.render();
   }
 
@@ -120,16 +125,26 @@ class MetricsChart {
   }
 
   render() {
+    // Without a reference only the estimate (a relMSE) can be plotted.
+    if (!this.hasReference) this.metric = 'rel_mse';
+    this.select.hidden = !this.hasReference;
     const def = CHART_METRICS[this.metric];
-    const pts = this.points.filter((q) => Number.isFinite(q.m[this.metric]) && q.m[this.metric] > 0);
-    this.panel.hidden = !this.hasReference;
+    const pts = this.points.filter((q) => q.m && Number.isFinite(q.m[this.metric]) && q.m[this.metric] > 0);
+    const est = this.metric === 'rel_mse' ? this.points.filter((q) => q.e > 0) : [];
+    this.panel.hidden = !this.hasReference && !est.length;
+    this.heading.textContent = this.hasReference ? 'Error against the reference' : 'Estimated error (no reference)';
     this.svg.dataset.metric = this.metric;
     this.svg.dataset.points = String(pts.length);
+    this.svg.dataset.estimatePoints = String(est.length);
     const title = svg('title', { id: 'metrics-chart-title' }, `${def.label} against elapsed render time (log scale)`);
     const last = pts[pts.length - 1];
-    const desc = svg('desc', { id: 'metrics-chart-desc' }, last
+    const lastEst = est[est.length - 1];
+    const estText = lastEst
+      ? ` Estimated relMSE without a reference (dashed): latest ${fmtMetric(lastEst.e)} at ${fmtDuration(lastEst.t)}.`
+      : '';
+    const desc = svg('desc', { id: 'metrics-chart-desc' }, (last
       ? `${pts.length} measurement${pts.length === 1 ? '' : 's'} of the ${def.long} against the reference; latest ${fmtMetric(last.m[this.metric])} at ${fmtDuration(last.t)}.`
-      : 'No measurement yet.');
+      : (lastEst ? '' : 'No measurement yet.')) + estText);
     this.svg.setAttribute('aria-labelledby', 'metrics-chart-title metrics-chart-desc');
     const nodes = [title, desc];
     const x0 = M.left;
@@ -137,7 +152,7 @@ class MetricsChart {
     const y0 = M.top;
     const y1 = H - M.bottom;
     nodes.push(svg('rect', { class: 'frame', x: x0, y: y0, width: x1 - x0, height: y1 - y0 }));
-    if (!pts.length) {
+    if (!pts.length && !est.length) {
       nodes.push(svg('text', { x: (x0 + x1) / 2, y: (y0 + y1) / 2, 'text-anchor': 'middle', class: 'empty' },
         this.hasReference ? 'Waiting for the first measurement…' : 'No reference'));
       this.svg.replaceChildren(...nodes);
@@ -145,12 +160,13 @@ class MetricsChart {
       return;
     }
 
-    // Axes: log10 of the metric over whole decades; time from 0 to the last point.
-    const logs = pts.map((q) => Math.log10(q.m[this.metric]));
+    // Axes: log10 of the metric (and the estimate) over whole decades; time from 0 to the last
+    // point.
+    const logs = pts.map((q) => Math.log10(q.m[this.metric])).concat(est.map((q) => Math.log10(q.e)));
     const lo = Math.floor(Math.min(...logs));
     let hi = Math.ceil(Math.max(...logs));
     if (hi === lo) hi = lo + 1;
-    const tMax = Math.max(pts[pts.length - 1].t, 1e-3);
+    const tMax = Math.max(...pts.concat(est).map((q) => q.t), 1e-3);
     const x = (t) => x0 + (t / tMax) * (x1 - x0);
     const y = (v) => y0 + (1 - (Math.log10(v) - lo) / (hi - lo)) * (y1 - y0);
 
@@ -173,6 +189,25 @@ class MetricsChart {
       transform: `rotate(-90 10 ${(y0 + y1) / 2})`,
     }, `${def.label} (log)`));
 
+    // The estimate's curve (dashed) and its current value, under the reference curve.
+    if (lastEst) {
+      const ecoords = est.map((q) => `${x(q.t).toFixed(1)},${y(q.e).toFixed(1)}`);
+      nodes.push(svg('polyline', { class: 'line estimate', id: 'metrics-estimate-line', points: ecoords.join(' ') }));
+      const ex = x(lastEst.t);
+      const ey = y(lastEst.e);
+      nodes.push(svg('circle', { class: 'dot estimate', cx: ex.toFixed(1), cy: ey.toFixed(1), r: 2.5 }));
+      const estLabel = svg('text', {
+        id: 'metrics-estimate-current', class: 'current estimate', x: (ex - 4).toFixed(1),
+        y: (ey > y1 - 14 ? ey - 6 : ey + 14).toFixed(1), 'text-anchor': 'end',
+      }, `est. ${fmtMetric(lastEst.e)}`);
+      estLabel.dataset.value = String(lastEst.e);
+      nodes.push(estLabel);
+    }
+    if (!last) {
+      this.svg.replaceChildren(...nodes);
+      this.renderCaption();
+      return;
+    }
     // The curve, its last point and the current value next to it.
     const coords = pts.map((q) => `${x(q.t).toFixed(1)},${y(q.m[this.metric]).toFixed(1)}`);
     nodes.push(svg('polyline', { class: 'line', id: 'metrics-line', points: coords.join(' ') }));
@@ -189,15 +224,23 @@ class MetricsChart {
     this.renderCaption();
   }
 
-  /** Every metric of the latest measurement, as text under the chart. */
+  /** Every metric of the latest measurement, as text under the chart, and the estimate. */
   renderCaption() {
-    const last = this.points[this.points.length - 1];
+    const withM = this.points.filter((q) => q.m);
+    const withE = this.points.filter((q) => q.e != null);
+    const last = withM[withM.length - 1];
+    const lastEst = withE[withE.length - 1];
+    const estimate = lastEst
+      ? el('span', { text: `estimated relMSE ${fmtMetric(lastEst.e)} (no reference, dashed)` })
+      : null;
     if (!last) {
-      this.caption.textContent = this.hasReference ? 'Error against the reference appears with the first snapshot.' : '';
+      if (estimate) this.caption.replaceChildren(estimate, ` at ${fmtDuration(lastEst.t)}`);
+      else this.caption.textContent = this.hasReference ? 'Error against the reference appears with the first snapshot.' : '';
       return;
     }
     const m = last.m;
     this.caption.replaceChildren(
+      ...(estimate ? [estimate, el('br')] : []),
       el('span', { text: `relMSE ${fmtMetric(m.rel_mse)}` }), ' · ',
       el('span', { text: `FLIP ${fmtMetric(m.flip)}` }), ' · ',
       el('span', { text: `SSIM ${m.ssim == null ? '—' : fmtNum(m.ssim)}` }), ' · ',

@@ -71,7 +71,7 @@ export function selectJob(id, { force = false } = {}) {
       renderStats(job, jobNumbers(job));
       metricsChart.setReference(jobHasReference(job));
       metricsChart.add(jobProgress(job));
-      if (TERMINAL.has(job.state) && jobHasReference(job)) metricsChart.replay(jobLinks(job).events);
+      if (TERMINAL.has(job.state)) metricsChart.replay(jobLinks(job).events);
       if (jobSpp(job) > 0 || job.state === 'done') viewSlot.load(pngUrl(job), { spp: jobSpp(job), job: id });
       else $('stage-placeholder').textContent = job.state === 'queued' ? 'Queued: waiting for the GPU…' : 'Waiting for the first snapshot…';
       if (!TERMINAL.has(job.state)) openStream(job);

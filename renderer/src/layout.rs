@@ -11,9 +11,9 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// Descriptor binding indices (set 0), `B_*` in the shaders. 0–15 belong to the
-/// session (scene, film, acceleration structure); integrators' own stages take their own
-/// ranges: vct 16–29 (renderer/src/integrators/vct/gpu.rs), deferred 30–39
+/// Descriptor binding indices (set 0), `B_*` in the shaders. 0–15 and 50–59 belong to the
+/// session (scene, film, acceleration structure, light sampler); integrators' own stages take
+/// their own ranges: vct 16–29 (renderer/src/integrators/vct/gpu.rs), deferred 30–39
 /// (renderer/src/integrators/deferred/stages.rs), bdpt 40–49 (below).
 pub mod binding {
     pub const GLOBALS: u32 = 0;
@@ -39,7 +39,20 @@ pub mod binding {
     /// the band being rendered, and each path's vertex count.
     pub const BDPT_LIGHT_VERTICES: u32 = 40;
     pub const BDPT_LIGHT_COUNTS: u32 = 41;
+    /// The session's second range (50–59). Each BVH node's parent (u32, NONE for the root),
+    /// read only by the traversal's stackless fallback for trees deeper than its short stack
+    /// (`accel::STACK_DEPTH`); one placeholder word otherwise. See shaders/common/traverse.glsl.
+    pub const BVH_PARENTS: u32 = 50;
+    /// The odd-indexed samples' share of ACCUM, per pixel (Σr, Σg, Σb, samples kept): the second
+    /// half of the error estimate (shaders/common/film.glsl, renderer/src/metrics/estimate.rs).
+    pub const ACCUM_ODD: u32 = 51;
+    /// The light BVH (`render.light_sampler: "bvh"` only; renderer/src/compile/light_bvh.rs).
+    pub const LIGHT_BVH: u32 = 52;
 }
+
+/// Entries of the BVH traversal's short stack (`BVH_STACK` in the shaders): trees up to this
+/// many levels are walked with the stack alone (see renderer/src/accel/flatten.rs).
+pub const BVH_STACK_DEPTH: u32 = 64;
 
 /// Marks "none" in u32 index fields.
 pub const NONE: u32 = u32::MAX;
@@ -155,18 +168,37 @@ pub mod light {
 /// Point: p0 position. Spot: p0 position, p1 direction, p2 = (cos cutoff, cos beam, cutoff rad,
 /// beam rad). Directional: p0 = travel direction. Environments: radiance (constant) or scale.
 /// `prim` is the emitting primitive (area lights) and `pick_pdf` the probability of choosing
-/// this light (proportional to power).
+/// this light (proportional to power); `bvh_trail` its path in the light BVH (bit k: the second
+/// child at depth k; light sampler "bvh" only).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct GpuLight {
     pub kind: u32,
     pub prim: u32,
     pub pick_pdf: f32,
-    pub pad: u32,
+    pub bvh_trail: u32,
     pub p0: [f32; 4],
     pub p1: [f32; 4],
     pub p2: [f32; 4],
     pub radiance: [f32; 4],
+}
+
+/// A node of the light BVH (renderer/src/compile/light_bvh.rs): bounds, power, emission cone;
+/// an inner node's first child follows it and `index` is its second, a leaf's `index` is its
+/// light. After the tree, one entry per infinite light (`index`: the light).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq, Default)]
+pub struct GpuLightNode {
+    /// (bounds min, power φ)
+    pub min_phi: [f32; 4],
+    /// (bounds max, cos θ_o of the normal cone)
+    pub max_cos_o: [f32; 4],
+    /// (normal cone axis, cos θ_e of the emission spread)
+    pub w_cos_e: [f32; 4],
+    pub index: u32,
+    /// Bit 0: leaf.
+    pub flags: u32,
+    pub pad: [u32; 2],
 }
 
 /// One entry of the light-selection alias table (Walker/Vose): keep `index` with probability
@@ -196,9 +228,11 @@ pub struct GpuGlobals {
     pub scene_sphere: [f32; 4],
     /// (environment light index or NONE, env map texture or NONE, env map width, env map height)
     pub env: [u32; 4],
-    /// (env scale, cos rotate_y, sin rotate_y, 0)
+    /// (env scale, cos rotate_y, sin rotate_y, the light BVH's probability of picking an
+    /// infinite light)
     pub env_params: [f32; 4],
-    /// (number of primitives, number of BVH nodes, 0, 0)
+    /// (number of primitives, number of BVH nodes, light BVH tree nodes, infinite lights after
+    /// them; the last two 0 with the power light sampler)
     pub counts: [u32; 4],
 }
 
@@ -272,6 +306,11 @@ pub fn glsl_constants() -> String {
         ("B_GRID_PRIMS", binding::GRID_PRIMS),
         ("B_BDPT_LIGHT_VERTICES", binding::BDPT_LIGHT_VERTICES),
         ("B_BDPT_LIGHT_COUNTS", binding::BDPT_LIGHT_COUNTS),
+        ("B_BVH_PARENTS", binding::BVH_PARENTS),
+        // Entries of the traversal's short stack (plain integer: an array size).
+        ("BVH_STACK", BVH_STACK_DEPTH),
+        ("B_ACCUM_ODD", binding::ACCUM_ODD),
+        ("B_LIGHT_BVH", binding::LIGHT_BVH),
     ];
     let flags = [
         ("NONE", NONE),
@@ -328,6 +367,7 @@ mod tests {
         assert_eq!(size_of::<GpuTexture>(), 32);
         assert_eq!(size_of::<GpuLight>(), 80);
         assert_eq!(size_of::<GpuAlias>(), 8);
+        assert_eq!(size_of::<GpuLightNode>(), 64);
         assert_eq!(size_of::<GpuGlobals>(), 160);
         assert_eq!(size_of::<GpuPush>(), 32);
         assert_eq!(size_of::<GpuStats>(), 16);

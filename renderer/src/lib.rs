@@ -4,6 +4,7 @@
 //! → `accel` (BVH) → `gpu` (device, pipelines) → `integrators` (passes) → `film` (EXR/PNG).
 
 pub mod accel;
+pub mod auto;
 pub mod cache_file;
 pub mod compile;
 pub mod error;
@@ -13,6 +14,7 @@ pub mod gpu;
 pub mod import;
 pub mod integrators;
 pub mod layout;
+pub mod memory;
 pub mod metrics;
 pub mod prepare;
 pub mod render;

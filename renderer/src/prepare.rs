@@ -71,6 +71,8 @@ pub struct PrepareOptions<'a> {
     pub cache: Option<&'a Path>,
     /// Kernels specialised to the scene (default) or generic.
     pub kernels: KernelMode,
+    /// How long the caller took to load the scene (reported as `load_s`; zero: unknown).
+    pub load_time: Duration,
 }
 
 /// Why a scene could not be prepared; each names the setting at fault.
@@ -110,7 +112,7 @@ pub fn prepare(scene: &Scene, o: &PrepareOptions<'_>) -> Result<PreparedScene, P
     let accel = AccelOptions::resolve(o.accel, scene.render.accel_request())
         .map_err(PrepareError::Accel)?;
     // Step 3: compile (the structure is built here, or read from the cache).
-    let compiled = compile_with(
+    let mut compiled = compile_with(
         scene,
         width,
         height,
@@ -119,6 +121,7 @@ pub fn prepare(scene: &Scene, o: &PrepareOptions<'_>) -> Result<PreparedScene, P
             cache: o.cache,
         },
     )?;
+    compiled.load_time = o.load_time;
     Ok(PreparedScene {
         compiled,
         scene_max_depth: scene.render.max_depth,

@@ -6,11 +6,20 @@ use std::sync::Arc;
 
 use crate::compile::CompiledScene;
 use crate::gpu::{Binding, Buffer, GpuContext, GpuResult};
-use crate::layout::binding;
+use crate::layout::{binding, NONE};
 
-/// Uploads every scene buffer; returns (binding, buffer) pairs.
+/// Uploads every scene buffer; returns (binding, buffer) pairs. A scene that does not fit the
+/// device (a buffer over maxStorageBufferRange, or more than its memory) is refused first, with
+/// an error naming the limit (crate::memory).
 pub fn upload_scene(ctx: &Arc<GpuContext>, scene: &CompiledScene) -> GpuResult<Vec<(u32, Buffer)>> {
+    crate::memory::check_fits(&crate::memory::scene_buffers(scene), &ctx.limits)?;
     let up = |name: &str, bytes: &[u8]| Buffer::from_slice(ctx, name, bytes);
+    // The parent pointers exist only for trees deeper than the traversal's stack.
+    let parents: &[u32] = if scene.bvh_parents.is_empty() {
+        &[NONE]
+    } else {
+        &scene.bvh_parents
+    };
     let mut buffers = vec![
         (
             binding::GLOBALS,
@@ -19,6 +28,10 @@ pub fn upload_scene(ctx: &Arc<GpuContext>, scene: &CompiledScene) -> GpuResult<V
         (
             binding::BVH_NODES,
             up("bvh nodes", bytemuck::cast_slice(&scene.nodes))?,
+        ),
+        (
+            binding::BVH_PARENTS,
+            up("bvh parents", bytemuck::cast_slice(parents))?,
         ),
         (
             binding::PRIMS,
@@ -53,6 +66,13 @@ pub fn upload_scene(ctx: &Arc<GpuContext>, scene: &CompiledScene) -> GpuResult<V
             up("env distribution", bytemuck::cast_slice(&scene.env_dist))?,
         ),
     ];
+    // The light BVH exists only with the BVH light sampler.
+    if !scene.light_bvh.is_empty() {
+        buffers.push((
+            binding::LIGHT_BVH,
+            up("light bvh", bytemuck::cast_slice(&scene.light_bvh))?,
+        ));
+    }
     // The uniform grid's buffers exist only when the scene uses it.
     if let Some(grid) = &scene.grid {
         buffers.push((binding::GRID, up("grid", bytemuck::bytes_of(&grid.info))?));

@@ -15,5 +15,7 @@ layout(set = 0, binding = B_LIGHT_ALIAS, scalar) readonly buffer LightAlias { Gp
 layout(set = 0, binding = B_ENV_DIST, scalar) readonly buffer EnvDist { float env_dist[]; };
 layout(set = 0, binding = B_ACCUM, scalar) buffer Accum { vec4 accum[]; };
 layout(set = 0, binding = B_STATS, scalar) buffer Stats { GpuStats stats; };
+// The odd-indexed samples' share of ACCUM (the error estimate's second half; common/film.glsl).
+layout(set = 0, binding = B_ACCUM_ODD, scalar) buffer AccumOdd { vec4 accum_odd[]; };
 
 #endif

@@ -51,7 +51,10 @@ bool film_has(FilmTask t, uint i) { return t.valid && i < pc.spp; }
 vec4 film_load(FilmTask t) { return t.valid && t.lane == 0u ? accum[t.pixel] : vec4(0.0); }
 
 void film_store(FilmTask t, vec4 acc) {
-    if (t.valid && t.lane == 0u) accum[t.pixel] = acc;
+    if (t.valid && t.lane == 0u) {
+        accum[t.pixel] = acc;
+        film_odd_store(t.pixel);
+    }
 }
 
 shared vec3 film_lane_L[64];

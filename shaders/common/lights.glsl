@@ -1,5 +1,7 @@
 // Light sampling for next-event estimation: pick a light with probability proportional to its
-// power (alias table, Walker 1977 / Vose 1991), then sample it: triangles uniformly by area,
+// power (alias table, Walker 1977 / Vose 1991), or with the light BVH from the shading point
+// (LIGHT_BVH: render.light_sampler "bvh", common/light_bvh.glsl; bdpt, whose subpath densities
+// use the power pick, keeps the power sampler), then sample it: triangles uniformly by area,
 // spheres by the solid angle they subtend (pbrt-v4's cone sampling, with its small-angle series
 // so tiny distant spheres stay accurate), point/spot/directional lights as delta lights, and the
 // environment by its map distribution (or uniformly for a constant one). All pdfs are solid
@@ -10,6 +12,11 @@
 #include "common/bindings.glsl"
 #include "common/sampling.glsl"
 #include "common/env.glsl"
+
+#if defined(LIGHT_BVH) && !defined(BDPT_DEPTH_CAP)
+#define LIGHT_SAMPLER_BVH 1
+#include "common/light_bvh.glsl"
+#endif
 
 struct LightSample {
     vec3 wi;      // direction from the reference point towards the light
@@ -26,6 +33,15 @@ uint pick_light(float u) {
     uint i = min(uint(x), n - 1u);
     GpuAlias a = light_alias[i];
     return (x - float(i)) < a.prob ? i : a.alias;
+}
+
+// The probability that NEE at p_ref picks light li.
+float light_pick_pmf(uint li, vec3 p_ref) {
+#ifdef LIGHT_SAMPLER_BVH
+    return light_bvh_pmf(li, p_ref);
+#else
+    return lights[li].pick_pdf;
+#endif
 }
 
 // Spot falloff, Mitsuba 3's: 1 inside the beam, linear in angle to 0 at the cutoff.
@@ -97,9 +113,9 @@ float light_pdf_hit(uint li, vec3 p_ref, vec3 pl, vec3 nl) {
         vec3 w = pl - p_ref;
         float dist2 = dot(w, w);
         float cosl = abs(dot(nl, w)) * inversesqrt(max(dist2, 1e-38));
-        return cosl > 0.0 ? l.pick_pdf * dist2 / (cosl * l.p0.w) : 0.0;
+        return cosl > 0.0 ? light_pick_pmf(li, p_ref) * dist2 / (cosl * l.p0.w) : 0.0;
     }
-    if (l.kind == LIGHT_SPHERE) return l.pick_pdf * sphere_light_pdf(l, p_ref, pl, nl);
+    if (l.kind == LIGHT_SPHERE) return light_pick_pmf(li, p_ref) * sphere_light_pdf(l, p_ref, pl, nl);
     return 0.0;
 }
 
@@ -108,18 +124,25 @@ float env_pdf(vec3 d) {
     uint li = g.env.x;
     if (li == NONE) return 0.0;
     GpuLight l = lights[li];
+    float pick = light_pick_pmf(li, vec3(0.0)); // (infinite lights: the same from everywhere)
 #ifdef HAS_ENV_MAP
-    if (l.kind == LIGHT_ENV_MAP) return l.pick_pdf * env_map_pdf(d);
+    if (l.kind == LIGHT_ENV_MAP) return pick * env_map_pdf(d);
 #endif
-    return l.pick_pdf * INV_4PI;
+    return pick * INV_4PI;
 }
 
 bool sample_light(vec3 p_ref, vec3 u, out LightSample ls) {
     ls.wi = vec3(0.0, 0.0, 1.0); ls.dist = 0.0; ls.p = vec3(0.0); ls.L = vec3(0.0); ls.pdf = 0.0; ls.delta = false;
     if (g.film.w == 0u) return false;
+#ifdef LIGHT_SAMPLER_BVH
+    uint li;
+    float pick;
+    if (!light_bvh_pick(p_ref, u.x, li, pick)) return false;
+#else
     uint li = pick_light(u.x);
+    float pick = lights[li].pick_pdf;
+#endif
     GpuLight l = lights[li];
-    float pick = l.pick_pdf;
     vec2 u2 = u.yz;
     if (l.kind == LIGHT_TRIANGLE) {
         // Uniform point on the triangle; emission on its front side only.

@@ -1,15 +1,27 @@
 // BVH traversal in compute: a binary BVH whose nodes hold both children's boxes (Aila & Laine
-// 2009), nearest child first, an explicit stack of BVH_STACK entries (the host checks the tree
-// depth fits, so the stack cannot overflow). `trace_closest` finds the nearest hit;
-// `trace_any` stops at the first occluder (shadow rays). Alpha-masked triangles are skipped
-// where their mask is below 0.5.
+// 2009), nearest child first, a short stack of BVH_STACK entries. `trace_closest` finds the
+// nearest hit; `trace_any` stops at the first occluder (shadow rays). Alpha-masked triangles
+// are skipped where their mask is below 0.5.
+//
+// Any depth: the host keeps trees within BVH_STACK levels where it can (renderer/src/accel/
+// flatten.rs), and then the stack cannot overflow. A deeper tree (a pathological mesh) still
+// renders: when a push would overflow, the walk restarts from the root with the nearest hit so
+// far (r.tmax already shortened) as a stackless walk over parent pointers (Hapala et al. 2011,
+// `traverse_stackless`), which needs no stack at all and visits every node the ray reaches.
 #ifndef COMMON_TRAVERSE_GLSL
 #define COMMON_TRAVERSE_GLSL
 #include "common/bindings.glsl"
 #include "common/intersect.glsl"
 #include "common/texture.glsl"
 
-#define BVH_STACK 64
+// Tests shorten the stack (TEST_BVH_STACK) to run the fallback on ordinary scenes.
+#ifdef TEST_BVH_STACK
+#define STACK_ENTRIES TEST_BVH_STACK
+#else
+#define STACK_ENTRIES BVH_STACK
+#endif
+
+layout(set = 0, binding = B_BVH_PARENTS, scalar) readonly buffer BvhParents { uint bvh_parents[]; };
 
 struct Hit {
     float t;
@@ -51,12 +63,56 @@ bool intersect_prim(inout Ray r, RayPre pre, uint i, inout Hit hit) {
     return true;
 }
 
+// Whether the stackless walk visits node n's left child first: the child whose box centre comes
+// first along the ray (a choice made from the node and the direction alone, so the walk can
+// tell on the way up which child it came from and whether the other is still to visit).
+bool stackless_left_first(GpuBvhNode n, vec3 d) {
+    return dot((n.l_min + n.l_max) - (n.r_min + n.r_max), d) <= 0.0;
+}
+
+// Walks the whole tree without a stack (Hapala et al. 2011): down into the near child, then the
+// far one, then up to the parent. `phase` says what is next at `node`: 0 its near child, 1 its
+// far child, 2 going up. r.tmax and hit carry the nearest hit found so far. Returns true when
+// any_hit found an intersection.
+bool traverse_stackless(inout Ray r, RayPre pre, bool any_hit, inout Hit hit) {
+    uint node = 0u;
+    uint phase = 0u;
+    while (true) {
+        if (phase == 2u) {
+            // Up: from the near child the far one is next; from the far child, up again.
+            uint parent = bvh_parents[node];
+            if (parent == NONE) return false;
+            GpuBvhNode p = nodes[parent];
+            bool from_left = p.l_count == 0u && p.left == node;
+            phase = from_left == stackless_left_first(p, r.d) ? 1u : 2u;
+            node = parent;
+            continue;
+        }
+        GpuBvhNode n = nodes[node];
+        bool left = (phase == 0u) == stackless_left_first(n, r.d);
+        phase += 1u;
+        float t = left ? intersect_box(r.o, pre, n.l_min, n.l_max, r.tmin, r.tmax)
+                       : intersect_box(r.o, pre, n.r_min, n.r_max, r.tmin, r.tmax);
+        if (isinf(t)) continue;
+        uint child = left ? n.left : n.right;
+        uint count = left ? n.l_count : n.r_count;
+        if (count > 0u) {
+            for (uint i = child; i < child + count; ++i)
+                if (intersect_prim(r, pre, i, hit) && any_hit) return true;
+        } else {
+            node = child;
+            phase = 0u;
+        }
+    }
+    return false;
+}
+
 // Traverses the BVH. With any_hit it returns at the first intersection.
 bool traverse(Ray r, bool any_hit, out Hit hit) {
     hit.t = r.tmax; hit.prim = NONE; hit.b12 = vec2(0.0);
     if (g.counts.x == 0u) return false; // empty scene
     RayPre pre = ray_precompute(r.d);
-    uint stack[BVH_STACK];
+    uint stack[STACK_ENTRIES];
     int sp = 0;
     uint node = 0u;
     while (true) {
@@ -78,6 +134,10 @@ bool traverse(Ray r, bool any_hit, out Hit hit) {
             hr = false;
         }
         if (hl && hr) {
+            if (sp == STACK_ENTRIES) {
+                // The tree is deeper than the stack: finish without one (see the top).
+                return traverse_stackless(r, pre, any_hit, hit) || hit.prim != NONE;
+            }
             bool left_first = tl <= tr;
             stack[sp++] = left_first ? n.right : n.left;
             node = left_first ? n.left : n.right;

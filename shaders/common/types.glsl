@@ -30,8 +30,9 @@ struct GpuMaterial {
     uint scalar_tex[12];
 };
 struct GpuTexture { uint offset; uint width; uint height; uint flags; vec2 scale; vec2 pad; };
-struct GpuLight { uint kind; uint prim; float pick_pdf; uint pad; vec4 p0; vec4 p1; vec4 p2; vec4 radiance; };
+struct GpuLight { uint kind; uint prim; float pick_pdf; uint bvh_trail; vec4 p0; vec4 p1; vec4 p2; vec4 radiance; };
 struct GpuAlias { float prob; uint alias; };
+struct GpuLightNode { vec4 min_phi; vec4 max_cos_o; vec4 w_cos_e; uint index; uint flags; uint pad0; uint pad1; };
 struct GpuGlobals {
     vec4 cam_forward;
     vec4 cam_right;

@@ -38,5 +38,6 @@ void main() {
         film_add(acc, L, pc.sample_base + i, dropped);
     }
     accum[pixel] = acc;
+    film_odd_store(pixel);
     film_count(pc.spp, dropped);
 }

@@ -235,6 +235,7 @@ void main() {
         vec4 acc = accum[pixel];
         film_add(acc, L, pc.sample_base, dropped);
         accum[pixel] = acc;
+        film_odd_store(pixel);
     }
     // Step 7: counters, reduced per workgroup first.
     if (rays > 0u) atomicAdd(s_rays, rays);

@@ -48,7 +48,7 @@ void main() {
     pu(v_texture.offset); pu(v_texture.width); pu(v_texture.height); pu(v_texture.flags);
     pf(v_texture.scale.x); pf(v_texture.scale.y); pf(v_texture.pad.x); pf(v_texture.pad.y);
     k = 384u;
-    pu(v_light.kind); pu(v_light.prim); pf(v_light.pick_pdf); pu(v_light.pad);
+    pu(v_light.kind); pu(v_light.prim); pf(v_light.pick_pdf); pu(v_light.bvh_trail);
     p4(v_light.p0); p4(v_light.p1); p4(v_light.p2); p4(v_light.radiance);
     k = 448u;
     pf(v_alias.prob); pu(v_alias.alias);

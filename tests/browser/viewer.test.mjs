@@ -557,8 +557,9 @@ async function imageAndChartBoxes() {
 }
 
 await step('a job with a reference plots its error live beside the image', async () => {
-  // The selected job (the .tar upload) has no reference: no chart.
-  check(await page.locator('#metrics-panel').isHidden(), 'the error chart shows for a job without a reference');
+  // The selected job (the .tar upload) has no reference: no reference curve (the chart shows the
+  // estimated error alone, dashed, once a progress event carried it).
+  check(await page.locator('#metrics-line').count() === 0, 'a reference curve shows for a job without a reference');
   // A second render of the Cornell box measured against job A (same size), chosen in the form.
   await page.getByLabel(/^Reference job/).selectOption(jobA);
   const jobR = await submitExample({ name: 'browser-with-reference', integrator: 'nee', timeS: 5, seed: 5 });
@@ -621,10 +622,16 @@ await step('a job with a reference plots its error live beside the image', async
   check(narrow.chart.y >= narrow.img.y + narrow.img.height - 1, `at 640 px the chart is not below the image: image ${JSON.stringify(narrow.img)}, chart ${JSON.stringify(narrow.chart)}`);
   await page.setViewportSize({ width: 1360, height: 900 });
 
-  // Another job without a reference hides the chart; reselecting the finished job replays its curve.
+  // The estimate (no reference) is plotted too, dashed, and labelled with the last event's value.
+  const estimates = events.map((p) => p.rel_mse_estimate).filter((v) => Number.isFinite(v) && v > 0);
+  check(estimates.length >= 1, 'no progress event carried rel_mse_estimate');
+  check(await page.locator('#metrics-estimate-line').count() === 1, 'the estimate is not plotted');
+  // Another job without a reference shows the estimate alone (no reference curve); reselecting
+  // the finished job replays its curve.
   await jobRow(jobA).getByRole('button', { name: /^View / }).click();
-  await page.locator('#metrics-panel').waitFor({ state: 'hidden', timeout: 10_000 })
-    .catch(() => { throw new Failure('the chart stays visible for a job without a reference'); });
+  await page.waitForFunction(() => !document.querySelector('#metrics-line')
+    && /Estimated/.test(document.querySelector('#metrics-heading').textContent), null, { timeout: 10_000 })
+    .catch(() => { throw new Failure('a job without a reference shows a reference curve, or not the estimate heading'); });
   await jobRow(jobR).getByRole('button', { name: /^View / }).click();
   await page.waitForFunction((n) => Number(document.querySelector('#metrics-chart').dataset.points) >= n, Math.min(events.length, 2), { timeout: 20_000 })
     .catch(async () => { throw new Failure(`reselecting the finished job plotted ${await page.locator('#metrics-chart').getAttribute('data-points')} point(s)`); });

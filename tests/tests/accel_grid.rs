@@ -24,6 +24,7 @@ fn grid(resolution: Option<u32>) -> AccelOptions {
         kind: AccelKind::Grid,
         grid_resolution: resolution,
         grid_bvh_order: true,
+        ..Default::default()
     }
 }
 

@@ -420,9 +420,10 @@ fn pass_split_and_checkpoint() {
         let (a, b) = (one.image().unwrap(), many.image().unwrap());
         let (acc_a, acc_b) = (one.accumulation().unwrap(), many.accumulation().unwrap());
         assert_eq!(acc_a.len(), one.accumulation_len());
+        // The accumulation, the splats (two words per pixel in fixed point) and the odd half.
         assert_eq!(
             acc_a.len(),
-            n * if exact || !ctx.float_atomics { 3 } else { 2 }
+            n * if exact || !ctx.float_atomics { 4 } else { 3 }
         );
         assert_eq!(
             acc_a[..n],

@@ -1,7 +1,10 @@
-//! On-disk cache of built acceleration structures, keyed by scene content: a 128-bit hash of the
-//! primitive geometry (camera-relative f32 positions and bounds, as the builders see them), the
-//! accel kind, its parameters and [`FORMAT_VERSION`]. A second run of the same scene with the
-//! same camera and options loads the structure instead of building it.
+//! On-disk cache of built acceleration structures, keyed by scene content: a 128-bit hash of what
+//! the builder reads, the accel kind, its parameters and [`FORMAT_VERSION`]. The BVH reads the
+//! primitives' boxes in the scene frame (relative to the centre of the scene's bounds, not to
+//! the camera: `compile` moves the built nodes to the camera afterwards), so a camera move keeps
+//! the key; the grid reads the camera-relative geometry and bounds, so its key follows the
+//! camera. A second run of the same scene and options loads the structure instead of building
+//! it.
 //!
 //! File: `DIR/{bvh|grid}-{key}.bin` = magic, format version, kind, key, payload length, payload
 //! hash, payload. A file whose header, length or payload hash does not match (truncated,
@@ -19,7 +22,7 @@ use super::{AccelKind, AccelOptions, PrimBounds};
 use crate::layout::{GpuBvhNode, GpuGridInfo, GpuPrim, PRIM_SPHERE};
 
 /// Bumped whenever a builder or the file layout changes, so old files are never reused.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 const MAGIC: &[u8; 8] = b"CNDLACCL";
 
 /// The file header's identity for structures of `kind`.
@@ -31,7 +34,8 @@ fn file_kind(kind: AccelKind) -> FileKind {
     }
 }
 
-/// The cache key of a build: what the builders read, plus the options and the format version.
+/// The cache key of a grid build: what the builder reads (camera-relative geometry and bounds),
+/// plus the options and the format version.
 pub fn key(opts: &AccelOptions, prims: &[GpuPrim], bounds: &[PrimBounds]) -> [u64; 2] {
     let mut h = Hasher128::default();
     h.update(MAGIC);
@@ -50,6 +54,19 @@ pub fn key(opts: &AccelOptions, prims: &[GpuPrim], bounds: &[PrimBounds]) -> [u6
         geo.extend_from_slice(&[p.c[0], p.c[1], p.c[2], f32::from_bits(sphere)]);
     }
     h.update(bytemuck::cast_slice(&geo));
+    h.finish()
+}
+
+/// The cache key of a BVH build: the builder reads only the primitives' boxes, given in a frame
+/// that does not move with the camera (see `compile`), so the key does not either.
+pub fn bvh_key(opts: &AccelOptions, bounds: &[PrimBounds]) -> [u64; 2] {
+    let mut h = Hasher128::default();
+    h.update(MAGIC);
+    h.update(&FORMAT_VERSION.to_le_bytes());
+    h.update(&(AccelKind::Bvh as u32).to_le_bytes());
+    h.update(&[opts.bvh_keep_deep as u8]);
+    h.update(&(bounds.len() as u64).to_le_bytes());
+    h.update(bytemuck::cast_slice(bounds_words(bounds).as_slice()));
     h.finish()
 }
 

@@ -7,14 +7,21 @@
 //! 8-wide BVH (Ylitie et al. 2017), whose ~2x faster incoherent traversal the issue tracker asks
 //! us to measure against this one.
 //!
+//! `flatten` turns obvhs's tree into GPU nodes and keeps it within the traversal's short stack
+//! ([`STACK_DEPTH`] levels) where it can, rebuilding too-deep subtrees balanced; a tree that is
+//! still deeper renders through the shader's stackless fallback, which walks the tree with
+//! parent pointers ([`parents`]). No scene is refused for the shape of its tree.
+//!
 //! `grid` holds the alternative uniform grid (`accel: "grid"`), `select` the options that pick
 //! one and the build entry point used by `compile`, and `cache` the on-disk cache of built
 //! structures.
 
 pub mod cache;
+mod flatten;
 pub mod grid;
 mod select;
 
+pub use flatten::{parents, MAX_LEAF, STACK_DEPTH};
 pub use select::{
     build_accel, Accel, AccelInfo, AccelKind, AccelOptions, AccelRequest, CacheStatus,
 };
@@ -26,9 +33,6 @@ use obvhs::bvh2::builder::build_bvh2;
 use obvhs::{Boundable, BvhBuildParams};
 
 use crate::layout::GpuBvhNode;
-
-/// The deepest tree the traversal stack (BVH_STACK in traverse.glsl) can walk.
-pub const MAX_DEPTH: usize = 64;
 
 /// A primitive's bounds for the builder.
 #[derive(Clone, Copy, Debug)]
@@ -52,108 +56,32 @@ pub struct Bvh {
     pub build_time: Duration,
 }
 
-#[derive(Debug, thiserror::Error)]
-pub enum AccelError {
-    #[error("BVH is {0} levels deep; traversal supports at most {MAX_DEPTH}")]
-    TooDeep(usize),
-}
-
 /// Builds the BVH over `prims`. An empty scene yields one node with two empty leaves.
-pub fn build(prims: &[PrimBounds]) -> Result<Bvh, AccelError> {
+/// `keep_deep`: copy obvhs's tree as built even where it is deeper than [`STACK_DEPTH`] (a
+/// testing aid for the traversal's stackless fallback); otherwise too-deep subtrees are rebuilt
+/// balanced (see `flatten`).
+pub fn build(prims: &[PrimBounds], keep_deep: bool) -> Bvh {
     let start = Instant::now();
     if prims.is_empty() {
-        let empty = GpuBvhNode {
-            l_min: [0.0; 3],
-            left: 0,
-            l_max: [0.0; 3],
-            right: 0,
-            r_min: [0.0; 3],
-            l_count: 0,
-            r_max: [0.0; 3],
-            r_count: 0,
-        };
-        return Ok(Bvh {
-            nodes: vec![empty],
+        return Bvh {
+            nodes: vec![GpuBvhNode::zeroed_node()],
             order: vec![],
             depth: 1,
             build_time: start.elapsed(),
-        });
-    }
-    let mut params = BvhBuildParams::medium_build();
-    params.max_prims_per_leaf = 4;
-    let mut core = Duration::ZERO;
-    let bvh = build_bvh2(prims, params, &mut core);
-    let src = &bvh.nodes;
-    let child = |i: usize| -> (u32, u32, [f32; 3], [f32; 3]) {
-        let n = &src[i];
-        (
-            n.first_index,
-            n.prim_count,
-            n.aabb.min.into(),
-            n.aabb.max.into(),
-        )
-    };
-    let mut nodes: Vec<GpuBvhNode> = Vec::with_capacity(src.len() / 2 + 1);
-    let root = &src[0];
-    if root.prim_count > 0 {
-        // A single leaf: both children are that leaf (the second test never wins a closer hit).
-        let (first, count, mn, mx) = child(0);
-        nodes.push(GpuBvhNode {
-            l_min: mn,
-            left: first,
-            l_max: mx,
-            right: first,
-            r_min: mn,
-            l_count: count,
-            r_max: mx,
-            r_count: count,
-        });
-        return Ok(Bvh {
-            nodes,
-            order: bvh.primitive_indices.clone(),
-            depth: 1,
-            build_time: start.elapsed(),
-        });
-    }
-    // Depth-first flattening; `stack` holds (source inner node, GPU slot, depth).
-    nodes.push(GpuBvhNode::zeroed_node());
-    let mut stack = vec![(0usize, 0usize, 1usize)];
-    let mut depth = 1;
-    while let Some((si, gi, d)) = stack.pop() {
-        depth = depth.max(d);
-        let first = src[si].first_index as usize;
-        let mut slots = [(0u32, 0u32, [0f32; 3], [0f32; 3]); 2];
-        for (k, slot) in slots.iter_mut().enumerate() {
-            let (fi, count, mn, mx) = child(first + k);
-            if count > 0 {
-                *slot = (fi, count, mn, mx);
-            } else {
-                let g = nodes.len();
-                nodes.push(GpuBvhNode::zeroed_node());
-                stack.push((first + k, g, d + 1));
-                *slot = (g as u32, 0, mn, mx);
-            }
-        }
-        nodes[gi] = GpuBvhNode {
-            l_min: slots[0].2,
-            left: slots[0].0,
-            l_max: slots[0].3,
-            right: slots[1].0,
-            r_min: slots[1].2,
-            l_count: slots[0].1,
-            r_max: slots[1].3,
-            r_count: slots[1].1,
         };
     }
-    if depth > MAX_DEPTH {
-        return Err(AccelError::TooDeep(depth));
-    }
-    Ok(Bvh {
-        nodes,
-        order: bvh.primitive_indices.clone(),
-        depth,
+    let mut params = BvhBuildParams::medium_build();
+    params.max_prims_per_leaf = MAX_LEAF as u32;
+    let mut core = Duration::ZERO;
+    let bvh = build_bvh2(prims, params, &mut core);
+    let limit = (!keep_deep).then_some(STACK_DEPTH);
+    let flat = flatten::flatten(&bvh, prims, limit);
+    Bvh {
+        nodes: flat.nodes,
+        order: flat.order,
+        depth: flat.depth,
         build_time: start.elapsed(),
-    })
+    }
 }
 
 impl GpuBvhNode {
@@ -175,48 +103,111 @@ mod tests {
             .collect()
     }
 
-    /// Every primitive is reachable exactly once and every child box contains its primitives.
-    #[test]
-    fn flattened_tree_covers_every_primitive_once() {
-        for n in [1usize, 2, 3, 17, 1000] {
-            let prims = unit_boxes(n);
-            let bvh = build(&prims).unwrap();
-            let mut seen = vec![0u32; n];
-            let mut stack = vec![0usize];
-            let mut visited_single_leaf = false;
-            while let Some(i) = stack.pop() {
-                let node = bvh.nodes[i];
-                let children = [
-                    (node.left, node.l_count, node.l_min, node.l_max),
-                    (node.right, node.r_count, node.r_min, node.r_max),
-                ];
-                for (k, (c, count, mn, mx)) in children.into_iter().enumerate() {
-                    if n == 1 && k == 1 {
-                        visited_single_leaf = true;
-                        continue; // the duplicated single leaf
-                    }
-                    if count == 0 {
-                        stack.push(c as usize);
-                    } else {
-                        for slot in c..c + count {
-                            let p = prims[bvh.order[slot as usize] as usize];
-                            for a in 0..3 {
-                                assert!(mn[a] <= p.min[a] && mx[a] >= p.max[a]);
-                            }
-                            seen[bvh.order[slot as usize] as usize] += 1;
+    /// Boxes nested in each other, each 0.8 times the last about a common corner: an
+    /// agglomerative SAH build chains them one level per box.
+    fn nested_boxes(n: usize) -> Vec<PrimBounds> {
+        (0..n)
+            .map(|i| {
+                let s = 0.8f32.powi(i as i32 % 300) * (1.0 + i as f32 * 1e-4);
+                PrimBounds {
+                    min: [0.0, 0.0, 0.0],
+                    max: [s, s, s * 1e-3],
+                }
+            })
+            .collect()
+    }
+
+    /// Every primitive is reachable exactly once, every child box contains its primitives, the
+    /// reported depth is the tree's, and the parent pointers lead back to the root.
+    fn check_tree(prims: &[PrimBounds], bvh: &Bvh) {
+        let n = prims.len();
+        let mut seen = vec![0u32; n];
+        let mut stack = vec![0usize];
+        let mut visited_single_leaf = false;
+        while let Some(i) = stack.pop() {
+            let node = bvh.nodes[i];
+            let children = [
+                (node.left, node.l_count, node.l_min, node.l_max),
+                (node.right, node.r_count, node.r_min, node.r_max),
+            ];
+            for (k, (c, count, mn, mx)) in children.into_iter().enumerate() {
+                if n == 1 && k == 1 {
+                    visited_single_leaf = true;
+                    continue; // the duplicated single leaf
+                }
+                if count == 0 {
+                    stack.push(c as usize);
+                } else {
+                    assert!(count as usize <= MAX_LEAF);
+                    for slot in c..c + count {
+                        let p = prims[bvh.order[slot as usize] as usize];
+                        for a in 0..3 {
+                            assert!(mn[a] <= p.min[a] && mx[a] >= p.max[a]);
                         }
+                        seen[bvh.order[slot as usize] as usize] += 1;
                     }
                 }
             }
-            assert!(seen.iter().all(|&s| s == 1), "n = {n}: {seen:?}");
-            assert_eq!(visited_single_leaf, n == 1);
+        }
+        assert!(seen.iter().all(|&s| s == 1), "n = {n}: {seen:?}");
+        assert_eq!(visited_single_leaf, n == 1);
+        assert_eq!(flatten::depth_of(&bvh.nodes), Some(bvh.depth));
+        let parents = parents(&bvh.nodes);
+        assert_eq!(parents[0], crate::layout::NONE);
+        for (i, &p) in parents.iter().enumerate().skip(1) {
+            let node = bvh.nodes[p as usize];
+            assert!(
+                (node.l_count == 0 && node.left as usize == i)
+                    || (node.r_count == 0 && node.right as usize == i)
+            );
         }
     }
 
     #[test]
+    fn flattened_tree_covers_every_primitive_once() {
+        for n in [1usize, 2, 3, 17, 1000] {
+            let prims = unit_boxes(n);
+            check_tree(&prims, &build(&prims, false));
+        }
+    }
+
+    /// A chain deeper than the stack is kept as built only on request; by default the part
+    /// below the limit is rebuilt balanced, and the tree fits the stack.
+    #[test]
+    fn deep_trees_are_bounded_unless_kept() {
+        for prims in [nested_boxes(2000), vec![unit_boxes(1)[0]; 5000]] {
+            let deep = build(&prims, true);
+            check_tree(&prims, &deep);
+            let bounded = build(&prims, false);
+            check_tree(&prims, &bounded);
+            println!(
+                "{} prims: depth {} as built, {} bounded",
+                prims.len(),
+                deep.depth,
+                bounded.depth
+            );
+            assert!(bounded.depth <= STACK_DEPTH, "{}", bounded.depth);
+        }
+        let deep = build(&nested_boxes(2000), true);
+        assert!(deep.depth > STACK_DEPTH, "{}", deep.depth);
+    }
+
+    #[test]
+    fn depth_of_rejects_what_is_not_a_tree() {
+        let mut bvh = build(&unit_boxes(100), false);
+        assert!(flatten::depth_of(&bvh.nodes).is_some());
+        bvh.nodes[1].left = 0; // a cycle back to the root
+        bvh.nodes[1].l_count = 0;
+        assert_eq!(flatten::depth_of(&bvh.nodes), None);
+        bvh.nodes[1].left = 1 << 30; // out of range
+        assert_eq!(flatten::depth_of(&bvh.nodes), None);
+    }
+
+    #[test]
     fn empty_scene_has_a_root() {
-        let bvh = build(&[]).unwrap();
+        let bvh = build(&[], false);
         assert_eq!(bvh.nodes.len(), 1);
         assert!(bvh.order.is_empty());
+        assert_eq!(flatten::depth_of(&bvh.nodes), Some(1));
     }
 }

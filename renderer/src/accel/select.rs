@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use serde::Serialize;
 
 use super::grid::{self, Grid};
-use super::{build, cache, AccelError, PrimBounds};
+use super::{build, cache, parents, PrimBounds, STACK_DEPTH};
 use crate::layout::{GpuBvhNode, GpuPrim};
 
 /// The acceleration structure kind.
@@ -50,6 +50,10 @@ pub struct AccelOptions {
     /// build), so grid and BVH renders number primitives and lights identically and can be
     /// compared pixel for pixel. Off: input order.
     pub grid_bvh_order: bool,
+    /// BVH only, a testing aid: keep obvhs's tree as built even where it is deeper than the
+    /// traversal's short stack (`STACK_DEPTH`), so the shader's stackless fallback runs. Off:
+    /// too-deep subtrees are rebuilt balanced.
+    pub bvh_keep_deep: bool,
 }
 
 /// Whether the structure came from the cache.
@@ -85,39 +89,48 @@ pub struct AccelInfo {
 pub struct Accel {
     /// `order[i]` = the input index of the primitive stored at slot i.
     pub order: Vec<u32>,
-    /// BVH nodes (empty for the grid).
+    /// BVH nodes (empty for the grid), in the frame of the bounds given to `build_accel`.
     pub nodes: Vec<GpuBvhNode>,
+    /// Each node's parent, for the stackless fallback walk; only when `depth` exceeds
+    /// `STACK_DEPTH` (empty otherwise: the short stack never overflows).
+    pub parents: Vec<u32>,
     pub depth: usize,
     pub grid: Option<Grid>,
     pub info: AccelInfo,
 }
 
-/// Builds (or loads from `cache_dir`) the structure over `prims` (input order) with bounds
-/// `bounds`. Cache failures never fail the build: an unreadable file is rebuilt, an unwritable
+/// Builds (or loads from `cache_dir`) the structure over `prims` (input order, camera-relative)
+/// with camera-relative bounds `bounds` (the grid's input) and `bvh_bounds`, the same boxes in
+/// a frame that does not move with the camera (the BVH's input; its nodes come back in that
+/// frame). Cache failures never fail the build: an unreadable file is rebuilt, an unwritable
 /// directory is reported in the log.
 pub fn build_accel(
     opts: &AccelOptions,
     prims: &[GpuPrim],
     bounds: &[PrimBounds],
+    bvh_bounds: &[PrimBounds],
     cache_dir: Option<&Path>,
-) -> Result<Accel, AccelError> {
+) -> Accel {
     let start = Instant::now();
     // Step 1: the cache.
-    let key = cache_dir.map(|_| cache::key(opts, prims, bounds));
+    let key = cache_dir.map(|_| match opts.kind {
+        AccelKind::Bvh => cache::bvh_key(opts, bvh_bounds),
+        AccelKind::Grid => cache::key(opts, prims, bounds),
+    });
     if let (Some(dir), Some(key)) = (cache_dir, key) {
         if let Some(e) = cache::load(dir, opts.kind, key) {
             if let Some(a) = from_entry(opts, e, prims.len()) {
                 let mut a = a;
                 a.info.build_time = start.elapsed();
                 a.info.cache = CacheStatus::Hit;
-                return Ok(a);
+                return a;
             }
         }
     }
     // Step 2: build.
     let mut a = match opts.kind {
         AccelKind::Bvh => {
-            let bvh = build(bounds)?;
+            let bvh = build(bvh_bounds, opts.bvh_keep_deep);
             Accel {
                 info: AccelInfo {
                     kind: AccelKind::Bvh,
@@ -125,6 +138,11 @@ pub fn build_accel(
                     ..Default::default()
                 },
                 order: bvh.order,
+                parents: if bvh.depth > STACK_DEPTH {
+                    parents(&bvh.nodes)
+                } else {
+                    Vec::new()
+                },
                 nodes: bvh.nodes,
                 depth: bvh.depth,
                 grid: None,
@@ -132,7 +150,7 @@ pub fn build_accel(
         }
         AccelKind::Grid => {
             let order: Vec<u32> = if opts.grid_bvh_order {
-                build(bounds)?.order
+                build(bounds, false).order
             } else {
                 (0..prims.len() as u32).collect()
             };
@@ -160,7 +178,7 @@ pub fn build_accel(
             tracing::warn!("accel cache {}: not written: {err}", dir.display());
         }
     }
-    Ok(a)
+    a
 }
 
 fn grid_accel(order: Vec<u32>, g: Grid) -> Accel {
@@ -174,6 +192,7 @@ fn grid_accel(order: Vec<u32>, g: Grid) -> Accel {
         },
         order,
         nodes: Vec::new(),
+        parents: Vec::new(),
         depth: 0,
         grid: Some(g),
     }
@@ -193,9 +212,12 @@ fn from_entry(opts: &AccelOptions, mut e: cache::Entry, n: usize) -> Option<Acce
     }
     match opts.kind {
         AccelKind::Bvh => {
-            if e.grid.is_some() || e.nodes.is_empty() || e.depth as usize > super::MAX_DEPTH {
+            if e.grid.is_some() || e.nodes.is_empty() {
                 return None;
             }
+            // The depth decides whether the fallback's parent pointers are uploaded: recompute
+            // it rather than trust the file (this also rejects anything but a tree).
+            e.depth = super::flatten::depth_of(&e.nodes)? as u32;
             let m = e.nodes.len() as u32;
             for node in &e.nodes {
                 for (c, count) in [(node.left, node.l_count), (node.right, node.r_count)] {
@@ -216,6 +238,11 @@ fn from_entry(opts: &AccelOptions, mut e: cache::Entry, n: usize) -> Option<Acce
                     ..Default::default()
                 },
                 order: e.order,
+                parents: if e.depth as usize > STACK_DEPTH {
+                    parents(&e.nodes)
+                } else {
+                    Vec::new()
+                },
                 nodes: e.nodes,
                 depth: e.depth as usize,
                 grid: None,
@@ -274,6 +301,7 @@ impl AccelOptions {
             kind,
             grid_resolution: res,
             grid_bvh_order: false,
+            bvh_keep_deep: false,
         })
     }
 }

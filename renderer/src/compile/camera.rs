@@ -16,6 +16,8 @@ pub(super) struct SceneFacts {
     pub env_params: [f32; 4],
     pub prim_count: u32,
     pub node_count: u32,
+    /// The light BVH's node count and infinite-light count (zero with the power sampler).
+    pub light_nodes: [u32; 2],
 }
 
 /// The globals of `scene` for a `width` × `height` film.
@@ -46,6 +48,11 @@ pub(super) fn globals(scene: &Scene, width: u32, height: u32, facts: SceneFacts)
         scene_sphere: [c.x as f32, c.y as f32, c.z as f32, facts.radius as f32],
         env: facts.env,
         env_params: facts.env_params,
-        counts: [facts.prim_count, facts.node_count, 0, 0],
+        counts: [
+            facts.prim_count,
+            facts.node_count,
+            facts.light_nodes[0],
+            facts.light_nodes[1],
+        ],
     }
 }

@@ -4,6 +4,7 @@
 
 use glam::{DVec3, Vec3};
 
+use super::light_bvh::LightBvh;
 use super::lights::{self, LightBuilder};
 use super::prims::Shape;
 use crate::layout::*;
@@ -13,9 +14,14 @@ use crate::scene::{Environment, Light, Scene};
 pub(super) struct Emitters {
     pub lights: Vec<GpuLight>,
     pub alias: Vec<GpuAlias>,
+    /// The light BVH's nodes (`render.light_sampler: "bvh"`; empty with the power sampler), its
+    /// node and infinite-light counts.
+    pub light_bvh: Vec<GpuLightNode>,
+    pub light_counts: [u32; 2],
     /// `GpuGlobals::env`: light index, texture, width, height.
     pub env: [u32; 4],
-    /// `GpuGlobals::env_params`: scale, cos and sin of the y rotation.
+    /// `GpuGlobals::env_params`: scale, cos and sin of the y rotation; the light BVH's
+    /// probability of picking an infinite light.
     pub env_params: [f32; 4],
     pub env_dist: Vec<f32>,
     /// Per texture: true where it is the environment map.
@@ -40,13 +46,26 @@ pub(super) fn gather(
     let mut out = Emitters {
         lights: Vec::new(),
         alias: Vec::new(),
+        light_bvh: Vec::new(),
+        light_counts: [0, 0],
         env: [NONE, NONE, 0, 0],
         env_params: [1.0, 1.0, 0.0, 0.0],
         env_dist: Vec::new(),
         clamp_rows: vec![false; scene.textures.len()],
     };
     environment(scene, radius, &mut lb, &mut out);
+    // The light BVH, when asked for, over the lights before their pick probabilities are set.
+    let tree = (scene.render.light_sampler.as_deref() == Some("bvh") && !lb.lights.is_empty())
+        .then(|| LightBvh::build(&lb.lights, &lb.power));
     (out.lights, out.alias) = lb.finish();
+    if let Some(t) = tree {
+        for (l, trail) in out.lights.iter_mut().zip(&t.trails) {
+            l.bvh_trail = trail.map_or(0, |(_, bits)| bits);
+        }
+        out.light_counts = [t.nodes.len() as u32, t.infinite.len() as u32];
+        out.env_params[3] = t.p_infinite() as f32;
+        out.light_bvh = t.gpu_nodes();
+    }
     out
 }
 

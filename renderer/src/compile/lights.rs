@@ -48,7 +48,7 @@ impl LightBuilder {
             kind,
             prim: u32::MAX,
             pick_pdf: 0.0,
-            pad: 0,
+            bvh_trail: 0,
             p0: [0.0; 4],
             p1: [0.0; 4],
             p2: [0.0; 4],

@@ -3,10 +3,17 @@
 //!
 //! Precision: every position is `world − camera` computed in f64 and only then rounded to f32,
 //! so a scene translated by 1e5 units renders exactly like one at the origin.
+//!
+//! The BVH is built in the scene frame (`world − centre of the scene's bounds`, boxes rounded
+//! outwards) so that it, and its cache key, do not depend on the camera; its node boxes are then
+//! moved to the camera frame in f64 and rounded outwards again (`frame::place_nodes`), so each
+//! still contains its primitives exactly as uploaded.
 
 mod camera;
 mod emitters;
 mod features;
+mod frame;
+pub mod light_bvh;
 mod lights;
 mod materials;
 mod prims;
@@ -15,7 +22,7 @@ use std::path::Path;
 use std::time::Duration;
 
 use crate::accel::grid::Grid;
-use crate::accel::{self, AccelError, AccelInfo, AccelOptions};
+use crate::accel::{self, AccelInfo, AccelOptions};
 use crate::layout::*;
 use crate::scene::Scene;
 pub use features::{FeatureSet, KernelMode};
@@ -33,6 +40,8 @@ pub struct CompiledScene {
     pub texels: Vec<[f32; 4]>,
     pub lights: Vec<GpuLight>,
     pub alias: Vec<GpuAlias>,
+    /// The light BVH's nodes (`render.light_sampler: "bvh"`; empty with the power sampler).
+    pub light_bvh: Vec<GpuLightNode>,
     pub env_dist: Vec<f32>,
     pub features: FeatureSet,
     pub width: u32,
@@ -40,6 +49,17 @@ pub struct CompiledScene {
     pub triangle_count: usize,
     pub bvh_depth: usize,
     pub bvh_build_time: Duration,
+    /// Each BVH node's parent, for the traversal's stackless fallback: only for trees deeper
+    /// than `accel::STACK_DEPTH` (empty otherwise; a one-word placeholder is uploaded).
+    pub bvh_parents: Vec<u32>,
+    /// Seconds spent loading the scene before it was compiled (set by `prepare` from its
+    /// caller's measure; zero when unknown), and compiling it (this function, including the
+    /// acceleration structure's build or cache load).
+    pub load_time: Duration,
+    pub compile_time: Duration,
+    /// Entries of the traversal's short stack the kernels are built with: `accel::STACK_DEPTH`,
+    /// or fewer through [`CompiledScene::with_traversal_stack`] (a testing aid).
+    pub traversal_stack: usize,
     /// The uniform grid when `accel` is "grid" (then `nodes` is empty and the kernels are built
     /// with `ACCEL_GRID`).
     pub grid: Option<Grid>,
@@ -51,6 +71,18 @@ pub struct CompiledScene {
     /// the same wherever the camera is: caches of structures built from the geometry key on it
     /// and place them with `camera_position`.
     pub geometry_hash: u64,
+}
+
+impl CompiledScene {
+    /// A testing aid: kernels whose traversal stack holds only `entries` (1..=STACK_DEPTH), so
+    /// the stackless fallback for deep trees runs on any scene (the parent pointers are made).
+    pub fn with_traversal_stack(mut self, entries: usize) -> Self {
+        self.traversal_stack = entries.clamp(1, accel::STACK_DEPTH);
+        if self.bvh_parents.is_empty() && self.grid.is_none() {
+            self.bvh_parents = accel::parents(&self.nodes);
+        }
+        self
+    }
 }
 
 /// [`CompiledScene::geometry_hash`] of a scene.
@@ -88,8 +120,6 @@ pub struct CompileOptions<'a> {
 
 #[derive(Debug, thiserror::Error)]
 pub enum CompileError {
-    #[error(transparent)]
-    Accel(#[from] AccelError),
     #[error("scene has {0} primitives; at most {max} are supported", max = PRIM_MATERIAL_MASK)]
     TooManyPrims(usize),
 }
@@ -107,6 +137,7 @@ pub fn compile_with(
     height: u32,
     options: &CompileOptions<'_>,
 ) -> Result<CompiledScene, CompileError> {
+    let start = std::time::Instant::now();
     let origin = scene.camera.position;
     let features = FeatureSet::detect(scene);
 
@@ -117,11 +148,21 @@ pub fn compile_with(
         .map(materials::gpu_material)
         .collect();
 
-    // Step 2: primitives in input order, with bounds, camera-relative.
-    let prims = prims::gather(scene, origin)?;
+    // Step 2: primitives in input order, with bounds, camera-relative (and in the scene frame,
+    // for the BVH).
+    let centre = frame::scene_centre(scene);
+    let prims = prims::gather(scene, origin, centre)?;
 
-    // Step 3: the BVH (or grid), and primitives reordered into its order.
-    let bvh = accel::build_accel(&options.accel, &prims.gpu, &prims.bounds, options.cache)?;
+    // Step 3: the BVH (or grid) built in the scene frame and placed in the camera's, and
+    // primitives reordered into its order.
+    let mut bvh = accel::build_accel(
+        &options.accel,
+        &prims.gpu,
+        &prims.bounds,
+        &prims.bvh_bounds,
+        options.cache,
+    );
+    frame::place_nodes(&mut bvh.nodes, origin - centre);
     let mut sorted: Vec<GpuPrim> = bvh.order.iter().map(|&i| prims.gpu[i as usize]).collect();
 
     // Step 4: scene bounds (camera-relative) for directional and environment lights.
@@ -148,6 +189,7 @@ pub fn compile_with(
             env_params: emitters.env_params,
             prim_count: sorted.len() as u32,
             node_count: bvh.nodes.len() as u32,
+            light_nodes: emitters.light_counts,
         },
     );
     Ok(CompiledScene {
@@ -160,12 +202,17 @@ pub fn compile_with(
         texels,
         lights: emitters.lights,
         alias: emitters.alias,
+        light_bvh: emitters.light_bvh,
         env_dist: emitters.env_dist,
         features,
         width,
         height,
         triangle_count: prims.triangle_count,
         bvh_depth: bvh.depth,
+        bvh_parents: bvh.parents,
+        traversal_stack: accel::STACK_DEPTH,
+        load_time: Duration::ZERO,
+        compile_time: start.elapsed(),
         bvh_build_time: if bvh.grid.is_none() {
             bvh.info.build_time
         } else {

@@ -4,6 +4,7 @@
 
 use glam::{DVec3, Vec3};
 
+use super::frame::outward;
 use super::CompileError;
 use crate::accel::PrimBounds;
 use crate::layout::*;
@@ -20,6 +21,8 @@ pub(super) enum Shape {
 pub(super) struct Prims {
     pub gpu: Vec<GpuPrim>,
     pub bounds: Vec<PrimBounds>,
+    /// The same boxes in the scene frame (`world − centre`, rounded outwards): the BVH's input.
+    pub bvh_bounds: Vec<PrimBounds>,
     pub tri_shading: Vec<GpuTriShading>,
     pub shapes: Vec<Shape>,
     pub triangle_count: usize,
@@ -29,11 +32,14 @@ pub(super) fn f3(v: DVec3) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
 }
 
-/// Every primitive of `scene`, positioned relative to `origin` (computed in f64, then rounded).
-pub(super) fn gather(scene: &Scene, origin: DVec3) -> Result<Prims, CompileError> {
+/// Every primitive of `scene`, positioned relative to `origin` (computed in f64, then rounded),
+/// with its bounds relative to `origin` and to `centre` (the BVH's frame).
+pub(super) fn gather(scene: &Scene, origin: DVec3, centre: DVec3) -> Result<Prims, CompileError> {
+    let frames = Frames { origin, centre };
     let mut out = Prims {
         gpu: Vec::new(),
         bounds: Vec::new(),
+        bvh_bounds: Vec::new(),
         tri_shading: Vec::new(),
         shapes: Vec::new(),
         triangle_count: 0,
@@ -44,17 +50,25 @@ pub(super) fn gather(scene: &Scene, origin: DVec3) -> Result<Prims, CompileError
         .map(|m| m.alpha_mask.is_some())
         .collect();
     for mesh in &scene.meshes {
-        triangles(mesh, origin, &alpha_material, &mut out);
+        triangles(mesh, frames, &alpha_material, &mut out);
     }
-    spheres(scene, origin, &mut out);
+    spheres(scene, frames, &mut out);
     if out.gpu.len() > PRIM_MATERIAL_MASK as usize {
         return Err(CompileError::TooManyPrims(out.gpu.len()));
     }
     Ok(out)
 }
 
+/// The camera's position and the BVH frame's origin (world space).
+#[derive(Clone, Copy)]
+struct Frames {
+    origin: DVec3,
+    centre: DVec3,
+}
+
 /// One mesh's triangles, with a shading record where the mesh has normals or uvs.
-fn triangles(mesh: &TriangleMesh, origin: DVec3, alpha_material: &[bool], out: &mut Prims) {
+fn triangles(mesh: &TriangleMesh, frames: Frames, alpha_material: &[bool], out: &mut Prims) {
+    let origin = frames.origin;
     let shaded = mesh.normals.is_some() || mesh.uvs.is_some();
     for (t, idx) in mesh.indices.iter().enumerate() {
         let p = idx.map(|i| mesh.positions[i as usize] - origin);
@@ -79,6 +93,9 @@ fn triangles(mesh: &TriangleMesh, origin: DVec3, alpha_material: &[bool], out: &
             min: f3(p[0].min(p[1]).min(p[2])),
             max: f3(p[0].max(p[1]).max(p[2])),
         });
+        let w = idx.map(|i| mesh.positions[i as usize] - frames.centre);
+        out.bvh_bounds
+            .push(outward(w[0].min(w[1]).min(w[2]), w[0].max(w[1]).max(w[2])));
         out.shapes.push(Shape::Triangle(p));
         out.triangle_count += 1;
     }
@@ -112,9 +129,9 @@ fn shading_record(mesh: &TriangleMesh, idx: &[u32; 3]) -> GpuTriShading {
 }
 
 /// The analytic spheres, with bounds padded so rounding cannot clip them.
-fn spheres(scene: &Scene, origin: DVec3, out: &mut Prims) {
+fn spheres(scene: &Scene, frames: Frames, out: &mut Prims) {
     for s in &scene.spheres {
-        let c = s.center - origin;
+        let c = s.center - frames.origin;
         let mut flags = PRIM_SPHERE | (s.material & PRIM_MATERIAL_MASK);
         if s.flip_normals {
             flags |= PRIM_FLIP_NORMALS;
@@ -132,6 +149,9 @@ fn spheres(scene: &Scene, origin: DVec3, out: &mut Prims) {
             min: f3(c - r - pad),
             max: f3(c + r + pad),
         });
+        let cs = s.center - frames.centre;
+        let pad_s = cs.abs() * 1e-6;
+        out.bvh_bounds.push(outward(cs - r - pad_s, cs + r + pad_s));
         out.shapes.push(Shape::Sphere {
             center: c,
             radius: s.radius,

@@ -19,6 +19,9 @@ pub struct GpuOptions {
     /// Pick the first device whose name contains this text (case-insensitive); `None`: prefer a
     /// discrete GPU, then integrated, then anything (lavapipe).
     pub device: Option<String>,
+    /// Pick the device at this position of [`list_devices`] (`candela devices` prints them in
+    /// that order; `--devices 0,1`); takes precedence over `device`.
+    pub index: Option<usize>,
     /// Enable the Khronos validation layer if installed; its messages become errors.
     pub validation: bool,
     /// The kernel cache folder (compiled SPIR-V and the driver's pipeline cache, see
@@ -57,6 +60,9 @@ pub struct GpuContext {
     pub(crate) timestamp_period_ns: f64,
     pub(crate) timestamps_supported: bool,
     pub info: DeviceInfo,
+    /// The largest storage buffer and device-local heap (crate::memory checks scenes against
+    /// them before uploading).
+    pub limits: super::DeviceLimits,
     pub validation_enabled: bool,
     /// The driver's pipeline cache, loaded from and saved to `kernel_dir`.
     pub(crate) pipelines: PipelineCache,
@@ -291,12 +297,27 @@ fn create_instance(entry: &ash::Entry, want_validation: bool) -> GpuResult<Insta
     })
 }
 
-/// The physical device: the first whose name contains `filter`, else the best by kind
-/// (discrete, integrated, virtual, other).
-fn pick_device(instance: &ash::Instance, filter: Option<&str>) -> GpuResult<Candidate> {
+/// The physical device: the one at `index` of the candidates, else the first whose name
+/// contains `filter`, else the best by kind (discrete, integrated, virtual, other).
+fn pick_device(
+    instance: &ash::Instance,
+    index: Option<usize>,
+    filter: Option<&str>,
+) -> GpuResult<Candidate> {
     let cands = candidates(instance)?;
-    let pick = match filter {
-        Some(want) => {
+    let pick = match (index, filter) {
+        (Some(i), _) => {
+            if i >= cands.len() {
+                let names: Vec<_> = cands.iter().map(|c| c.2.name.clone()).collect();
+                return Err(GpuError::NoDevice(format!(
+                    " at index {i} ({} available: {})",
+                    cands.len(),
+                    names.join(", ")
+                )));
+            }
+            i
+        }
+        (None, Some(want)) => {
             let w = want.to_lowercase();
             cands
                 .iter()
@@ -309,7 +330,7 @@ fn pick_device(instance: &ash::Instance, filter: Option<&str>) -> GpuResult<Cand
                     ))
                 })?
         }
-        None => {
+        (None, None) => {
             let rank = |c: &Candidate| match c.3.device_type {
                 vk::PhysicalDeviceType::DISCRETE_GPU => 0,
                 vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
@@ -441,7 +462,8 @@ impl GpuContext {
             debug_messenger,
         } = create_instance(&entry, opts.validation)?;
         // Step 2: the physical device.
-        let (physical, queue_family, info, props) = pick_device(&instance, opts.device.as_deref())?;
+        let (physical, queue_family, info, props) =
+            pick_device(&instance, opts.index, opts.device.as_deref())?;
         // Step 3: the logical device with the features the kernels use.
         let DeviceParts {
             device,
@@ -472,6 +494,15 @@ impl GpuContext {
             && props.limits.timestamp_compute_and_graphics == vk::TRUE;
         let pipelines =
             PipelineCache::open(&device, DriverKey::of(&props), opts.kernel_cache.as_deref())?;
+        // SAFETY: valid physical device.
+        let mem = unsafe { instance.get_physical_device_memory_properties(physical) };
+        let heap = mem.memory_heaps[..mem.memory_heap_count as usize]
+            .iter()
+            .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+            .map(|h| h.size)
+            .max()
+            .unwrap_or(0);
+        let limits = super::DeviceLimits::new(props.limits.max_storage_buffer_range as u64, heap);
         tracing::info!(device = %info.name, driver = %info.driver, validation, float_atomics, "Vulkan device ready");
         Ok(GpuContext {
             entry,
@@ -489,6 +520,7 @@ impl GpuContext {
             timestamp_period_ns: props.limits.timestamp_period as f64,
             timestamps_supported,
             info,
+            limits,
             validation_enabled: validation,
             pipelines,
             pipeline_objects: PipelineObjects::default(),

@@ -12,6 +12,7 @@ mod buffer;
 mod commands;
 mod context;
 mod kernel_cache;
+mod limits;
 mod pipeline;
 mod shader;
 
@@ -22,6 +23,7 @@ pub use kernel_cache::{
     compile_glsl, compile_kernels, compile_uncached, kernel_spirv, kernel_stats, source_closure,
     spirv_key, spirv_path, DriverKey, KernelStats,
 };
+pub use limits::{DeviceLimits, BUFFER_LIMIT_ENV, MEMORY_LIMIT_ENV};
 pub use pipeline::{Binding, ComputePipeline};
 pub use shader::{shader_source, ShaderDefines, COMPILER_ID};
 
@@ -45,6 +47,10 @@ pub enum GpuError {
     Alloc { name: String, message: String },
     #[error("shader {name} failed to compile: {log}")]
     Shader { name: String, log: String },
+    /// A scene larger than the device allows (renderer::memory::check_fits), found before
+    /// anything was allocated; the message names the buffer or total and the limit.
+    #[error("scene does not fit the device: {0}")]
+    TooLarge(String),
     #[error("validation layer reported: {0}")]
     Validation(String),
     #[error("{0}")]

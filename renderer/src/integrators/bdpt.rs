@@ -50,7 +50,7 @@
 
 use std::sync::Arc;
 
-use super::{BdptDesign, BdptOptions, ExtraBuffer, Integrator, Resolver, ScratchBuffer};
+use super::{BdptDesign, BdptOptions, ExtraBuffer, ExtraSum, Integrator, Resolver, ScratchBuffer};
 use crate::compile::CompiledScene;
 use crate::error::RenderError;
 use crate::gpu::{Binding, ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
@@ -271,6 +271,11 @@ impl Integrator for BdptIntegrator {
             binding: binding::SPLAT,
             name: "bdpt splats",
             entries_per_pixel: if self.float_splats { 1 } else { 2 },
+            sum: if self.float_splats {
+                ExtraSum::Float
+            } else {
+                ExtraSum::Fixed64
+            },
         }]
     }
     fn resolver(&self) -> Resolver {

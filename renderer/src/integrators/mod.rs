@@ -156,6 +156,20 @@ pub struct ExtraBuffer {
     pub name: &'static str,
     /// Size per pixel in 16-byte entries (checkpoints carry them as `[f32; 4]` words).
     pub entries_per_pixel: u32,
+    /// How two such buffers (of shards of one render) add up.
+    pub sum: ExtraSum,
+}
+
+/// The number format of an [`ExtraBuffer`], which says how the buffers of the shards of a
+/// render split across devices are summed (render/shards.rs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ExtraSum {
+    /// Every word is an f32 sum: added as floats.
+    Float,
+    /// Per pixel two entries, the low and high 32 bits of a 64-bit unsigned fixed-point sum
+    /// per channel (entry 2i holds the low words of pixel i, 2i+1 the high words): added as
+    /// 64-bit integers, exactly.
+    Fixed64,
 }
 
 /// Forms the image from an integrator's raw buffers: `accum` per pixel (Σr, Σg, Σb, samples

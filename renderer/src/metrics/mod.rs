@@ -1,8 +1,9 @@
 //! Image metrics for measured correctness and the speed/accuracy trade: MSE, RMSE, relative MSE
 //! on linear radiance; PSNR, SSIM (Wang et al. 2004) and FLIP on display images ([`Display`]:
 //! exposure, tone curve, sRGB8, as the PNG output); the fraction of non-finite pixels; all at once
-//! in [`Metrics`] with their definitions in [`METRIC_NOTES`]; and box downsampling (compare noisy
-//! renders at a lower resolution).
+//! in [`Metrics`] with their definitions in [`METRIC_NOTES`]; box downsampling (compare noisy
+//! renders at a lower resolution); and the relMSE estimated without a reference from two halves
+//! of the samples ([`rel_mse_estimate`]).
 //!
 //! Non-finite pixels: [`mse`] and [`rel_mse`] skip every pixel where either image has a NaN or
 //! ±Inf channel (the whole pixel, all three channels) and average over the rest; report
@@ -13,6 +14,7 @@ mod all;
 mod display;
 mod downsample;
 mod error;
+mod estimate;
 mod flip;
 mod pixelwise;
 mod psnr;
@@ -22,6 +24,7 @@ pub use all::{MetricNotes, Metrics, METRIC_NOTES, NAN_NOTE};
 pub use display::{tonemap_from_name, tonemap_name, Display, DisplaySettings, LUMA_WEIGHTS};
 pub use downsample::downsample_box;
 pub use error::MetricError;
+pub use estimate::{rel_mse_estimate, REL_MSE_ESTIMATE_FORMULA};
 pub use flip::{flip, flip_map, FlipMap, FLIP_NOTE};
 pub use pixelwise::{mse, nan_fraction, rel_mse, rmse, MSE_FORMULA, REL_MSE_FORMULA, RMSE_FORMULA};
 pub use psnr::{psnr, PSNR_NOTE};

@@ -46,6 +46,8 @@ pub struct AccumSnapshot {
     height: u32,
     /// Entries (`[f32; 4]`) of the accumulation and of each extra buffer, in order.
     parts: Vec<usize>,
+    /// Entries of the odd half, after the parts.
+    odd: usize,
     spp: u32,
     resolver: Resolver,
 }
@@ -56,15 +58,25 @@ impl AccumSnapshot {
         self.spp
     }
 
-    /// Every entry: the accumulation followed by the integrator's extra buffers (the layout of
-    /// `RenderSession::accumulation`).
+    /// Every entry: the accumulation followed by the integrator's extra buffers and the odd half
+    /// (the layout of `RenderSession::accumulation`).
     pub fn entries(&self) -> Result<Vec<[f32; 4]>, RenderError> {
-        let n: usize = self.parts.iter().sum();
+        let n: usize = self.parts.iter().sum::<usize>() + self.odd;
         let bytes = self
             .buffer
             .mapped()
             .ok_or_else(|| RenderError::Invalid("snapshot buffer not mapped".into()))?;
         Ok(bytemuck::pod_collect_to_vec(&bytes[..n * 16]))
+    }
+
+    /// The image and the estimate of its relMSE against the converged image
+    /// ([`crate::metrics::rel_mse_estimate`]; None before both halves have samples).
+    pub fn image_and_estimate(&self) -> Result<(Image, Option<f64>), RenderError> {
+        let all = self.entries()?;
+        let n: usize = self.parts.iter().sum();
+        let image = self.resolve(&all[..n]);
+        let estimate = crate::metrics::rel_mse_estimate(&all[..self.parts[0]], &all[n..], &image);
+        Ok((image, estimate))
     }
 
     /// The image, as the integrator resolves it (read in place where the mapping is aligned).
@@ -82,6 +94,11 @@ impl AccumSnapshot {
                 &copy
             }
         };
+        Ok(self.resolve(&all[..n]))
+    }
+
+    /// The image of the snapshot's parts (`all`: the accumulation and the extra buffers).
+    fn resolve(&self, all: &[[f32; 4]]) -> Image {
         let mut parts = Vec::with_capacity(self.parts.len());
         let mut at = 0;
         for &len in &self.parts {
@@ -89,11 +106,11 @@ impl AccumSnapshot {
             at += len;
         }
         let pixels = (self.resolver)(parts[0], &parts[1..], self.spp);
-        Ok(Image {
+        Image {
             width: self.width,
             height: self.height,
             pixels,
-        })
+        }
     }
 }
 
@@ -158,16 +175,17 @@ impl PassRing {
     }
 }
 
-/// A host-visible buffer for a snapshot of `parts` entries.
+/// A host-visible buffer for a snapshot of `parts` entries and the `odd` entries of the odd half.
 pub(super) fn snapshot_target(
     ctx: &Arc<GpuContext>,
     width: u32,
     height: u32,
     parts: Vec<usize>,
+    odd: usize,
     spp: u32,
     resolver: Resolver,
 ) -> Result<AccumSnapshot, RenderError> {
-    let n: usize = parts.iter().sum();
+    let n: usize = parts.iter().sum::<usize>() + odd;
     Ok(AccumSnapshot {
         buffer: Buffer::new(
             ctx,
@@ -178,6 +196,7 @@ pub(super) fn snapshot_target(
         width,
         height,
         parts,
+        odd,
         spp,
         resolver,
     })

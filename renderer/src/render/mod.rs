@@ -2,16 +2,19 @@
 //! the integrator's pipeline, and runs passes of N samples per pixel, queued back to back
 //! (inflight.rs) and cut into dispatches sized to the GPU (dispatch.rs). Sample indices are the
 //! RNG key, so the image depends only on (seed, total spp), never on the pass split or the
-//! dispatch shape. `render` drives a session to an spp or wall-time budget.
+//! dispatch shape. `render` drives a session to an spp or wall-time budget; `render_split`
+//! drives several sessions (devices) on disjoint sample indices and merges their sums.
 
 mod dispatch;
 mod inflight;
 mod session;
+mod shards;
 
 pub use crate::error::RenderError;
 pub use dispatch::{DispatchShape, MAX_LANES};
 pub use inflight::{AccumSnapshot, CompletedPass, PassStats, PIPELINE_DEPTH};
 pub use session::{Progress, RenderSession, LLVMPIPE_MAX_DISPATCHES};
+pub use shards::{merge_accumulation, render_split, SampleDispenser, SplitRender};
 
 use std::time::Duration;
 
@@ -81,8 +84,22 @@ pub struct RenderStats {
     pub accel: String,
     /// Seconds to obtain it: its build, or loading it from the cache on a hit.
     pub accel_build_s: f64,
-    /// Bytes of its GPU buffers.
+    /// Bytes of its GPU buffers (BVH nodes and parent pointers, or the grid's buffers).
     pub accel_bytes: u64,
+    /// GPU bytes of the geometry: primitives and per-triangle shading data.
+    pub geometry_bytes: u64,
+    /// GPU bytes of every scene buffer (geometry, accel, materials, textures, lights, ...).
+    pub scene_gpu_bytes: u64,
+    /// (geometry_bytes + accel_bytes) / triangles (0 without triangles).
+    pub gpu_bytes_per_triangle: f64,
+    /// The host process's peak resident memory so far (VmHWM; absent where unknown). In the
+    /// server it covers every job the process has run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub peak_rss_bytes: Option<u64>,
+    /// Seconds to load the scene (parse, read meshes and textures); 0 when not measured.
+    pub load_s: f64,
+    /// Seconds to compile it for the GPU, including `accel_build_s`.
+    pub compile_s: f64,
     /// "hit", "miss" (built and stored) or "off" (no cache).
     pub accel_cache: crate::accel::CacheStatus,
     /// Grid only: cells along x, y, z.
@@ -100,6 +117,84 @@ pub struct RenderStats {
     /// The integrator's own statistics (stage timings, memory), where it has any.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub details: Option<serde_json::Value>,
+    /// The image's relMSE against the converged image, estimated without a reference from the
+    /// even and odd halves of its samples ([`crate::metrics::rel_mse_estimate`]); set by
+    /// [`render`] and the server (None before both halves have samples).
+    pub rel_mse_estimate: Option<f64>,
+    /// How light sampling picked lights: "power" or "bvh" (`render.light_sampler`; bdpt always
+    /// "power").
+    pub light_sampler: &'static str,
+    /// Why the render stopped (set by [`render`] and the server).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stopped_by: Option<StopReason>,
+    /// `auto` only: the integrator chosen and the pilots' figures (renderer::auto).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auto: Option<AutoChoice>,
+}
+
+/// One integrator's pilot of `auto` (renderer::auto).
+#[derive(Debug, Clone, Serialize)]
+pub struct Pilot {
+    pub integrator: &'static str,
+    pub spp: u32,
+    pub time_s: f64,
+    pub rel_mse_estimate: Option<f64>,
+    /// rel_mse_estimate × time_s: lower is better (None without an estimate).
+    pub cost: Option<f64>,
+}
+
+/// What `auto` chose and why (renderer::auto).
+#[derive(Debug, Clone, Serialize)]
+pub struct AutoChoice {
+    pub choice: &'static str,
+    pub pilots: Vec<Pilot>,
+}
+
+/// Why a render stopped: its spp or time cap, or its quality target (`until`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    Spp,
+    Time,
+    RelMse,
+}
+
+impl StopReason {
+    /// The name in reports: "spp", "time" or "rel_mse".
+    pub fn name(self) -> &'static str {
+        match self {
+            StopReason::Spp => "spp",
+            StopReason::Time => "time",
+            StopReason::RelMse => "rel_mse",
+        }
+    }
+}
+
+/// Fewest samples per pixel before a quality target may stop a render: below it the estimate
+/// rests on too few samples per half to trust ([`crate::metrics::rel_mse_estimate`]).
+pub const UNTIL_MIN_SPP: u32 = 8;
+
+/// Whether a render with the estimate `estimate` at `spp` samples per pixel has reached the
+/// target `rel_mse` (one place for the rule: [`render_until`] and the server use it).
+pub fn target_reached(rel_mse: f64, spp: u32, estimate: Option<f64>) -> bool {
+    spp >= UNTIL_MIN_SPP && estimate.is_some_and(|e| e <= rel_mse)
+}
+
+/// The most samples per pixel the next pass of a render with a quality target should have, so
+/// it does not overshoot: the estimate falls as 1/spp, so the target is expected at
+/// `spp · estimate / rel_mse` in all; the pass takes what is left of that (counting `submitted`,
+/// the samples already queued), and at least an eighth of `submitted` (the estimate is noisy)
+/// and [`UNTIL_MIN_SPP`] in all. None before an estimate.
+pub fn until_pass_cap(
+    rel_mse: f64,
+    spp: u32,
+    estimate: Option<f64>,
+    submitted: u32,
+) -> Option<u32> {
+    let e = estimate.filter(|e| e.is_finite() && *e > 0.0)?;
+    let expected = (spp as f64 * e / rel_mse).ceil().min(u32::MAX as f64) as u32;
+    let left = expected.max(UNTIL_MIN_SPP).saturating_sub(submitted);
+    Some(left.max(submitted / 8).max(1))
 }
 
 /// Size and times of a session's first pass.
@@ -117,13 +212,42 @@ pub fn render(
     session: &mut RenderSession,
     budget: Budget,
 ) -> Result<(Image, RenderStats), RenderError> {
+    render_until(session, budget, None)
+}
+
+/// [`render`], stopping early once the estimated relMSE ([`RenderStats::rel_mse_estimate`])
+/// reaches `until` ([`target_reached`]), the budget being the cap. With a target, each pass
+/// copies the accumulation out for the estimate; passes already queued when the target is seen
+/// still complete (the image only gets better).
+pub fn render_until(
+    session: &mut RenderSession,
+    budget: Budget,
+    until: Option<f64>,
+) -> Result<(Image, RenderStats), RenderError> {
     let target = Duration::from_millis(250);
     let mut sizer = PassSizer::default();
+    let mut reached = false;
+    // The latest estimate and the spp it was made at (with a target).
+    let mut last: (u32, Option<f64>) = (0, None);
+    // A completed pass: its cost, and with a target its snapshot's estimate.
+    let observe = |p: CompletedPass,
+                   sizer: &mut PassSizer,
+                   reached: &mut bool,
+                   last: &mut (u32, Option<f64>)| {
+        sizer.observe(&p.stats);
+        if let (Some(goal), Some(snap)) = (until, p.snapshot) {
+            let (_, estimate) = snap.image_and_estimate()?;
+            *reached |= target_reached(goal, snap.spp(), estimate);
+            *last = (snap.spp(), estimate);
+        }
+        Ok::<(), RenderError>(())
+    };
     loop {
         // Step 1: keep the queue full while the budget has room (one pass at a time until a
         // pass has shown what a sample costs).
         while session.in_flight() < PIPELINE_DEPTH
             && (sizer.knows_cost() || session.in_flight() == 0)
+            && !reached
         {
             let n = match budget {
                 Budget::Spp(total) => {
@@ -143,18 +267,29 @@ pub fn render(
                     sizer.next(target.min(Duration::from_secs_f64(left.max(0.0))))
                 }
             };
-            for p in session.submit_pass(n, false)? {
-                sizer.observe(&p.stats);
+            let cap = until
+                .and_then(|goal| until_pass_cap(goal, last.0, last.1, session.submitted_spp()));
+            let n = cap.map_or(n, |c| n.min(c));
+            for p in session.submit_pass(n, until.is_some())? {
+                observe(p, &mut sizer, &mut reached, &mut last)?;
             }
         }
         // Step 2: the oldest pass; done when none is left.
         match session.complete_oldest()? {
-            Some(p) => sizer.observe(&p.stats),
+            Some(p) => observe(p, &mut sizer, &mut reached, &mut last)?,
             None => break,
         }
     }
-    let image = session.image()?;
-    Ok((image, session.stats()))
+    // Step 3: the image, its estimated error, and why the render stopped.
+    let (image, estimate) = session.image_and_estimate()?;
+    let mut stats = session.stats();
+    stats.rel_mse_estimate = estimate;
+    stats.stopped_by = Some(match (reached, budget) {
+        (true, _) => StopReason::RelMse,
+        (false, Budget::Spp(_)) => StopReason::Spp,
+        (false, Budget::Time(_)) => StopReason::Time,
+    });
+    Ok((image, stats))
 }
 
 /// Sizes passes from the measured cost of a sample per pixel (GPU time where the device has

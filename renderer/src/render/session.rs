@@ -1,6 +1,7 @@
 //! One render in progress: uploaded scene buffers, accumulation buffer, pipeline and counters.
 //! Integrators may declare extra per-pixel buffers (bdpt: light-tracing splats) and how the image
-//! is formed from them; checkpoints carry them after the accumulation.
+//! is formed from them; checkpoints carry them after the accumulation, and after those the odd
+//! half (the odd-indexed samples' share of the accumulation, for the error estimate).
 //!
 //! Passes are queued without waiting ([`RenderSession::submit_pass`], up to
 //! [`PIPELINE_DEPTH`] at once, inflight.rs) and cut into dispatches sized to the GPU
@@ -54,6 +55,8 @@ pub struct RenderSession {
     // Scene and scratch buffers are kept alive for the pipelines' descriptor sets.
     _scene: Vec<Buffer>,
     accum: Buffer,
+    /// The odd-indexed samples' share of `accum` (binding ACCUM_ODD; metrics/estimate.rs).
+    accum_odd: Buffer,
     /// The integrator's extra per-pixel buffers, in `extra_buffers()` order.
     extra: Vec<(ExtraBuffer, Buffer)>,
     stats_buf: Buffer,
@@ -61,6 +64,9 @@ pub struct RenderSession {
     height: u32,
     seed: u64,
     spp: u32,
+    /// The sample index the next pass starts at: the samples submitted so far, unless
+    /// [`RenderSession::set_next_sample`] moved it (a shard of a multi-device render).
+    next_sample: u32,
     passes: u32,
     rays: u64,
     dropped: u64,
@@ -93,6 +99,10 @@ struct SceneInfo {
     features: crate::compile::FeatureSet,
     kernels: KernelMode,
     accel: crate::accel::AccelInfo,
+    bytes: crate::memory::SceneBytes,
+    load_time: Duration,
+    compile_time: Duration,
+    light_sampler: &'static str,
 }
 
 impl RenderSession {
@@ -140,6 +150,8 @@ impl RenderSession {
         // Step 2: accumulation (rgb sum, sample count per pixel) and counters, zeroed.
         let accum = Buffer::new(ctx, "accumulation", pixels * 16, BufferUsage::Storage)?;
         ctx.fill_zero(&accum)?;
+        let accum_odd = Buffer::new(ctx, "accumulation (odd)", pixels * 16, BufferUsage::Storage)?;
+        ctx.fill_zero(&accum_odd)?;
         let stats_buf = Buffer::new(
             ctx,
             "stats",
@@ -170,6 +182,10 @@ impl RenderSession {
         bindings.push(Binding {
             index: binding::STATS,
             buffer: &stats_buf,
+        });
+        bindings.push(Binding {
+            index: binding::ACCUM_ODD,
+            buffer: &accum_odd,
         });
         for (e, b) in &extra {
             bindings.push(Binding {
@@ -206,12 +222,14 @@ impl RenderSession {
                 .chain(scratch.into_iter().map(|(_, b)| b))
                 .collect(),
             accum,
+            accum_odd,
             extra,
             stats_buf,
             width: w,
             height: h,
             seed,
             spp: 0,
+            next_sample: 0,
             passes: 0,
             rays: 0,
             dropped: 0,
@@ -239,6 +257,17 @@ impl RenderSession {
                 features,
                 kernels,
                 accel: scene.accel.clone(),
+                bytes: crate::memory::scene_bytes(scene),
+                load_time: scene.load_time,
+                compile_time: scene.compile_time,
+                // (bdpt keeps the power sampler: shaders/common/lights.glsl)
+                light_sampler: if !scene.light_bvh.is_empty()
+                    && !defines.iter().any(|(k, _)| k == "BDPT_DEPTH_CAP")
+                {
+                    "bvh"
+                } else {
+                    "power"
+                },
             },
         })
     }
@@ -253,6 +282,13 @@ impl RenderSession {
         let mut defines = scene.features.for_mode(mode).defines();
         if scene.grid.is_some() {
             defines.push(("ACCEL_GRID".to_string(), "1".to_string()));
+        }
+        if scene.traversal_stack < crate::accel::STACK_DEPTH {
+            let n = scene.traversal_stack.to_string();
+            defines.push(("TEST_BVH_STACK".to_string(), n));
+        }
+        if !scene.light_bvh.is_empty() {
+            defines.push(("LIGHT_BVH".to_string(), "1".to_string()));
         }
         defines.extend(integrator.defines());
         defines
@@ -330,12 +366,14 @@ impl RenderSession {
     pub fn reset(&mut self, seed: u64) -> Result<(), RenderError> {
         self.drain()?;
         self.ctx.fill_zero(&self.accum)?;
+        self.ctx.fill_zero(&self.accum_odd)?;
         self.ctx.fill_zero(&self.stats_buf)?;
         for (_, b) in &self.extra {
             self.ctx.fill_zero(b)?;
         }
         self.seed = seed;
         self.spp = 0;
+        self.next_sample = 0;
         self.first_pass = None;
         self.passes = 0;
         self.rays = 0;
@@ -343,6 +381,14 @@ impl RenderSession {
         self.elapsed = Duration::ZERO;
         self.gpu_time = Duration::ZERO;
         Ok(())
+    }
+
+    /// Starts the next pass at sample index `first` instead of right after the samples
+    /// submitted so far. A render split over devices (shards.rs) gives each session disjoint
+    /// ranges of sample indices this way; since samples are keyed by index, the sessions' sums
+    /// add up to the accumulation of one session that rendered every index.
+    pub fn set_next_sample(&mut self, first: u32) {
+        self.next_sample = first;
     }
 
     /// Samples per pixel rendered so far.
@@ -396,7 +442,7 @@ impl RenderSession {
         let push = GpuPush {
             seed_lo: self.seed as u32,
             seed_hi: (self.seed >> 32) as u32,
-            sample_base: self.submitted_spp(),
+            sample_base: self.next_sample,
             spp,
             flags: self.flags,
             ..Default::default()
@@ -417,6 +463,7 @@ impl RenderSession {
                 self.width,
                 self.height,
                 parts,
+                n,
                 self.submitted_spp() + spp,
                 self.integrator.resolver(),
             )?)
@@ -430,6 +477,7 @@ impl RenderSession {
             .map(|(c, _)| integrator.dispatches_per_pass(c.spp))
             .sum();
         let (stats_buf, accum, extra) = (&self.stats_buf, &self.accum, &self.extra);
+        let accum_odd = &self.accum_odd;
         let counters = &slot.counters;
         let recorded = slot.frame.submit(most, |rec| {
             for (push, groups) in &dispatches {
@@ -440,7 +488,11 @@ impl RenderSession {
             rec.fill_zero(stats_buf);
             if let Some(t) = &target {
                 let mut at = 0;
-                for b in std::iter::once(accum).chain(extra.iter().map(|(_, b)| b)) {
+                let odd = std::iter::once(accum_odd);
+                for b in std::iter::once(accum)
+                    .chain(extra.iter().map(|(_, b)| b))
+                    .chain(odd)
+                {
                     rec.copy(b, 0, t.buffer(), at, b.size);
                     at += b.size;
                 }
@@ -451,6 +503,7 @@ impl RenderSession {
             self.ring.spare.push(slot);
             return Err(e.into());
         }
+        self.next_sample = self.next_sample.wrapping_add(spp);
         self.ring.in_flight.push_back(InFlight {
             slot,
             spp,
@@ -520,20 +573,27 @@ impl RenderSession {
         }
     }
 
+    /// The integrator's extra per-pixel buffers, in [`Self::accumulation`] order.
+    pub fn extra_buffers(&self) -> Vec<ExtraBuffer> {
+        self.extra.iter().map(|(e, _)| *e).collect()
+    }
+
     /// Entries (`[f32; 4]`) in [`Self::accumulation`]: width·height, plus the integrator's extra
-    /// buffers (bdpt: one or two per pixel).
+    /// buffers (bdpt: one or two per pixel), plus width·height of the odd half.
     pub fn accumulation_len(&self) -> usize {
         let n = (self.width * self.height) as usize;
-        n + self
-            .extra
-            .iter()
-            .map(|(e, _)| n * e.entries_per_pixel as usize)
-            .sum::<usize>()
+        2 * n
+            + self
+                .extra
+                .iter()
+                .map(|(e, _)| n * e.entries_per_pixel as usize)
+                .sum::<usize>()
     }
 
     /// The raw accumulation buffer: per pixel (Σr, Σg, Σb, samples kept), row 0 at the top,
     /// followed by the raw words of the integrator's extra buffers (bdpt: the light-tracing
-    /// splats), [`Self::accumulation_len`] entries in all. Restore it as a whole.
+    /// splats), then the odd half (the odd-indexed samples' share of the accumulation),
+    /// [`Self::accumulation_len`] entries in all. Restore it as a whole.
     pub fn accumulation(&mut self) -> Result<Vec<[f32; 4]>, RenderError> {
         self.drain()?;
         let n = (self.width * self.height) as usize;
@@ -544,6 +604,7 @@ impl RenderSession {
                     .download_vec::<[f32; 4]>(b, n * e.entries_per_pixel as usize)?,
             );
         }
+        out.extend(self.ctx.download_vec::<[f32; 4]>(&self.accum_odd, n)?);
         Ok(out)
     }
 
@@ -573,7 +634,13 @@ impl RenderSession {
                 .upload(b, 0, bytemuck::cast_slice(&accumulation[at..at + len]))?;
             at += len;
         }
+        self.ctx.upload(
+            &self.accum_odd,
+            0,
+            bytemuck::cast_slice(&accumulation[at..]),
+        )?;
         self.spp = progress.spp;
+        self.next_sample = progress.spp;
         self.passes = progress.passes;
         self.rays = progress.rays;
         self.dropped = progress.dropped_samples;
@@ -590,8 +657,30 @@ impl RenderSession {
         Ok(self.resolve(&all))
     }
 
+    /// The estimate of the current image's relMSE against the converged image, from its even
+    /// and odd halves (after every queued pass; [`crate::metrics::rel_mse_estimate`]); None
+    /// before both halves have samples.
+    pub fn rel_mse_estimate(&mut self) -> Result<Option<f64>, RenderError> {
+        Ok(self.image_and_estimate()?.1)
+    }
+
+    /// [`Self::image`] and [`Self::rel_mse_estimate`] from one download.
+    pub fn image_and_estimate(&mut self) -> Result<(Image, Option<f64>), RenderError> {
+        let all = self.accumulation()?;
+        let n = (self.width * self.height) as usize;
+        let image = self.resolve(&all);
+        let estimate = crate::metrics::rel_mse_estimate(&all[..n], &all[all.len() - n..], &image);
+        Ok((image, estimate))
+    }
+
     /// The image of `all`, an [`Self::accumulation`] of this session (at its current spp).
     pub fn resolve(&self, all: &[[f32; 4]]) -> Image {
+        self.resolve_spp(all, self.spp)
+    }
+
+    /// The image of `all`, an accumulation of this session's layout holding `spp` samples per
+    /// pixel (e.g. the merged sums of several shards, shards.rs).
+    pub fn resolve_spp(&self, all: &[[f32; 4]], spp: u32) -> Image {
         let n = (self.width * self.height) as usize;
         let mut parts = vec![&all[..n.min(all.len())]];
         let mut at = n;
@@ -600,7 +689,7 @@ impl RenderSession {
             parts.push(all.get(at..at + len).unwrap_or(&[]));
             at += len;
         }
-        let pixels = (self.integrator.resolver())(parts[0], &parts[1..], self.spp);
+        let pixels = (self.integrator.resolver())(parts[0], &parts[1..], spp);
         Image {
             width: self.width,
             height: self.height,
@@ -639,7 +728,18 @@ impl RenderSession {
             kernels: self.info.kernels,
             accel: self.info.accel.kind.name().to_string(),
             accel_build_s: self.info.accel.build_time.as_secs_f64(),
-            accel_bytes: self.info.accel.bytes,
+            accel_bytes: self.info.bytes.accel,
+            geometry_bytes: self.info.bytes.geometry,
+            scene_gpu_bytes: self.info.bytes.total(),
+            gpu_bytes_per_triangle: if self.info.triangles > 0 {
+                (self.info.bytes.geometry + self.info.bytes.accel) as f64
+                    / self.info.triangles as f64
+            } else {
+                0.0
+            },
+            peak_rss_bytes: crate::memory::peak_rss_bytes(),
+            load_s: self.info.load_time.as_secs_f64(),
+            compile_s: self.info.compile_time.as_secs_f64(),
             accel_cache: self.info.accel.cache,
             grid_resolution: self.info.accel.grid_resolution,
             grid_refs: self.info.accel.grid_refs,
@@ -650,6 +750,10 @@ impl RenderSession {
                 wall_ms: p.wall.as_secs_f64() * 1e3,
             }),
             details: self.integrator.details(),
+            rel_mse_estimate: None,
+            stopped_by: None,
+            light_sampler: self.info.light_sampler,
+            auto: None,
         }
     }
 }

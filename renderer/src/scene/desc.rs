@@ -342,4 +342,6 @@ pub struct RenderDesc {
     pub accel: Option<String>,
     #[serde(default)]
     pub grid_resolution: Option<u64>,
+    #[serde(default)]
+    pub light_sampler: Option<String>,
 }

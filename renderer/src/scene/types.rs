@@ -187,6 +187,10 @@ pub enum Environment {
     },
 }
 
+/// The values of `render.light_sampler`: lights picked ∝ power, or by a light BVH from the
+/// shading point.
+pub const LIGHT_SAMPLERS: [&str; 2] = ["power", "bvh"];
+
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RenderDefaults {
     pub integrator: Option<String>,
@@ -196,6 +200,9 @@ pub struct RenderDefaults {
     pub accel: Option<String>,
     /// Grid cells along the longest axis of the scene box (None: automatic).
     pub grid_resolution: Option<u32>,
+    /// How next-event estimation picks lights: "power" (None: the default) or "bvh"
+    /// (renderer/src/compile/light_bvh.rs).
+    pub light_sampler: Option<String>,
 }
 
 impl RenderDefaults {

@@ -252,12 +252,24 @@ pub(crate) fn render(d: Option<&RenderDesc>) -> Result<RenderDefaults, SceneErro
         }
     };
     let (accel, grid_resolution) = accel(d)?;
+    if let Some(s) = &d.light_sampler {
+        if !crate::scene::LIGHT_SAMPLERS.contains(&s.as_str()) {
+            return Err(SceneError::invalid(
+                "render.light_sampler",
+                format!(
+                    "unknown light sampler \"{s}\", expected one of {}",
+                    crate::scene::LIGHT_SAMPLERS.join(", ")
+                ),
+            ));
+        }
+    }
     Ok(RenderDefaults {
         integrator: d.integrator.clone(),
         max_depth,
         spp,
         accel,
         grid_resolution,
+        light_sampler: d.light_sampler.clone(),
     })
 }
 

@@ -29,6 +29,7 @@ pub fn run_bench(
     progress: &mut dyn FnMut(&str),
 ) -> Result<BenchReport, BenchError> {
     // Step 1: scene, given reference, film size.
+    let load_start = std::time::Instant::now();
     let loaded = renderer::import::load_file(&cfg.scene, &cfg.import).map_err(|e| match e {
         renderer::scene::SceneError::Import { .. } => BenchError::Input(e.to_string()),
         e => BenchError::Input(format!("{}: {e}", cfg.scene.display())),
@@ -59,6 +60,7 @@ pub fn run_bench(
             width: Some(width),
             height: Some(height),
             kernels: cfg.kernels,
+            load_time: load_start.elapsed(),
             ..Default::default()
         },
     )

@@ -4,6 +4,7 @@ mod bench;
 mod compare;
 mod convert;
 mod gc;
+mod multi_device;
 mod render;
 mod scene_file;
 mod serve;
@@ -79,6 +80,7 @@ pub fn open_device(
     use renderer::gpu::{GpuContext, GpuError, GpuOptions};
     GpuContext::new(&GpuOptions {
         device: filter.map(String::from),
+        index: None,
         validation: false,
         kernel_cache,
     })
@@ -167,9 +169,9 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
             if json {
                 println!("{}", serde_json::to_string(&devices).unwrap_or_default());
             } else {
-                for d in devices {
+                for (i, d) in devices.iter().enumerate() {
                     println!(
-                        "{} ({}, Vulkan {}, {})",
+                        "{i}: {} ({}, Vulkan {}, {})",
                         d.name, d.kind, d.api_version, d.driver
                     );
                 }

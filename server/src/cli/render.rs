@@ -1,5 +1,6 @@
-//! `candela render SCENE.json -o OUT.{exr,png}`: load, compile, render to an spp or time budget,
-//! write the image, report what happened (human-readable, or one JSON object with --json).
+//! `candela render SCENE.json -o OUT.{exr,png}`: load, compile, render to an spp or time budget
+//! (or until the estimated relMSE reaches a target, that budget being the cap), write the image,
+//! report what happened (human-readable, or one JSON object with --json).
 
 use std::path::PathBuf;
 
@@ -8,7 +9,7 @@ use renderer::accel::{AccelKind, AccelRequest};
 use renderer::compile::KernelMode;
 use renderer::integrators::{IntegratorOptions, DEFAULT_INTEGRATOR};
 use renderer::prepare::{prepare, FilmLimits, PrepareOptions};
-use renderer::render::{render, Budget, RenderStats};
+use renderer::render::{render, render_until, Budget, RenderStats};
 
 use super::CliError;
 
@@ -33,11 +34,20 @@ pub struct RenderArgs {
     /// Render for this many seconds instead of a sample count.
     #[arg(long)]
     pub time: Option<f64>,
+    /// Stop as soon as the relMSE estimated without a reference (from the even and odd halves of
+    /// the samples; `rel_mse_estimate` in the report) is at most X, after at least 8 spp; --spp or
+    /// --time (else the default spp) is the cap. The report's `stopped_by` says which ended it.
+    #[arg(long, value_name = "X")]
+    pub until_rel_mse: Option<f64>,
     /// Benchmarking: render this many seconds first, untimed and discarded, so that the timed
     /// render starts on a GPU already at its working clocks (after a cold kernel compile the
     /// device may have idled down).
     #[arg(long, value_name = "SECONDS")]
     pub warmup: Option<f64>,
+    /// How light sampling picks a light: power or bvh (default: the scene's
+    /// render.light_sampler, else power; docs/light-sampler.md).
+    #[arg(long, value_name = "KIND")]
+    pub light_sampler: Option<String>,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -51,8 +61,13 @@ pub struct RenderArgs {
     #[arg(long)]
     pub height: Option<u32>,
     /// Use the first Vulkan device whose name contains this text.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "devices")]
     pub device: Option<String>,
+    /// Split the render across devices by sample index: "all" (every GPU of the best kind) or
+    /// indices from `candela devices`, e.g. 0,1 (an index may repeat: two contexts on one
+    /// device). --spp is the total over the devices, --time each device's.
+    #[arg(long, value_name = "all|0,1")]
+    pub devices: Option<String>,
     /// Print the report as one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -97,6 +112,13 @@ fn check_args(a: &RenderArgs) -> Result<(), CliError> {
             )));
         }
     }
+    if let Some(x) = a.until_rel_mse {
+        if !(x.is_finite() && x > 0.0) {
+            return Err(CliError::input(format!(
+                "--until-rel-mse: must be a positive number, got {x}"
+            )));
+        }
+    }
     if let Some(t) = a.time {
         if !(t.is_finite() && t > 0.0 && t <= 7.0 * 86400.0) {
             return Err(CliError::input(format!(
@@ -112,6 +134,14 @@ fn check_args(a: &RenderArgs) -> Result<(), CliError> {
                     "{flag}: must be in 1..={max_side}, got {v}"
                 )));
             }
+        }
+    }
+    if let Some(s) = &a.light_sampler {
+        if !renderer::scene::LIGHT_SAMPLERS.contains(&s.as_str()) {
+            return Err(CliError::input(format!(
+                "--light-sampler: unknown light sampler \"{s}\", expected one of {}",
+                renderer::scene::LIGHT_SAMPLERS.join(", ")
+            )));
         }
     }
     if let Some(k) = &a.accel {
@@ -152,8 +182,22 @@ fn check_args(a: &RenderArgs) -> Result<(), CliError> {
 pub fn run(a: RenderArgs) -> Result<(), CliError> {
     check_args(&a)?;
     // Step 1: the scene and the integrator.
-    let scene = super::scene_file::load_scene(&a.scene, &a.import)?;
-    let mut options = integrator_options(&a, scene.render.integrator.as_deref())?;
+    let load_start = std::time::Instant::now();
+    let mut scene = super::scene_file::load_scene(&a.scene, &a.import)?;
+    let load_time = load_start.elapsed();
+    if let Some(s) = &a.light_sampler {
+        scene.render.light_sampler = Some(s.clone());
+    }
+    // `auto`: chosen by a pilot of every unbiased integrator (renderer::auto).
+    let auto = a.integrator.as_deref() == Some("auto");
+    let mut options = if auto {
+        IntegratorOptions::from_name(DEFAULT_INTEGRATOR).expect("the default integrator")
+    } else {
+        integrator_options(&a, scene.render.integrator.as_deref())?
+    };
+    if auto && a.options.is_some() {
+        return Err(CliError::input("--options: not with --integrator auto"));
+    }
     if let Some(d) = a.max_depth {
         options.set_max_depth(d);
         options
@@ -183,11 +227,56 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
             },
             cache: cache.as_deref(),
             kernels: a.kernels,
+            load_time,
         },
     )
     .map_err(|e| CliError::input(format!("{}: {e}", a.scene.display())))?;
-    // Step 3: device, session, render.
+    // Step 3: device(s), session(s), render.
+    if let Some(spec) = &a.devices {
+        if auto || a.until_rel_mse.is_some() {
+            return Err(CliError::input(
+                "--devices: not with --integrator auto or --until-rel-mse (one device only)",
+            ));
+        }
+        let indices = super::multi_device::parse_devices(spec)?;
+        let mut sessions = super::multi_device::open_sessions(
+            &indices,
+            &prepared,
+            &options,
+            a.seed,
+            a.kernel_cache.dir(),
+        )?;
+        let split =
+            super::multi_device::render_on_devices(&mut sessions, budget, a.warmup, a.seed)?;
+        let stats = split.total();
+        let mut extra = serde_json::Map::new();
+        extra.insert(
+            "devices".into(),
+            super::multi_device::device_json(&indices, &split),
+        );
+        extra.insert("wall_s".into(), split.wall.as_secs_f64().into());
+        return finish(
+            &a,
+            &scene,
+            &split.image,
+            &stats,
+            extra,
+            &super::multi_device::device_lines(&indices, &split),
+        );
+    }
     let ctx = super::open_device(a.device.as_deref(), a.kernel_cache.dir())?;
+    if auto {
+        if a.until_rel_mse.is_some() || a.warmup.is_some() {
+            return Err(CliError::input(
+                "--integrator auto: not with --until-rel-mse or --warmup",
+            ));
+        }
+        let max_depth = a.max_depth.or(scene.render.max_depth);
+        let (image, stats) =
+            renderer::auto::render_auto(&prepared, &ctx, a.seed, max_depth, budget)
+                .map_err(|e| CliError::failure(e.to_string()))?;
+        return finish(&a, &scene, &image, &stats, serde_json::Map::new(), &[]);
+    }
     let mut session = prepared
         .session(&ctx, &options, a.seed)
         .map_err(|e| CliError::failure(e.to_string()))?;
@@ -196,14 +285,26 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
             .and_then(|_| session.reset(a.seed))
             .map_err(|e| CliError::failure(format!("warm-up: {e}")))?;
     }
-    let (image, stats) =
-        render(&mut session, budget).map_err(|e| CliError::failure(e.to_string()))?;
-    // Step 4: the image and the report.
-    renderer::film::write_image(&a.output, &image, scene.film.exposure, scene.film.tonemap)
+    let (image, stats) = render_until(&mut session, budget, a.until_rel_mse)
+        .map_err(|e| CliError::failure(e.to_string()))?;
+    finish(&a, &scene, &image, &stats, serde_json::Map::new(), &[])
+}
+
+/// Step 4: the image and the report (`extra` joins the JSON object, `lines` the text report).
+fn finish(
+    a: &RenderArgs,
+    scene: &renderer::scene::Scene,
+    image: &renderer::film::Image,
+    stats: &RenderStats,
+    extra: serde_json::Map<String, serde_json::Value>,
+    lines: &[String],
+) -> Result<(), CliError> {
+    renderer::film::write_image(&a.output, image, scene.film.exposure, scene.film.tonemap)
         .map_err(|e| CliError::failure(e.to_string()))?;
     if a.json {
-        let mut v = serde_json::to_value(&stats).unwrap_or_default();
+        let mut v = serde_json::to_value(stats).unwrap_or_default();
         if let Some(o) = v.as_object_mut() {
+            o.extend(extra);
             o.insert(
                 "output".into(),
                 serde_json::Value::String(a.output.display().to_string()),
@@ -215,7 +316,10 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
         }
         println!("{v}");
     } else {
-        print_report(&stats, &a.output);
+        print_report(stats, &a.output);
+        for l in lines {
+            println!("{l}");
+        }
     }
     Ok(())
 }
@@ -244,8 +348,13 @@ fn print_report(stats: &RenderStats, output: &std::path::Path) {
         stats.rays_per_s * 1e-6
     );
     println!(
-        "scene       {} triangles, {} primitives, {} lights, BVH {} nodes (depth {})",
-        stats.triangles, stats.primitives, stats.lights, stats.bvh_nodes, stats.bvh_depth
+        "scene       {} triangles, {} primitives, {} lights ({} sampler), BVH {} nodes (depth {})",
+        stats.triangles,
+        stats.primitives,
+        stats.lights,
+        stats.light_sampler,
+        stats.bvh_nodes,
+        stats.bvh_depth
     );
     let grid = match (stats.grid_resolution, stats.grid_refs) {
         (Some([x, y, z]), Some(refs)) => format!(", {x}x{y}x{z} cells, {refs} references"),
@@ -262,11 +371,47 @@ fn print_report(stats: &RenderStats, output: &std::path::Path) {
             .unwrap_or_default()
     );
     println!(
+        "memory      GPU {} bytes (geometry {}, accel {}; {:.1} per triangle), host peak {}",
+        stats.scene_gpu_bytes,
+        stats.geometry_bytes,
+        stats.accel_bytes,
+        stats.gpu_bytes_per_triangle,
+        stats
+            .peak_rss_bytes
+            .map_or("unknown".to_string(), |b| format!("{b} bytes"))
+    );
+    println!(
+        "load        {:.3} s, compile {:.3} s (accel {:.3} s)",
+        stats.load_s, stats.compile_s, stats.accel_build_s
+    );
+    println!(
         "kernels     {}: {}",
         stats.kernels.name(),
         stats.features.join(", ")
     );
     println!("dropped     {} NaN/Inf samples", stats.dropped_samples);
+    let estimate = stats
+        .rel_mse_estimate
+        .map_or("-".to_string(), |e| format!("{e:.3e}"));
+    let stopped = stats.stopped_by.map_or("-", |s| s.name());
+    println!("error       estimated relMSE {estimate} (no reference), stopped by {stopped}");
+    if let Some(auto) = &stats.auto {
+        let pilots: Vec<String> = auto
+            .pilots
+            .iter()
+            .map(|p| {
+                let e = p
+                    .rel_mse_estimate
+                    .map_or("-".into(), |e| format!("{e:.2e}"));
+                format!("{} {e} in {:.3} s", p.integrator, p.time_s)
+            })
+            .collect();
+        println!(
+            "auto        chose {} (pilots: {})",
+            auto.choice,
+            pilots.join(", ")
+        );
+    }
     println!("wrote       {}", output.display());
 }
 

@@ -99,6 +99,11 @@ pub struct JobSettings {
     pub spp: Option<u32>,
     /// Seconds of the job's own render time (exclusive with `spp`).
     pub time_s: Option<f64>,
+    /// Quality target: the job stops once its estimated relMSE is at most this (after
+    /// `renderer::render::UNTIL_MIN_SPP` spp); spp or time_s is the cap (request field
+    /// `until: {"rel_mse": X}`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub until_rel_mse: Option<f64>,
     /// RNG seed.
     pub seed: u64,
     /// Film size.

@@ -32,6 +32,9 @@ pub struct JobRequest {
     pub integrator: Option<Value>,
     pub spp: Option<u32>,
     pub time_s: Option<f64>,
+    /// A quality target: `{"rel_mse": 1e-3}` stops the job once its estimated relMSE is at most
+    /// that; spp or time_s is the cap.
+    pub until: Option<Until>,
     pub seed: Option<u64>,
     pub priority: Option<u32>,
     pub name: Option<String>,
@@ -50,6 +53,15 @@ pub struct JobRequest {
     /// For an uploaded scene file of another format (Mitsuba XML, glTF, pbrt, .scn): import what
     /// candela cannot express as `warning` events and skip it, instead of refusing the scene.
     pub lenient: Option<bool>,
+}
+
+/// A job's quality target (`until`).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Until {
+    /// The estimated relMSE (no reference; `rel_mse_estimate` in the progress events) at which
+    /// the job stops.
+    pub rel_mse: f64,
 }
 
 /// A job's reference image: exactly one of `job` (a done job of the same film size) and `file`
@@ -311,6 +323,17 @@ pub fn prepare(
         }
     };
 
+    let until_rel_mse = match req.until {
+        Some(Until { rel_mse }) if !(rel_mse.is_finite() && rel_mse > 0.0) => {
+            return Err(ApiError::invalid(
+                "until.rel_mse",
+                format!("until.rel_mse: must be a positive number, got {rel_mse}"),
+            ))
+        }
+        Some(u) => Some(u.rel_mse),
+        None => None,
+    };
+
     // Step 3: film, display defaults, scheduling.
     let width = req.width.unwrap_or(scene.film.width);
     let height = req.height.unwrap_or(scene.film.height);
@@ -358,6 +381,7 @@ pub fn prepare(
             integrator,
             spp,
             time_s,
+            until_rel_mse,
             seed: req.seed.unwrap_or(0),
             width,
             height,

@@ -6,7 +6,10 @@ use std::time::{Duration, Instant};
 
 use renderer::film::Image;
 use renderer::metrics::{tonemap_from_name, Display};
-use renderer::render::{Budget, PassSizer, PassStats, Progress, RenderError, RenderSession};
+use renderer::render::{
+    target_reached, until_pass_cap, Budget, PassSizer, PassStats, Progress, RenderError,
+    RenderSession, StopReason,
+};
 use renderer::scene::Tonemap;
 use serde_json::{json, Value};
 
@@ -46,6 +49,15 @@ pub struct ActiveJob {
     reference: Option<Arc<Image>>,
     /// The thread reporting snapshots (started with the first snapshot).
     lane: Option<MetricsLane>,
+    /// The latest relMSE estimate (no reference) the worker computed, for `until` jobs, and
+    /// the spp it was made at.
+    pub estimate: Option<f64>,
+    estimate_spp: u32,
+    /// Whether the quality target (`until`) has been reached: nothing more is queued.
+    pub target_reached: bool,
+    /// For each queued pass, oldest first: whether its snapshot is to be reported (`until`
+    /// jobs copy the accumulation with every pass, to check the target).
+    pub report_flags: std::collections::VecDeque<bool>,
 }
 
 impl ActiveJob {
@@ -61,6 +73,10 @@ impl ActiveJob {
         ActiveJob {
             reference,
             lane: None,
+            estimate: None,
+            estimate_spp: 0,
+            target_reached: false,
+            report_flags: Default::default(),
             session,
             settings,
             paths,
@@ -74,13 +90,33 @@ impl ActiveJob {
         }
     }
 
-    /// Whether the budget is reached and every queued pass has completed.
+    /// Whether the budget (or the quality target) is reached and every queued pass has
+    /// completed.
     pub fn finished(&self) -> bool {
-        let reached = match self.settings.budget() {
-            Budget::Spp(n) => self.session.spp() >= n,
-            Budget::Time(t) => self.session.elapsed().as_secs_f64() >= t,
-        };
-        reached && self.session.in_flight() == 0
+        self.stop_reason().is_some() && self.session.in_flight() == 0
+    }
+
+    /// Why the job stops, once it does: its quality target, else its spp or time cap.
+    pub fn stop_reason(&self) -> Option<StopReason> {
+        if self.target_reached {
+            return Some(StopReason::RelMse);
+        }
+        match self.settings.budget() {
+            Budget::Spp(n) => (self.session.spp() >= n).then_some(StopReason::Spp),
+            Budget::Time(t) => {
+                (self.session.elapsed().as_secs_f64() >= t).then_some(StopReason::Time)
+            }
+        }
+    }
+
+    /// Notes the estimate of a snapshot of `spp` samples per pixel, and whether it reaches the
+    /// job's quality target ([`renderer::render::target_reached`]).
+    pub fn observe_estimate(&mut self, spp: u32, estimate: Option<f64>) {
+        self.estimate = estimate;
+        self.estimate_spp = spp;
+        if let Some(goal) = self.settings.until_rel_mse {
+            self.target_reached |= target_reached(goal, spp, estimate);
+        }
     }
 
     /// Samples per pixel of the next pass, sized from the last one to take about `target` and
@@ -94,9 +130,23 @@ impl ActiveJob {
 
     fn sized_pass_spp(&mut self, target: Duration) -> u32 {
         let submitted = self.session.submitted_spp();
+        if self.target_reached {
+            return 0;
+        }
         if !self.sizer.knows_cost() && self.session.in_flight() > 0 {
             return 0; // the first pass's cost first
         }
+        // A quality target: no pass past where the estimate expects it.
+        let cap = self
+            .settings
+            .until_rel_mse
+            .and_then(|goal| until_pass_cap(goal, self.estimate_spp, self.estimate, submitted));
+        let n = self.budget_pass_spp(target, submitted);
+        cap.map_or(n, |c| n.min(c))
+    }
+
+    /// [`Self::next_pass_spp`] from the budget alone.
+    fn budget_pass_spp(&mut self, target: Duration, submitted: u32) -> u32 {
         match self.settings.budget() {
             Budget::Spp(total) => match total.saturating_sub(submitted) {
                 0 => 0,
@@ -162,6 +212,8 @@ impl ActiveJob {
             "eta_s": eta_s,
             "fraction": fraction.min(1.0),
             "dropped_samples": p.dropped_samples,
+            "rel_mse_estimate": self.estimate,
+            "until_rel_mse": self.settings.until_rel_mse,
         })
     }
 

@@ -1,7 +1,8 @@
 //! Snapshots reported off the worker thread. Each job gets one small thread (its "lane") that
 //! resolves a snapshot's raw accumulation into the image (the pass copied it to host memory),
-//! publishes it for the image endpoints, computes relMSE/FLIP/SSIM/PSNR/MSE against the job's
-//! reference when it has one, and then appends the snapshot's `progress` (with `metrics`) and
+//! publishes it for the image endpoints, estimates its relMSE without a reference (from the two
+//! halves of its samples: `rel_mse_estimate`), computes relMSE/FLIP/SSIM/PSNR/MSE against the
+//! job's reference when it has one, and then appends the snapshot's `progress` (with `metrics`) and
 //! `snapshot` events, so the GPU worker queues the next pass at once and never waits on a large
 //! film's resolve or FLIP. Order is kept: the lane holds at most one pending snapshot (a newer
 //! one replaces it, so a slow metric drops intermediate events rather than falling behind), the
@@ -20,10 +21,21 @@ use crate::jobs::model::JobId;
 use crate::shared::Shared;
 use crate::store::Store;
 
-/// A snapshot's image: resolved already, or the raw accumulation a pass copied out.
+/// A snapshot's image: resolved already (with its samples per pixel), or the raw accumulation a
+/// pass copied out.
 pub enum SnapshotImage {
-    Image(Image),
+    Image(Image, u32),
     Accum(AccumSnapshot),
+}
+
+impl SnapshotImage {
+    /// Samples per pixel in the snapshot.
+    pub fn spp(&self) -> u32 {
+        match self {
+            SnapshotImage::Image(_, spp) => *spp,
+            SnapshotImage::Accum(a) => a.spp(),
+        }
+    }
 }
 
 /// One snapshot to report: its image and sample count, the `progress` data without metrics,
@@ -52,9 +64,12 @@ fn report(id: JobId, w: Work, t: &LaneTargets, noted: &mut bool) {
         snapshot,
     } = w;
     let image = match image {
-        SnapshotImage::Image(i) => i,
-        SnapshotImage::Accum(a) => match a.image() {
-            Ok(i) => i,
+        SnapshotImage::Image(i, _) => i,
+        SnapshotImage::Accum(a) => match a.image_and_estimate() {
+            Ok((i, estimate)) => {
+                progress["rel_mse_estimate"] = json!(estimate);
+                i
+            }
             Err(e) => return tracing::warn!(job = id, error = %e, "resolving a snapshot"),
         },
     };
@@ -278,7 +293,7 @@ mod tests {
         // Errors falling with k; submitted faster than measured, so some may be replaced.
         for k in 1..=6u32 {
             let bump = 0.4 / k as f32;
-            let img = SnapshotImage::Image(image(0.5, bump));
+            let img = SnapshotImage::Image(image(0.5, bump), 1);
             lane.submit(img, k, json!({"spp": k}), json!({"spp": k}));
         }
         lane.flush();
@@ -316,7 +331,7 @@ mod tests {
         assert_eq!(notes, 1);
         // Dropping reports what is pending, then joins.
         assert_eq!(shared.snapshot(id).map(|s| s.spp), Some(6));
-        let img = SnapshotImage::Image(image(0.5, 0.01));
+        let img = SnapshotImage::Image(image(0.5, 0.01), 1);
         lane.submit(img, 7, json!({"spp": 7}), json!({"spp": 7}));
         drop(lane);
         assert_eq!(shared.snapshot(id).map(|s| s.spp), Some(7));

@@ -41,6 +41,7 @@ use crate::jobs::model::{now_s, JobId, JobState, SceneSource};
 use crate::shared::{GpuStatus, Shared};
 use crate::store::{JobPaths, Store, StoreError, Transition};
 use active::{ActiveJob, CheckpointError};
+use metrics_lane::SnapshotImage;
 use scheduler::Scheduler;
 
 /// A message to the worker.
@@ -197,6 +198,7 @@ impl Worker {
         self.last_open = Some(Instant::now());
         let opts = GpuOptions {
             device: self.config.device.clone(),
+            index: None,
             validation: self.config.validation,
             kernel_cache: self.config.kernel_cache.clone(),
         };
@@ -297,6 +299,7 @@ impl Worker {
             SceneSource::Upload => Some(paths.assets()),
         };
         let limits = self.config.limits.scene_limits();
+        let load_start = std::time::Instant::now();
         let scene = match renderer::scene::load_str_with_limits(&text, base.as_deref(), &limits) {
             Ok(s) => s,
             Err(e) => return self.fail(id, format!("scene: {e}")),
@@ -314,6 +317,7 @@ impl Worker {
             },
             cache: Some(&cache),
             kernels: s.kernels,
+            load_time: load_start.elapsed(),
         };
         let prepared = match prepare(&scene, &options) {
             Ok(p) => p,
@@ -439,8 +443,10 @@ impl Worker {
             return;
         }
         // Step 3: queue it, with a copy of the accumulation when a snapshot is due.
+        // (A job with a quality target copies it with every pass, to check the target.)
         let snapshot = job.snapshot_due(interval.saturating_sub(target / 2));
-        let result = catch_unwind(AssertUnwindSafe(|| job.session.submit_pass(spp, snapshot)));
+        let copy = snapshot || job.settings.until_rel_mse.is_some();
+        let result = catch_unwind(AssertUnwindSafe(|| job.session.submit_pass(spp, copy)));
         let done = match result {
             Ok(Ok(done)) => done,
             Ok(Err(e)) => return self.render_failed(id, e, "render pass"),
@@ -449,6 +455,7 @@ impl Worker {
         if snapshot {
             job.last_snapshot = Some(Instant::now());
         }
+        job.report_flags.push_back(snapshot);
         self.queued.push_back(id);
         for p in done {
             self.after_pass(id, p);
@@ -481,6 +488,7 @@ impl Worker {
         };
         let stats = p.stats;
         job.record_pass(&stats);
+        let report = job.report_flags.pop_front().unwrap_or(true);
         let pixels = job.settings.width as u64 * job.settings.height as u64;
         let busy = if stats.gpu.is_zero() {
             stats.wall
@@ -508,11 +516,24 @@ impl Worker {
         let Some(job) = self.active.get_mut(&id) else {
             return;
         };
+        // A quality target: the snapshot's estimate, computed here to decide at once.
+        let mut snapshot = p.snapshot.map(SnapshotImage::Accum);
+        if job.settings.until_rel_mse.is_some() {
+            if let Some(SnapshotImage::Accum(snap)) = snapshot.take() {
+                match snap.image_and_estimate() {
+                    Ok((image, estimate)) => {
+                        job.observe_estimate(snap.spp(), estimate);
+                        snapshot = Some(SnapshotImage::Image(image, snap.spp()));
+                    }
+                    Err(e) => return self.render_failed(id, e, "estimating the error"),
+                }
+            }
+        }
         // The last pass's image is the final one, which `finish` reports.
         if job.finished() {
             return self.finish(id);
         }
-        if let Some(snap) = p.snapshot {
+        if let Some(snap) = snapshot.filter(|_| report) {
             self.snapshot(id, snap);
         }
         let Some(job) = self.active.get_mut(&id) else {

@@ -3,7 +3,7 @@
 //! (`error`, and a device rebuild when the device itself is in doubt; a hold when the disk is
 //! full).
 
-use renderer::render::{AccumSnapshot, RenderError};
+use renderer::render::RenderError;
 
 use super::metrics_lane::SnapshotImage;
 use serde_json::json;
@@ -20,21 +20,14 @@ use crate::store::{StoreError, Transition};
 impl Worker {
     /// Hands the accumulation a pass copied out (`snap`) to the job's report lane, which
     /// resolves and publishes the image and appends a progress + snapshot event.
-    pub(super) fn snapshot(&mut self, id: JobId, snap: AccumSnapshot) {
+    pub(super) fn snapshot(&mut self, id: JobId, snap: SnapshotImage) {
         let Some(job) = self.active.get_mut(&id) else {
             return;
         };
         let spp = snap.spp();
         let _ = self.store.set_progress(id, &job.session.progress());
         let data = snapshot_data(id, spp);
-        job.report_snapshot(
-            &self.store,
-            &self.shared,
-            id,
-            SnapshotImage::Accum(snap),
-            spp,
-            data,
-        );
+        job.report_snapshot(&self.store, &self.shared, id, snap, spp, data);
     }
 
     /// The budget is reached: final image on disk, final events, state done.
@@ -44,8 +37,11 @@ impl Worker {
         let Some(mut job) = self.active.remove(&id) else {
             return;
         };
-        let image = match job.session.image() {
-            Ok(i) => i,
+        let image = match job.session.image_and_estimate() {
+            Ok((i, estimate)) => {
+                job.estimate = estimate;
+                i
+            }
             Err(e) => return self.render_failed(id, e, "reading the final image"),
         };
         if let Err(e) = job.write_image(&image) {
@@ -60,7 +56,9 @@ impl Worker {
             };
             return self.fail(id, format!("writing the final image: {msg}"));
         }
-        let stats = job.session.stats();
+        let mut stats = job.session.stats();
+        stats.rel_mse_estimate = job.estimate;
+        stats.stopped_by = job.stop_reason();
         let progress = job.session.progress();
         let spp = progress.spp;
         let data = snapshot_data(id, spp);
@@ -68,7 +66,7 @@ impl Worker {
             &self.store,
             &self.shared,
             id,
-            SnapshotImage::Image(image),
+            SnapshotImage::Image(image, spp),
             spp,
             data,
         );

@@ -312,7 +312,7 @@ mod tests {
             kind,
             prim: u32::MAX,
             pick_pdf: 1.0,
-            pad: 0,
+            bvh_trail: 0,
             p0: [0.0; 4],
             p1: [0.0; 4],
             p2: [0.0; 4],

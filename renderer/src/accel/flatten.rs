@@ -1,0 +1,344 @@
+//! From obvhs's `Bvh2` to the GPU node array, keeping the tree within the traversal's short
+//! stack where the geometry allows it.
+//!
+//! obvhs's PLOC builder (agglomerative, SAH-driven) can make very deep trees: a mesh of millions
+//! of triangles goes past 64 levels, and pathological meshes (triangles nested in each other,
+//! sizes halving) make chains as deep as the mesh is long. The traversal's stack holds
+//! [`STACK_DEPTH`] entries; deeper trees still render (the shader falls back on a stackless
+//! parent-pointer walk, `traverse_stackless` in shaders/common/traverse.glsl) but slowly. So the
+//! flattening bounds the depth where it can:
+//!
+//! 1. Heights and primitive counts of every obvhs subtree (iteratively: chains may be deep).
+//! 2. Top-down, a subtree that fits under the limit is copied as built (its SAH splits kept).
+//!    A subtree that does not is kept too when each of its too-tall children can be rebuilt
+//!    within the limit one level further down; otherwise it is rebuilt as a balanced tree
+//!    (object median on the longest centroid axis, ≤ `MAX_LEAF` primitives per leaf), whose
+//!    height is ⌈log2(n / MAX_LEAF)⌉. So only the deepest part that must change is rebuilt, and
+//!    a scene already within the limit gets exactly obvhs's tree.
+//!
+//! The primitives are emitted leaf by leaf into a new order (`order[slot]` = input index).
+
+use obvhs::bvh2::Bvh2;
+
+use super::PrimBounds;
+use crate::layout::{GpuBvhNode, NONE};
+
+/// Entries of the traversal's short stack (`BVH_STACK` in the shaders, declared in layout.rs):
+/// trees up to this many levels are walked with the stack alone.
+pub const STACK_DEPTH: usize = crate::layout::BVH_STACK_DEPTH as usize;
+/// Most primitives in one leaf (obvhs's `max_prims_per_leaf`, and the balanced rebuild's).
+pub const MAX_LEAF: usize = 4;
+
+/// A child slot of a GPU node: an inner node index, or a leaf's range of the new order.
+#[derive(Clone, Copy)]
+struct Slot {
+    index: u32,
+    count: u32,
+    min: [f32; 3],
+    max: [f32; 3],
+}
+
+/// What is left to emit.
+enum Task {
+    /// obvhs inner node `src` into GPU node `gpu` at `depth`.
+    Copy {
+        src: usize,
+        gpu: usize,
+        depth: usize,
+    },
+    /// A balanced subtree over `prims` (input indices) into GPU node `gpu` at `depth`.
+    Balanced {
+        prims: Vec<u32>,
+        gpu: usize,
+        depth: usize,
+    },
+}
+
+/// The flattened tree: GPU nodes, the primitive order and the depth (levels of inner nodes).
+pub struct Flat {
+    pub nodes: Vec<GpuBvhNode>,
+    pub order: Vec<u32>,
+    pub depth: usize,
+}
+
+/// Height of a balanced subtree over `n` (> MAX_LEAF) primitives, in inner-node levels.
+fn balanced_height(n: usize) -> usize {
+    let mut h = 1;
+    let mut m = n.div_ceil(2);
+    while m > MAX_LEAF {
+        h += 1;
+        m = m.div_ceil(2);
+    }
+    h
+}
+
+/// Flattens `bvh` (built over `bounds`). `limit`: the depth to keep the tree within (None: copy
+/// obvhs's tree as it is, a testing aid for deep trees).
+pub fn flatten(bvh: &Bvh2, bounds: &[PrimBounds], limit: Option<usize>) -> Flat {
+    let src = &bvh.nodes;
+    let n_src = src.len();
+    // Step 1: heights (inner levels) and primitive counts of every subtree, post-order.
+    let mut height = vec![0u32; n_src];
+    let mut count = vec![0u64; n_src];
+    let mut stack = vec![(0usize, false)];
+    while let Some((i, expanded)) = stack.pop() {
+        let n = &src[i];
+        if n.prim_count > 0 {
+            count[i] = n.prim_count as u64;
+            continue;
+        }
+        let (l, r) = (n.first_index as usize, n.first_index as usize + 1);
+        if expanded {
+            height[i] = 1 + height[l].max(height[r]);
+            count[i] = count[l] + count[r];
+        } else {
+            stack.extend([(i, true), (l, false), (r, false)]);
+        }
+    }
+    let mut out = Flat {
+        nodes: Vec::with_capacity(n_src / 2 + 1),
+        order: Vec::with_capacity(bvh.primitive_indices.len()),
+        depth: 1,
+    };
+    let leaf_prims = |i: usize| -> &[u32] {
+        let n = &src[i];
+        &bvh.primitive_indices[n.first_index as usize..(n.first_index + n.prim_count) as usize]
+    };
+    // A root that is a leaf: both slots hold it (the second test never wins a closer hit).
+    if src[0].prim_count > 0 {
+        let s = emit_leaf(
+            &mut out.order,
+            leaf_prims(0),
+            src[0].aabb.min.into(),
+            src[0].aabb.max.into(),
+        );
+        out.nodes.push(node_of(s, s));
+        return out;
+    }
+    // Whether the subtree of obvhs node i, placed at depth d, fits the limit.
+    let fits = |i: usize, d: usize| limit.is_none_or(|l| d - 1 + height[i] as usize <= l);
+    let subtree_prims = |i: usize| -> Vec<u32> {
+        let mut v = Vec::with_capacity(count[i] as usize);
+        let mut st = vec![i];
+        while let Some(j) = st.pop() {
+            if src[j].prim_count > 0 {
+                v.extend_from_slice(leaf_prims(j));
+            } else {
+                st.extend([src[j].first_index as usize, src[j].first_index as usize + 1]);
+            }
+        }
+        v
+    };
+    // Step 2: top-down, copying or rebuilding each subtree.
+    out.nodes.push(GpuBvhNode::zeroed_node());
+    let mut tasks = vec![
+        if fits(0, 1) || children_fixable(src, &count, 0, 1, limit, &fits) {
+            Task::Copy {
+                src: 0,
+                gpu: 0,
+                depth: 1,
+            }
+        } else {
+            Task::Balanced {
+                prims: subtree_prims(0),
+                gpu: 0,
+                depth: 1,
+            }
+        },
+    ];
+    while let Some(task) = tasks.pop() {
+        match task {
+            Task::Copy {
+                src: si,
+                gpu,
+                depth,
+            } => {
+                out.depth = out.depth.max(depth);
+                let first = src[si].first_index as usize;
+                let mut slots = [None, None];
+                for (k, slot) in slots.iter_mut().enumerate() {
+                    let c = first + k;
+                    let (mn, mx) = (src[c].aabb.min.into(), src[c].aabb.max.into());
+                    if src[c].prim_count > 0 {
+                        *slot = Some(emit_leaf(&mut out.order, leaf_prims(c), mn, mx));
+                        continue;
+                    }
+                    let g = out.nodes.len();
+                    out.nodes.push(GpuBvhNode::zeroed_node());
+                    let d = depth + 1;
+                    tasks.push(
+                        if fits(c, d) || children_fixable(src, &count, c, d, limit, &fits) {
+                            Task::Copy {
+                                src: c,
+                                gpu: g,
+                                depth: d,
+                            }
+                        } else {
+                            Task::Balanced {
+                                prims: subtree_prims(c),
+                                gpu: g,
+                                depth: d,
+                            }
+                        },
+                    );
+                    *slot = Some(Slot {
+                        index: g as u32,
+                        count: 0,
+                        min: mn,
+                        max: mx,
+                    });
+                }
+                if let [Some(l), Some(r)] = slots {
+                    out.nodes[gpu] = node_of(l, r);
+                }
+            }
+            Task::Balanced {
+                mut prims,
+                gpu,
+                depth,
+            } => {
+                out.depth = out.depth.max(depth);
+                // Object median on the longest axis of the centroids' box.
+                let axis = longest_centroid_axis(&prims, bounds);
+                let mid = prims.len() / 2;
+                let key = |i: &u32| {
+                    let b = &bounds[*i as usize];
+                    b.min[axis] + b.max[axis]
+                };
+                prims.select_nth_unstable_by(mid, |a, b| key(a).total_cmp(&key(b)));
+                let right = prims.split_off(mid);
+                let mut slots = [None, None];
+                for (slot, part) in slots.iter_mut().zip([prims, right]) {
+                    let (mn, mx) = box_of(&part, bounds);
+                    if part.len() <= MAX_LEAF {
+                        *slot = Some(emit_leaf(&mut out.order, &part, mn, mx));
+                        continue;
+                    }
+                    let g = out.nodes.len();
+                    out.nodes.push(GpuBvhNode::zeroed_node());
+                    tasks.push(Task::Balanced {
+                        prims: part,
+                        gpu: g,
+                        depth: depth + 1,
+                    });
+                    *slot = Some(Slot {
+                        index: g as u32,
+                        count: 0,
+                        min: mn,
+                        max: mx,
+                    });
+                }
+                if let [Some(l), Some(r)] = slots {
+                    out.nodes[gpu] = node_of(l, r);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Whether obvhs inner node `i` at depth `d` can keep its split: each child that does not fit
+/// at depth d + 1 could be rebuilt balanced within the limit there.
+fn children_fixable(
+    src: &[obvhs::bvh2::node::Bvh2Node],
+    count: &[u64],
+    i: usize,
+    d: usize,
+    limit: Option<usize>,
+    fits: &impl Fn(usize, usize) -> bool,
+) -> bool {
+    let Some(limit) = limit else { return true };
+    if d > limit {
+        return false;
+    }
+    (0..2).all(|k| {
+        let c = src[i].first_index as usize + k;
+        src[c].prim_count > 0 || fits(c, d + 1) || d + balanced_height(count[c] as usize) <= limit
+    })
+}
+
+fn emit_leaf(order: &mut Vec<u32>, prims: &[u32], min: [f32; 3], max: [f32; 3]) -> Slot {
+    let first = order.len() as u32;
+    order.extend_from_slice(prims);
+    Slot {
+        index: first,
+        count: prims.len() as u32,
+        min,
+        max,
+    }
+}
+
+fn node_of(l: Slot, r: Slot) -> GpuBvhNode {
+    GpuBvhNode {
+        l_min: l.min,
+        left: l.index,
+        l_max: l.max,
+        right: r.index,
+        r_min: r.min,
+        l_count: l.count,
+        r_max: r.max,
+        r_count: r.count,
+    }
+}
+
+fn box_of(prims: &[u32], bounds: &[PrimBounds]) -> ([f32; 3], [f32; 3]) {
+    let (mut mn, mut mx) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    for &i in prims {
+        let b = &bounds[i as usize];
+        for a in 0..3 {
+            mn[a] = mn[a].min(b.min[a]);
+            mx[a] = mx[a].max(b.max[a]);
+        }
+    }
+    (mn, mx)
+}
+
+fn longest_centroid_axis(prims: &[u32], bounds: &[PrimBounds]) -> usize {
+    let (mut mn, mut mx) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    for &i in prims {
+        let b = &bounds[i as usize];
+        for a in 0..3 {
+            let c = b.min[a] + b.max[a];
+            mn[a] = mn[a].min(c);
+            mx[a] = mx[a].max(c);
+        }
+    }
+    (0..3)
+        .max_by(|&a, &b| (mx[a] - mn[a]).total_cmp(&(mx[b] - mn[b])))
+        .unwrap_or(0)
+}
+
+/// Each GPU node's parent (NONE for the root), for the stackless fallback walk.
+pub fn parents(nodes: &[GpuBvhNode]) -> Vec<u32> {
+    let mut p = vec![NONE; nodes.len()];
+    for (i, n) in nodes.iter().enumerate() {
+        for (c, count) in [(n.left, n.l_count), (n.right, n.r_count)] {
+            if count == 0 && (c as usize) < nodes.len() && c as usize != i {
+                p[c as usize] = i as u32;
+            }
+        }
+    }
+    p
+}
+
+/// The depth (inner levels) of a GPU tree, or None when it is not a tree over `nodes` (a child
+/// index out of range, a node reached twice): a check for trees read from the cache.
+pub fn depth_of(nodes: &[GpuBvhNode]) -> Option<usize> {
+    let mut seen = vec![false; nodes.len()];
+    let mut stack = vec![(0usize, 1usize)];
+    let mut depth = 0;
+    while let Some((i, d)) = stack.pop() {
+        if std::mem::replace(seen.get_mut(i)?, true) {
+            return None;
+        }
+        depth = depth.max(d);
+        let n = &nodes[i];
+        for (c, count) in [(n.left, n.l_count), (n.right, n.r_count)] {
+            // The empty scene's root points at itself with empty slots.
+            if count == 0 && !(i == 0 && c == 0) {
+                stack.push((c as usize, d + 1));
+            }
+        }
+    }
+    Some(depth)
+}

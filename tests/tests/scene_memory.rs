@@ -1,0 +1,138 @@
+//! Memory and load figures of a render (`candela render --json`, the text report, a server
+//! job's stats), and scenes too large for the device refused with an error naming the limit.
+//! lavapipe's real limits cannot be reached by a small test, so they are lowered with
+//! `CANDELA_GPU_MEMORY_LIMIT` / `CANDELA_GPU_BUFFER_LIMIT`.
+
+use std::time::Duration;
+
+use candela_tests::server::Server;
+use candela_tests::*;
+use serde_json::{json, Value};
+
+fn render(env: &[(&str, &str)], extra: &[&str]) -> std::process::Output {
+    let dir = scratch("scene-memory");
+    let out = dir.join("o.exr");
+    let scene = scene_path("textured_mesh.json");
+    let mut cmd = std::process::Command::new(candela());
+    cmd.args([
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ])
+    .args([
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--spp",
+        "1",
+        "--no-accel-cache",
+    ])
+    .args(extra);
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    cmd.output().expect("run candela")
+}
+
+#[test]
+fn render_report_has_memory_and_load_figures() {
+    let o = render(&[], &["--json"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let n = |k: &str| v[k].as_f64().unwrap_or_else(|| panic!("{k} in {v}"));
+    let triangles = n("triangles");
+    // 48 bytes per primitive at least, plus the BVH's 64-byte nodes.
+    assert!(n("geometry_bytes") >= 48.0 * triangles, "{v}");
+    assert!(n("accel_bytes") >= 64.0, "{v}");
+    assert!(
+        n("scene_gpu_bytes") > n("geometry_bytes") + n("accel_bytes"),
+        "{v}"
+    );
+    let per = (n("geometry_bytes") + n("accel_bytes")) / triangles;
+    assert!((n("gpu_bytes_per_triangle") - per).abs() < 1e-9, "{v}");
+    assert!(n("peak_rss_bytes") > 1e6, "{v}");
+    assert!(
+        n("load_s") > 0.0 && n("compile_s") >= n("accel_build_s"),
+        "{v}"
+    );
+    println!(
+        "{} triangles: {} GPU bytes per triangle, host peak {:.1} MiB, load {:.4} s, compile \
+         {:.4} s",
+        triangles,
+        per,
+        n("peak_rss_bytes") / 1048576.0,
+        n("load_s"),
+        n("compile_s")
+    );
+    let o = render(&[], &[]);
+    let report = text(&o.stdout);
+    assert!(
+        report.contains("memory      GPU") && report.contains("load        "),
+        "{report}"
+    );
+}
+
+#[test]
+fn a_scene_too_large_for_the_device_names_the_limit() {
+    let o = render(&[("CANDELA_GPU_MEMORY_LIMIT", "20000")], &[]);
+    assert!(!o.status.success());
+    let err = text(&o.stderr);
+    println!("{err}");
+    assert!(
+        err.contains("does not fit the device")
+            && err.contains("20000 bytes")
+            && err.contains("CANDELA_GPU_MEMORY_LIMIT"),
+        "{err}"
+    );
+    let o = render(&[("CANDELA_GPU_BUFFER_LIMIT", "4096")], &[]);
+    assert!(!o.status.success());
+    let err = text(&o.stderr);
+    println!("{err}");
+    assert!(
+        err.contains("maxStorageBufferRange") && err.contains("4096 bytes"),
+        "{err}"
+    );
+}
+
+#[test]
+fn server_job_stats_have_the_figures_and_too_large_jobs_fail_clearly() {
+    let dir = scratch("scene-memory-server");
+    let t = Duration::from_secs(90);
+    let job = json!({"scene_name": "cornell", "spp": 1, "width": 8, "height": 8});
+    let ended = |j: &Value| matches!(j["state"].as_str(), Some("done" | "failed"));
+    {
+        let s = Server::start(&dir.join("ok"), &[]);
+        let id = s.submit(&job)["id"].as_i64().unwrap();
+        let done = s.wait_job(id, t, ended);
+        assert_eq!(done["state"], "done", "{done}");
+        let st = &done["stats"];
+        for k in [
+            "geometry_bytes",
+            "accel_bytes",
+            "scene_gpu_bytes",
+            "peak_rss_bytes",
+        ] {
+            assert!(st[k].as_u64().is_some_and(|b| b > 0), "{k}: {st}");
+        }
+        assert!(
+            st["gpu_bytes_per_triangle"].as_f64().unwrap() > 48.0,
+            "{st}"
+        );
+        assert!(st["load_s"].as_f64().unwrap() > 0.0, "{st}");
+    }
+    let s = Server::start_with_env(
+        &dir.join("small"),
+        &[],
+        &[("CANDELA_GPU_MEMORY_LIMIT", "1000")],
+    );
+    let id = s.submit(&job)["id"].as_i64().unwrap();
+    let failed = s.wait_job(id, t, ended);
+    assert_eq!(failed["state"], "failed", "{failed}");
+    let e = failed["error"].as_str().unwrap();
+    assert!(
+        e.contains("does not fit the device") && e.contains("1000 bytes"),
+        "{failed}"
+    );
+}
