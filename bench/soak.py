@@ -19,7 +19,7 @@ checks the invariants:
 It prints a summary and writes everything to --json. Python 3 standard library only.
 
     python3 bench/soak.py --duration 600 --json bench/results/soak-lavapipe-600s.json
-    python3 bench/soak.py --duration 20 --kill-every 6:10      # smoke run
+    python3 bench/soak.py --duration 20 --kill-every 6:10 --max-spp 64   # smoke run
 """
 
 import argparse
@@ -60,6 +60,11 @@ def parse_args():
                    help="seconds of each server lifetime left out of the RSS fit")
     p.add_argument("--rss-slope-limit", type=float, default=50.0,
                    help="largest RSS slope, MB/hour, that counts as flat (default 50)")
+    p.add_argument("--rss-min-lifetime", type=float, default=300.0,
+                   help="shortest server lifetime, seconds, whose RSS slope is judged (default "
+                   "300; shorter runs report the slope as n/a)")
+    p.add_argument("--max-spp", type=int, default=256,
+                   help="largest spp budget submitted (default 256)")
     p.add_argument("--drain-timeout", type=float, default=300.0,
                    help="seconds to wait for the last jobs to end")
     p.add_argument("--server-arg", action="append", default=[],
@@ -187,7 +192,8 @@ class Soak:
             "priority": self.rng.choice([1, 5, 10, 10, 10, 50, 100]),
         }
         if self.rng.random() < 0.75:
-            body["spp"] = self.rng.choice([1, 4, 16, 32, 64, 128, 256])
+            body["spp"] = self.rng.choice([n for n in (1, 4, 16, 32, 64, 128, 256)
+                                           if n <= self.args.max_spp] or [1])
         else:
             body["time_s"] = self.rng.choice([0.2, 0.5, 1.0, 2.0])
         body["name"] = f"soak {body['integrator']} {body['scene_name']}"
@@ -400,7 +406,7 @@ class Soak:
         fitted = [s for s in segments if s["slope_mb_per_h"] is not None]
         longest = max(fitted, key=lambda s: s["length_s"]) if fitted else None
         rss_flat = None
-        if longest is not None:
+        if longest is not None and longest["length_s"] >= self.args.rss_min_lifetime:
             rss_flat = longest["slope_mb_per_h"] <= self.args.rss_slope_limit
             if not rss_flat:
                 problems.append(f"RSS grows {longest['slope_mb_per_h']} MB/h over the longest "
