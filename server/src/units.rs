@@ -3,16 +3,23 @@
 
 use std::time::Duration;
 
-/// Parses `N[s|m|h|d|w]` (a bare number is seconds; `N` may have a fraction).
-pub fn parse_duration(text: &str) -> Result<Duration, String> {
+/// Splits `text` into its number and its unit (lower case, possibly empty); `expected` names
+/// what the number should look like in the error.
+fn number_and_unit(text: &str, expected: &str) -> Result<(f64, String), String> {
     let t = text.trim();
     let split = t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len());
     let (num, unit) = t.split_at(split);
     let n: f64 = num
         .trim()
         .parse()
-        .map_err(|_| format!("\"{text}\": expected a duration such as 30s, 10m, 12h, 7d"))?;
-    let scale = match unit.trim().to_ascii_lowercase().as_str() {
+        .map_err(|_| format!("\"{text}\": expected {expected}"))?;
+    Ok((n, unit.trim().to_ascii_lowercase()))
+}
+
+/// Parses `N[s|m|h|d|w]` (a bare number is seconds; `N` may have a fraction).
+pub fn parse_duration(text: &str) -> Result<Duration, String> {
+    let (n, unit) = number_and_unit(text, "a duration such as 30s, 10m, 12h, 7d")?;
+    let scale = match unit.as_str() {
         "" | "s" => 1.0,
         "m" | "min" => 60.0,
         "h" => 3600.0,
@@ -33,14 +40,8 @@ pub fn parse_duration(text: &str) -> Result<Duration, String> {
 
 /// Parses `N[B|KB|MB|GB|TB]` (decimal units; KiB, MiB, GiB, TiB binary; a bare number is bytes).
 pub fn parse_size(text: &str) -> Result<u64, String> {
-    let t = text.trim();
-    let split = t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len());
-    let (num, unit) = t.split_at(split);
-    let n: f64 = num
-        .trim()
-        .parse()
-        .map_err(|_| format!("\"{text}\": expected a size such as 500MB or 20GB"))?;
-    let scale = match unit.trim().to_ascii_lowercase().as_str() {
+    let (n, unit) = number_and_unit(text, "a size such as 500MB or 20GB")?;
+    let scale = match unit.as_str() {
         "" | "b" => 1.0,
         "k" | "kb" => 1e3,
         "m" | "mb" => 1e6,
