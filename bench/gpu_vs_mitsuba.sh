@@ -1,0 +1,85 @@
+#!/usr/bin/env bash
+# On the NVIDIA GPU machine (../shared/gpu/README.md), with .carry/main/candela and Mitsuba 3
+# (.carry/mitsuba-cp312.tar.xz from ../shared/gpu/mitsuba-pack.sh):
+# (1) issue 12, side by side (bench/vs_mitsuba.py): candela nee and Mitsuba 3 cuda `path` on the
+#     same scene, film 1280x720, box filter, max_depth 6, 64 spp: the Cornell box and
+#     bench/make_big_scene.py meshes of TRIS (default 2M 8M 30M) triangles; ACCELS (default "bvh")
+#     lists candela's --accel values to run;
+# (2) issue 14 item 6, time to relMSE 0.01 (`candela bench`, budgets 0.01 to 3 s, one run each)
+#     for every integrator on every project scene (SCENES), against a Mitsuba 3 cuda reference of
+#     the scene at REF_SPP (default 4096) spp when `candela convert` can translate it, else
+#     candela's own nee reference.
+# PARTS (default "mitsuba ttq") picks the parts. Writes OUT/vs_mitsuba.jsonl, OUT/ttq/SCENE/ and
+# OUT/ttq.md; prints the tables.
+set -u
+cd "$(dirname "$0")/.."
+for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
+export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+mkdir -p /tmp/mi && tar xJf .carry/mitsuba-cp312.tar.xz -C /tmp/mi && export PYTHONPATH=/tmp/mi
+bin=${CANDELA:-.carry/main/candela}
+out=${OUT:-/tmp}
+parts=${PARTS:-mitsuba ttq}
+has() { case " $parts " in *" $1 "*) return 0;; esac; return 1; }
+nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee "$out/gpu.txt"
+
+if has mitsuba; then
+  : > "$out/vs_mitsuba.jsonl"
+  scenes="scenes/cornell.json"
+  for n in ${TRIS:-2000000 8000000 30000000}; do
+    python3 bench/make_big_scene.py /tmp/big$n --triangles $n > /dev/null
+    scenes="$scenes /tmp/big$n/big.json"
+  done
+  for s in $scenes; do
+    for acc in ${ACCELS:-bvh}; do
+      python3 bench/vs_mitsuba.py "$s" --candela "$bin" --candela-args "--accel $acc --no-accel-cache" \
+        >> "$out/vs_mitsuba.jsonl" || echo "vs_mitsuba failed on $s ($acc)"
+    done
+  done
+  python3 - "$out/vs_mitsuba.jsonl" <<'PY'
+import json, sys
+print("| scene | triangles | accel | candela Msamples/s | Mitsuba 3 Msamples/s | ratio | images relMSE |")
+print("|---|---|---|---|---|---|---|")
+for l in open(sys.argv[1]):
+    d = json.loads(l); c = d["candela"]
+    print(f"| {d['scene']} | {c.get('triangles')} | {c.get('accel')} | {c['msamples_per_s']:.1f} | "
+          f"{d['mitsuba']['msamples_per_s']:.1f} | {d['ratio_candela_over_mitsuba']:.2f} | {d['images_rel_mse']:.3g} |")
+PY
+fi
+
+if has ttq; then
+  mkdir -p "$out/ttq"
+  for s in ${SCENES:-cornell envmap furnace lights mirror_glass shade textured_mesh thinlens whitted_classic}; do
+    d="$out/ttq/$s"; mkdir -p "$d"
+    ref=""
+    if "$bin" convert scenes/$s.json /tmp/ttq_$s.xml > /dev/null 2>&1 && python3 - /tmp/ttq_$s.xml "$d/mitsuba_ref.exr" "${REF_SPP:-4096}" <<'PY'
+import sys, mitsuba as mi
+mi.set_variant("cuda_ad_rgb")
+scene = mi.load_file(sys.argv[1])
+mi.Bitmap(mi.render(scene, spp=int(sys.argv[3]))).write(sys.argv[2])
+PY
+    then ref="--reference $d/mitsuba_ref.exr"; else echo "$s: no Mitsuba reference; candela's nee reference"; fi
+    "$bin" bench scenes/$s.json $ref --times 0.01,0.03,0.1,0.3,1,3 --repeats 1 --out "$d" > /dev/null 2> "$d/stderr.txt" \
+      || { echo "bench failed on $s"; tail -3 "$d/stderr.txt"; }
+  done
+  python3 - "$out/ttq" <<'PY' | tee "$out/ttq.md"
+import json, os, sys
+root = sys.argv[1]
+def label(t):
+    how = t.get("how")
+    if how == "not_reached": return "not reached"
+    return ("<= " if how == "at_first_budget" else "") + f"{t['time_s']:.3g} s"
+rows = {}
+integs = []
+for s in sorted(os.listdir(root)):
+    p = os.path.join(root, s, "results.json")
+    if not os.path.exists(p): continue
+    d = json.load(open(p))
+    ref = "Mitsuba" if os.path.exists(os.path.join(root, s, "mitsuba_ref.exr")) else "candela nee"
+    rows[s] = (ref, {x["integrator"]: label(x["time_to_rel_mse"]) for x in d["summary"]}, d["width"], d["height"])
+    integs = integs or [x["integrator"] for x in d["summary"]]
+print("| scene | size | reference | " + " | ".join(integs) + " |")
+print("|---|---|---|" + "---|" * len(integs))
+for s, (ref, t, w, h) in rows.items():
+    print(f"| {s} | {w}x{h} | {ref} | " + " | ".join(t.get(i, "-") for i in integs) + " |")
+PY
+fi
