@@ -2,13 +2,13 @@
 # On the NVIDIA GPU machine (../shared/gpu/README.md), with .carry/main/candela and Mitsuba 3
 # (.carry/mitsuba-cp312.tar.xz from ../shared/gpu/mitsuba-pack.sh):
 # (1) issue 12, side by side (bench/vs_mitsuba.py): candela nee and Mitsuba 3 cuda `path` on the
-#     same scene, film 1280x720, box filter, max_depth 6, 64 spp: the Cornell box and
+#     same scene, film 1280x720, box filter, max_depth 6, SPP (default 256) spp: the Cornell box and
 #     bench/make_big_scene.py meshes of TRIS (default 2M 8M 30M) triangles; ACCELS (default "bvh")
 #     lists candela's --accel values to run;
-# (2) issue 14 item 6, time to relMSE 0.01 (`candela bench`, budgets 0.01 to 3 s, one run each)
-#     for every integrator on every project scene (SCENES), against a Mitsuba 3 cuda reference of
-#     the scene at REF_SPP (default 4096) spp when `candela convert` can translate it, else
-#     candela's own nee reference.
+# (2) issue 14 item 6, time to relMSE 0.01 (`candela bench`, budgets TIMES (0.01 to 1 s), one run each)
+#     for every integrator on every project scene (SCENES) with its film SCALE (3) times larger,
+#     against a Mitsuba 3 cuda reference of REF_SPP (default 4096) spp when `candela convert` can
+#     translate the scene, else candela's own nee reference.
 # PARTS (default "mitsuba ttq") picks the parts. Writes OUT/vs_mitsuba.jsonl, OUT/ttq/SCENE/ and
 # OUT/ttq.md; prints the tables.
 set -u
@@ -31,7 +31,7 @@ if has mitsuba; then
   done
   for s in $scenes; do
     for acc in ${ACCELS:-bvh}; do
-      python3 bench/vs_mitsuba.py "$s" --candela "$bin" --candela-args "--accel $acc --no-accel-cache" \
+      python3 bench/vs_mitsuba.py "$s" --candela "$bin" --spp ${SPP:-256} --candela-args "--accel $acc --no-accel-cache" \
         >> "$out/vs_mitsuba.jsonl" || echo "vs_mitsuba failed on $s ($acc)"
     done
   done
@@ -50,16 +50,28 @@ if has ttq; then
   mkdir -p "$out/ttq"
   for s in ${SCENES:-cornell envmap furnace lights mirror_glass shade textured_mesh thinlens whitted_classic}; do
     d="$out/ttq/$s"; mkdir -p "$d"
+    # The scene with its film SCALE times larger (default 3: 768x768 for the 256x256 scenes), beside
+    # the original so that relative asset paths resolve.
+    python3 -c "import json,sys; d=json.load(open('scenes/$s.json')); f=d['film']; f['width']*=${SCALE:-3}; f['height']*=${SCALE:-3}; json.dump(d, open('scenes/.ttq_$s.json','w'))"
     ref=""
-    if "$bin" convert scenes/$s.json /tmp/ttq_$s.xml > /dev/null 2>&1 && python3 - /tmp/ttq_$s.xml "$d/mitsuba_ref.exr" "${REF_SPP:-4096}" <<'PY'
+    # Mitsuba's reference: REF_SPP spp in renders of 256 spp with distinct seeds, averaged.
+    if "$bin" convert scenes/.ttq_$s.json /tmp/ttq_$s.xml > /dev/null 2> "$d/ref_stderr.txt" && python3 - /tmp/ttq_$s.xml "$d/mitsuba_ref.exr" "${REF_SPP:-4096}" 2> "$d/ref_stderr.txt" <<'PY'
 import sys, mitsuba as mi
 mi.set_variant("cuda_ad_rgb")
 scene = mi.load_file(sys.argv[1])
-mi.Bitmap(mi.render(scene, spp=int(sys.argv[3]))).write(sys.argv[2])
+n = max(1, int(sys.argv[3]) // 256)
+acc = None
+for seed in range(n):
+    img = mi.render(scene, spp=256, seed=seed)
+    acc = img if acc is None else acc + img
+mi.Bitmap(acc / n).write(sys.argv[2])
 PY
-    then ref="--reference $d/mitsuba_ref.exr"; else echo "$s: no Mitsuba reference; candela's nee reference"; fi
-    "$bin" bench scenes/$s.json $ref --times 0.01,0.03,0.1,0.3,1,3 --repeats 1 --out "$d" > /dev/null 2> "$d/stderr.txt" \
+    then ref="--reference $d/mitsuba_ref.exr"
+    else echo "$s: no Mitsuba reference (below); candela's nee reference"; tail -3 "$d/ref_stderr.txt"; fi
+    "$bin" bench scenes/.ttq_$s.json $ref --integrators ${INTEGRATORS:-pt,nee,bdpt,vct,whitted,deferred} \
+      --times ${TIMES:-0.01,0.03,0.1,0.3,1} --repeats 1 --out "$d" > /dev/null 2> "$d/stderr.txt" \
       || { echo "bench failed on $s"; tail -3 "$d/stderr.txt"; }
+    rm -f "$d"/*.exr
   done
   python3 - "$out/ttq" <<'PY' | tee "$out/ttq.md"
 import json, os, sys

@@ -49,8 +49,10 @@ def candela(a, scene_json, scene_xml):
     subprocess.run([a.candela, "convert", scene_json, scene_xml], check=True, stdout=subprocess.DEVNULL)
     cmd = [a.candela, "render", scene_json, "-o", CANDELA_EXR, "--spp", str(a.spp),
            "--warmup", "1", "--json"] + shlex.split(a.candela_args)
-    out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
-    return json.loads(out)
+    run = subprocess.run(cmd, capture_output=True, text=True)
+    if run.returncode != 0:
+        sys.exit(f"candela render failed ({run.returncode}): {run.stderr.strip()}")
+    return json.loads(run.stdout)
 
 
 def mitsuba(a, scene_xml):

@@ -120,8 +120,12 @@ pub struct CompileOptions<'a> {
 
 #[derive(Debug, thiserror::Error)]
 pub enum CompileError {
-    #[error("scene has {0} primitives; at most {max} are supported", max = PRIM_MATERIAL_MASK)]
+    /// Primitive indices are u32, and u32::MAX marks "none".
+    #[error("scene has {0} primitives; at most {max} are supported", max = NONE - 1)]
     TooManyPrims(usize),
+    /// A primitive's material index has the low 24 bits of a u32 (`PRIM_MATERIAL_MASK`).
+    #[error("scene has {0} materials; at most {max} are supported", max = PRIM_MATERIAL_MASK)]
+    TooManyMaterials(usize),
 }
 
 /// Compiles `scene` for a film of `width` × `height` (the job may override the scene's film),

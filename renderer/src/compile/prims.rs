@@ -49,13 +49,17 @@ pub(super) fn gather(scene: &Scene, origin: DVec3, centre: DVec3) -> Result<Prim
         .iter()
         .map(|m| m.alpha_mask.is_some())
         .collect();
+    if scene.materials.len() > PRIM_MATERIAL_MASK as usize {
+        return Err(CompileError::TooManyMaterials(scene.materials.len()));
+    }
+    let prims = scene.meshes.iter().map(|m| m.indices.len()).sum::<usize>() + scene.spheres.len();
+    if prims >= NONE as usize {
+        return Err(CompileError::TooManyPrims(prims));
+    }
     for mesh in &scene.meshes {
         triangles(mesh, frames, &alpha_material, &mut out);
     }
     spheres(scene, frames, &mut out);
-    if out.gpu.len() > PRIM_MATERIAL_MASK as usize {
-        return Err(CompileError::TooManyPrims(out.gpu.len()));
-    }
     Ok(out)
 }
 
