@@ -55,7 +55,7 @@ if has ttq; then
     python3 -c "import json,sys; d=json.load(open('scenes/$s.json')); f=d['film']; f['width']*=${SCALE:-3}; f['height']*=${SCALE:-3}; json.dump(d, open('scenes/.ttq_$s.json','w'))"
     ref=""
     # Mitsuba's reference: REF_SPP spp in renders of 256 spp with distinct seeds, averaged.
-    if "$bin" convert scenes/.ttq_$s.json /tmp/ttq_$s.xml > /dev/null 2> "$d/ref_stderr.txt" && python3 - /tmp/ttq_$s.xml "$d/mitsuba_ref.exr" "${REF_SPP:-4096}" 2> "$d/ref_stderr.txt" <<'PY'
+    if "$bin" convert scenes/.ttq_$s.json scenes/.ttq_$s.xml > /dev/null 2> "$d/ref_stderr.txt" && python3 - scenes/.ttq_$s.xml "$d/mitsuba_ref.exr" "${REF_SPP:-4096}" 2> "$d/ref_stderr.txt" <<'PY'
 import sys, mitsuba as mi
 mi.set_variant("cuda_ad_rgb")
 scene = mi.load_file(sys.argv[1])
