@@ -86,7 +86,7 @@ for s in sorted(os.listdir(root)):
     p = os.path.join(root, s, "results.json")
     if not os.path.exists(p): continue
     d = json.load(open(p))
-    ref = "Mitsuba" if os.path.exists(os.path.join(root, s, "mitsuba_ref.exr")) else "candela nee"
+    ref = "Mitsuba 3" if d["reference"]["source"] == "file" else "candela nee"
     rows[s] = (ref, {x["integrator"]: label(x["time_to_rel_mse"]) for x in d["summary"]}, d["width"], d["height"])
     integs = integs or [x["integrator"] for x in d["summary"]]
 print("| scene | size | reference | " + " | ".join(integs) + " |")
