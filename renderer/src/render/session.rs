@@ -283,6 +283,9 @@ impl RenderSession {
         if scene.grid.is_some() {
             defines.push(("ACCEL_GRID".to_string(), "1".to_string()));
         }
+        if scene.cwbvh.is_some() {
+            defines.push(("ACCEL_CWBVH".to_string(), "1".to_string()));
+        }
         if scene.traversal_stack < crate::accel::STACK_DEPTH {
             let n = scene.traversal_stack.to_string();
             defines.push(("TEST_BVH_STACK".to_string(), n));
