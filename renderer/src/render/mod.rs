@@ -65,6 +65,7 @@ pub struct RenderStats {
     pub triangles: usize,
     pub primitives: usize,
     pub lights: usize,
+    /// Nodes and depth of the BVH, or of the CWBVH with accel "cwbvh" (0 with the grid).
     pub bvh_nodes: usize,
     pub bvh_depth: usize,
     pub bvh_build_s: f64,

@@ -251,7 +251,10 @@ impl RenderSession {
                 triangles: scene.triangle_count,
                 primitives: scene.prims.len(),
                 lights: scene.lights.len(),
-                bvh_nodes: scene.nodes.len(),
+                bvh_nodes: scene
+                    .cwbvh
+                    .as_ref()
+                    .map_or(scene.nodes.len(), |c| c.nodes.len()),
                 bvh_depth: scene.bvh_depth,
                 bvh_build: scene.bvh_build_time,
                 features,
