@@ -8,6 +8,9 @@
 //! SAH-cost dynamic programme (leaves of at most 3 primitives), ordering each node's children
 //! by octant. Two guards are ours:
 //!
+//! 0. PLOC merges one pair per pass among identical boxes (quadratic: a million copies of one
+//!    triangle would take hours), so it runs over the distinct boxes and each leaf is then
+//!    expanded into a balanced subtree over the copies of its box (`expand_copies`).
 //! 1. The converter recurses once per binary level, and pathological meshes (a million identical
 //!    triangles, triangles nested in each other) make PLOC chains as deep as the mesh is long.
 //!    Before converting, binary subtrees deeper than [`BINARY_LIMIT`] are rebuilt balanced
@@ -76,16 +79,23 @@ pub fn build(prims: &[PrimBounds]) -> Built {
             depth: 1,
         };
     }
-    // Step 1: PLOC and reinsertion (obvhs's cwbvh builder, steps kept apart for the guards).
+    // Step 1: PLOC and reinsertion (obvhs's cwbvh builder, steps kept apart for the guards),
+    // over distinct boxes: PLOC merges one pair per pass among identical boxes, quadratic in
+    // their number, so copies of a box share one leaf, expanded afterwards.
+    let (reps, groups) = distinct_boxes(prims);
+    let rep_bounds: Vec<PrimBounds> = reps.iter().map(|&i| prims[i as usize]).collect();
     let params = BvhBuildParams::medium_build();
-    let mut bvh2 = PlocBuilder::with_capacity(prims.len()).build(
+    let mut bvh2 = PlocBuilder::with_capacity(reps.len()).build(
         params.ploc_search_distance,
-        prims,
-        (0..prims.len() as u32).collect(),
+        &rep_bounds,
+        (0..reps.len() as u32).collect(),
         params.sort_precision,
         params.search_depth_threshold,
     );
     ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+    if reps.len() < prims.len() {
+        bvh2 = expand_copies(&bvh2, prims, &groups);
+    }
     // Step 2: binary chains bounded for the converter, then the conversion.
     if let Some(b) = bound_height(&bvh2, prims, BINARY_LIMIT) {
         bvh2 = b;
@@ -109,6 +119,77 @@ fn convert(bvh2: &Bvh2) -> Built {
         nodes,
         order: cw.primitive_indices,
         depth,
+    }
+}
+
+/// The first primitive of each distinct box (input order), and for each of them every primitive
+/// with that box. Without copies, `reps[i] == i`.
+fn distinct_boxes(prims: &[PrimBounds]) -> (Vec<u32>, Vec<Vec<u32>>) {
+    let mut first: std::collections::HashMap<[u32; 6], u32> = Default::default();
+    let (mut reps, mut groups) = (Vec::new(), Vec::<Vec<u32>>::new());
+    for (i, b) in prims.iter().enumerate() {
+        let (lo, hi) = (b.min.map(f32::to_bits), b.max.map(f32::to_bits));
+        let key = [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]];
+        let r = *first.entry(key).or_insert_with(|| {
+            reps.push(i as u32);
+            groups.push(Vec::new());
+            reps.len() as u32 - 1
+        });
+        groups[r as usize].push(i as u32);
+    }
+    (reps, groups)
+}
+
+/// `bvh`, built over the distinct boxes, with each leaf (one distinct box) replaced by a
+/// balanced subtree over the primitives of that box (`groups`), one primitive per leaf.
+fn expand_copies(bvh: &Bvh2, prims: &[PrimBounds], groups: &[Vec<u32>]) -> Bvh2 {
+    enum Task {
+        Copy(usize, usize),
+        Split(Vec<u32>, usize),
+    }
+    let mut nodes = vec![Bvh2Node::default()];
+    let mut indices = Vec::with_capacity(prims.len());
+    let mut tasks = vec![Task::Copy(0, 0)];
+    while let Some(task) = tasks.pop() {
+        match task {
+            Task::Copy(i, out) => {
+                let n = bvh.nodes[i];
+                let f = n.first_index as usize;
+                if n.prim_count > 0 {
+                    let set = bvh.primitive_indices[f..f + n.prim_count as usize]
+                        .iter()
+                        .flat_map(|&r| groups[r as usize].iter().copied())
+                        .collect();
+                    tasks.push(Task::Split(set, out));
+                } else {
+                    let c = nodes.len();
+                    nodes.extend([Bvh2Node::default(); 2]);
+                    nodes[out] = Bvh2Node::new(*n.aabb(), 0, c as u32);
+                    tasks.push(Task::Copy(f, c));
+                    tasks.push(Task::Copy(f + 1, c + 1));
+                }
+            }
+            Task::Split(mut set, out) => {
+                let b = prims[set[0] as usize];
+                let aabb = Aabb::new(b.min.into(), b.max.into());
+                if set.len() == 1 {
+                    nodes[out] = Bvh2Node::new(aabb, 1, indices.len() as u32);
+                    indices.push(set[0]);
+                    continue;
+                }
+                let right = set.split_off(set.len() / 2);
+                let c = nodes.len();
+                nodes.extend([Bvh2Node::default(); 2]);
+                nodes[out] = Bvh2Node::new(aabb, 0, c as u32);
+                tasks.push(Task::Split(set, c));
+                tasks.push(Task::Split(right, c + 1));
+            }
+        }
+    }
+    Bvh2 {
+        nodes,
+        primitive_indices: indices,
+        ..Default::default()
     }
 }
 
@@ -405,10 +486,19 @@ mod tests {
     /// and a binary tree bounded to a height is exactly that high at most.
     #[test]
     fn deep_chains_are_bounded() {
-        for prims in [nested_boxes(3000), vec![unit_boxes(1)[0]; 5000]] {
+        for prims in [nested_boxes(3000), vec![unit_boxes(1)[0]; 100_000]] {
+            let t = std::time::Instant::now();
             let b = build(&prims);
-            println!("{} prims: CWBVH depth {}", prims.len(), b.depth);
+            println!(
+                "{} prims: CWBVH depth {}, built in {:.3} s",
+                prims.len(),
+                b.depth,
+                t.elapsed().as_secs_f64()
+            );
             check(&prims, &b);
+            if prims.len() > 10_000 {
+                continue; // copies of one box: raw PLOC would be quadratic
+            }
             let params = BvhBuildParams::medium_build();
             let bvh2 = PlocBuilder::with_capacity(prims.len()).build(
                 params.ploc_search_distance,
