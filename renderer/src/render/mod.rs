@@ -81,7 +81,7 @@ pub struct RenderStats {
     pub features: Vec<&'static str>,
     /// "specialized" (to the scene's features) or "generic" (every feature).
     pub kernels: crate::compile::KernelMode,
-    /// The acceleration structure: "bvh" or "grid".
+    /// The acceleration structure: "bvh", "cwbvh" or "grid".
     pub accel: String,
     /// Seconds to obtain it: its build, or loading it from the cache on a hit.
     pub accel_build_s: f64,
