@@ -400,3 +400,37 @@ fn a_million_identical_triangles_fit_the_stack() {
     assert!(c.bvh_depth <= CWBVH_STACK_DEPTH as usize);
     assert!(need < CWBVH_STACK_DEPTH as usize);
 }
+
+/// The CLI: `--accel cwbvh` renders, reports the CWBVH (kind, nodes, bytes) and caches it; an
+/// unknown name lists it among the choices.
+#[test]
+fn cli_accel_cwbvh() {
+    let dir = scratch("cwbvh-cli");
+    let out = dir.join("o.exr");
+    let cache = dir.join("cache");
+    let (out_s, cache_s) = (out.to_str().unwrap(), cache.to_str().unwrap());
+    let run = |extra: &[&str]| {
+        let mut args = vec!["render", "scenes/cornell.json", "-o", out_s];
+        args.extend_from_slice(&["--width", "8", "--height", "8", "--spp", "1"]);
+        args.extend_from_slice(extra);
+        run_candela(&args)
+    };
+    assert_bad_input(&run(&["--accel", "kd"]), &["--accel", "kd", "cwbvh"]);
+    assert_bad_input(
+        &run(&["--accel", "cwbvh", "--grid-resolution", "8"]),
+        &["--grid-resolution"],
+    );
+    let json = |o: std::process::Output| -> Value {
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        serde_json::from_slice(&o.stdout).expect("one JSON object")
+    };
+    let args = ["--accel", "cwbvh", "--json", "--accel-cache", cache_s];
+    let first = json(run(&args));
+    assert_eq!(first["accel"], "cwbvh");
+    assert_eq!(first["accel_cache"], "miss");
+    assert!(first["bvh_nodes"].as_u64().unwrap() >= 1);
+    assert!(first["accel_bytes"].as_u64().unwrap() >= 80);
+    let second = json(run(&args));
+    assert_eq!(second["accel_cache"], "hit");
+    assert_eq!(first["accel_bytes"], second["accel_bytes"]);
+}

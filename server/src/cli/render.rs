@@ -160,7 +160,7 @@ fn check_args(a: &RenderArgs) -> Result<(), CliError> {
                 "--grid-resolution: must be in 1..={max} (cells along the longest axis), got {r}"
             )));
         }
-        if a.accel.as_deref() == Some("bvh") {
+        if a.accel.as_deref().is_some_and(|k| k != "grid") {
             return Err(CliError::input(
                 "--grid-resolution: only applies to --accel grid",
             ));
