@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Grid vs BVH: times one integrator with the BVH and with uniform grids of several resolutions on
-a few scenes, using the built `candela` binary (`candela render --json`). No network.
+"""Grid and CWBVH vs BVH: times one integrator with the BVH, the compressed 8-wide BVH (`--accels`)
+and uniform grids of several resolutions on a few scenes, using the built `candela` binary (`candela render --json`). No network.
 
 For every scene and acceleration structure it renders `--repeats` times (seeds 1, 2, ...) with
 `--no-accel-cache` (so the build is timed too), keeps the median of the render time, GPU time and
@@ -11,7 +11,7 @@ time. Writes OUT/results.csv (one row per run) and OUT/summary.md (a markdown ta
 usage:
   python3 bench/accel_grid.py [--candela target/release/candela] [--integrator whitted]
       [--scenes scenes/cornell.json,big] [--big-triangles 1000000]
-      [--grids auto,16,32,64,128,256] [--spp 64] [--width 512 --height 512]
+      [--accels cwbvh] [--grids auto,16,32,64,128,256] [--spp 64] [--width 512 --height 512]
       [--repeats 3] [--out bench-out/accel_grid]
 
 `big` in --scenes stands for a Cornell box holding a tessellated bumpy sphere of --big-triangles
@@ -67,6 +67,8 @@ def main():
     ap.add_argument("--integrator")
     ap.add_argument("--scenes", default="scenes/cornell.json,big")
     ap.add_argument("--big-triangles", type=int, default=1_000_000)
+    ap.add_argument("--accels", default="cwbvh",
+                    help="other structures timed beside the BVH, comma-separated (e.g. cwbvh; empty: none)")
     ap.add_argument("--grids", default="auto,16,32,64,128,256")
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--width", type=int, default=512)
@@ -93,7 +95,8 @@ def main():
             scenes.append(os.path.join(d, "big.json"))
         else:
             scenes.append(s)
-    configs = [("bvh", None)] + [("grid", g) for g in args.grids.split(",") if g]
+    configs = [("bvh", None)] + [(k, None) for k in args.accels.split(",") if k]
+    configs += [("grid", g) for g in args.grids.split(",") if g]
 
     # Step 2: the runs.
     rows, summary = [], []

@@ -48,11 +48,20 @@ pub mod binding {
     pub const ACCUM_ODD: u32 = 51;
     /// The light BVH (`render.light_sampler: "bvh"` only; renderer/src/compile/light_bvh.rs).
     pub const LIGHT_BVH: u32 = 52;
+    /// The compressed 8-wide BVH (`accel: "cwbvh"` only; renderer/src/accel/cwbvh.rs): its
+    /// nodes (`GpuCwbvhNode`), and per leaf slot the index of the `GpuPrim` it holds.
+    pub const CWBVH_NODES: u32 = 53;
+    pub const CWBVH_PRIMS: u32 = 54;
 }
 
 /// Entries of the BVH traversal's short stack (`BVH_STACK` in the shaders): trees up to this
 /// many levels are walked with the stack alone (see renderer/src/accel/flatten.rs).
 pub const BVH_STACK_DEPTH: u32 = 64;
+
+/// Entries of the CWBVH traversal's stack of node groups (`CWBVH_STACK` in the shaders): the
+/// host keeps every CWBVH within this many levels (renderer/src/accel/cwbvh.rs), so a walk,
+/// which pushes at most one group per level, never overflows it.
+pub const CWBVH_STACK_DEPTH: u32 = 32;
 
 /// Marks "none" in u32 index fields.
 pub const NONE: u32 = u32::MAX;
@@ -99,6 +108,24 @@ pub struct GpuBvhNode {
     pub l_count: u32,
     pub r_max: [f32; 3],
     pub r_count: u32,
+}
+
+/// A compressed 8-wide BVH node (Ylitie, Karras & Laine 2017; obvhs's `CwBvhNode` layout, 80
+/// bytes). Child c's box is `p + e · q` per axis, with `e = 2^(e_imask[axis] − 127)` and `q` its
+/// quantised bounds `q[2·axis][c]` (low) and `q[2·axis + 1][c]` (high). `e_imask[3]`: bit c set
+/// when child c is an inner node. `meta[c]`: 0 for an empty slot; an inner child `0b001_xxxxx`
+/// with `xxxxx` = 24 + its slot; a leaf the unary count of its primitives in the high 3 bits and
+/// their offset from `prim_base` (into the CWBVH_PRIMS indices) in the low 5. Inner children are
+/// stored contiguously from `child_base`, in slot order.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuCwbvhNode {
+    pub p: [f32; 3],
+    pub e_imask: [u8; 4],
+    pub child_base: u32,
+    pub prim_base: u32,
+    pub meta: [u8; 8],
+    pub q: [[u8; 8]; 6],
 }
 
 /// The uniform grid's frame (64 bytes, binding GRID): cell (x, y, z) spans
@@ -311,6 +338,9 @@ pub fn glsl_constants() -> String {
         ("BVH_STACK", BVH_STACK_DEPTH),
         ("B_ACCUM_ODD", binding::ACCUM_ODD),
         ("B_LIGHT_BVH", binding::LIGHT_BVH),
+        ("B_CWBVH_NODES", binding::CWBVH_NODES),
+        ("B_CWBVH_PRIMS", binding::CWBVH_PRIMS),
+        ("CWBVH_STACK", CWBVH_STACK_DEPTH),
     ];
     let flags = [
         ("NONE", NONE),
@@ -363,6 +393,7 @@ mod tests {
         assert_eq!(size_of::<GpuPrim>(), 48);
         assert_eq!(size_of::<GpuTriShading>(), 64);
         assert_eq!(size_of::<GpuBvhNode>(), 64);
+        assert_eq!(size_of::<GpuCwbvhNode>(), 80);
         assert_eq!(size_of::<GpuMaterial>(), 176);
         assert_eq!(size_of::<GpuTexture>(), 32);
         assert_eq!(size_of::<GpuLight>(), 80);

@@ -3,7 +3,7 @@
 //!
 //! - [`SceneBytes`]: the GPU bytes of a compiled scene's buffers, split into geometry
 //!   (primitives and per-triangle shading data), acceleration structure (BVH nodes and parent
-//!   pointers, or the grid) and the rest (materials, textures, lights, ...);
+//!   pointers, the CWBVH's nodes and leaf primitive indices, or the grid) and the rest (materials, textures, lights, ...);
 //! - [`peak_rss_bytes`]: the host process's peak resident memory (`VmHWM` of
 //!   /proc/self/status; None where there is no /proc);
 //! - [`check_fits`]: every buffer within the device's `maxStorageBufferRange` and all of them
@@ -23,7 +23,7 @@ pub use crate::gpu::{DeviceLimits, BUFFER_LIMIT_ENV, MEMORY_LIMIT_ENV};
 pub struct SceneBytes {
     /// Primitives and per-triangle shading data (normals, uvs).
     pub geometry: u64,
-    /// BVH nodes and parent pointers, or the grid's buffers.
+    /// BVH nodes and parent pointers, the CWBVH's nodes and leaf indices, or the grid's buffers.
     pub accel: u64,
     /// Everything else the scene uploads: materials, textures, lights, globals.
     pub other: u64,
@@ -60,6 +60,10 @@ pub fn scene_buffers(s: &CompiledScene) -> Vec<(&'static str, u64)> {
         v.push(("grid cells", size(&g.cells)));
         v.push(("grid prims", size(&g.prims)));
     }
+    if let Some(c) = &s.cwbvh {
+        v.push(("cwbvh nodes", size(&c.nodes)));
+        v.push(("cwbvh prims", size(&c.prims)));
+    }
     // As allocated: Vulkan has no empty buffers (gpu::Buffer rounds up to 16 bytes).
     v.into_iter()
         .map(|(n, b)| (n, b.max(16).next_multiple_of(4)))
@@ -72,7 +76,8 @@ pub fn scene_bytes(s: &CompiledScene) -> SceneBytes {
     for (name, bytes) in scene_buffers(s) {
         match name {
             "prims" | "tri shading" => b.geometry += bytes,
-            "bvh nodes" | "bvh parents" | "grid" | "grid cells" | "grid prims" => b.accel += bytes,
+            "bvh nodes" | "bvh parents" | "grid" | "grid cells" | "grid prims" | "cwbvh nodes"
+            | "cwbvh prims" => b.accel += bytes,
             _ => b.other += bytes,
         }
     }

@@ -1,5 +1,5 @@
 //! The compiled scene on the device: one storage buffer per scene array at its named binding
-//! (compile::layout::binding), the uniform grid's only when the scene uses it. Shared by the
+//! (compile::layout::binding), the uniform grid's and the CWBVH's only when the scene uses them. Shared by the
 //! render session and by tools that run an integrator's stages on their own (vct's debug volume).
 
 use std::sync::Arc;
@@ -83,6 +83,17 @@ pub fn upload_scene(ctx: &Arc<GpuContext>, scene: &CompiledScene) -> GpuResult<V
         buffers.push((
             binding::GRID_PRIMS,
             up("grid prims", bytemuck::cast_slice(&grid.prims))?,
+        ));
+    }
+    // The compressed wide BVH's buffers exist only when the scene uses it.
+    if let Some(c) = &scene.cwbvh {
+        buffers.push((
+            binding::CWBVH_NODES,
+            up("cwbvh nodes", bytemuck::cast_slice(&c.nodes))?,
+        ));
+        buffers.push((
+            binding::CWBVH_PRIMS,
+            up("cwbvh prims", bytemuck::cast_slice(&c.prims))?,
         ));
     }
     Ok(buffers)

@@ -153,7 +153,16 @@ bool traverse(Ray r, bool any_hit, out Hit hit) {
     return hit.prim != NONE;
 }
 
-#ifdef ACCEL_GRID
+#if defined(ACCEL_CWBVH)
+// accel "cwbvh": the compressed 8-wide BVH (common/traverse_cwbvh.glsl) answers both queries.
+#include "common/traverse_cwbvh.glsl"
+bool trace_closest(Ray r, out Hit hit) { return traverse_cwbvh(r, false, hit); }
+
+bool trace_any(Ray r) {
+    Hit h;
+    return traverse_cwbvh(r, true, h);
+}
+#elif defined(ACCEL_GRID)
 // accel "grid": the uniform grid (common/grid.glsl) answers both queries instead of the BVH.
 #include "common/grid.glsl"
 bool trace_closest(Ray r, out Hit hit) { return traverse_grid(r, false, hit); }

@@ -22,6 +22,14 @@ struct GpuBvhNode {
     vec3 r_min; uint l_count;
     vec3 r_max; uint r_count;
 };
+// renderer/src/layout.rs GpuCwbvhNode: bytes packed little-endian into uints; q: lo_x, hi_x,
+// lo_y, hi_y, lo_z, hi_z, each eight bytes (one per child slot).
+struct GpuCwbvhNode {
+    vec3 p; uint e_imask;
+    uint child_base; uint prim_base;
+    uvec2 meta;
+    uvec2 q[6];
+};
 struct GpuMaterial {
     uvec4 header;
     vec4 emission;

@@ -2,11 +2,12 @@
 //! the builder reads, the accel kind, its parameters and [`FORMAT_VERSION`]. The BVH reads the
 //! primitives' boxes in the scene frame (relative to the centre of the scene's bounds, not to
 //! the camera: `compile` moves the built nodes to the camera afterwards), so a camera move keeps
-//! the key; the grid reads the camera-relative geometry and bounds, so its key follows the
+//! the key (the compressed wide BVH is built from the same boxes, and keyed with its own kind);
+//! the grid reads the camera-relative geometry and bounds, so its key follows the
 //! camera. A second run of the same scene and options loads the structure instead of building
 //! it.
 //!
-//! File: `DIR/{bvh|grid}-{key}.bin` = magic, format version, kind, key, payload length, payload
+//! File: `DIR/{bvh|cwbvh|grid}-{key}.bin` = magic, format version, kind, key, payload length, payload
 //! hash, payload. A file whose header, length or payload hash does not match (truncated,
 //! corrupt, another version, a hash collision of the name) is ignored: the structure is rebuilt
 //! and the file overwritten. Files are written to a temporary name and renamed into place, so a
@@ -19,10 +20,10 @@ use crate::cache_file::{read_checked, write_checked, FileKind};
 
 use super::grid::Grid;
 use super::{AccelKind, AccelOptions, PrimBounds};
-use crate::layout::{GpuBvhNode, GpuGridInfo, GpuPrim, PRIM_SPHERE};
+use crate::layout::{GpuBvhNode, GpuCwbvhNode, GpuGridInfo, GpuPrim, PRIM_SPHERE};
 
 /// Bumped whenever a builder or the file layout changes, so old files are never reused.
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 const MAGIC: &[u8; 8] = b"CNDLACCL";
 
 /// The file header's identity for structures of `kind`.
@@ -57,14 +58,17 @@ pub fn key(opts: &AccelOptions, prims: &[GpuPrim], bounds: &[PrimBounds]) -> [u6
     h.finish()
 }
 
-/// The cache key of a BVH build: the builder reads only the primitives' boxes, given in a frame
-/// that does not move with the camera (see `compile`), so the key does not either.
+/// The cache key of a BVH or CWBVH build: the builders read only the primitives' boxes, given in
+/// a frame that does not move with the camera (see `compile`), so the key does not either.
 pub fn bvh_key(opts: &AccelOptions, bounds: &[PrimBounds]) -> [u64; 2] {
     let mut h = Hasher128::default();
     h.update(MAGIC);
     h.update(&FORMAT_VERSION.to_le_bytes());
-    h.update(&(AccelKind::Bvh as u32).to_le_bytes());
-    h.update(&[opts.bvh_keep_deep as u8]);
+    h.update(&(opts.kind as u32).to_le_bytes());
+    match opts.kind {
+        AccelKind::Cwbvh => h.update(&[opts.cwbvh_bvh_order as u8]),
+        _ => h.update(&[opts.bvh_keep_deep as u8]),
+    }
     h.update(&(bounds.len() as u64).to_le_bytes());
     h.update(bytemuck::cast_slice(bounds_words(bounds).as_slice()));
     h.finish()
@@ -94,6 +98,8 @@ pub struct Entry {
     pub nodes: Vec<GpuBvhNode>,
     pub depth: u32,
     pub grid: Option<(GpuGridInfo, Vec<u32>, Vec<u32>)>,
+    /// The CWBVH's nodes and leaf-slot primitive indices.
+    pub cwbvh: Option<(Vec<GpuCwbvhNode>, Vec<u32>)>,
 }
 
 fn put_u32s(out: &mut Vec<u8>, v: &[u32]) {
@@ -113,6 +119,14 @@ fn encode(e: &Entry) -> Vec<u8> {
             out.push(1);
             out.extend_from_slice(bytemuck::bytes_of(info));
             put_u32s(&mut out, cells);
+            put_u32s(&mut out, prims);
+        }
+    }
+    match &e.cwbvh {
+        None => out.push(0),
+        Some((nodes, prims)) => {
+            out.push(1);
+            put_u32s(&mut out, bytemuck::cast_slice(nodes));
             put_u32s(&mut out, prims);
         }
     }
@@ -164,11 +178,23 @@ fn decode(payload: &[u8]) -> Option<Entry> {
         }
         _ => return None,
     };
+    let cwbvh = match r.take(1)?[0] {
+        0 => None,
+        1 => {
+            let words = r.u32s()?;
+            if words.len() % 20 != 0 {
+                return None;
+            }
+            Some((bytemuck::pod_collect_to_vec(&words), r.u32s()?))
+        }
+        _ => return None,
+    };
     r.0.is_empty().then_some(Entry {
         order,
         nodes,
         depth,
         grid,
+        cwbvh,
     })
 }
 
@@ -213,7 +239,18 @@ mod tests {
             nodes: vec![bytemuck::Zeroable::zeroed(); 3],
             depth: 2,
             grid: Some((bytemuck::Zeroable::zeroed(), vec![0, 1, 3], vec![0, 1, 2])),
+            cwbvh: None,
         };
+        let cw = Entry {
+            order: vec![1, 0],
+            nodes: vec![],
+            depth: 1,
+            grid: None,
+            cwbvh: Some((vec![bytemuck::Zeroable::zeroed(); 2], vec![0, 1])),
+        };
+        store(&dir, AccelKind::Cwbvh, [7, 8], &cw).unwrap();
+        assert_eq!(load(&dir, AccelKind::Cwbvh, [7, 8]), Some(cw));
+        assert_eq!(load(&dir, AccelKind::Bvh, [7, 8]), None);
         let key = [1, 2];
         store(&dir, AccelKind::Grid, key, &e).unwrap();
         assert_eq!(load(&dir, AccelKind::Grid, key), Some(e.clone()));

@@ -12,11 +12,13 @@
 //! still deeper renders through the shader's stackless fallback, which walks the tree with
 //! parent pointers ([`parents`]). No scene is refused for the shape of its tree.
 //!
-//! `grid` holds the alternative uniform grid (`accel: "grid"`), `select` the options that pick
+//! `cwbvh` holds the compressed 8-wide BVH (`accel: "cwbvh"`, Ylitie et al. 2017) built by
+//! obvhs, `grid` the alternative uniform grid (`accel: "grid"`), `select` the options that pick
 //! one and the build entry point used by `compile`, and `cache` the on-disk cache of built
 //! structures.
 
 pub mod cache;
+pub mod cwbvh;
 mod flatten;
 pub mod grid;
 mod select;

@@ -1,11 +1,13 @@
 //! Which acceleration structure a scene gets (`AccelOptions`), and `build_accel`: look the
-//! structure up in the cache, else build it (BVH or uniform grid) and store it.
+//! structure up in the cache, else build it (binary BVH, compressed 8-wide BVH or uniform grid)
+//! and store it.
 
 use std::path::Path;
 use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
+use super::cwbvh::{self, Cwbvh};
 use super::grid::{self, Grid};
 use super::{build, cache, parents, PrimBounds, STACK_DEPTH};
 use crate::layout::{GpuBvhNode, GpuPrim};
@@ -19,17 +21,21 @@ pub enum AccelKind {
     Bvh = 0,
     /// Uniform grid with 3D-DDA traversal, shaders/common/grid.glsl (`#define ACCEL_GRID`).
     Grid = 1,
+    /// Compressed 8-wide BVH (Ylitie et al. 2017, built by obvhs), renderer/src/accel/cwbvh.rs
+    /// and shaders/common/traverse_cwbvh.glsl (`#define ACCEL_CWBVH`).
+    Cwbvh = 2,
 }
 
 impl AccelKind {
     /// Every kind's name, as scenes, the CLI and jobs spell it.
-    pub const NAMES: [&'static str; 2] = ["bvh", "grid"];
+    pub const NAMES: [&'static str; 3] = ["bvh", "grid", "cwbvh"];
 
-    /// Parses "bvh" or "grid".
+    /// Parses one of [`AccelKind::NAMES`].
     pub fn from_name(name: &str) -> Option<AccelKind> {
         match name {
             "bvh" => Some(AccelKind::Bvh),
             "grid" => Some(AccelKind::Grid),
+            "cwbvh" => Some(AccelKind::Cwbvh),
             _ => None,
         }
     }
@@ -54,6 +60,11 @@ pub struct AccelOptions {
     /// traversal's short stack (`STACK_DEPTH`), so the shader's stackless fallback runs. Off:
     /// too-deep subtrees are rebuilt balanced.
     pub bvh_keep_deep: bool,
+    /// CWBVH only, a testing aid: store the primitives in the binary BVH's order (costs a binary
+    /// build; the leaves reach them through their index buffer), so CWBVH and BVH renders number
+    /// primitives and lights identically and can be compared pixel for pixel. Off: the CWBVH's
+    /// own leaf order.
+    pub cwbvh_bvh_order: bool,
 }
 
 /// Whether the structure came from the cache.
@@ -75,7 +86,8 @@ pub struct AccelInfo {
     pub kind: AccelKind,
     /// Time to obtain the structure: the build, or loading it on a cache hit.
     pub build_time: Duration,
-    /// Bytes of the structure's GPU buffers (BVH nodes, or grid info + cells + references).
+    /// Bytes of the structure's GPU buffers (BVH nodes, CWBVH nodes + primitive indices, or
+    /// grid info + cells + references).
     pub bytes: u64,
     /// Grid only: cells along x, y, z.
     pub grid_resolution: Option<[u32; 3]>,
@@ -96,6 +108,9 @@ pub struct Accel {
     pub parents: Vec<u32>,
     pub depth: usize,
     pub grid: Option<Grid>,
+    /// The compressed wide BVH when the kind is "cwbvh" (then `nodes` is empty), in the frame of
+    /// `bvh_bounds` like `nodes`.
+    pub cwbvh: Option<Cwbvh>,
     pub info: AccelInfo,
 }
 
@@ -114,7 +129,7 @@ pub fn build_accel(
     let start = Instant::now();
     // Step 1: the cache.
     let key = cache_dir.map(|_| match opts.kind {
-        AccelKind::Bvh => cache::bvh_key(opts, bvh_bounds),
+        AccelKind::Bvh | AccelKind::Cwbvh => cache::bvh_key(opts, bvh_bounds),
         AccelKind::Grid => cache::key(opts, prims, bounds),
     });
     if let (Some(dir), Some(key)) = (cache_dir, key) {
@@ -146,7 +161,31 @@ pub fn build_accel(
                 nodes: bvh.nodes,
                 depth: bvh.depth,
                 grid: None,
+                cwbvh: None,
             }
+        }
+        AccelKind::Cwbvh => {
+            let built = cwbvh::build(bvh_bounds);
+            let (order, prims) = if opts.cwbvh_bvh_order {
+                let order = build(bvh_bounds, false).order;
+                let mut slot = vec![0u32; order.len()];
+                for (s, &i) in order.iter().enumerate() {
+                    slot[i as usize] = s as u32;
+                }
+                let prims = built.order.iter().map(|&i| slot[i as usize]).collect();
+                (order, prims)
+            } else {
+                let prims = (0..built.order.len() as u32).collect();
+                (built.order, prims)
+            };
+            cwbvh_accel(
+                order,
+                Cwbvh {
+                    nodes: built.nodes,
+                    prims,
+                },
+                built.depth,
+            )
         }
         AccelKind::Grid => {
             let order: Vec<u32> = if opts.grid_bvh_order {
@@ -173,6 +212,7 @@ pub fn build_accel(
                 .grid
                 .as_ref()
                 .map(|g| (g.info, g.cells.clone(), g.prims.clone())),
+            cwbvh: a.cwbvh.as_ref().map(|c| (c.nodes.clone(), c.prims.clone())),
         };
         if let Err(err) = cache::store(dir, opts.kind, key, &e) {
             tracing::warn!("accel cache {}: not written: {err}", dir.display());
@@ -195,6 +235,23 @@ fn grid_accel(order: Vec<u32>, g: Grid) -> Accel {
         parents: Vec::new(),
         depth: 0,
         grid: Some(g),
+        cwbvh: None,
+    }
+}
+
+fn cwbvh_accel(order: Vec<u32>, c: Cwbvh, depth: usize) -> Accel {
+    Accel {
+        info: AccelInfo {
+            kind: AccelKind::Cwbvh,
+            bytes: c.bytes(),
+            ..Default::default()
+        },
+        order,
+        nodes: Vec::new(),
+        parents: Vec::new(),
+        depth,
+        grid: None,
+        cwbvh: Some(c),
     }
 }
 
@@ -246,7 +303,24 @@ fn from_entry(opts: &AccelOptions, mut e: cache::Entry, n: usize) -> Option<Acce
                 nodes: e.nodes,
                 depth: e.depth as usize,
                 grid: None,
+                cwbvh: None,
             })
+        }
+        AccelKind::Cwbvh => {
+            let (nodes, prims) = e.cwbvh.take()?;
+            if e.grid.is_some() || !e.nodes.is_empty() || prims.len() != n {
+                return None;
+            }
+            // The depth bounds the traversal's stack: recompute it (this also rejects anything
+            // but a tree), and check every leaf's primitives are in range.
+            let depth = cwbvh::depth_of(&nodes)?;
+            if depth > cwbvh::STACK_DEPTH || !cwbvh::leaves_in_range(&nodes, prims.len()) {
+                return None;
+            }
+            if prims.iter().any(|&p| p as usize >= n) {
+                return None;
+            }
+            Some(cwbvh_accel(e.order, Cwbvh { nodes, prims }, depth))
         }
         AccelKind::Grid => {
             let g = e.take_grid()?;
@@ -302,6 +376,7 @@ impl AccelOptions {
             grid_resolution: res,
             grid_bvh_order: false,
             bvh_keep_deep: false,
+            cwbvh_bvh_order: false,
         })
     }
 }

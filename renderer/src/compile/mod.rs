@@ -7,7 +7,8 @@
 //! The BVH is built in the scene frame (`world − centre of the scene's bounds`, boxes rounded
 //! outwards) so that it, and its cache key, do not depend on the camera; its node boxes are then
 //! moved to the camera frame in f64 and rounded outwards again (`frame::place_nodes`), so each
-//! still contains its primitives exactly as uploaded.
+//! still contains its primitives exactly as uploaded. A compressed wide BVH is requantised into
+//! the camera frame the same way (`frame::place_cwbvh`).
 
 mod camera;
 mod emitters;
@@ -21,6 +22,7 @@ mod prims;
 use std::path::Path;
 use std::time::Duration;
 
+use crate::accel::cwbvh::Cwbvh;
 use crate::accel::grid::Grid;
 use crate::accel::{self, AccelInfo, AccelOptions};
 use crate::layout::*;
@@ -63,6 +65,9 @@ pub struct CompiledScene {
     /// The uniform grid when `accel` is "grid" (then `nodes` is empty and the kernels are built
     /// with `ACCEL_GRID`).
     pub grid: Option<Grid>,
+    /// The compressed 8-wide BVH when `accel` is "cwbvh" (then `nodes` is empty and the kernels
+    /// are built with `ACCEL_CWBVH`).
+    pub cwbvh: Option<Cwbvh>,
     /// Which structure was built, how long it took, its size, cache hit or miss.
     pub accel: AccelInfo,
     /// The camera's position in world space (f64): every position above is relative to it.
@@ -78,7 +83,7 @@ impl CompiledScene {
     /// the stackless fallback for deep trees runs on any scene (the parent pointers are made).
     pub fn with_traversal_stack(mut self, entries: usize) -> Self {
         self.traversal_stack = entries.clamp(1, accel::STACK_DEPTH);
-        if self.bvh_parents.is_empty() && self.grid.is_none() {
+        if self.bvh_parents.is_empty() && self.grid.is_none() && self.cwbvh.is_none() {
             self.bvh_parents = accel::parents(&self.nodes);
         }
         self
@@ -167,6 +172,9 @@ pub fn compile_with(
         options.cache,
     );
     frame::place_nodes(&mut bvh.nodes, origin - centre);
+    if let Some(c) = &mut bvh.cwbvh {
+        frame::place_cwbvh(&mut c.nodes, origin - centre);
+    }
     let mut sorted: Vec<GpuPrim> = bvh.order.iter().map(|&i| prims.gpu[i as usize]).collect();
 
     // Step 4: scene bounds (camera-relative) for directional and environment lights.
@@ -223,6 +231,7 @@ pub fn compile_with(
             Duration::ZERO
         },
         grid: bvh.grid,
+        cwbvh: bvh.cwbvh,
         accel: bvh.info,
         camera_position: origin.to_array(),
         geometry_hash: world_geometry_hash(scene),

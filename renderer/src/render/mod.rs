@@ -65,6 +65,7 @@ pub struct RenderStats {
     pub triangles: usize,
     pub primitives: usize,
     pub lights: usize,
+    /// Nodes and depth of the BVH, or of the CWBVH with accel "cwbvh" (0 with the grid).
     pub bvh_nodes: usize,
     pub bvh_depth: usize,
     pub bvh_build_s: f64,
@@ -80,7 +81,7 @@ pub struct RenderStats {
     pub features: Vec<&'static str>,
     /// "specialized" (to the scene's features) or "generic" (every feature).
     pub kernels: crate::compile::KernelMode,
-    /// The acceleration structure: "bvh" or "grid".
+    /// The acceleration structure: "bvh", "cwbvh" or "grid".
     pub accel: String,
     /// Seconds to obtain it: its build, or loading it from the cache on a hit.
     pub accel_build_s: f64,

@@ -251,7 +251,10 @@ impl RenderSession {
                 triangles: scene.triangle_count,
                 primitives: scene.prims.len(),
                 lights: scene.lights.len(),
-                bvh_nodes: scene.nodes.len(),
+                bvh_nodes: scene
+                    .cwbvh
+                    .as_ref()
+                    .map_or(scene.nodes.len(), |c| c.nodes.len()),
                 bvh_depth: scene.bvh_depth,
                 bvh_build: scene.bvh_build_time,
                 features,
@@ -282,6 +285,9 @@ impl RenderSession {
         let mut defines = scene.features.for_mode(mode).defines();
         if scene.grid.is_some() {
             defines.push(("ACCEL_GRID".to_string(), "1".to_string()));
+        }
+        if scene.cwbvh.is_some() {
+            defines.push(("ACCEL_CWBVH".to_string(), "1".to_string()));
         }
         if scene.traversal_stack < crate::accel::STACK_DEPTH {
             let n = scene.traversal_stack.to_string();

@@ -289,7 +289,7 @@ fn accel(d: &RenderDesc) -> Result<(Option<String>, Option<u32>), SceneError> {
     }
     let res = match d.grid_resolution {
         None => None,
-        Some(_) if d.accel.as_deref() == Some("bvh") => {
+        Some(_) if d.accel.as_deref().is_some_and(|k| k != "grid") => {
             return Err(SceneError::invalid(
                 "render.grid_resolution",
                 "only applies to \"accel\": \"grid\"",

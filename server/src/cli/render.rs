@@ -71,7 +71,8 @@ pub struct RenderArgs {
     /// Print the report as one JSON object.
     #[arg(long)]
     pub json: bool,
-    /// Acceleration structure: bvh or grid (default: the scene's render.accel, else bvh).
+    /// Acceleration structure: bvh, cwbvh (compressed 8-wide BVH) or grid (default: the scene's
+    /// render.accel, else bvh).
     #[arg(long, value_name = "KIND")]
     pub accel: Option<String>,
     /// Grid cells along the scene's longest axis, 1..=512 (default: the scene's
@@ -159,7 +160,7 @@ fn check_args(a: &RenderArgs) -> Result<(), CliError> {
                 "--grid-resolution: must be in 1..={max} (cells along the longest axis), got {r}"
             )));
         }
-        if a.accel.as_deref() == Some("bvh") {
+        if a.accel.as_deref().is_some_and(|k| k != "grid") {
             return Err(CliError::input(
                 "--grid-resolution: only applies to --accel grid",
             ));

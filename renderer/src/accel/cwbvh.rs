@@ -1,0 +1,548 @@
+//! The compressed 8-wide BVH (`accel: "cwbvh"`; Ylitie, Karras & Laine 2017): 80-byte nodes
+//! whose eight child boxes are quantised to 8 bits per plane against a per-node origin and
+//! power-of-two scale, walked by shaders/common/traverse_cwbvh.glsl in ray-octant order with a
+//! stack of node groups.
+//!
+//! obvhs builds it: PLOC (Meister & Bittner 2018) with reinsertion gives a binary BVH of one
+//! primitive per leaf, and obvhs's converter collapses it into the wide tree by the paper's
+//! SAH-cost dynamic programme (leaves of at most 3 primitives), ordering each node's children
+//! by octant. Two guards are ours:
+//!
+//! 0. PLOC merges one pair per pass among identical boxes (quadratic: a million copies of one
+//!    triangle would take hours), so it runs over the distinct boxes and each leaf is then
+//!    expanded into a balanced subtree over the copies of its box (`expand_copies`).
+//! 1. The converter recurses once per binary level, and pathological meshes (a million identical
+//!    triangles, triangles nested in each other) make PLOC chains as deep as the mesh is long.
+//!    Before converting, binary subtrees deeper than [`BINARY_LIMIT`] are rebuilt balanced
+//!    (`bound_height`).
+//! 2. The traversal's stack holds [`STACK_DEPTH`] groups and a walk pushes at most one per
+//!    level, so the wide tree must be at most that deep. Every wide node's children are binary
+//!    descendants at least one level further down, so a wide tree is never deeper than the
+//!    binary one it came from: when the first conversion is too deep, the binary tree is bounded
+//!    to [`STACK_DEPTH`] levels and converted again, which cannot fail.
+//!
+//! The leaves index the scene's primitives through `prims` (binding CWBVH_PRIMS): by default
+//! the primitives are stored in the CWBVH's own leaf order, so the indices are the identity and
+//! their reads coherent; the testing aid `cwbvh_bvh_order` stores them in the binary BVH's order
+//! instead, so images of both structures number primitives (and lights) alike.
+
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::node::Bvh2Node;
+use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
+use obvhs::bvh2::Bvh2;
+use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
+use obvhs::ploc::PlocBuilder;
+use obvhs::BvhBuildParams;
+
+use super::PrimBounds;
+use crate::layout::GpuCwbvhNode;
+
+/// Levels the wide tree may have: the shaders' `CWBVH_STACK` (declared in layout.rs).
+pub const STACK_DEPTH: usize = crate::layout::CWBVH_STACK_DEPTH as usize;
+/// Binary levels above which a subtree is rebuilt balanced before the conversion (whose
+/// recursion follows the binary tree).
+pub const BINARY_LIMIT: usize = 256;
+/// Most primitives in one wide leaf (the node format's limit).
+pub const MAX_LEAF: u32 = 3;
+
+/// A built CWBVH: nodes (in the frame of the bounds given), `order[slot]` = the input index of
+/// the primitive at leaf slot `slot`, and the depth in wide levels.
+#[derive(Debug, Clone)]
+pub struct Built {
+    pub nodes: Vec<GpuCwbvhNode>,
+    pub order: Vec<u32>,
+    pub depth: usize,
+}
+
+/// The CWBVH as uploaded: nodes (binding CWBVH_NODES) and, per leaf slot, the index of its
+/// primitive in the scene's (reordered) primitives (binding CWBVH_PRIMS).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cwbvh {
+    pub nodes: Vec<GpuCwbvhNode>,
+    pub prims: Vec<u32>,
+}
+
+impl Cwbvh {
+    /// Bytes of both buffers.
+    pub fn bytes(&self) -> u64 {
+        (std::mem::size_of_val(self.nodes.as_slice())
+            + std::mem::size_of_val(self.prims.as_slice())) as u64
+    }
+}
+
+/// Builds the CWBVH over `prims`. An empty scene yields one node without children.
+pub fn build(prims: &[PrimBounds]) -> Built {
+    if prims.is_empty() {
+        return Built {
+            nodes: vec![bytemuck::Zeroable::zeroed()],
+            order: Vec::new(),
+            depth: 1,
+        };
+    }
+    // Step 1: PLOC and reinsertion (obvhs's cwbvh builder, steps kept apart for the guards),
+    // over distinct boxes: PLOC merges one pair per pass among identical boxes, quadratic in
+    // their number, so copies of a box share one leaf, expanded afterwards.
+    let (reps, groups) = distinct_boxes(prims);
+    let rep_bounds: Vec<PrimBounds> = reps.iter().map(|&i| prims[i as usize]).collect();
+    let params = BvhBuildParams::medium_build();
+    let mut bvh2 = PlocBuilder::with_capacity(reps.len()).build(
+        params.ploc_search_distance,
+        &rep_bounds,
+        (0..reps.len() as u32).collect(),
+        params.sort_precision,
+        params.search_depth_threshold,
+    );
+    ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+    if reps.len() < prims.len() {
+        bvh2 = expand_copies(&bvh2, prims, &groups);
+    }
+    // Step 2: binary chains bounded for the converter, then the conversion.
+    if let Some(b) = bound_height(&bvh2, prims, BINARY_LIMIT) {
+        bvh2 = b;
+    }
+    let mut built = convert(&bvh2);
+    // Step 3: a wide tree deeper than the stack: convert a binary tree of at most that height.
+    if built.depth > STACK_DEPTH {
+        if let Some(b) = bound_height(&bvh2, prims, STACK_DEPTH) {
+            built = convert(&b);
+        }
+    }
+    debug_assert!(built.depth <= STACK_DEPTH, "{}", built.depth);
+    built
+}
+
+fn convert(bvh2: &Bvh2) -> Built {
+    let cw = bvh2_to_cwbvh(bvh2, MAX_LEAF, true, false);
+    let nodes: Vec<GpuCwbvhNode> = cw.nodes.iter().map(|n| bytemuck::cast(*n)).collect();
+    let depth = depth_of(&nodes).expect("obvhs builds a tree");
+    Built {
+        nodes,
+        order: cw.primitive_indices,
+        depth,
+    }
+}
+
+/// The first primitive of each distinct box (input order), and for each of them every primitive
+/// with that box. Without copies, `reps[i] == i`.
+fn distinct_boxes(prims: &[PrimBounds]) -> (Vec<u32>, Vec<Vec<u32>>) {
+    let mut first: std::collections::HashMap<[u32; 6], u32> = Default::default();
+    let (mut reps, mut groups) = (Vec::new(), Vec::<Vec<u32>>::new());
+    for (i, b) in prims.iter().enumerate() {
+        let (lo, hi) = (b.min.map(f32::to_bits), b.max.map(f32::to_bits));
+        let key = [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]];
+        let r = *first.entry(key).or_insert_with(|| {
+            reps.push(i as u32);
+            groups.push(Vec::new());
+            reps.len() as u32 - 1
+        });
+        groups[r as usize].push(i as u32);
+    }
+    (reps, groups)
+}
+
+/// `bvh`, built over the distinct boxes, with each leaf (one distinct box) replaced by a
+/// balanced subtree over the primitives of that box (`groups`), one primitive per leaf.
+fn expand_copies(bvh: &Bvh2, prims: &[PrimBounds], groups: &[Vec<u32>]) -> Bvh2 {
+    enum Task {
+        Copy(usize, usize),
+        Split(Vec<u32>, usize),
+    }
+    let mut nodes = vec![Bvh2Node::default()];
+    let mut indices = Vec::with_capacity(prims.len());
+    let mut tasks = vec![Task::Copy(0, 0)];
+    while let Some(task) = tasks.pop() {
+        match task {
+            Task::Copy(i, out) => {
+                let n = bvh.nodes[i];
+                let f = n.first_index as usize;
+                if n.prim_count > 0 {
+                    let set = bvh.primitive_indices[f..f + n.prim_count as usize]
+                        .iter()
+                        .flat_map(|&r| groups[r as usize].iter().copied())
+                        .collect();
+                    tasks.push(Task::Split(set, out));
+                } else {
+                    let c = nodes.len();
+                    nodes.extend([Bvh2Node::default(); 2]);
+                    nodes[out] = Bvh2Node::new(*n.aabb(), 0, c as u32);
+                    tasks.push(Task::Copy(f, c));
+                    tasks.push(Task::Copy(f + 1, c + 1));
+                }
+            }
+            Task::Split(mut set, out) => {
+                let b = prims[set[0] as usize];
+                let aabb = Aabb::new(b.min.into(), b.max.into());
+                if set.len() == 1 {
+                    nodes[out] = Bvh2Node::new(aabb, 1, indices.len() as u32);
+                    indices.push(set[0]);
+                    continue;
+                }
+                let right = set.split_off(set.len() / 2);
+                let c = nodes.len();
+                nodes.extend([Bvh2Node::default(); 2]);
+                nodes[out] = Bvh2Node::new(aabb, 0, c as u32);
+                tasks.push(Task::Split(set, c));
+                tasks.push(Task::Split(right, c + 1));
+            }
+        }
+    }
+    Bvh2 {
+        nodes,
+        primitive_indices: indices,
+        ..Default::default()
+    }
+}
+
+/// Heights (inner levels; 0 for a leaf) and primitive counts of every subtree of `bvh`.
+fn heights(bvh: &Bvh2) -> (Vec<u32>, Vec<u64>) {
+    let src = &bvh.nodes;
+    let mut height = vec![0u32; src.len()];
+    let mut count = vec![0u64; src.len()];
+    let mut stack = vec![(0usize, false)];
+    while let Some((i, expanded)) = stack.pop() {
+        let n = &src[i];
+        if n.prim_count > 0 {
+            count[i] = n.prim_count as u64;
+            continue;
+        }
+        let (l, r) = (n.first_index as usize, n.first_index as usize + 1);
+        if expanded {
+            height[i] = 1 + height[l].max(height[r]);
+            count[i] = count[l] + count[r];
+        } else {
+            stack.extend([(i, true), (l, false), (r, false)]);
+        }
+    }
+    (height, count)
+}
+
+/// Inner levels of a balanced tree over `n` single-primitive leaves: ⌈log2 n⌉.
+fn balanced_height(n: u64) -> usize {
+    (n.max(1).next_power_of_two().trailing_zeros()) as usize
+}
+
+/// `bvh` (one primitive per leaf, over `prims`) with at most `limit` inner levels, or None when
+/// it has no more already. Top-down, as renderer/src/accel/flatten.rs does for the binary BVH:
+/// a subtree that fits is copied; one that does not is kept when each child can be made to fit
+/// one level further down, and otherwise rebuilt balanced (object median along the longest
+/// centroid axis), whose height ⌈log2 n⌉ fits whenever n ≤ 2^limit.
+fn bound_height(bvh: &Bvh2, prims: &[PrimBounds], limit: usize) -> Option<Bvh2> {
+    let (height, count) = heights(bvh);
+    if height[0] as usize <= limit {
+        return None;
+    }
+    let src = &bvh.nodes;
+    enum Task {
+        Copy {
+            src: usize,
+            out: usize,
+            depth: usize,
+        },
+        Balanced {
+            set: Vec<u32>,
+            out: usize,
+            depth: usize,
+        },
+    }
+    let subtree_prims = |i: usize| -> Vec<u32> {
+        let mut v = Vec::with_capacity(count[i] as usize);
+        let mut st = vec![i];
+        while let Some(j) = st.pop() {
+            let n = &src[j];
+            if n.prim_count > 0 {
+                let f = n.first_index as usize;
+                v.extend_from_slice(&bvh.primitive_indices[f..f + n.prim_count as usize]);
+            } else {
+                st.extend([n.first_index as usize, n.first_index as usize + 1]);
+            }
+        }
+        v
+    };
+    let mut nodes = vec![Bvh2Node::default()];
+    let mut indices: Vec<u32> = Vec::with_capacity(bvh.primitive_indices.len());
+    let mut tasks = vec![Task::Copy {
+        src: 0,
+        out: 0,
+        depth: 1,
+    }];
+    while let Some(task) = tasks.pop() {
+        match task {
+            Task::Copy { src: i, out, depth } => {
+                let n = src[i];
+                if n.prim_count > 0 {
+                    let f = n.first_index as usize;
+                    let first = indices.len() as u32;
+                    indices.extend_from_slice(&bvh.primitive_indices[f..f + n.prim_count as usize]);
+                    nodes[out] = Bvh2Node::new(*n.aabb(), n.prim_count, first);
+                    continue;
+                }
+                let (l, r) = (n.first_index as usize, n.first_index as usize + 1);
+                let fits = depth - 1 + height[i] as usize <= limit;
+                let fixable = [l, r]
+                    .iter()
+                    .all(|&c| depth + balanced_height(count[c]) <= limit);
+                if fits || fixable {
+                    let c = nodes.len();
+                    nodes.extend([Bvh2Node::default(); 2]);
+                    nodes[out] = Bvh2Node::new(*n.aabb(), 0, c as u32);
+                    tasks.push(Task::Copy {
+                        src: l,
+                        out: c,
+                        depth: depth + 1,
+                    });
+                    tasks.push(Task::Copy {
+                        src: r,
+                        out: c + 1,
+                        depth: depth + 1,
+                    });
+                } else {
+                    tasks.push(Task::Balanced {
+                        set: subtree_prims(i),
+                        out,
+                        depth,
+                    });
+                }
+            }
+            Task::Balanced {
+                mut set,
+                out,
+                depth,
+            } => {
+                let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+                let (mut clo, mut chi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+                for &p in &set {
+                    let b = prims[p as usize];
+                    for a in 0..3 {
+                        lo[a] = lo[a].min(b.min[a]);
+                        hi[a] = hi[a].max(b.max[a]);
+                        let c = 0.5 * (b.min[a] + b.max[a]);
+                        clo[a] = clo[a].min(c);
+                        chi[a] = chi[a].max(c);
+                    }
+                }
+                let aabb = Aabb::new(lo.into(), hi.into());
+                if set.len() == 1 {
+                    nodes[out] = Bvh2Node::new(aabb, 1, indices.len() as u32);
+                    indices.push(set[0]);
+                    continue;
+                }
+                // The object median along the longest axis of the centroids' box.
+                let axis = (0..3)
+                    .max_by(|&a, &b| (chi[a] - clo[a]).total_cmp(&(chi[b] - clo[b])))
+                    .unwrap_or(0);
+                let key = |p: &u32| {
+                    let b = prims[*p as usize];
+                    b.min[axis] + b.max[axis]
+                };
+                let mid = set.len() / 2;
+                set.select_nth_unstable_by(mid, |x, y| key(x).total_cmp(&key(y)));
+                let right = set.split_off(mid);
+                let c = nodes.len();
+                nodes.extend([Bvh2Node::default(); 2]);
+                nodes[out] = Bvh2Node::new(aabb, 0, c as u32);
+                tasks.push(Task::Balanced {
+                    set,
+                    out: c,
+                    depth: depth + 1,
+                });
+                tasks.push(Task::Balanced {
+                    set: right,
+                    out: c + 1,
+                    depth: depth + 1,
+                });
+            }
+        }
+    }
+    Some(Bvh2 {
+        nodes,
+        primitive_indices: indices,
+        ..Default::default()
+    })
+}
+
+/// The depth (wide levels) of `nodes` as a tree from node 0, or None when it is not one: a child
+/// index out of range, or a node reached twice (a cycle or shared subtree).
+pub fn depth_of(nodes: &[GpuCwbvhNode]) -> Option<usize> {
+    let mut seen = vec![false; nodes.len()];
+    let mut most = 0;
+    let mut stack = vec![(0usize, 1usize)];
+    while let Some((i, d)) = stack.pop() {
+        if i >= nodes.len() || std::mem::replace(&mut seen[i], true) {
+            return None;
+        }
+        most = most.max(d);
+        let imask = nodes[i].e_imask[3];
+        for k in 0..imask.count_ones() as usize {
+            stack.push((nodes[i].child_base as usize + k, d + 1));
+        }
+    }
+    Some(most)
+}
+
+/// Whether every leaf of `nodes` indexes within `slots` leaf slots.
+pub fn leaves_in_range(nodes: &[GpuCwbvhNode], slots: usize) -> bool {
+    nodes.iter().all(|n| {
+        (0..8).all(|c| {
+            let meta = n.meta[c];
+            let inner = n.e_imask[3] & (1 << c) != 0;
+            inner
+                || meta == 0
+                || n.prim_base as u64 + (meta & 0x1f) as u64 + (meta >> 5).count_ones() as u64
+                    <= slots as u64
+        })
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit_boxes(n: usize) -> Vec<PrimBounds> {
+        (0..n)
+            .map(|i| {
+                let (x, y) = ((i % 37) as f32, (i / 37) as f32 * 0.7);
+                PrimBounds {
+                    min: [x, y, 0.0],
+                    max: [x + 0.5, y + 1.0, 1.0],
+                }
+            })
+            .collect()
+    }
+
+    /// Boxes nested about a common corner, each 0.8 times the last: PLOC chains them.
+    fn nested_boxes(n: usize) -> Vec<PrimBounds> {
+        (0..n)
+            .map(|i| {
+                let s = 0.8f32.powi(i as i32 % 300) * (1.0 + i as f32 * 1e-4);
+                PrimBounds {
+                    min: [0.0, 0.0, 0.0],
+                    max: [s, s, s * 1e-3],
+                }
+            })
+            .collect()
+    }
+
+    /// Child c's box of node n as the shader decodes it (f32, `p + e·q`).
+    fn child_box(n: &GpuCwbvhNode, c: usize) -> ([f32; 3], [f32; 3]) {
+        let e = |a: usize| f32::from_bits((n.e_imask[a] as u32) << 23);
+        let lo = [0, 1, 2].map(|a| n.p[a] + e(a) * n.q[2 * a][c] as f32);
+        let hi = [0, 1, 2].map(|a| n.p[a] + e(a) * n.q[2 * a + 1][c] as f32);
+        (lo, hi)
+    }
+
+    /// Every primitive is in exactly one leaf, whose decoded box contains it (within the
+    /// quantisation obvhs rounds with, a few ulps), every inner child's box contains the boxes
+    /// of the node it points to, and the depth is within the stack.
+    fn check(prims: &[PrimBounds], b: &Built) {
+        let mut seen = vec![0u32; prims.len()];
+        assert!(leaves_in_range(&b.nodes, b.order.len()));
+        assert_eq!(depth_of(&b.nodes), Some(b.depth));
+        assert!(b.depth <= STACK_DEPTH, "depth {}", b.depth);
+        let ulps = |x: f32| x.abs().max(1.0) * 1e-5;
+        for n in &b.nodes {
+            let mut inner = 0;
+            for c in 0..8 {
+                let meta = n.meta[c];
+                if meta == 0 {
+                    continue;
+                }
+                let (lo, hi) = child_box(n, c);
+                if n.e_imask[3] & (1 << c) != 0 {
+                    inner += 1;
+                    continue;
+                }
+                let first = n.prim_base + (meta & 0x1f) as u32;
+                for s in first..first + (meta >> 5).count_ones() {
+                    let i = b.order[s as usize] as usize;
+                    seen[i] += 1;
+                    for a in 0..3 {
+                        assert!(
+                            lo[a] <= prims[i].min[a] + ulps(lo[a]),
+                            "{lo:?} {:?}",
+                            prims[i]
+                        );
+                        assert!(
+                            hi[a] >= prims[i].max[a] - ulps(hi[a]),
+                            "{hi:?} {:?}",
+                            prims[i]
+                        );
+                    }
+                }
+            }
+            assert_eq!(inner, n.e_imask[3].count_ones());
+        }
+        assert!(seen.iter().all(|&s| s == 1), "{seen:?}");
+    }
+
+    #[test]
+    fn every_primitive_is_in_one_leaf_that_contains_it() {
+        for n in [1usize, 2, 3, 4, 9, 100, 3000] {
+            let prims = unit_boxes(n);
+            check(&prims, &build(&prims));
+        }
+    }
+
+    /// Chains far deeper than the stack (nested boxes; copies of one box) come out within it,
+    /// and a binary tree bounded to a height is exactly that high at most.
+    #[test]
+    fn deep_chains_are_bounded() {
+        for prims in [nested_boxes(3000), vec![unit_boxes(1)[0]; 100_000]] {
+            let t = std::time::Instant::now();
+            let b = build(&prims);
+            println!(
+                "{} prims: CWBVH depth {}, built in {:.3} s",
+                prims.len(),
+                b.depth,
+                t.elapsed().as_secs_f64()
+            );
+            check(&prims, &b);
+            if prims.len() > 10_000 {
+                continue; // copies of one box: raw PLOC would be quadratic
+            }
+            let params = BvhBuildParams::medium_build();
+            let bvh2 = PlocBuilder::with_capacity(prims.len()).build(
+                params.ploc_search_distance,
+                &prims,
+                (0..prims.len() as u32).collect(),
+                params.sort_precision,
+                params.search_depth_threshold,
+            );
+            let before = heights(&bvh2).0[0] as usize;
+            for limit in [STACK_DEPTH, 16] {
+                if let Some(bounded) = bound_height(&bvh2, &prims, limit) {
+                    let (h, count) = heights(&bounded);
+                    assert!(h[0] as usize <= limit, "{} > {limit}", h[0]);
+                    assert_eq!(count[0], prims.len() as u64);
+                    let cw = convert(&bounded);
+                    assert!(cw.depth <= limit, "{} > {limit}", cw.depth);
+                    check(&prims, &cw);
+                } else {
+                    assert!(before <= limit);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn depth_of_rejects_what_is_not_a_tree() {
+        let mut b = build(&unit_boxes(500));
+        assert!(depth_of(&b.nodes).is_some());
+        let root = b.nodes[0];
+        assert!(root.e_imask[3] != 0);
+        b.nodes[0].child_base = 0; // a cycle back to the root
+        assert_eq!(depth_of(&b.nodes), None);
+        b.nodes[0].child_base = 1 << 30; // out of range
+        assert_eq!(depth_of(&b.nodes), None);
+        b.nodes[0] = root;
+        b.nodes[0].prim_base = 1 << 30;
+        assert!(!leaves_in_range(&b.nodes, b.order.len()) || root.e_imask[3] == 0xff);
+    }
+
+    #[test]
+    fn empty_scene_has_a_root_without_children() {
+        let b = build(&[]);
+        assert_eq!(b.nodes.len(), 1);
+        assert_eq!(b.nodes[0].meta, [0; 8]);
+        assert_eq!(depth_of(&b.nodes), Some(1));
+    }
+}

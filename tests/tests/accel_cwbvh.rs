@@ -1,0 +1,436 @@
+//! The compressed 8-wide BVH (`accel: "cwbvh"`) against the binary BVH on lavapipe: closest-hit
+//! and any-hit (shadow) queries, alpha cut-outs, every integrator, scenes far from the origin
+//! (the requantisation into the camera frame), pathological meshes whose binary trees are chains
+//! (the depth bound that keeps the walk within its stack), the cache, the memory figures and the
+//! option's spelling.
+//!
+//! With `cwbvh_bvh_order` the primitives are stored in the binary BVH's order (the CWBVH's leaves
+//! reach them through their index buffer), so both structures number primitives and lights
+//! alike and, finding the same nearest hits, must give the same image with the same seed.
+
+use std::path::Path;
+
+use candela_tests::*;
+use glam::DVec3;
+use renderer::accel::{AccelKind, AccelOptions, AccelRequest, CacheStatus};
+use renderer::compile::{compile_with, CompileOptions, CompiledScene};
+use renderer::film::Image;
+use renderer::integrators::IntegratorOptions;
+use renderer::layout::{GpuCwbvhNode, CWBVH_STACK_DEPTH};
+use renderer::metrics::rel_mse;
+use renderer::render::{render, Budget, RenderSession, RenderStats};
+use renderer::scene::{load_str, Light, Scene};
+use serde_json::{json, Value};
+
+fn cwbvh(bvh_order: bool) -> AccelOptions {
+    AccelOptions {
+        kind: AccelKind::Cwbvh,
+        cwbvh_bvh_order: bvh_order,
+        ..Default::default()
+    }
+}
+
+fn compiled(scene: &Scene, w: u32, accel: AccelOptions, cache: Option<&Path>) -> CompiledScene {
+    let opts = CompileOptions { accel, cache };
+    compile_with(scene, w, w, &opts).expect("compile")
+}
+
+fn render_compiled(
+    scene: &Scene,
+    c: &CompiledScene,
+    integrator: &str,
+    spp: u32,
+    seed: u64,
+) -> (Image, RenderStats) {
+    let ctx = gpu();
+    let options = IntegratorOptions::from_name(integrator).expect("integrator");
+    let mut session =
+        RenderSession::new(&ctx, c, &options, scene.render.max_depth, seed).expect("session");
+    let out = render(&mut session, Budget::Spp(spp)).expect("render");
+    ctx.check_validation().expect("validation layer messages");
+    out
+}
+
+/// Pixels whose colour differs at all, and the relMSE of `a` against `b`.
+fn diff(a: &Image, b: &Image) -> (usize, f64) {
+    let n = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .filter(|(x, y)| x != y)
+        .count();
+    (n, rel_mse(a, b).unwrap())
+}
+
+fn load(name: &str) -> Scene {
+    renderer::scene::load_file(&scene_path(name)).unwrap()
+}
+
+/// Renders `scene` with the binary BVH and the CWBVH (same seed); the images must agree.
+fn cwbvh_matches_bvh(label: &str, scene: &Scene, integrator: &str, w: u32, spp: u32) {
+    let bvh = compiled(scene, w, AccelOptions::default(), None);
+    let (reference, stats) = render_compiled(scene, &bvh, integrator, spp, 7);
+    assert_eq!(stats.accel, "bvh");
+    let lit = reference.pixels.iter().filter(|p| p[0] > 0.0).count();
+    assert!(lit > 0, "{label} {integrator}: black");
+    let c = compiled(scene, w, cwbvh(true), None);
+    let (img, stats) = render_compiled(scene, &c, integrator, spp, 7);
+    assert_eq!(stats.accel, "cwbvh");
+    let (n, e) = diff(&img, &reference);
+    println!(
+        "{label} {integrator}: cwbvh ({} nodes, depth {}, {} accel bytes vs the BVH's {}): \
+         {n} of {} pixels differ, relMSE {e:.3e}",
+        c.cwbvh.as_ref().unwrap().nodes.len(),
+        c.bvh_depth,
+        c.accel.bytes,
+        bvh.accel.bytes,
+        img.pixels.len()
+    );
+    assert!(e < 1e-6, "{label} {integrator}: relMSE {e}");
+}
+
+#[test]
+fn cwbvh_matches_bvh_on_meshes_and_spheres() {
+    cwbvh_matches_bvh("cornell", &load("cornell.json"), "nee", 24, 4);
+    cwbvh_matches_bvh("mirror_glass", &load("mirror_glass.json"), "nee", 24, 4);
+    cwbvh_matches_bvh("textured_mesh", &load("textured_mesh.json"), "nee", 24, 4);
+}
+
+/// Alpha-masked triangles are skipped by both queries: the checker's dark squares cut holes in
+/// the sphere, seen by camera rays (closest hit) and shadow rays (any hit).
+#[test]
+fn cwbvh_matches_bvh_with_alpha_cut_outs() {
+    let text = std::fs::read_to_string(scene_path("textured_mesh.json")).unwrap();
+    let mut v: Value = serde_json::from_str(&text).unwrap();
+    v["materials"]["checker"]["alpha_mask"] =
+        json!({"texture": "assets/checker.png", "scale": [2, 1]});
+    let scene = load_str(&v.to_string(), Some(&scene_path(""))).unwrap();
+    let c = compiled(&scene, 8, cwbvh(true), None);
+    assert!(c.features.alpha, "the scene has no alpha mask");
+    cwbvh_matches_bvh("textured_mesh with alpha", &scene, "nee", 24, 4);
+}
+
+#[test]
+fn cwbvh_serves_every_integrator() {
+    let scene = load("cornell.json");
+    // Every integrator users can pick (pt, nee, bdpt, whitted, deferred, ...).
+    for integrator in renderer::integrators::names() {
+        cwbvh_matches_bvh("cornell", &scene, integrator, 16, 2);
+    }
+}
+
+fn translated(scene: &Scene, t: DVec3) -> Scene {
+    let mut far = scene.clone();
+    far.camera.position += t;
+    far.camera.look_at += t;
+    for m in &mut far.meshes {
+        for p in &mut m.positions {
+            *p += t;
+        }
+    }
+    for s in &mut far.spheres {
+        s.center += t;
+    }
+    for l in &mut far.lights {
+        if let Light::Point { position, .. } | Light::Spot { position, .. } = l {
+            *position += t;
+        }
+    }
+    far
+}
+
+/// Far from the origin the requantised nodes still contain their primitives as uploaded
+/// (camera-relative), and a camera move keeps the cache key.
+#[test]
+fn cwbvh_far_from_the_origin_and_with_the_camera_moved() {
+    let far = translated(&load("mirror_glass.json"), DVec3::new(1e5, -1e5, 1e5));
+    cwbvh_matches_bvh("mirror_glass translated by 1e5", &far, "nee", 24, 4);
+    let dir = scratch("cwbvh-cache-camera");
+    let first = compiled(&far, 8, cwbvh(false), Some(&dir));
+    let mut moved = far.clone();
+    moved.camera.position += DVec3::new(0.5, 0.2, -0.3);
+    let second = compiled(&moved, 8, cwbvh(false), Some(&dir));
+    assert_eq!(
+        (first.accel.cache, second.accel.cache),
+        (CacheStatus::Miss, CacheStatus::Hit)
+    );
+    cwbvh_matches_bvh(
+        "mirror_glass translated, camera moved",
+        &moved,
+        "nee",
+        24,
+        4,
+    );
+}
+
+/// In its own leaf order (the default) the CWBVH numbers lights differently, so the image is
+/// another estimate of the same picture: as close to the BVH's as the BVH's with another seed.
+#[test]
+fn cwbvh_in_its_own_order_converges_to_the_bvh_image() {
+    let scene = load("cornell.json");
+    let bvh = compiled(&scene, 16, AccelOptions::default(), None);
+    let (a, _) = render_compiled(&scene, &bvh, "nee", 16, 1);
+    let (b, _) = render_compiled(&scene, &bvh, "nee", 16, 2);
+    let c = compiled(&scene, 16, cwbvh(false), None);
+    let identity = c.cwbvh.as_ref().unwrap().prims.iter().enumerate();
+    assert!(identity.into_iter().all(|(s, &p)| s == p as usize));
+    let (g, _) = render_compiled(&scene, &c, "nee", 16, 1);
+    let seeds = rel_mse(&b, &a).unwrap();
+    let accel = rel_mse(&g, &a).unwrap();
+    println!("cornell nee 16 spp: cwbvh (own order) vs BVH {accel:.3e}, seeds {seeds:.3e}");
+    assert!(accel < 2.0 * seeds, "cwbvh {accel} vs seed noise {seeds}");
+}
+
+/// The cache keys the CWBVH apart from the binary BVH (another file, another kind), a second
+/// compile loads identical buffers, and the memory figures count what the CWBVH uploads.
+#[test]
+fn cwbvh_cache_and_memory_figures() {
+    let dir = scratch("cwbvh-cache");
+    let scene = load("textured_mesh.json");
+    let bvh = compiled(&scene, 16, AccelOptions::default(), Some(&dir));
+    let first = compiled(&scene, 16, cwbvh(false), Some(&dir));
+    assert_eq!(first.accel.cache, CacheStatus::Miss, "keyed like the BVH");
+    let second = compiled(&scene, 16, cwbvh(false), Some(&dir));
+    assert_eq!(second.accel.cache, CacheStatus::Hit);
+    assert_eq!(first.cwbvh, second.cwbvh);
+    // Compared as printed: unused index fields hold NONE, a NaN as f32 (never equal to itself).
+    assert!(format!("{:?}", first.prims) == format!("{:?}", second.prims));
+    let ordered = compiled(&scene, 16, cwbvh(true), Some(&dir));
+    assert_eq!(
+        ordered.accel.cache,
+        CacheStatus::Miss,
+        "the testing aid is in the key"
+    );
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    println!("{names:?}");
+    assert_eq!(names.iter().filter(|n| n.starts_with("cwbvh-")).count(), 2);
+    assert_eq!(names.iter().filter(|n| n.starts_with("bvh-")).count(), 1);
+    // Memory: the CWBVH's nodes (80 bytes) and leaf indices (4 bytes a primitive) are the
+    // structure; no binary nodes beyond the 16-byte placeholder.
+    let cw = second.cwbvh.as_ref().unwrap();
+    let want = (cw.nodes.len() * std::mem::size_of::<GpuCwbvhNode>() + cw.prims.len() * 4) as u64;
+    assert_eq!(second.accel.bytes, want);
+    assert_eq!(cw.prims.len(), second.prims.len());
+    let b = renderer::memory::scene_bytes(&second);
+    let bb = renderer::memory::scene_bytes(&bvh);
+    assert_eq!(b.geometry, bb.geometry);
+    assert_eq!(
+        b.accel,
+        want + 16 + 16,
+        "cwbvh buffers + the empty BVH nodes and parents"
+    );
+    let (_, stats) = render_compiled(&scene, &second, "nee", 1, 1);
+    assert_eq!(stats.accel_bytes, b.accel);
+    let per_tri = (stats.geometry_bytes + b.accel) as f64 / second.triangle_count as f64;
+    println!(
+        "textured_mesh: cwbvh {} accel bytes ({} nodes) vs BVH {}; {:.1} GPU bytes a triangle \
+         (report: {:.1})",
+        b.accel,
+        cw.nodes.len(),
+        bb.accel,
+        per_tri,
+        stats.gpu_bytes_per_triangle
+    );
+    assert!((stats.gpu_bytes_per_triangle - per_tri).abs() < 1e-6 * per_tri);
+}
+
+/// "cwbvh" is spelled the same by scenes, the CLI and jobs.
+#[test]
+fn cwbvh_is_selectable_by_name() {
+    let o = AccelOptions::resolve(
+        AccelRequest {
+            kind: Some("cwbvh"),
+            grid_resolution: None,
+        },
+        AccelRequest::default(),
+    )
+    .unwrap();
+    assert_eq!(o.kind, AccelKind::Cwbvh);
+    assert_eq!(
+        AccelOptions::resolve(AccelRequest::default(), AccelRequest::default())
+            .unwrap()
+            .kind,
+        AccelKind::Bvh,
+        "the default is unchanged"
+    );
+    let text = std::fs::read_to_string(scene_path("cornell.json")).unwrap();
+    let mut v: Value = serde_json::from_str(&text).unwrap();
+    v["render"]["accel"] = json!("cwbvh");
+    let s = load_str(&v.to_string(), Some(&scene_path(""))).unwrap();
+    let o = AccelOptions::resolve(AccelRequest::default(), s.render.accel_request()).unwrap();
+    assert_eq!(o.kind, AccelKind::Cwbvh);
+}
+
+// Pathological meshes (as in accel_deep.rs): each has an analytic twin that must render the
+// same picture. Lit by a point light only, so the light table does not depend on the primitive
+// order; shadow rays cross the meshes too.
+
+const W: u32 = 24;
+
+fn deep_scene(extra: Vec<Value>) -> Scene {
+    let mut objects = vec![
+        json!({"type": "quad", "origin": [-1, 0, 1], "edge_u": [2, 0, 0], "edge_v": [0, 0, -2],
+               "material": "white"}),
+        json!({"type": "quad", "origin": [-1, 0, -1], "edge_u": [2, 0, 0], "edge_v": [0, 2, 0],
+               "material": "white"}),
+    ];
+    objects.extend(extra);
+    let s = json!({
+        "version": 1,
+        "camera": {"position": [0.3, 1.2, 2.6], "look_at": [0, 0.4, 0], "up": [0, 1, 0],
+                   "fov_y": 50},
+        "film": {"width": W, "height": W},
+        "materials": {
+            "white": {"type": "diffuse", "reflectance": [0.8, 0.8, 0.8]},
+            "red": {"type": "diffuse", "reflectance": [0.8, 0.2, 0.1]}
+        },
+        "objects": objects,
+        "lights": [{"type": "point", "position": [0.1, 1.7, 0.6], "intensity": [3, 3, 3]}],
+        "render": {"max_depth": 3}
+    });
+    load_str(&s.to_string(), None).expect("scene")
+}
+
+fn triangles(tris: &[[[f64; 3]; 3]]) -> Value {
+    let positions: Vec<[f64; 3]> = tris.iter().flatten().copied().collect();
+    let indices: Vec<u32> = (0..positions.len() as u32).collect();
+    json!({"type": "triangles", "positions": positions, "indices": indices, "material": "red"})
+}
+
+/// The most groups a walk can push: along a root-to-node path, one per node above it.
+fn stack_need(nodes: &[GpuCwbvhNode]) -> usize {
+    let mut most = 0;
+    let mut stack = vec![(0usize, 1usize)];
+    while let Some((i, d)) = stack.pop() {
+        most = most.max(d - 1);
+        let n = &nodes[i];
+        for k in 0..n.e_imask[3].count_ones() as usize {
+            stack.push((n.child_base as usize + k, d + 1));
+        }
+    }
+    most
+}
+
+fn cwbvh_renders_like(label: &str, deep: &Scene, twin: &Scene) {
+    let (reference, _) = render_compiled(twin, &compiled(twin, W, cwbvh(false), None), "nee", 4, 5);
+    let lit = reference.pixels.iter().filter(|p| p[0] > 0.0).count();
+    assert!(
+        lit > reference.pixels.len() / 4,
+        "{label}: the twin is mostly black"
+    );
+    let bvh = compiled(deep, W, AccelOptions::default(), None);
+    let (bvh_img, _) = render_compiled(deep, &bvh, "nee", 4, 5);
+    let c = compiled(deep, W, cwbvh(false), None);
+    let need = stack_need(&c.cwbvh.as_ref().unwrap().nodes);
+    let (img, _) = render_compiled(deep, &c, "nee", 4, 5);
+    let (n, e) = diff(&img, &reference);
+    let (nb, eb) = diff(&bvh_img, &reference);
+    println!(
+        "{label}: {} primitives, binary BVH depth {}, CWBVH depth {} (a walk pushes at most \
+         {need} of {CWBVH_STACK_DEPTH} groups): cwbvh {n} of {} pixels differ from the twin, \
+         relMSE {e:.3e} (binary BVH: {nb}, {eb:.3e})",
+        c.prims.len(),
+        bvh.bvh_depth,
+        c.bvh_depth,
+        img.pixels.len()
+    );
+    assert!(
+        c.bvh_depth <= CWBVH_STACK_DEPTH as usize,
+        "{label}: {}",
+        c.bvh_depth
+    );
+    assert!(need < CWBVH_STACK_DEPTH as usize);
+    assert!(e < 1e-4, "{label}: relMSE {e}");
+}
+
+#[test]
+fn cwbvh_identical_triangles_render_like_one() {
+    let t = [[-0.4, 0.8, -0.2], [0.4, 0.8, -0.2], [0.0, 0.8, 0.5]];
+    let deep = deep_scene(vec![triangles(&vec![t; 600])]);
+    let twin = deep_scene(vec![triangles(&[t])]);
+    cwbvh_renders_like("600 identical triangles", &deep, &twin);
+}
+
+#[test]
+fn cwbvh_nested_and_degenerate_triangles() {
+    // Vertical triangles on z = -0.5 sharing the corner c, each 0.95 times the last: PLOC
+    // chains them one level per triangle.
+    let c = [-0.6, 0.05, -0.5];
+    let tri = |s: f64| [c, [c[0] + s, c[1], c[2]], [c[0], c[1] + s, c[2]]];
+    let nested: Vec<_> = (0..300).map(|k| tri(1.2 * 0.95f64.powi(k))).collect();
+    let deep = deep_scene(vec![triangles(&nested)]);
+    let twin = deep_scene(vec![triangles(&[tri(1.2)])]);
+    cwbvh_renders_like("300 nested triangles", &deep, &twin);
+    // Zero-area triangles on one diagonal line, nested about its foot: render like nothing.
+    let p = [-0.5, 0.02, -0.3];
+    let d = [0.6, 0.8, 0.45];
+    let at = |s: f64| [p[0] + s * d[0], p[1] + s * d[1], p[2] + s * d[2]];
+    let slivers: Vec<_> = (0..400)
+        .map(|k| {
+            let s = 1.8 * 0.96f64.powi(k);
+            [p, at(0.5 * s), at(s)]
+        })
+        .collect();
+    cwbvh_renders_like(
+        "400 collinear slivers",
+        &deep_scene(vec![triangles(&slivers)]),
+        &deep_scene(vec![]),
+    );
+}
+
+/// A mesh big enough that PLOC's binary tree is far deeper than the wide stack on the host
+/// (no render: the bound is a property of the build), a million identical triangles.
+#[test]
+fn a_million_identical_triangles_fit_the_stack() {
+    let t = [[-0.4, 0.8, -0.2], [0.4, 0.8, -0.2], [0.0, 0.8, 0.5]];
+    let deep = deep_scene(vec![triangles(&vec![t; 1_000_000])]);
+    let c = compiled(&deep, 8, cwbvh(false), None);
+    let need = stack_need(&c.cwbvh.as_ref().unwrap().nodes);
+    println!(
+        "1e6 identical triangles: CWBVH depth {}, {} nodes, a walk pushes at most {need}, built \
+         in {:.2} s",
+        c.bvh_depth,
+        c.cwbvh.as_ref().unwrap().nodes.len(),
+        c.accel.build_time.as_secs_f64()
+    );
+    assert!(c.bvh_depth <= CWBVH_STACK_DEPTH as usize);
+    assert!(need < CWBVH_STACK_DEPTH as usize);
+}
+
+/// The CLI: `--accel cwbvh` renders, reports the CWBVH (kind, nodes, bytes) and caches it; an
+/// unknown name lists it among the choices.
+#[test]
+fn cli_accel_cwbvh() {
+    let dir = scratch("cwbvh-cli");
+    let out = dir.join("o.exr");
+    let cache = dir.join("cache");
+    let (out_s, cache_s) = (out.to_str().unwrap(), cache.to_str().unwrap());
+    let run = |extra: &[&str]| {
+        let mut args = vec!["render", "scenes/cornell.json", "-o", out_s];
+        args.extend_from_slice(&["--width", "8", "--height", "8", "--spp", "1"]);
+        args.extend_from_slice(extra);
+        run_candela(&args)
+    };
+    assert_bad_input(&run(&["--accel", "kd"]), &["--accel", "kd", "cwbvh"]);
+    assert_bad_input(
+        &run(&["--accel", "cwbvh", "--grid-resolution", "8"]),
+        &["--grid-resolution"],
+    );
+    let json = |o: std::process::Output| -> Value {
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        serde_json::from_slice(&o.stdout).expect("one JSON object")
+    };
+    let args = ["--accel", "cwbvh", "--json", "--accel-cache", cache_s];
+    let first = json(run(&args));
+    assert_eq!(first["accel"], "cwbvh");
+    assert_eq!(first["accel_cache"], "miss");
+    assert!(first["bvh_nodes"].as_u64().unwrap() >= 1);
+    assert!(first["accel_bytes"].as_u64().unwrap() >= 80);
+    let second = json(run(&args));
+    assert_eq!(second["accel_cache"], "hit");
+    assert_eq!(first["accel_bytes"], second["accel_bytes"]);
+}
