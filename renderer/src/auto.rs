@@ -5,9 +5,9 @@
 //! cheapest continues from its pilot's samples to the budget. The choice and every pilot's
 //! figures go into the render's stats (`auto`).
 //!
-//! Limits: the estimate does not see bdpt's light-tracing splats (they are not split by parity),
-//! which flatters bdpt; the pilot's few samples make every estimate noisy (fireflies not yet
-//! seen make it low); kernel compilation is not counted.
+//! Limits: the pilot's few samples make every estimate noisy (fireflies not yet seen make it
+//! low); kernel compilation is not counted. (bdpt's light-tracing splats are split by parity
+//! like its camera samples, so its estimate sees them: render/halves.rs.)
 
 use std::sync::Arc;
 

@@ -48,6 +48,9 @@ pub mod binding {
     pub const ACCUM_ODD: u32 = 51;
     /// The light BVH (`render.light_sampler: "bvh"` only; renderer/src/compile/light_bvh.rs).
     pub const LIGHT_BVH: u32 = 52;
+    /// bdpt: the odd-indexed samples' share of SPLAT (same format), so that both halves of the
+    /// error estimate carry their light-tracing splats (renderer/src/render/halves.rs).
+    pub const SPLAT_ODD: u32 = 55;
 }
 
 /// Entries of the BVH traversal's short stack (`BVH_STACK` in the shaders): trees up to this
@@ -311,6 +314,7 @@ pub fn glsl_constants() -> String {
         ("BVH_STACK", BVH_STACK_DEPTH),
         ("B_ACCUM_ODD", binding::ACCUM_ODD),
         ("B_LIGHT_BVH", binding::LIGHT_BVH),
+        ("B_SPLAT_ODD", binding::SPLAT_ODD),
     ];
     let flags = [
         ("NONE", NONE),

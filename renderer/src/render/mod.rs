@@ -6,6 +6,7 @@
 //! drives several sessions (devices) on disjoint sample indices and merges their sums.
 
 mod dispatch;
+mod halves;
 mod inflight;
 mod session;
 mod shards;
