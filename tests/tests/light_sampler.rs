@@ -121,6 +121,11 @@ fn pt_and_vct_take_the_bvh_sampler() {
     for integrator in ["pt", "vct", "bdpt"] {
         let (img, stats) = render_loaded(&many_lights("bvh"), integrator, 4, W, W, 3, Some(2));
         assert_eq!(stats.dropped_samples, 0, "{integrator}");
+        // The registry says who takes the BVH (IntegratorInfo::light_bvh): bdpt keeps power.
+        let takes = renderer::integrators::info(integrator).unwrap().light_bvh;
+        assert_eq!(takes, integrator != "bdpt", "{integrator}");
+        let sampler = if takes { "bvh" } else { "power" };
+        assert_eq!(stats.light_sampler, sampler, "{integrator}");
         assert!(
             img.mean().iter().all(|c| c.is_finite() && *c > 0.0),
             "{integrator}"

@@ -122,7 +122,8 @@ pub struct RenderStats {
     /// even and odd halves of its samples ([`crate::metrics::rel_mse_estimate`]); set by
     /// [`render`] and the server (None before both halves have samples).
     pub rel_mse_estimate: Option<f64>,
-    /// How light sampling picked lights: "power" or "bvh" (`render.light_sampler`; bdpt always
+    /// How light sampling picked lights: "power" or "bvh" (`render.light_sampler`, for the
+    /// integrators whose registry entry takes the BVH, `IntegratorInfo::light_bvh`; bdpt always
     /// "power").
     pub light_sampler: &'static str,
     /// Why the render stopped (set by [`render`] and the server).
