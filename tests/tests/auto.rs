@@ -108,3 +108,43 @@ fn job_with_auto_reports_its_choice() {
     );
     assert_eq!(&events[a].data, auto, "{kinds:?}");
 }
+
+/// An `auto` job paused after its pilot and resumed continues with the saved choice from its
+/// checkpoint: no second pilot (one `auto` event), the same choice in its stats.
+#[test]
+fn auto_job_resumes_with_its_choice() {
+    let dir = scratch("auto_server_resume");
+    let s = Server::start(&dir.join("data"), &["--snapshot-interval", "0.2"]);
+    let job = s.submit(&json!({
+        "scene_name": "cornell", "integrator": "auto", "time_s": 4, "width": 16, "height": 16,
+    }));
+    let id = job["id"].as_i64().unwrap();
+    // Step 1: the pilot's event, then a pause.
+    let mut r = s.events(id, Some(0));
+    let first = loop {
+        let e = r
+            .next_event()
+            .expect("the stream ended before the auto event");
+        if e.event == "auto" {
+            break e.data;
+        }
+    };
+    let (st, body) = s.post(&format!("/api/jobs/{id}/pause"), &json!({}));
+    assert_eq!(st, 200, "{body}");
+    s.wait_job(id, Duration::from_secs(60), |j| j["state"] == "paused");
+    // Step 2: resumed, it finishes with the same integrator and no new pilot.
+    let (st, body) = s.post(&format!("/api/jobs/{id}/resume"), &json!({}));
+    assert_eq!(st, 200, "{body}");
+    let done = s.wait_job(id, Duration::from_secs(300), |j| j["state"] == "done");
+    let stats = &done["stats"];
+    assert_eq!(stats["auto"], first, "{done}");
+    assert_eq!(stats["integrator"], first["choice"], "{done}");
+    let events = s.events(id, Some(0)).collect_all();
+    let autos = events.iter().filter(|e| e.event == "auto").count();
+    assert_eq!(autos, 1, "a second pilot ran");
+    assert!(
+        s.log().contains("resumed from checkpoint"),
+        "the resume did not use the checkpoint:\n{}",
+        s.log()
+    );
+}
