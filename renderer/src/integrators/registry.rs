@@ -55,7 +55,7 @@ pub struct IntegratorInfo {
     /// Its kernels pick lights with the light BVH where the scene has one
     /// (`render.light_sampler: "bvh"`: the session defines LIGHT_BVH for them,
     /// shaders/common/lights.glsl); false: they keep the power sampler whatever the scene says
-    /// (bdpt: its subpath densities and MIS weights use the power pick, bdpt/vertex.glsl).
+    /// (an integrator whose MIS weights assume the power pick). All take it now.
     pub light_bvh: bool,
     /// The per-pass kernel, relative to shaders/ (its other stages live in the same folder).
     pub kernel: &'static str,
@@ -167,7 +167,7 @@ integrators! {
         name: "bdpt",
         summary: "Bidirectional path tracing: every (s, t) strategy, MIS, light-tracing splats.",
         unbiased: true,
-        light_bvh: false,
+        light_bvh: true,
         kernel: "bdpt/bdpt.comp",
         doc: None,
         build: bdpt::new,

@@ -123,8 +123,8 @@ pub struct RenderStats {
     /// [`render`] and the server (None before both halves have samples).
     pub rel_mse_estimate: Option<f64>,
     /// How light sampling picked lights: "power" or "bvh" (`render.light_sampler`, for the
-    /// integrators whose registry entry takes the BVH, `IntegratorInfo::light_bvh`; bdpt always
-    /// "power").
+    /// integrators whose registry entry takes the BVH, `IntegratorInfo::light_bvh`; bdpt's
+    /// light subpaths start ∝ power whatever it says).
     pub light_sampler: &'static str,
     /// Why the render stopped (set by [`render`] and the server).
     #[serde(skip_serializing_if = "Option::is_none")]
