@@ -64,9 +64,12 @@ pub fn session(
         report: serde_json::to_value(&p.choice).unwrap_or_default(),
         spent_elsewhere_s,
     };
+    // Written whole or not at all (a torn file would mean a second pilot, not a wrong one).
     let saved = json!({"auto": run.report, "spent_elsewhere_s": spent_elsewhere_s});
+    let tmp = file.with_extension("json.tmp");
     let written = std::fs::create_dir_all(&paths.dir)
-        .and_then(|_| std::fs::write(&file, serde_json::to_vec(&saved).unwrap_or_default()));
+        .and_then(|_| std::fs::write(&tmp, serde_json::to_vec(&saved).unwrap_or_default()))
+        .and_then(|_| std::fs::rename(&tmp, &file));
     if let Err(e) = written {
         tracing::warn!(path = %file.display(), error = %e, "saving the auto choice");
     }
