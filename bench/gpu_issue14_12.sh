@@ -8,19 +8,38 @@
 # (3) issue 14, auto: the integrator `--integrator auto` picks on Cornell and on mirror_glass;
 # (4) issue 12: bench/make_big_scene.py meshes of 2M and 8M triangles (8M was refused before:
 #     BVH depth), nee 1280x720 max_depth 6, 3 s after a 1 s warm-up, with the memory figures.
+# (5) issue 14, mesh lights (PART meshlights, not in the default PARTS): the lights are the
+#     N emissive triangles of one mesh (bench/make_mesh_lights.py, N = 10,000 and 100,000) and the
+#     same scene with all that power in one triangle ("single"); nee with the power and the BVH
+#     light sampler, max_depth 2, 1280x720: the time to an estimated relMSE of 0.01
+#     (--until-rel-mse 0.01, capped at 60 s) with the true relMSE it reached, and a time ladder
+#     (0.1, 0.3, 1, 3 s) against a 60 s BVH-sampler reference, from which the time to a true
+#     relMSE of 0.01 is interpolated (relMSE ∝ 1/time between the two rungs around it).
 # PARTS (default "lights estimate auto big") picks the parts. Writes OUT/*.jsonl; prints tables.
+# DRY=1: a quick run on any Vulkan device (lavapipe) before the GPU: no driver setup, the
+# binary target/debug/candela, 32x18 pixels and seconds-long budgets; the same scenes.
 set -u
 cd "$(dirname "$0")/.."
-for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
-export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-bin=${CANDELA:-.carry/main/candela}
+dry=${DRY:-0}
+if [ "$dry" = 1 ]; then
+  bin=${CANDELA:-target/debug/candela}
+  R="--width 32 --height 18 --no-accel-cache"
+  ML_REF="--spp 256"; ML_CAP=5; ML_LADDER="0.2 0.5"; ML_WARM=0
+else
+  for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
+  export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+  bin=${CANDELA:-.carry/main/candela}
+  R="--width 1280 --height 720 --no-accel-cache"
+  ML_REF="--time 60"; ML_CAP=60; ML_LADDER="0.1 0.3 1 3"; ML_WARM=1
+fi
 out=${OUT:-/tmp}
 parts=${PARTS:-lights estimate auto big}
 has() { case " $parts " in *" $1 "*) return 0;; esac; return 1; }
-nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee "$out/gpu.txt"
+if [ "$dry" != 1 ]; then
+  nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee "$out/gpu.txt"
+fi
 tag() { python3 -c "import json,sys; d=json.load(sys.stdin); d.update($1); print(json.dumps(d))"; }
 true_rel() { "$bin" compare "$1" "$2" --json | python3 -c "import json,sys; print(json.load(sys.stdin)['metrics']['rel_mse'])"; }
-R="--width 1280 --height 720 --no-accel-cache"
 
 if has lights; then
   python3 bench/make_many_lights.py 256 /tmp/ml.json --width 1280 --height 720 > /dev/null
@@ -68,6 +87,36 @@ if has big; then
   done
 fi
 
+if has meshlights; then
+  : > "$out/meshlights.jsonl"
+  for sc in 10000 100000 single; do
+    scene=/tmp/mesh_lights_$sc.json
+    if [ $sc = single ]; then
+      python3 bench/make_mesh_lights.py 1 $scene --single
+    else
+      python3 bench/make_mesh_lights.py $sc $scene
+    fi
+    "$bin" render $scene -o /tmp/mlm_ref.exr --integrator nee --light-sampler bvh --max-depth 2 \
+      $ML_REF $R > /dev/null || exit 1
+    for s in power bvh; do
+      # The time to an estimated relMSE of 0.01, and the true relMSE there.
+      "$bin" render $scene -o /tmp/mlm.exr --integrator nee --light-sampler $s --max-depth 2 \
+        --warmup $ML_WARM --until-rel-mse 0.01 --time $ML_CAP $R --json > /tmp/row.json || exit 1
+      rel=$(true_rel /tmp/mlm.exr /tmp/mlm_ref.exr)
+      tag "{'scene_lights': '$sc', 'sampler': '$s', 'mode': 'until', 'true_rel_mse': $rel}" \
+        < /tmp/row.json >> "$out/meshlights.jsonl"
+      # The ladder: fixed times, true relMSE against the reference.
+      for t in $ML_LADDER; do
+        "$bin" render $scene -o /tmp/mlm.exr --integrator nee --light-sampler $s --max-depth 2 \
+          --warmup $ML_WARM --time $t $R --json > /tmp/row.json || exit 1
+        rel=$(true_rel /tmp/mlm.exr /tmp/mlm_ref.exr)
+        tag "{'scene_lights': '$sc', 'sampler': '$s', 'mode': 'ladder', 'true_rel_mse': $rel}" \
+          < /tmp/row.json >> "$out/meshlights.jsonl"
+      done
+    done
+  done
+fi
+
 python3 - "$out" <<'PY'
 import json, os, sys
 out = sys.argv[1]
@@ -90,6 +139,26 @@ if r:
         print(f"| {d['integrator']} | {d['time_s']:.3f} | {d['spp']} | {d['true_rel_mse']:.3g} | {e} | {ratio} |")
 for d in rows("auto.jsonl"):
     print("auto", d.get("scene_file"), "->", d.get("integrator"), json.dumps(d.get("auto"))[:600])
+r = rows("meshlights.jsonl")
+if r:
+    import math
+    print("| lights | sampler | until 0.01: time s | spp | stopped by | estimate | true relMSE | true 0.01 at (ladder) s |")
+    print("|---|---|---|---|---|---|---|---|")
+    for d in [d for d in r if d["mode"] == "until"]:
+        ladder = sorted((x["time_s"], x["true_rel_mse"]) for x in r if x["mode"] == "ladder"
+                        and x["scene_lights"] == d["scene_lights"] and x["sampler"] == d["sampler"])
+        # relMSE ∝ 1/time: interpolate log-log between the rungs around 0.01 (else extrapolate
+        # from the nearest rung).
+        at = "-"
+        for (t0, e0), (t1, e1) in zip(ladder, ladder[1:]):
+            if e0 >= 0.01 >= e1 and e0 > e1 > 0:
+                k = math.log(e0 / 0.01) / math.log(e0 / e1)
+                at = f"{t0 * (t1 / t0) ** k:.3g}"
+        if at == "-" and ladder:
+            t, e = min(ladder, key=lambda x: abs(math.log(max(x[1], 1e-30) / 0.01)))
+            at = f"~{t * e / 0.01:.3g} (1/t from {t} s)"
+        print(f"| {d['scene_lights']} | {d['sampler']} | {d['time_s']:.3f} | {d['spp']} | {d.get('stopped_by')} | "
+              f"{d.get('rel_mse_estimate')} | {d['true_rel_mse']:.3g} | {at} |")
 for d in rows("big.jsonl"):
     keep = {k: d.get(k) for k in ("triangles", "bvh_depth", "msamples_per_s", "spp", "bvh_build_s", "accel_bytes", "geometry_bytes",
                                   "load_s", "compile_s", "scene_gpu_bytes", "gpu_bytes_per_triangle", "peak_rss_bytes")}

@@ -5,9 +5,9 @@
 //! cheapest continues from its pilot's samples to the budget. The choice and every pilot's
 //! figures go into the render's stats (`auto`).
 //!
-//! Limits: the estimate does not see bdpt's light-tracing splats (they are not split by parity),
-//! which flatters bdpt; the pilot's few samples make every estimate noisy (fireflies not yet
-//! seen make it low); kernel compilation is not counted.
+//! Limits: the pilot's few samples make every estimate noisy (fireflies not yet seen make it
+//! low); kernel compilation is not counted. (bdpt's light-tracing splats are split by parity
+//! like its camera samples, so its estimate sees them: render/halves.rs.)
 
 use std::sync::Arc;
 
@@ -15,7 +15,7 @@ use crate::film::Image;
 use crate::gpu::GpuContext;
 use crate::integrators::{IntegratorOptions, INTEGRATORS};
 use crate::prepare::PreparedScene;
-use crate::render::{render, Budget, RenderError, RenderStats};
+use crate::render::{render, Budget, RenderError, RenderSession, RenderStats};
 pub use crate::render::{AutoChoice, Pilot};
 
 /// The share of the budget all pilots take together.
@@ -23,6 +23,17 @@ pub const PILOT_SHARE: f64 = 0.05;
 
 /// Fewest samples per pixel of a pilot (the estimate needs samples in both halves).
 pub const PILOT_MIN_SPP: u32 = 8;
+
+/// The pilot's outcome: the winner's session (holding its pilot's samples), its options, the
+/// choice with every pilot's figures, and what the budget has left for the winner.
+pub struct Piloted {
+    pub session: RenderSession,
+    pub options: IntegratorOptions,
+    pub choice: AutoChoice,
+    /// The budget less the other pilots' time (a time budget; an spp budget is unchanged: the
+    /// winner's pilot samples count towards it).
+    pub rest: Budget,
+}
 
 /// Renders with the integrator the pilot finds cheapest (see the module docs) to `budget`
 /// (pilots included), with `max_depth` for every integrator when given; the stats carry the
@@ -34,6 +45,21 @@ pub fn render_auto(
     max_depth: Option<i32>,
     budget: Budget,
 ) -> Result<(Image, RenderStats), RenderError> {
+    let mut p = pilot(prepared, ctx, seed, max_depth, budget)?;
+    let (image, mut stats) = render(&mut p.session, p.rest)?;
+    stats.auto = Some(p.choice);
+    Ok((image, stats))
+}
+
+/// Runs the pilots for `budget` (steps 1–3 of the module docs) and returns the winner's
+/// session, ready to continue to [`Piloted::rest`] (the server's jobs drive it pass by pass).
+pub fn pilot(
+    prepared: &PreparedScene,
+    ctx: &Arc<GpuContext>,
+    seed: u64,
+    max_depth: Option<i32>,
+    budget: Budget,
+) -> Result<Piloted, RenderError> {
     let candidates: Vec<&'static str> = INTEGRATORS
         .iter()
         .filter(|i| i.unbiased)
@@ -49,12 +75,14 @@ pub fn render_auto(
     // Step 2: the pilots; each session is kept to continue the winner.
     let mut pilots = Vec::new();
     let mut sessions = Vec::new();
+    let mut all_options = Vec::new();
     for name in candidates {
         let mut options = IntegratorOptions::from_name(name)
             .ok_or_else(|| RenderError::Invalid(format!("no integrator {name}")))?;
         if let Some(d) = max_depth {
             options.set_max_depth(d);
         }
+        all_options.push(options);
         let mut session = prepared.session(ctx, &options, seed)?;
         let (_, mut stats) = render(&mut session, pilot_budget)?;
         // A time share too short for the estimate (a slow integrator on a large film) is
@@ -90,16 +118,19 @@ pub fn render_auto(
         .sum();
     // Step 4: the winner continues from its pilot's samples to the budget (a time budget less
     // the other pilots' time).
-    let mut session = sessions.swap_remove(best);
+    let session = sessions.swap_remove(best);
     drop(sessions);
     let rest = match budget {
         Budget::Time(t) => Budget::Time((t - spent_elsewhere).max(0.0)),
         b => b,
     };
-    let (image, mut stats) = render(&mut session, rest)?;
-    stats.auto = Some(AutoChoice {
-        choice: pilots[best].integrator,
-        pilots,
-    });
-    Ok((image, stats))
+    Ok(Piloted {
+        session,
+        options: all_options[best],
+        choice: AutoChoice {
+            choice: pilots[best].integrator,
+            pilots,
+        },
+        rest,
+    })
 }

@@ -52,6 +52,9 @@ pub mod binding {
     /// nodes (`GpuCwbvhNode`), and per leaf slot the index of the `GpuPrim` it holds.
     pub const CWBVH_NODES: u32 = 53;
     pub const CWBVH_PRIMS: u32 = 54;
+    /// bdpt: the odd-indexed samples' share of SPLAT (same format), so that both halves of the
+    /// error estimate carry their light-tracing splats (renderer/src/render/halves.rs).
+    pub const SPLAT_ODD: u32 = 55;
 }
 
 /// Entries of the BVH traversal's short stack (`BVH_STACK` in the shaders): trees up to this
@@ -341,6 +344,7 @@ pub fn glsl_constants() -> String {
         ("B_CWBVH_NODES", binding::CWBVH_NODES),
         ("B_CWBVH_PRIMS", binding::CWBVH_PRIMS),
         ("CWBVH_STACK", CWBVH_STACK_DEPTH),
+        ("B_SPLAT_ODD", binding::SPLAT_ODD),
     ];
     let flags = [
         ("NONE", NONE),

@@ -2,7 +2,8 @@
 // MISWeight (Veach 1997, ch. 10). A strategy (s, t) joins the first s light-subpath vertices to
 // the first t camera-subpath vertices; the path has s + t − 1 segments.
 //   s = 0: the camera subpath hits an emitter (area light front side, or the environment);
-//   s = 1: a fresh light sample (NEE's sample_light, pick ∝ power) is joined to camera vertex t−1;
+//   s = 1: a fresh light sample (NEE's sample_light: pick ∝ power, or by the light BVH from
+//          camera vertex t−1 under LIGHT_BVH) is joined to camera vertex t−1;
 //   t = 1: light vertex s−1 is joined to a fresh lens point and splatted (light tracing);
 //   else : light vertex s−1 and camera vertex t−1 are joined by a shadow ray.
 // (1, 1) and t = 0 are not used (pbrt): the light seen directly is s = 0's alone.
@@ -11,7 +12,8 @@
 // have to hit a delta light are not counted, and specular vertices' zero densities are read as 1
 // (pbrt's remap0), so the discrete δ probabilities cancel. With mis off (bdpt_mis false) every such
 // strategy gets the same weight. The sampled light point's density for s = 1 is NEE's own
-// (nee_density_ratio), so the weights match how the path was really made.
+// (nee_density_ratio: its pick, the light BVH's under LIGHT_BVH, and for spheres its cone), so
+// the weights match how the path was really made.
 #ifndef BDPT_CONNECT_GLSL
 #define BDPT_CONNECT_GLSL
 #include "bdpt/paths.glsl"
@@ -101,7 +103,7 @@ vec3 connect_st(int s, int t, vec4 u, inout uint rays, out vec2 film, inout MisI
     if (s == 1) {
         // A fresh light point, chosen from camera vertex t−1 as NEE does.
         if (!sample_light(p_end.p, u.xyz, ls) || !any(greaterThan(ls.L, vec3(0.0)))) return vec3(0.0);
-        uint li = pick_light(u.x); // the light sample_light picked with the same u
+        uint li = ls.li;
         bool infinite = isinf(ls.dist);
         q_end = vertex_blank(infinite ? VTX_INF : VTX_LIGHT);
         q_end.p = infinite ? ls.wi : ls.p;

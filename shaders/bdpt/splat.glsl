@@ -9,6 +9,9 @@
 //    this path is bit-reproducible. Each addition is truncated to 2^−20 and the total must stay
 //    below 2^44 (about 1.8e13) per channel.
 // The pixel filter (camera_we.glsl) spreads a splat over every pixel whose filter covers it.
+// Splats of odd sample index are also added to a second buffer of the same format (B_SPLAT_ODD),
+// so that the two halves of the error estimate (renderer/src/render/halves.rs) each carry their
+// own light tracing.
 #ifndef BDPT_SPLAT_GLSL
 #define BDPT_SPLAT_GLSL
 #include "common/camera_we.glsl"
@@ -17,40 +20,53 @@
 
 #ifdef BDPT_FLOAT_SPLATS
 layout(set = 0, binding = B_SPLAT, scalar) buffer Splat { float splat[]; };
+layout(set = 0, binding = B_SPLAT_ODD, scalar) buffer SplatOdd { float splat_odd[]; };
 
-void splat_add(uint pixel, vec3 v) {
+void splat_add(uint pixel, vec3 v, bool odd) {
     atomicAdd(splat[4u * pixel + 0u], v.r);
     atomicAdd(splat[4u * pixel + 1u], v.g);
     atomicAdd(splat[4u * pixel + 2u], v.b);
+    if (odd) {
+        atomicAdd(splat_odd[4u * pixel + 0u], v.r);
+        atomicAdd(splat_odd[4u * pixel + 1u], v.g);
+        atomicAdd(splat_odd[4u * pixel + 2u], v.b);
+    }
 }
 #else
 layout(set = 0, binding = B_SPLAT, scalar) buffer Splat { uint splat[]; };
+layout(set = 0, binding = B_SPLAT_ODD, scalar) buffer SplatOdd { uint splat_odd[]; };
 
-void splat_add_channel(uint lo_index, float v) {
+void splat_add_channel(uint lo_index, float v, bool odd) {
     // v · 2^20 as hi · 2^32 + lo, both exact in float arithmetic (power-of-two scalings, and
     // v − 4096·hi is exact by Sterbenz); the low part is truncated to an integer.
     v = clamp(v, 0.0, 1.7e13);
     float hi = floor(v * exp2(float(SPLAT_FRAC_BITS - 32)));
     uint lo = uint((v - hi * exp2(float(32 - SPLAT_FRAC_BITS))) * exp2(float(SPLAT_FRAC_BITS)));
-    uint carry = 0u;
+    uint carry = 0u, carry_odd = 0u;
     if (lo != 0u) {
         uint before = atomicAdd(splat[lo_index], lo);
         if (before + lo < before) carry = 1u;
+        if (odd) {
+            before = atomicAdd(splat_odd[lo_index], lo);
+            if (before + lo < before) carry_odd = 1u;
+        }
     }
     uint h = uint(hi) + carry;
     if (h != 0u) atomicAdd(splat[lo_index + 4u], h);
+    h = uint(hi) + carry_odd;
+    if (odd && h != 0u) atomicAdd(splat_odd[lo_index + 4u], h);
 }
 
-void splat_add(uint pixel, vec3 v) {
-    splat_add_channel(8u * pixel + 0u, v.r);
-    splat_add_channel(8u * pixel + 1u, v.g);
-    splat_add_channel(8u * pixel + 2u, v.b);
+void splat_add(uint pixel, vec3 v, bool odd) {
+    splat_add_channel(8u * pixel + 0u, v.r, odd);
+    splat_add_channel(8u * pixel + 1u, v.g, odd);
+    splat_add_channel(8u * pixel + 2u, v.b, odd);
 }
 #endif
 
 // Adds contribution L, landed at film position `film` (pixels), to every pixel whose filter
-// covers it, weighted by the normalised filter.
-void splat_film(vec2 film, vec3 L) {
+// covers it, weighted by the normalised filter; `odd`: the sample index is odd.
+void splat_film(vec2 film, vec3 L, bool odd) {
     ivec2 res = ivec2(g.film.xy);
     if (g.film.z == 1u) {
         float r = g.filter_params.y;
@@ -59,12 +75,12 @@ void splat_film(vec2 film, vec3 L) {
         for (int y = lo.y; y <= hi.y; ++y) {
             for (int x = lo.x; x <= hi.x; ++x) {
                 float wf = camera_filter_eval(film - (vec2(x, y) + 0.5));
-                if (wf > 0.0) splat_add(uint(y * res.x + x), L * wf);
+                if (wf > 0.0) splat_add(uint(y * res.x + x), L * wf, odd);
             }
         }
     } else {
         ivec2 j = ivec2(floor(film));
-        if (all(greaterThanEqual(j, ivec2(0))) && all(lessThan(j, res))) splat_add(uint(j.y * res.x + j.x), L);
+        if (all(greaterThanEqual(j, ivec2(0))) && all(lessThan(j, res))) splat_add(uint(j.y * res.x + j.x), L, odd);
     }
 }
 

@@ -25,9 +25,9 @@ float strategy_weight(float w) {
 
 // The strategies (s, t) with t ≥ t_first of a sample whose subpaths have nc camera and nl light
 // vertices: the camera-side estimate (returned) and the light-tracing splats (t = 1, added to
-// the splat buffer; non-finite ones are dropped and counted). A path of s + t vertices has
-// s + t − 1 ≤ max_depth segments. s = 1 samples its own light point, so it runs even when the
-// light subpath is empty.
+// the splat buffers by the parity of the sample index rng.key.y; non-finite ones are dropped
+// and counted). A path of s + t vertices has s + t − 1 ≤ max_depth segments. s = 1 samples its
+// own light point, so it runs even when the light subpath is empty.
 vec3 bdpt_strategies(int nc, int nl, int t_first, int max_depth, inout Rng rng, inout uint rays, inout uint dropped) {
     vec3 L = vec3(0.0);
     for (int t = t_first; t <= nc; ++t) {
@@ -46,7 +46,7 @@ vec3 bdpt_strategies(int nc, int nl, int t_first, int max_depth, inout Rng rng, 
                 if (!is_finite(c)) {
                     dropped += 1u;
                 } else if (any(greaterThan(c, vec3(0.0)))) {
-                    splat_film(film, c);
+                    splat_film(film, c, (rng.key.y & 1u) == 1u);
                 }
                 continue;
             }

@@ -134,7 +134,7 @@ void trace_subpaths(uvec2 px, int max_depth, inout Rng rng, inout uint rays, out
             l.light = e.li;
             l.flags = e.delta ? VF_DELTA_LIGHT : 0u;
             l.beta = e.Le;
-            l.pdf_fwd = e.infinite ? env_pdf(-e.d) : e.pick * e.pdf_pos;
+            l.pdf_fwd = e.infinite ? env_pdf_emit(-e.d) : e.pick * e.pdf_pos;
             vtx[LGT(0)] = l;
             nl = 1;
             // The emitted ray; β = Le |cos| / (pick · pdf_pos · pdf_dir). After an infinite light

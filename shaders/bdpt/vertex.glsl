@@ -103,11 +103,20 @@ float pdf_light(Vertex l, Vertex to) {
     return pdf;
 }
 
+// env_pdf with emission's pick (∝ power: light subpaths start there, light_emit.glsl) in place
+// of NEE's (the light BVH's under LIGHT_BVH).
+float env_pdf_emit(vec3 d) {
+    uint li = g.env.x;
+    if (li == NONE) return 0.0;
+    float nee_pick = light_pick_pmf(li, vec3(0.0));
+    return nee_pick > 0.0 ? env_pdf(d) / nee_pick * lights[li].pick_pdf : 0.0;
+}
+
 // pbrt's PdfLightOrigin: density of light vertex l as the start of a light subpath, pick
 // included (area lights: per unit area; infinite lights: per unit solid angle of the direction
 // towards them; delta positions: the pick probability).
 float pdf_light_origin(Vertex l) {
-    if (l.kind == VTX_INF) return env_pdf(l.p);
+    if (l.kind == VTX_INF) return env_pdf_emit(l.p);
     return lights[l.light].pick_pdf * light_pdf_pos(l.light);
 }
 
@@ -119,19 +128,25 @@ float pdf_surface(Vertex v, SurfaceParams m, vec3 w_prev, Vertex next) {
     return convert_density(pdf, v, next);
 }
 
-// NEE and emission choose an area light's point with different densities when the light is a
-// sphere (NEE samples the visible cone, emission the whole area). MIS weights use emission's
-// density for x0 in every strategy but s = 1, whose weight this ratio pNEE(x0 | x1) / pemit(x0)
-// corrects (1 for triangles, where both are pick/area, and for delta and infinite lights).
+// NEE and emission choose a light's point with different densities: NEE picks the light by the
+// light BVH from the shading point under LIGHT_BVH (emission ∝ power), and samples a sphere's
+// visible cone (emission its whole area). MIS weights use emission's density for x0 in every
+// strategy but s = 1, whose weight this ratio pNEE(x0 | x1) / pemit(x0) corrects: the pick
+// ratio, times for spheres the point densities' ratio (1 with the power pick for triangles,
+// delta and infinite lights).
 float nee_density_ratio(Vertex x0, Vertex x1) {
-    if (x0.kind == VTX_INF || x1.kind != VTX_SURFACE || x0.light == NONE) return 1.0;
-    GpuLight l = lights[x0.light];
-    if (l.kind != LIGHT_SPHERE) return 1.0;
-    vec3 w = x0.p - x1.p;
-    float d2 = dot(w, w);
-    float cosl = abs(dot(x0.ng, w)) * inversesqrt(max(d2, 1e-38));
-    // light_pdf_hit includes the pick probability, as does pemit = pick / area.
-    float r = light_pdf_hit(x0.light, x1.p, x0.p, x0.ng) * cosl / d2 * light_area(l) / l.pick_pdf;
+    if (x1.kind != VTX_SURFACE) return 1.0;
+    uint li = x0.light != NONE ? x0.light : (x0.kind == VTX_INF ? g.env.x : NONE);
+    if (li == NONE) return 1.0;
+    GpuLight l = lights[li];
+    float r = light_pick_pmf(li, x1.p) / l.pick_pdf;
+    if (x0.kind != VTX_INF && l.kind == LIGHT_SPHERE) {
+        vec3 w = x0.p - x1.p;
+        float d2 = dot(w, w);
+        float cosl = abs(dot(x0.ng, w)) * inversesqrt(max(d2, 1e-38));
+        // light_pdf_hit includes NEE's pick probability, and pemit = pick / area.
+        r = light_pdf_hit(li, x1.p, x0.p, x0.ng) * cosl / d2 * light_area(l) / l.pick_pdf;
+    }
     return (r > 0.0 && !isinf(r) && !isnan(r)) ? r : 1.0;
 }
 

@@ -1,19 +1,21 @@
 // Light sampling for next-event estimation: pick a light with probability proportional to its
 // power (alias table, Walker 1977 / Vose 1991), or with the light BVH from the shading point
-// (LIGHT_BVH: render.light_sampler "bvh", common/light_bvh.glsl; bdpt, whose subpath densities
-// use the power pick, keeps the power sampler), then sample it: triangles uniformly by area,
-// spheres by the solid angle they subtend (pbrt-v4's cone sampling, with its small-angle series
-// so tiny distant spheres stay accurate), point/spot/directional lights as delta lights, and the
-// environment by its map distribution (or uniformly for a constant one). All pdfs are solid
-// angle at the reference point and include the pick probability, so the MIS weights of NEE and
-// BSDF sampling use the same pdf for the same path.
+// (LIGHT_BVH: render.light_sampler "bvh", common/light_bvh.glsl; the session defines it only
+// for integrators whose registry entry takes it, renderer/src/integrators/registry.rs; bdpt's
+// light subpaths still start ∝ power, shaders/common/light_emit.glsl), then sample it:
+// triangles uniformly by area, spheres by the solid angle they subtend (pbrt-v4's cone
+// sampling, with its small-angle series so tiny distant spheres stay accurate),
+// point/spot/directional lights as delta lights, and the environment by its map distribution
+// (or uniformly for a constant one). All pdfs are solid angle at the reference point and
+// include the pick probability, so the MIS weights of NEE and BSDF sampling use the same pdf
+// for the same path.
 #ifndef COMMON_LIGHTS_GLSL
 #define COMMON_LIGHTS_GLSL
 #include "common/bindings.glsl"
 #include "common/sampling.glsl"
 #include "common/env.glsl"
 
-#if defined(LIGHT_BVH) && !defined(BDPT_DEPTH_CAP)
+#ifdef LIGHT_BVH
 #define LIGHT_SAMPLER_BVH 1
 #include "common/light_bvh.glsl"
 #endif
@@ -25,6 +27,7 @@ struct LightSample {
     vec3 L;       // radiance (area/env) or intensity / dist² (point/spot) or irradiance (directional)
     float pdf;    // solid-angle pdf × pick probability; the pick probability alone for delta lights
     bool delta;
+    uint li;      // the light picked
 };
 
 uint pick_light(float u) {
@@ -132,7 +135,7 @@ float env_pdf(vec3 d) {
 }
 
 bool sample_light(vec3 p_ref, vec3 u, out LightSample ls) {
-    ls.wi = vec3(0.0, 0.0, 1.0); ls.dist = 0.0; ls.p = vec3(0.0); ls.L = vec3(0.0); ls.pdf = 0.0; ls.delta = false;
+    ls.wi = vec3(0.0, 0.0, 1.0); ls.dist = 0.0; ls.p = vec3(0.0); ls.L = vec3(0.0); ls.pdf = 0.0; ls.delta = false; ls.li = NONE;
     if (g.film.w == 0u) return false;
 #ifdef LIGHT_SAMPLER_BVH
     uint li;
@@ -142,6 +145,7 @@ bool sample_light(vec3 p_ref, vec3 u, out LightSample ls) {
     uint li = pick_light(u.x);
     float pick = lights[li].pick_pdf;
 #endif
+    ls.li = li;
     GpuLight l = lights[li];
     vec2 u2 = u.yz;
     if (l.kind == LIGHT_TRIANGLE) {

@@ -420,10 +420,11 @@ fn pass_split_and_checkpoint() {
         let (a, b) = (one.image().unwrap(), many.image().unwrap());
         let (acc_a, acc_b) = (one.accumulation().unwrap(), many.accumulation().unwrap());
         assert_eq!(acc_a.len(), one.accumulation_len());
-        // The accumulation, the splats (two words per pixel in fixed point) and the odd half.
+        // The accumulation, the splats and their odd share (two words per pixel each in fixed
+        // point) and the odd half.
         assert_eq!(
             acc_a.len(),
-            n * if exact || !ctx.float_atomics { 4 } else { 3 }
+            n * if exact || !ctx.float_atomics { 6 } else { 4 }
         );
         assert_eq!(
             acc_a[..n],
@@ -454,6 +455,15 @@ fn pass_split_and_checkpoint() {
         let r = resumed.image().unwrap();
         if exact {
             assert_eq!(a.pixels, r.pixels, "{json}: checkpoint changed the image");
+            // The odd splats came through too: the same error estimate.
+            let (e1, e2) = (
+                one.rel_mse_estimate().unwrap(),
+                resumed.rel_mse_estimate().unwrap(),
+            );
+            assert!(
+                e1.is_some() && e1 == e2,
+                "{json}: estimate {e1:?} vs {e2:?}"
+            );
         } else {
             assert!(rel_mse(&r, &a).unwrap() < 1e-10, "{json}: checkpoint");
         }

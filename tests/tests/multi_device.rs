@@ -69,6 +69,15 @@ fn split_equals_single(integrator: &str, options: &str) -> std::path::PathBuf {
     let (a, b) = (read_exr(&two).unwrap(), read_exr(&one).unwrap());
     let e = rel_mse(&a, &b).unwrap();
     assert!(e < 1e-8, "{integrator}: split vs single relMSE {e}");
+    // The merged halves (bdpt: with both splat buffers) give the single render's estimate.
+    let (x, y) = (
+        single["rel_mse_estimate"].as_f64().expect("an estimate"),
+        split["rel_mse_estimate"].as_f64().expect("an estimate"),
+    );
+    assert!(
+        (x - y).abs() <= 1e-4 * x,
+        "{integrator}: estimate {x} vs {y} split"
+    );
     dir
 }
 
@@ -155,6 +164,7 @@ fn fixed_point_splats_add_with_carry() {
         name: "splat",
         entries_per_pixel: 2,
         sum: ExtraSum::Fixed64,
+        odd_share_of: None,
     }];
     let fixed = |v: u64| {
         [

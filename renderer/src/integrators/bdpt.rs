@@ -38,7 +38,10 @@
 //! part of the image is reproducible only to rounding), else — or with the debug option
 //! `fixed_point_splats` — as 64-bit fixed point from 32-bit integer atomics, which is exact and
 //! order-independent. The image is accum.rgb / accum.w + splat / (pixels · spp): one light path
-//! is traced per pixel and sample. Checkpoints carry the splat buffer after the accumulation.
+//! is traced per pixel and sample. Splats of odd sample index are also added to a second buffer
+//! (binding SPLAT_ODD, same format), so that both halves of the error estimate carry their own
+//! light tracing (render/halves.rs). Checkpoints carry both splat buffers after the
+//! accumulation.
 //!
 //! # Options
 //! `{"type": "bdpt", "max_depth", "rr_depth", "mis": true|false, "strategy": [s, t],
@@ -267,16 +270,22 @@ impl Integrator for BdptIntegrator {
         d
     }
     fn extra_buffers(&self) -> Vec<ExtraBuffer> {
-        vec![ExtraBuffer {
-            binding: binding::SPLAT,
-            name: "bdpt splats",
+        // The splats, then their odd-indexed samples' share (the error estimate's halves).
+        let splats = |binding, name, odd_share_of| ExtraBuffer {
+            binding,
+            name,
             entries_per_pixel: if self.float_splats { 1 } else { 2 },
             sum: if self.float_splats {
                 ExtraSum::Float
             } else {
                 ExtraSum::Fixed64
             },
-        }]
+            odd_share_of,
+        };
+        vec![
+            splats(binding::SPLAT, "bdpt splats", None),
+            splats(binding::SPLAT_ODD, "bdpt splats (odd)", Some(0)),
+        ]
     }
     fn resolver(&self) -> Resolver {
         let float_splats = self.float_splats;

@@ -158,6 +158,10 @@ pub struct ExtraBuffer {
     pub entries_per_pixel: u32,
     /// How two such buffers (of shards of one render) add up.
     pub sum: ExtraSum,
+    /// Some(i): this buffer holds the odd-indexed samples' share of extra buffer i (same
+    /// format), so that both halves of the error estimate carry it (render/halves.rs). An
+    /// extra buffer without such a share is left out of both halves.
+    pub odd_share_of: Option<usize>,
 }
 
 /// The number format of an [`ExtraBuffer`], which says how the buffers of the shards of a
@@ -170,6 +174,37 @@ pub enum ExtraSum {
     /// per channel (entry 2i holds the low words of pixel i, 2i+1 the high words): added as
     /// 64-bit integers, exactly.
     Fixed64,
+}
+
+impl ExtraSum {
+    /// `a += b` (`sign` 1) or `a -= b` (`sign` −1), entry by entry, in this format.
+    pub fn combine(self, a: &mut [[f32; 4]], b: &[[f32; 4]], sign: i8) {
+        match self {
+            ExtraSum::Float => {
+                for (x, y) in a.iter_mut().zip(b) {
+                    for c in 0..4 {
+                        x[c] += f32::from(sign) * y[c];
+                    }
+                }
+            }
+            ExtraSum::Fixed64 => {
+                for (pa, pb) in a.chunks_exact_mut(2).zip(b.chunks_exact(2)) {
+                    for c in 0..4 {
+                        let word = |p: &[[f32; 4]]| {
+                            ((p[1][c].to_bits() as u64) << 32) | p[0][c].to_bits() as u64
+                        };
+                        let r = if sign >= 0 {
+                            word(pa).wrapping_add(word(pb))
+                        } else {
+                            word(pa).wrapping_sub(word(pb))
+                        };
+                        pa[0][c] = f32::from_bits(r as u32);
+                        pa[1][c] = f32::from_bits((r >> 32) as u32);
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// Forms the image from an integrator's raw buffers: `accum` per pixel (Σr, Σg, Σb, samples

@@ -52,6 +52,11 @@ pub struct IntegratorInfo {
     pub summary: &'static str,
     /// Converges to the exact image (for its max_depth) as samples grow.
     pub unbiased: bool,
+    /// Its kernels pick lights with the light BVH where the scene has one
+    /// (`render.light_sampler: "bvh"`: the session defines LIGHT_BVH for them,
+    /// shaders/common/lights.glsl); false: they keep the power sampler whatever the scene says
+    /// (an integrator whose MIS weights assume the power pick). All take it now.
+    pub light_bvh: bool,
     /// The per-pass kernel, relative to shaders/ (its other stages live in the same folder).
     pub kernel: &'static str,
     /// Its documentation page in the repository, if it has one.
@@ -68,6 +73,7 @@ macro_rules! integrators {
             name: $name:literal,
             summary: $summary:literal,
             unbiased: $unbiased:literal,
+            light_bvh: $light_bvh:literal,
             kernel: $kernel:literal,
             doc: $doc:expr,
             build: $build:path $(,)?
@@ -91,6 +97,7 @@ macro_rules! integrators {
                 name: $name,
                 summary: $summary,
                 unbiased: $unbiased,
+                light_bvh: $light_bvh,
                 kernel: $kernel,
                 doc: $doc,
                 options: <$opts as OptionsInfo>::FIELDS,
@@ -142,6 +149,7 @@ integrators! {
         name: "pt",
         summary: "Path tracing with BSDF sampling only: the simplest unbiased reference.",
         unbiased: true,
+        light_bvh: true,
         kernel: "pt/pt.comp",
         doc: None,
         build: pt::new,
@@ -150,6 +158,7 @@ integrators! {
         name: "nee",
         summary: "Path tracing with next-event estimation and MIS (power heuristic).",
         unbiased: true,
+        light_bvh: true,
         kernel: "nee/nee.comp",
         doc: None,
         build: nee::new,
@@ -158,6 +167,7 @@ integrators! {
         name: "bdpt",
         summary: "Bidirectional path tracing: every (s, t) strategy, MIS, light-tracing splats.",
         unbiased: true,
+        light_bvh: true,
         kernel: "bdpt/bdpt.comp",
         doc: None,
         build: bdpt::new,
@@ -166,6 +176,7 @@ integrators! {
         name: "whitted",
         summary: "Whitted ray tracing: mirror and refraction recursion, shadow rays; deterministic.",
         unbiased: false,
+        light_bvh: true,
         kernel: "whitted/whitted.comp",
         doc: Some("docs/whitted.md"),
         build: whitted::new,
@@ -174,6 +185,7 @@ integrators! {
         name: "deferred",
         summary: "Deferred many-light shading: packed G-buffer, tiled light culling.",
         unbiased: false,
+        light_bvh: true,
         kernel: "deferred/deferred.comp",
         doc: Some("docs/deferred.md"),
         build: deferred::new,
@@ -182,6 +194,7 @@ integrators! {
         name: "vct",
         summary: "Voxel cone tracing over a GPU-built sparse voxel octree.",
         unbiased: false,
+        light_bvh: true,
         kernel: "vct/vct.comp",
         doc: Some("docs/vct.md"),
         build: vct::new,

@@ -21,8 +21,9 @@
 //! while F̄² alone blurs bright edges into dark neighbours (0.2–0.4× at 256 spp). The smaller of
 //! the two keeps both in check: measured on the Cornell box at 32×32 (16–256 spp, pt, nee and
 //! bdpt, against 4096 spp) it read 0.72–1.0× the true relMSE. It measures the variance only: a
-//! biased integrator's bias (whitted, deferred, vct) is invisible to it, and so is the variance
-//! of bdpt's splats, which are not split by parity. It is meant for ≥ 8 spp.
+//! biased integrator's bias (whitted, deferred, vct) is invisible to it. bdpt's light-tracing
+//! splats are split by parity too (binding SPLAT_ODD), so each half carries its own
+//! (renderer/src/render/halves.rs forms the halves' images). It is meant for ≥ 8 spp.
 
 use crate::film::Image;
 
@@ -37,19 +38,58 @@ const EPSILON: f64 = 0.01;
 
 /// The relMSE estimate (see the [module docs](self)) from a session's accumulation `total`
 /// (per pixel Σr, Σg, Σb, samples kept), its odd half `odd` (the same for odd-indexed samples)
-/// and the resolved `image`. Pixels where a half has no sample, or a value is not finite, are
-/// skipped; None when no pixel is left or the sizes disagree.
+/// and the resolved `image`, for integrators whose image is the accumulation's mean. Pixels
+/// where a half has no sample, or a value is not finite, are skipped; None when no pixel is
+/// left or the sizes disagree.
 pub fn rel_mse_estimate(total: &[[f32; 4]], odd: &[[f32; 4]], image: &Image) -> Option<f64> {
-    if total.len() != odd.len() || !image.is_well_formed() || total.len() != image.pixels.len() {
+    if total.len() != odd.len() {
+        return None;
+    }
+    let mean = |s: [f64; 3], n: f64| s.map(|x| if n > 0.0 { x / n } else { 0.0 });
+    let (even_means, odd_means): (Vec<_>, Vec<_>) = total
+        .iter()
+        .zip(odd)
+        .map(|(t, o)| {
+            let (n, n_b) = (f64::from(t[3]), f64::from(o[3]));
+            let d = |c: usize| f64::from(t[c]) - f64::from(o[c]);
+            let b = |c: usize| f64::from(o[c]);
+            (
+                mean([d(0), d(1), d(2)], n - n_b),
+                mean([b(0), b(1), b(2)], n_b),
+            )
+        })
+        .unzip();
+    rel_mse_estimate_of_halves(total, odd, &even_means, &odd_means, image)
+}
+
+/// The relMSE estimate from the two halves' resolved values: `even` and `odd` per pixel (A and
+/// B of the module docs, as the integrator forms them: bdpt adds each half's own splats), with
+/// the sample counts n_a, n_b taken from `total` and `odd_accum` (samples kept), and `image` the
+/// full resolved image. Pixels where a half has no sample, or a value is not finite, are
+/// skipped; None when no pixel is left or the sizes disagree.
+pub fn rel_mse_estimate_of_halves(
+    total: &[[f32; 4]],
+    odd_accum: &[[f32; 4]],
+    even: &[[f64; 3]],
+    odd: &[[f64; 3]],
+    image: &Image,
+) -> Option<f64> {
+    let n = total.len();
+    if odd_accum.len() != n
+        || even.len() != n
+        || odd.len() != n
+        || !image.is_well_formed()
+        || image.pixels.len() != n
+    {
         return None;
     }
     let blurred = box3(image);
     let mut sum = 0.0f64;
     let mut count = 0usize;
-    for (((t, o), f), fb) in total.iter().zip(odd).zip(&image.pixels).zip(&blurred) {
+    for i in 0..n {
         // Step 1: the sample counts of the halves.
-        let n = f64::from(t[3]);
-        let n_b = f64::from(o[3]);
+        let n = f64::from(total[i][3]);
+        let n_b = f64::from(odd_accum[i][3]);
         let n_a = n - n_b;
         if !(n_a >= 1.0 && n_b >= 1.0) {
             continue;
@@ -60,10 +100,9 @@ pub fn rel_mse_estimate(total: &[[f32; 4]], odd: &[[f32; 4]], image: &Image) -> 
         // value squared.
         let mut pixel = [0.0f64; 3];
         for c in 0..3 {
-            let a = (f64::from(t[c]) - f64::from(o[c])) / n_a;
-            let b = f64::from(o[c]) / n_b;
-            let v = f64::from(f[c]);
-            let mu2 = (v * v).min(fb[c] * fb[c]);
+            let (a, b) = (even[i][c], odd[i][c]);
+            let v = f64::from(image.pixels[i][c]);
+            let mu2 = (v * v).min(blurred[i][c] * blurred[i][c]);
             pixel[c] = (a - b) * (a - b) * weight / (mu2 + EPSILON);
         }
         if pixel.iter().all(|x| x.is_finite()) {

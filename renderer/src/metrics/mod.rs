@@ -24,7 +24,7 @@ pub use all::{MetricNotes, Metrics, METRIC_NOTES, NAN_NOTE};
 pub use display::{tonemap_from_name, tonemap_name, Display, DisplaySettings, LUMA_WEIGHTS};
 pub use downsample::downsample_box;
 pub use error::MetricError;
-pub use estimate::{rel_mse_estimate, REL_MSE_ESTIMATE_FORMULA};
+pub use estimate::{rel_mse_estimate, rel_mse_estimate_of_halves, REL_MSE_ESTIMATE_FORMULA};
 pub use flip::{flip, flip_map, FlipMap, FLIP_NOTE};
 pub use pixelwise::{mse, nan_fraction, rel_mse, rmse, MSE_FORMULA, REL_MSE_FORMULA, RMSE_FORMULA};
 pub use psnr::{psnr, PSNR_NOTE};

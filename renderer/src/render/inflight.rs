@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use crate::error::RenderError;
 use crate::film::Image;
 use crate::gpu::{Buffer, BufferUsage, Frame, GpuContext};
-use crate::integrators::Resolver;
+use crate::integrators::{ExtraBuffer, Resolver};
 use crate::layout::GpuStats;
 
 /// Most passes a session keeps queued on the GPU.
@@ -48,6 +48,8 @@ pub struct AccumSnapshot {
     parts: Vec<usize>,
     /// Entries of the odd half, after the parts.
     odd: usize,
+    /// The integrator's extra buffers (their layout, for the estimate's halves).
+    extra: Vec<ExtraBuffer>,
     spp: u32,
     resolver: Resolver,
 }
@@ -75,7 +77,14 @@ impl AccumSnapshot {
         let all = self.entries()?;
         let n: usize = self.parts.iter().sum();
         let image = self.resolve(&all[..n]);
-        let estimate = crate::metrics::rel_mse_estimate(&all[..self.parts[0]], &all[n..], &image);
+        let estimate = super::halves::estimate(
+            &all,
+            self.odd,
+            &self.extra,
+            &self.resolver,
+            self.spp,
+            &image,
+        );
         Ok((image, estimate))
     }
 
@@ -175,16 +184,19 @@ impl PassRing {
     }
 }
 
-/// A host-visible buffer for a snapshot of `parts` entries and the `odd` entries of the odd half.
+/// A host-visible buffer for a snapshot of an accumulation of `width`·`height` pixels with the
+/// integrator's `extra` buffers and the odd half.
 pub(super) fn snapshot_target(
     ctx: &Arc<GpuContext>,
     width: u32,
     height: u32,
-    parts: Vec<usize>,
-    odd: usize,
+    extra: Vec<ExtraBuffer>,
     spp: u32,
     resolver: Resolver,
 ) -> Result<AccumSnapshot, RenderError> {
+    let odd = (width * height) as usize;
+    let mut parts = vec![odd];
+    parts.extend(extra.iter().map(|e| odd * e.entries_per_pixel as usize));
     let n: usize = parts.iter().sum::<usize>() + odd;
     Ok(AccumSnapshot {
         buffer: Buffer::new(
@@ -197,6 +209,7 @@ pub(super) fn snapshot_target(
         height,
         parts,
         odd,
+        extra,
         spp,
         resolver,
     })

@@ -6,6 +6,7 @@
 //! drives several sessions (devices) on disjoint sample indices and merges their sums.
 
 mod dispatch;
+mod halves;
 mod inflight;
 mod session;
 mod shards;
@@ -122,8 +123,9 @@ pub struct RenderStats {
     /// even and odd halves of its samples ([`crate::metrics::rel_mse_estimate`]); set by
     /// [`render`] and the server (None before both halves have samples).
     pub rel_mse_estimate: Option<f64>,
-    /// How light sampling picked lights: "power" or "bvh" (`render.light_sampler`; bdpt always
-    /// "power").
+    /// How light sampling picked lights: "power" or "bvh" (`render.light_sampler`, for the
+    /// integrators whose registry entry takes the BVH, `IntegratorInfo::light_bvh`; bdpt's
+    /// light subpaths start ∝ power whatever it says).
     pub light_sampler: &'static str,
     /// Why the render stopped (set by [`render`] and the server).
     #[serde(skip_serializing_if = "Option::is_none")]

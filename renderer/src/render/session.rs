@@ -139,7 +139,7 @@ impl RenderSession {
         integrator.prepare(ctx);
         // Step 0: every kernel the session will build (specialised for the scene's features,
         // or generic, and the integrator's own defines), compiled in parallel where not cached.
-        let defines = Self::defines(scene, integrator.as_ref(), kernels);
+        let defines = Self::defines(scene, options.info(), integrator.as_ref(), kernels);
         let mut list = vec![(options.info().kernel.to_string(), defines.clone())];
         list.extend(integrator.kernels(&defines));
         ctx.compile_kernels(&list)?;
@@ -263,10 +263,7 @@ impl RenderSession {
                 bytes: crate::memory::scene_bytes(scene),
                 load_time: scene.load_time,
                 compile_time: scene.compile_time,
-                // (bdpt keeps the power sampler: shaders/common/lights.glsl)
-                light_sampler: if !scene.light_bvh.is_empty()
-                    && !defines.iter().any(|(k, _)| k == "BDPT_DEPTH_CAP")
-                {
+                light_sampler: if Self::uses_light_bvh(scene, options.info()) {
                     "bvh"
                 } else {
                     "power"
@@ -276,9 +273,11 @@ impl RenderSession {
     }
 
     /// The defines of the session's kernels: the scene's feature set (for `mode`), the accel
-    /// kind and the integrator's own.
+    /// kind, the light sampler (the light BVH where the scene has one and the integrator's
+    /// registry entry takes it) and the integrator's own.
     fn defines(
         scene: &CompiledScene,
+        entry: &IntegratorInfo,
         integrator: &dyn Integrator,
         mode: KernelMode,
     ) -> ShaderDefines {
@@ -293,11 +292,17 @@ impl RenderSession {
             let n = scene.traversal_stack.to_string();
             defines.push(("TEST_BVH_STACK".to_string(), n));
         }
-        if !scene.light_bvh.is_empty() {
+        if Self::uses_light_bvh(scene, entry) {
             defines.push(("LIGHT_BVH".to_string(), "1".to_string()));
         }
         defines.extend(integrator.defines());
         defines
+    }
+
+    /// Whether the session's kernels pick lights with the light BVH: the scene has one
+    /// (`render.light_sampler: "bvh"`) and the integrator takes it ([`IntegratorInfo::light_bvh`]).
+    fn uses_light_bvh(scene: &CompiledScene, entry: &IntegratorInfo) -> bool {
+        !scene.light_bvh.is_empty() && entry.light_bvh
     }
 
     /// Every kernel (path, defines) a session of `options` on `scene` builds with `mode`: the
@@ -311,7 +316,7 @@ impl RenderSession {
     ) -> Vec<(String, ShaderDefines)> {
         let mut integrator = options.build(scene_max_depth);
         integrator.prepare(ctx);
-        let defines = Self::defines(scene, integrator.as_ref(), mode);
+        let defines = Self::defines(scene, options.info(), integrator.as_ref(), mode);
         let mut out = vec![(options.info().kernel.to_string(), defines.clone())];
         out.extend(integrator.kernels(&defines));
         out
@@ -457,19 +462,11 @@ impl RenderSession {
             self.shape_for(spp)
                 .dispatches(&push, self.split_limit, self.width, self.height);
         let target = if snapshot {
-            let n = (self.width * self.height) as usize;
-            let mut parts = vec![n];
-            parts.extend(
-                self.extra
-                    .iter()
-                    .map(|(e, _)| n * e.entries_per_pixel as usize),
-            );
             Some(snapshot_target(
                 &self.ctx,
                 self.width,
                 self.height,
-                parts,
-                n,
+                self.extra_buffers(),
                 self.submitted_spp() + spp,
                 self.integrator.resolver(),
             )?)
@@ -673,10 +670,17 @@ impl RenderSession {
     /// [`Self::image`] and [`Self::rel_mse_estimate`] from one download.
     pub fn image_and_estimate(&mut self) -> Result<(Image, Option<f64>), RenderError> {
         let all = self.accumulation()?;
-        let n = (self.width * self.height) as usize;
         let image = self.resolve(&all);
-        let estimate = crate::metrics::rel_mse_estimate(&all[..n], &all[all.len() - n..], &image);
+        let estimate = self.estimate_spp(&all, self.spp, &image);
         Ok((image, estimate))
+    }
+
+    /// The estimated relMSE of `image`, the resolved `all` (an accumulation of this session's
+    /// layout holding `spp` samples per pixel, e.g. merged shards), from its halves (halves.rs).
+    pub fn estimate_spp(&self, all: &[[f32; 4]], spp: u32, image: &Image) -> Option<f64> {
+        let n = (self.width * self.height) as usize;
+        let extra = self.extra_buffers();
+        super::halves::estimate(all, n, &extra, &self.integrator.resolver(), spp, image)
     }
 
     /// The image of `all`, an [`Self::accumulation`] of this session (at its current spp).

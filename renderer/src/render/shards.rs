@@ -19,7 +19,7 @@ use std::time::{Duration, Instant};
 use super::inflight::PIPELINE_DEPTH;
 use super::{Budget, PassSizer, RenderError, RenderSession, RenderStats};
 use crate::film::Image;
-use crate::integrators::{ExtraBuffer, ExtraSum};
+use crate::integrators::ExtraBuffer;
 
 /// Hands out consecutive blocks of sample indices, up to a limit (an spp budget) or without
 /// one (a time budget), until stopped (a device failed).
@@ -125,7 +125,7 @@ impl SplitRender {
 
 /// Adds `from` to `into`, two [`RenderSession::accumulation`]s of one layout: `pixels` entries
 /// of (Σr, Σg, Σb, samples kept) added as floats, then each extra buffer as its
-/// [`ExtraSum`] says, then the odd half (`pixels` entries, floats: the error estimate's).
+/// [`ExtraSum`](crate::integrators::ExtraSum) says, then the odd half (`pixels` entries, floats: the error estimate's).
 pub fn merge_accumulation(
     into: &mut [[f32; 4]],
     from: &[[f32; 4]],
@@ -158,21 +158,7 @@ pub fn merge_accumulation(
     for e in extra {
         let len = pixels * e.entries_per_pixel as usize;
         let (a, b) = (&mut into[at..at + len], &from[at..at + len]);
-        match e.sum {
-            ExtraSum::Float => add_floats(a, b),
-            ExtraSum::Fixed64 => {
-                for (pa, pb) in a.chunks_exact_mut(2).zip(b.chunks_exact(2)) {
-                    for c in 0..4 {
-                        let word = |p: &[[f32; 4]]| {
-                            ((p[1][c].to_bits() as u64) << 32) | p[0][c].to_bits() as u64
-                        };
-                        let sum = word(pa).wrapping_add(word(pb));
-                        pa[0][c] = f32::from_bits(sum as u32);
-                        pa[1][c] = f32::from_bits((sum >> 32) as u32);
-                    }
-                }
-            }
-        }
+        e.sum.combine(a, b, 1);
         at += len;
     }
     // Step 3: the odd-indexed samples' share (sample indices, not devices, decide the parity).
@@ -258,12 +244,7 @@ pub fn render_split(
     }
     let sums = sums.unwrap_or_default();
     let image = sessions[0].resolve_spp(&sums, spp);
-    let pixels = pixels_in(len, &extra);
-    let rel_mse_estimate = crate::metrics::rel_mse_estimate(
-        &sums[..pixels],
-        &sums[sums.len().saturating_sub(pixels)..],
-        &image,
-    );
+    let rel_mse_estimate = sessions[0].estimate_spp(&sums, spp, &image);
     Ok(SplitRender {
         image,
         spp,

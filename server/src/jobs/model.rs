@@ -93,8 +93,14 @@ pub const MAX_PRIORITY: u32 = 100;
 /// What a job renders with, fixed at submission (stored as JSON).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct JobSettings {
-    /// The integrator and its options.
+    /// The integrator and its options (with `auto`: the scene's or default integrator, a
+    /// placeholder until the pilot has chosen).
     pub integrator: IntegratorOptions,
+    /// Request `"integrator": "auto"`: the worker runs a pilot of every unbiased integrator
+    /// when the job starts and renders with the cheapest (renderer::auto; the choice is kept
+    /// in the job's folder, `auto.json`, and reported in its stats and an `auto` event).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub auto: bool,
     /// Samples per pixel to render (exclusive with `time_s`).
     pub spp: Option<u32>,
     /// Seconds of the job's own render time (exclusive with `spp`).

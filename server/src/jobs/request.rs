@@ -288,9 +288,13 @@ pub fn prepare(
         renderer::scene::load_str_with_limits(&text, base.as_deref(), &limits.scene_limits())
             .map_err(|e| scene_error(&e, prefix))?;
 
-    // Step 2: integrator and budget.
-    let integrator =
-        integrator_options(req.integrator.as_ref(), scene.render.integrator.as_deref())?;
+    // Step 2: integrator (`auto`: chosen by a pilot when the job starts; until then the
+    // scene's or the default) and budget.
+    let auto = matches!(&req.integrator, Some(Value::String(n)) if n == "auto");
+    let integrator = integrator_options(
+        req.integrator.as_ref().filter(|_| !auto),
+        scene.render.integrator.as_deref(),
+    )?;
     let accel = accel_setting(req.accel.as_ref())?;
     let (spp, time_s) = match (req.spp, req.time_s) {
         (Some(_), Some(_)) => {
@@ -323,16 +327,21 @@ pub fn prepare(
         }
     };
 
-    let until_rel_mse = match req.until {
-        Some(Until { rel_mse }) if !(rel_mse.is_finite() && rel_mse > 0.0) => {
-            return Err(ApiError::invalid(
-                "until.rel_mse",
-                format!("until.rel_mse: must be a positive number, got {rel_mse}"),
-            ))
-        }
-        Some(u) => Some(u.rel_mse),
-        None => None,
-    };
+    let until_rel_mse =
+        match req.until {
+            Some(Until { rel_mse }) if !(rel_mse.is_finite() && rel_mse > 0.0) => {
+                return Err(ApiError::invalid(
+                    "until.rel_mse",
+                    format!("until.rel_mse: must be a positive number, got {rel_mse}"),
+                ))
+            }
+            Some(_) if auto => return Err(ApiError::invalid(
+                "until",
+                "until: not with integrator \"auto\" (its pilot shares a budget of spp or time_s)",
+            )),
+            Some(u) => Some(u.rel_mse),
+            None => None,
+        };
 
     // Step 3: film, display defaults, scheduling.
     let width = req.width.unwrap_or(scene.film.width);
@@ -379,6 +388,7 @@ pub fn prepare(
         priority,
         settings: JobSettings {
             integrator,
+            auto,
             spp,
             time_s,
             until_rel_mse,

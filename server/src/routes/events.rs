@@ -1,7 +1,7 @@
 //! `GET /api/jobs/{id}/events`: Server-Sent Events of one job — `state`, `progress`,
-//! `snapshot`, `done`, `error` — each with its id (the per-job sequence number of the event
-//! log). Subscribes to the live broadcast *before* reading the log, so nothing falls between
-//! the replay and the live events; duplicates are dropped by id.
+//! `snapshot`, `auto`, `warning`, `done`, `error` — each with its id (the per-job sequence
+//! number of the event log). Subscribes to the live broadcast *before* reading the log, so
+//! nothing falls between the replay and the live events; duplicates are dropped by id.
 //!
 //! With `Last-Event-ID: N` every stored event after N is replayed; without it, the log is
 //! replayed compacted (state changes, plus only the latest `progress` and `snapshot`). The

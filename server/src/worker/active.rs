@@ -58,6 +58,8 @@ pub struct ActiveJob {
     /// For each queued pass, oldest first: whether its snapshot is to be reported (`until`
     /// jobs copy the accumulation with every pass, to check the target).
     pub report_flags: std::collections::VecDeque<bool>,
+    /// An `auto` job's choice (auto.rs), for its stats.
+    pub auto: Option<super::auto::AutoRun>,
 }
 
 impl ActiveJob {
@@ -77,6 +79,7 @@ impl ActiveJob {
             estimate_spp: 0,
             target_reached: false,
             report_flags: Default::default(),
+            auto: None,
             session,
             settings,
             paths,
@@ -88,6 +91,15 @@ impl ActiveJob {
             spp_at_admit: p.spp,
             time_at_admit: p.time_s,
         }
+    }
+
+    /// Makes this an `auto` job with the choice `run`: a time budget loses the other pilots'
+    /// time (the winner's own pilot time is in its session).
+    pub fn set_auto(&mut self, run: super::auto::AutoRun) {
+        if let Some(t) = &mut self.settings.time_s {
+            *t = (*t - run.spent_elsewhere_s).max(0.0);
+        }
+        self.auto = Some(run);
     }
 
     /// Whether the budget (or the quality target) is reached and every queued pass has

@@ -14,6 +14,7 @@
 //! the next start.
 
 mod active;
+mod auto;
 mod checkpoint;
 mod device_loss;
 mod metrics_lane;
@@ -325,11 +326,19 @@ impl Worker {
         };
         drop(scene);
         // Step 2: the session, restored from the checkpoint when there is one.
+        // (`auto`: the saved choice's integrator, else the pilot's winner; auto.rs.)
         let made = catch_unwind(AssertUnwindSafe(|| {
-            prepared.session(&ctx, &s.integrator, s.seed)
+            if s.auto {
+                auto::session(&prepared, &ctx, &s, &paths)
+                    .map(|(x, run, fresh)| (x, Some((run, fresh))))
+            } else {
+                prepared
+                    .session(&ctx, &s.integrator, s.seed)
+                    .map(|x| (x, None))
+            }
         }));
-        let mut session = match made {
-            Ok(Ok(session)) => session,
+        let (mut session, auto_run) = match made {
+            Ok(Ok(made)) => made,
             Ok(Err(e)) => return self.render_failed(id, e, "creating the render session"),
             Err(_) => return self.panicked(id, "creating the render session"),
         };
@@ -364,7 +373,15 @@ impl Worker {
         info!(job = id, name = %rec.name, "rendering");
         // New pipelines go to the kernel cache folder, off this thread.
         ctx.save_pipeline_cache_later();
-        self.active.insert(id, ActiveJob::new(session, s, paths));
+        let mut job = ActiveJob::new(session, s, paths);
+        if let Some((run, fresh)) = auto_run {
+            if fresh {
+                info!(job = id, choice = %run.report["choice"], "auto: pilot done");
+                let _ = self.store.append_event(id, "auto", run.report.clone());
+            }
+            job.set_auto(run);
+        }
+        self.active.insert(id, job);
         self.sched.add(id, priority);
     }
 

@@ -72,7 +72,10 @@ impl Worker {
         );
         // The final progress and snapshot events come before `done`.
         job.flush_metrics();
-        let stats_json = serde_json::to_value(&stats).unwrap_or_default();
+        let mut stats_json = serde_json::to_value(&stats).unwrap_or_default();
+        if let Some(run) = &job.auto {
+            stats_json["auto"] = run.report.clone();
+        }
         let t = Transition {
             verb: "finish",
             stats: Some(stats_json.clone()),
