@@ -84,3 +84,82 @@ pub fn estimate(
     let odd_values = resolve(odd, &odd_extra, n_odd);
     crate::metrics::rel_mse_estimate_of_halves(total, odd, &even, &odd_values, image)
 }
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::integrators::ExtraSum;
+
+    /// Two 64-bit fixed-point words of `v` in every channel, as an accumulation stores them.
+    fn fixed(v: u64) -> [[f32; 4]; 2] {
+        [
+            [f32::from_bits(v as u32); 4],
+            [f32::from_bits((v >> 32) as u32); 4],
+        ]
+    }
+
+    #[test]
+    fn each_half_carries_its_share_of_a_split_fixed_point_buffer() {
+        // One pixel, 4 samples: camera sums even 1 + 1, odd 3 + 3; splats (units of 2^-32)
+        // even 2^32 − 16, odd 2^32 + 32, so the total's low word wrapped: taking the odd share
+        // off needs a borrow from the high word.
+        let resolver: Resolver = Arc::new(|accum, extra, spp| {
+            let split = |i: usize, c: usize| {
+                let (lo, hi) = (
+                    extra[0][2 * i][c].to_bits(),
+                    extra[0][2 * i + 1][c].to_bits(),
+                );
+                (((hi as u64) << 32) | lo as u64) as f64 / (4294967296.0 * spp as f64)
+            };
+            let mean = |a: &[f32; 4], c: usize| (a[c] / a[3]) as f64;
+            let px =
+                |(i, a): (usize, &[f32; 4])| [0, 1, 2].map(|c| (mean(a, c) + split(i, c)) as f32);
+            accum.iter().enumerate().map(px).collect()
+        });
+        let (even, odd) = ((1u64 << 32) - 16, (1u64 << 32) + 32);
+        let [lo, hi] = fixed(even + odd);
+        let [olo, ohi] = fixed(odd);
+        let all = [[8.0, 8.0, 8.0, 4.0], lo, hi, olo, ohi, [6.0, 6.0, 6.0, 2.0]];
+        let buffer = |odd_share_of| ExtraBuffer {
+            binding: 0,
+            name: "splats",
+            entries_per_pixel: 2,
+            sum: ExtraSum::Fixed64,
+            odd_share_of,
+        };
+        let extra = [buffer(None), buffer(Some(0))];
+        let image = Image {
+            width: 1,
+            height: 1,
+            pixels: resolver(&all[..1], &[&all[1..3]], 4),
+        };
+        // A = 1 + (2^32 − 16)/2^33, B = 3 + (2^32 + 32)/2^33, F = 2 + (2^33 + 16)/2^34 ≈ 2.5;
+        // n_a n_b / N² = 1/4.
+        let e = estimate(&all, 1, &extra, &resolver, 4, &image).unwrap();
+        let (a, b) = (
+            1.0 + even as f64 / 2f64.powi(33),
+            3.0 + odd as f64 / 2f64.powi(33),
+        );
+        let f = f64::from(image.pixels[0][0]);
+        let expected = (a - b) * (a - b) / 4.0 / (f * f + 0.01);
+        assert!((e - expected).abs() < 1e-6 * expected, "{e} vs {expected}");
+        // Unsplit (no odd share), the splats are left out of both halves: A − B = −2.
+        let e = estimate(
+            &all[..3]
+                .iter()
+                .chain(&all[5..])
+                .copied()
+                .collect::<Vec<_>>(),
+            1,
+            &extra[..1],
+            &resolver,
+            4,
+            &image,
+        )
+        .unwrap();
+        let expected = 4.0 / 4.0 / (f * f + 0.01);
+        assert!((e - expected).abs() < 1e-6 * expected, "{e} vs {expected}");
+    }
+}
