@@ -213,6 +213,7 @@ impl Worker {
                 let ctx = Arc::new(ctx);
                 warmup::start(&ctx, &self.config, &self.shared);
                 self.ctx = Some(ctx);
+                self.publish_caches();
                 self.dirty = true;
                 self.open_failures = 0;
                 true
@@ -250,6 +251,13 @@ impl Worker {
         self.last_open = None;
         self.dirty = true;
         self.set_unavailable(format!("restarting after: {why}"));
+        self.publish_caches();
+    }
+
+    /// Publishes the renderer's cache sizes for /metrics (after they may have changed).
+    fn publish_caches(&self) {
+        self.shared
+            .set_caches(renderer::caches::stats(self.ctx.as_deref()));
     }
 
     /// Brings the active set in line with the store: retires sessions of jobs that are no
@@ -366,6 +374,7 @@ impl Worker {
         ctx.save_pipeline_cache_later();
         self.active.insert(id, ActiveJob::new(session, s, paths));
         self.sched.add(id, priority);
+        self.publish_caches();
     }
 
     /// Drops the session of a job that left the runnable states, saving what it rendered.
@@ -408,6 +417,8 @@ impl Worker {
         }
         job.flush_metrics();
         self.shared.forget(id);
+        drop(job);
+        self.publish_caches();
     }
 
     /// Queues the next pass of job `id` behind the passes in flight (after completing the
