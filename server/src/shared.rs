@@ -123,7 +123,7 @@ impl Default for Shared {
             sse_clients: AtomicI64::new(0),
             queue_wait: Mutex::new(Histogram::default()),
             storage: Mutex::new(Default::default()),
-            caches: Mutex::new(Default::default()),
+            caches: Mutex::new(renderer::caches::stats(None)),
             started: std::time::Instant::now(),
         }
     }

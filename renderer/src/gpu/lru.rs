@@ -32,11 +32,13 @@ pub struct CacheLimits {
 
 impl CacheLimits {
     /// The defaults: room for the kernels of a few dozen scenes' feature sets (one set of an
-    /// integrator is 1–4 kernels).
+    /// integrator is 1–4 kernels; SPIR-V is ~90 KB a kernel). Pipelines cost more: on lavapipe
+    /// each holds ~10 MB of host memory (issue 18's soak: 82 pipelines, 813 MB of malloc), so 32
+    /// of them bound that to ~320 MB while still holding the working set of several jobs.
     pub const DEFAULT: CacheLimits = CacheLimits {
         kernels: 256,
         kernel_bytes: 64 << 20,
-        pipelines: 64,
+        pipelines: 32,
         volumes: 2,
     };
 }

@@ -96,6 +96,7 @@ pub fn spawn(
                 last_storage_check: None,
                 loss_trigger: device_loss::trigger_from_env(),
                 losses: BTreeMap::new(),
+                pipelines_seen: 0,
             };
             // A panic outside a pass (which is caught where it happens) restarts the loop with
             // a fresh device rather than ending the thread.
@@ -135,6 +136,8 @@ struct Worker {
     loss_trigger: Option<PathBuf>,
     /// Device losses in a row during each job's work (device_loss.rs).
     losses: BTreeMap<JobId, u32>,
+    /// Pipeline objects alive at the last [`Worker::publish_caches`].
+    pipelines_seen: u64,
 }
 
 /// Whether an error means the device itself is in doubt (rebuild it).
@@ -254,10 +257,16 @@ impl Worker {
         self.publish_caches();
     }
 
-    /// Publishes the renderer's cache sizes for /metrics (after they may have changed).
-    fn publish_caches(&self) {
-        self.shared
-            .set_caches(renderer::caches::stats(self.ctx.as_deref()));
+    /// Publishes the renderer's cache sizes for /metrics (after they may have changed); when
+    /// pipelines were destroyed since the last look (evicted, and no job holds them), hands
+    /// the heap pages they freed back to the system.
+    fn publish_caches(&mut self) {
+        let stats = renderer::caches::stats(self.ctx.as_deref());
+        if stats.pipelines_live < self.pipelines_seen {
+            crate::process_memory::release_free_heap();
+        }
+        self.pipelines_seen = stats.pipelines_live;
+        self.shared.set_caches(stats);
     }
 
     /// Brings the active set in line with the store: retires sessions of jobs that are no
