@@ -3,9 +3,11 @@
 //! (the least recently used evicted), a session whose pipelines were evicted meanwhile still
 //! renders (its pipelines live until it is dropped; the validation layer would report a
 //! destroyed pipeline in use), and a variant rendered again after its eviction gives the same
-//! image as before. One test in this file: the limits are process-wide.
+//! image as before (one library test in this file: the limits are process-wide). And the
+//! server's `--cache-*` flags set the bounds its `/metrics` reports, with the sizes.
 
-use candela_tests::{gpu, render_loaded, scene_path};
+use candela_tests::server::Server;
+use candela_tests::{gpu, render_loaded, scene_path, scratch};
 use renderer::caches::stats;
 use renderer::compile::compile;
 use renderer::gpu::{set_cache_limits, CacheLimits};
@@ -62,4 +64,53 @@ fn more_variants_than_the_limits_keep_the_caches_at_their_limits() {
         s.kernels <= limits.kernels && s.pipelines <= limits.pipelines,
         "{s:?}"
     );
+}
+
+/// The value of the `/metrics` line starting with `series ` (name and labels).
+fn metric(text: &str, series: &str) -> f64 {
+    text.lines()
+        .find_map(|l| l.strip_prefix(&format!("{series} ")))
+        .unwrap_or_else(|| panic!("{series} not in\n{text}"))
+        .parse()
+        .unwrap()
+}
+
+#[test]
+fn server_flags_bound_the_caches_and_metrics_show_them() {
+    let dir = scratch("memory_caches_server");
+    let s = Server::start(
+        &dir.join("data"),
+        &["--cache-pipelines", "1", "--cache-kernels", "2"],
+    );
+    // Two integrators: more pipelines and kernels than the limits.
+    for integrator in ["nee", "whitted"] {
+        let (st, job) = s.post(
+            "/api/jobs?wait=true",
+            &serde_json::json!({"scene_name": "cornell", "integrator": integrator, "spp": 1,
+                                "width": 8, "height": 8}),
+        );
+        assert_eq!((st, job["state"].as_str()), (201, Some("done")), "{job}");
+    }
+    let text = reqwest::blocking::get(s.at("/metrics"))
+        .unwrap()
+        .text()
+        .unwrap();
+    assert_eq!(
+        metric(&text, r#"candela_cache_limit_entries{cache="pipelines"}"#),
+        1.0
+    );
+    assert_eq!(
+        metric(&text, r#"candela_cache_limit_entries{cache="kernels"}"#),
+        2.0
+    );
+    assert_eq!(
+        metric(&text, r#"candela_cache_entries{cache="pipelines"}"#),
+        1.0
+    );
+    assert!(metric(&text, r#"candela_cache_entries{cache="kernels"}"#) <= 2.0);
+    assert!(metric(&text, r#"candela_cache_evictions_total{cache="pipelines"}"#) >= 1.0);
+    assert!(metric(&text, r#"candela_cache_bytes{cache="kernels"}"#) > 1000.0);
+    assert!(metric(&text, "candela_pipelines_live") >= 1.0);
+    assert!(metric(&text, "process_resident_memory_bytes") > 1e6);
+    assert!(metric(&text, r#"candela_heap_bytes{kind="allocated"}"#) > 1e6);
 }
