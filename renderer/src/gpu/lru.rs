@@ -148,8 +148,8 @@ mod tests {
         assert_eq!(l.get_or_insert_with(0, || 999), 10);
         let gone = l.trim(3, u64::MAX, |v| *v, |_| true);
         assert_eq!(gone, vec![20]);
-        // Bytes: 10 + 30 + 40 = 80; a limit of 50 drops 30 (key 2), then 40 (key 3).
-        let gone = l.trim(10, 50, |v| *v, |_| true);
+        // Bytes: 10 + 30 + 40 = 80; a limit of 40 drops 30 (key 2), then 40 (key 3).
+        let gone = l.trim(10, 40, |v| *v, |_| true);
         assert_eq!(gone, vec![30, 40]);
         assert_eq!(l.len(), 1);
         assert_eq!(l.evictions, 3);
