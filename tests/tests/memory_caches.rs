@@ -66,15 +66,6 @@ fn more_variants_than_the_limits_keep_the_caches_at_their_limits() {
     );
 }
 
-/// The value of the `/metrics` line starting with `series ` (name and labels).
-fn metric(text: &str, series: &str) -> f64 {
-    text.lines()
-        .find_map(|l| l.strip_prefix(&format!("{series} ")))
-        .unwrap_or_else(|| panic!("{series} not in\n{text}"))
-        .parse()
-        .unwrap()
-}
-
 #[test]
 fn server_flags_bound_the_caches_and_metrics_show_them() {
     let dir = scratch("memory_caches_server");
@@ -91,26 +82,19 @@ fn server_flags_bound_the_caches_and_metrics_show_them() {
         );
         assert_eq!((st, job["state"].as_str()), (201, Some("done")), "{job}");
     }
-    let text = reqwest::blocking::get(s.at("/metrics"))
-        .unwrap()
-        .text()
-        .unwrap();
     assert_eq!(
-        metric(&text, r#"candela_cache_limit_entries{cache="pipelines"}"#),
+        s.metric(r#"candela_cache_limit_entries{cache="pipelines"}"#),
         1.0
     );
     assert_eq!(
-        metric(&text, r#"candela_cache_limit_entries{cache="kernels"}"#),
+        s.metric(r#"candela_cache_limit_entries{cache="kernels"}"#),
         2.0
     );
-    assert_eq!(
-        metric(&text, r#"candela_cache_entries{cache="pipelines"}"#),
-        1.0
-    );
-    assert!(metric(&text, r#"candela_cache_entries{cache="kernels"}"#) <= 2.0);
-    assert!(metric(&text, r#"candela_cache_evictions_total{cache="pipelines"}"#) >= 1.0);
-    assert!(metric(&text, r#"candela_cache_bytes{cache="kernels"}"#) > 1000.0);
-    assert!(metric(&text, "candela_pipelines_live") >= 1.0);
-    assert!(metric(&text, "process_resident_memory_bytes") > 1e6);
-    assert!(metric(&text, r#"candela_heap_bytes{kind="allocated"}"#) > 1e6);
+    assert_eq!(s.metric(r#"candela_cache_entries{cache="pipelines"}"#), 1.0);
+    assert!(s.metric(r#"candela_cache_entries{cache="kernels"}"#) <= 2.0);
+    assert!(s.metric(r#"candela_cache_evictions_total{cache="pipelines"}"#) >= 1.0);
+    assert!(s.metric(r#"candela_cache_bytes{cache="kernels"}"#) > 1000.0);
+    assert!(s.metric("candela_pipelines_live") >= 1.0);
+    assert!(s.metric("process_resident_memory_bytes") > 1e6);
+    assert!(s.metric(r#"candela_heap_bytes{kind="allocated"}"#) > 1e6);
 }
