@@ -96,7 +96,8 @@ pub fn lookup(ctx: &Arc<GpuContext>, key: u64) -> Lookup {
 /// Stores a freshly built volume, evicting the least recently used beyond the limit
 /// ([`crate::gpu::CacheLimits::volumes`]).
 pub fn store(ctx: &Arc<GpuContext>, key: u64, volume: Arc<Mutex<Volume>>) {
-    let bytes = match volume.lock() {
+    // (Fresh from its build, so nobody holds its lock; never wait for one here.)
+    let bytes = match volume.try_lock() {
         Ok(v) => v.memory().iter().map(|(_, b)| b).sum(),
         Err(_) => 0,
     };
