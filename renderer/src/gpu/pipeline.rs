@@ -101,11 +101,13 @@ impl PipelineObjects {
 
 /// A compute pipeline and the one descriptor set it is used with.
 pub struct ComputePipeline {
+    /// Keeps `pipeline` and `layout` alive while this session may use them. Declared before
+    /// `ctx` so that it is dropped first: where this holds the context's last reference, the
+    /// object is destroyed before the device.
+    _object: Arc<PipelineObject>,
     ctx: Arc<GpuContext>,
     pub(crate) pipeline: vk::Pipeline,
     pub(crate) layout: vk::PipelineLayout,
-    /// Keeps `pipeline` and `layout` alive while this session may use them.
-    _object: Arc<PipelineObject>,
     pool: vk::DescriptorPool,
     pub(crate) set: vk::DescriptorSet,
     pub name: String,
