@@ -15,6 +15,8 @@ checks the invariants:
      no deleted job's folder is left;
   4. memory is flat: the server's RSS, sampled every few seconds, fitted with a line per server
      lifetime (after a warm-up), has a slope under --rss-slope-limit MB/hour on the longest.
+     The memory series of /metrics (in-memory cache entries and bytes, glibc malloc's
+     allocated and free bytes) are sampled beside it, to say where the memory went.
 
 It prints a summary and writes everything to --json. Python 3 standard library only.
 
@@ -39,6 +41,8 @@ import urllib.request
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TERMINAL = ("done", "canceled", "failed")
+MEMORY_SERIES = ("process_resident_memory_bytes", "candela_heap_bytes", "candela_cache_",
+                 "candela_pipelines_live", "candela_snapshot")
 
 
 def parse_args():
@@ -56,6 +60,9 @@ def parse_args():
                    help="most unfinished jobs the script keeps (default 10)")
     p.add_argument("--tick", type=float, default=0.5, help="seconds between actions")
     p.add_argument("--rss-every", type=float, default=2.0, help="seconds between RSS samples")
+    p.add_argument("--metrics-every", type=float, default=10.0,
+                   help="seconds between samples of the server's memory metrics (cache sizes, "
+                   "malloc; 0: none)")
     p.add_argument("--rss-warmup", type=float, default=20.0,
                    help="seconds of each server lifetime left out of the RSS fit")
     p.add_argument("--rss-slope-limit", type=float, default=50.0,
@@ -133,6 +140,22 @@ class Server:
             return None
         return None
 
+    def memory_metrics(self, timeout=10):
+        """The memory series of /metrics ({"name{labels}": value}), or None if unreachable."""
+        try:
+            with urllib.request.urlopen(self.url + "/metrics", timeout=timeout) as r:
+                text = r.read().decode()
+        except (urllib.error.URLError, ConnectionError, TimeoutError, OSError):
+            return None
+        out = {}
+        for line in text.splitlines():
+            if line.startswith("#") or " " not in line:
+                continue
+            name, value = line.rsplit(" ", 1)
+            if name.startswith(MEMORY_SERIES):
+                out[name] = float(value)
+        return out
+
     def call(self, method, path, body=None, timeout=30):
         """(status, parsed JSON or None); status 0 when the server could not be reached."""
         data = None if body is None else json.dumps(body).encode()
@@ -175,6 +198,7 @@ class Soak:
         self.jobs = {}  # id -> {"budget": ("spp", n) | ("time", s), "integrator", ...}
         self.deleted = {}  # id -> final record (just before DELETE)
         self.rss = []  # (t, mb, lifetime index)
+        self.mem = []  # (t, lifetime index, {series: value})
         self.kill_range = None
         if args.kill_every not in ("0", ""):
             lo, hi = (float(x) for x in args.kill_every.split(":"))
@@ -274,6 +298,7 @@ class Soak:
         # Step 1: traffic, RSS samples and kills until the duration is over.
         next_kill = self.next_kill_time()
         next_rss = time.time()
+        next_mem = time.time()
         next_report = time.time() + 60
         while time.time() - t_start < a.duration:
             now = time.time()
@@ -282,6 +307,11 @@ class Soak:
                 if mb is not None:
                     self.rss.append((now - t_start, mb, len(server.starts) - 1))
                 next_rss = now + a.rss_every
+            if a.metrics_every > 0 and now >= next_mem:
+                m = server.memory_metrics()
+                if m is not None:
+                    self.mem.append((round(now - t_start, 1), len(server.starts) - 1, m))
+                next_mem = now + a.metrics_every
             if next_kill is not None and now >= next_kill:
                 server.kill9()
                 self.counts["kills"] += 1
@@ -327,6 +357,8 @@ class Soak:
             "log": log_path,
             "candela": a.candela,
             "rss_samples": [(round(t, 1), round(m, 2), k) for t, m, k in self.rss],
+            "memory_samples": self.mem,
+            "memory_growth": self.memory_growth(),
         })
         self.report(result)
         with open(a.json, "w") as f:
@@ -335,6 +367,18 @@ class Soak:
         if result["ok"] and not a.data_dir:
             shutil.rmtree(data_dir, ignore_errors=True)
         return 0 if result["ok"] else 1
+
+    def memory_growth(self):
+        """Each memory series at the first and last sample of the longest server lifetime."""
+        lifetimes = {}
+        for t, k, m in self.mem:
+            lifetimes.setdefault(k, []).append((t, m))
+        if not lifetimes:
+            return None
+        s = max(lifetimes.values(), key=lambda v: v[-1][0] - v[0][0])
+        (t0, first), (t1, last) = s[0], s[-1]
+        return {"from_s": t0, "to_s": t1,
+                "series": {k: [first.get(k), last.get(k)] for k in sorted(last)}}
 
     def next_kill_time(self):
         if self.kill_range is None:
@@ -397,8 +441,11 @@ class Soak:
         for k, s in sorted(lifetimes.items()):
             t0 = s[0][0]
             warm = [(t, m) for t, m in s if t - t0 >= self.args.rss_warmup]
+            half = [(t, m) for t, m in s if t - t0 >= (s[-1][0] - t0) / 2]
             segments.append({
                 "lifetime": k, "start_s": round(t0, 1), "length_s": round(s[-1][0] - t0, 1),
+                "slope_last_half_mb_per_h":
+                    None if fit_slope(half) is None else round(fit_slope(half), 2),
                 "rss_first_mb": round(s[0][1], 1), "rss_last_mb": round(s[-1][1], 1),
                 "rss_max_mb": round(max(m for _, m in s), 1),
                 "slope_mb_per_h": None if fit_slope(warm) is None else round(fit_slope(warm), 2),
@@ -460,7 +507,17 @@ class Soak:
         if lg:
             print(f"RSS slope over the longest lifetime ({lg['length_s']} s, after "
                   f"{self.args.rss_warmup:.0f} s warm-up): {lg['slope_mb_per_h']} MB/h "
-                  f"({lg['rss_first_mb']} -> {lg['rss_last_mb']} MB)")
+                  f"({lg['rss_first_mb']} -> {lg['rss_last_mb']} MB); over its second half: "
+                  f"{lg['slope_last_half_mb_per_h']} MB/h")
+        g = r.get("memory_growth")
+        if g:
+            print(f"memory series, first -> last sample of the longest lifetime "
+                  f"({g['from_s']} s -> {g['to_s']} s):")
+            for k, (a, b) in g["series"].items():
+                big = "bytes" in k
+                fmt = (lambda v: "-" if v is None else f"{v / 2**20:.1f} MiB") if big else \
+                      (lambda v: "-" if v is None else f"{v:g}")
+                print(f"  {k}: {fmt(a)} -> {fmt(b)}")
         if r["stray_tmp_files"]:
             print(f"note: {len(r['stray_tmp_files'])} .tmp files in job folders")
         for p in r["problems"]:

@@ -6,6 +6,7 @@
 pub mod accel;
 pub mod auto;
 pub mod cache_file;
+pub mod caches;
 pub mod compile;
 pub mod error;
 pub mod film;

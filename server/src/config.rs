@@ -114,6 +114,8 @@ pub struct ServerConfig {
     pub min_free_space: u64,
     /// How often the worker measures free space (and tries to resume held jobs).
     pub storage_check_interval: Duration,
+    /// Bounds of the renderer's in-memory caches (kernels, pipelines, vct volumes).
+    pub caches: renderer::gpu::CacheLimits,
 }
 
 /// Which kernels the server builds when its device opens (worker/warmup.rs).
@@ -190,6 +192,7 @@ impl ServerConfig {
             gc_interval: Duration::from_secs(600),
             min_free_space: 500_000_000,
             storage_check_interval: Duration::from_secs(5),
+            caches: renderer::gpu::CacheLimits::DEFAULT,
         }
     }
 

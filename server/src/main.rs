@@ -19,6 +19,7 @@ mod builtin_scenes;
 mod cli;
 mod config;
 mod jobs;
+mod process_memory;
 mod retention;
 mod routes;
 mod shared;

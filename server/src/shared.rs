@@ -97,6 +97,8 @@ pub struct Shared {
     pub sse_clients: AtomicI64,
     queue_wait: Mutex<Histogram>,
     storage: Mutex<crate::storage::StorageStatus>,
+    /// The renderer's in-memory caches, as the worker last published them.
+    caches: Mutex<renderer::caches::CacheStats>,
     started: std::time::Instant,
 }
 
@@ -121,6 +123,7 @@ impl Default for Shared {
             sse_clients: AtomicI64::new(0),
             queue_wait: Mutex::new(Histogram::default()),
             storage: Mutex::new(Default::default()),
+            caches: Mutex::new(renderer::caches::stats(None)),
             started: std::time::Instant::now(),
         }
     }
@@ -177,6 +180,30 @@ impl Shared {
         let mut s = lock(&self.storage);
         s.free_bytes = free_bytes;
         s.low = low;
+    }
+
+    /// Records the renderer's cache sizes (the worker, after admitting or retiring a job).
+    pub fn set_caches(&self, stats: renderer::caches::CacheStats) {
+        *lock(&self.caches) = stats;
+    }
+
+    /// The renderer's cache sizes as last published.
+    pub fn caches(&self) -> renderer::caches::CacheStats {
+        *lock(&self.caches)
+    }
+
+    /// (snapshots kept, their bytes: images and cached encodings).
+    fn snapshot_usage(&self) -> (usize, u64) {
+        let m = lock(&self.snapshots);
+        let bytes = m
+            .values()
+            .map(|s| {
+                let png = lock(&s.png).as_ref().map_or(0, |(_, b)| b.len());
+                let exr = lock(&s.exr).as_ref().map_or(0, Vec::len);
+                (std::mem::size_of_val(s.image.pixels.as_slice()) + png + exr) as u64
+            })
+            .sum();
+        (m.len(), bytes)
     }
 
     /// Seconds since start.
@@ -291,6 +318,7 @@ impl Shared {
             "Jobs paused by the server after a write failed for lack of space.",
             storage.held_jobs.to_string(),
         );
+        self.prometheus_memory(&mut out);
         let h = lock(&self.queue_wait);
         let _ = writeln!(
             out,
@@ -310,5 +338,104 @@ impl Shared {
             h.count, h.sum, h.count
         );
         out
+    }
+
+    /// The memory part of the exposition: the process (resident, malloc), the renderer's
+    /// in-memory caches (with their limits) and the snapshots kept for the image endpoints.
+    fn prometheus_memory(&self, out: &mut String) {
+        let mut family = |name: &str, kind: &str, help: &str, rows: &[(&str, Option<u64>)]| {
+            let _ = writeln!(out, "# HELP {name} {help}\n# TYPE {name} {kind}");
+            for (label, v) in rows {
+                let Some(v) = v else { continue };
+                let _ = if label.is_empty() {
+                    writeln!(out, "{name} {v}")
+                } else {
+                    writeln!(out, "{name}{{{label}}} {v}")
+                };
+            }
+        };
+        let heap = crate::process_memory::heap();
+        family(
+            "process_resident_memory_bytes",
+            "gauge",
+            "Resident memory of the server process.",
+            &[("", crate::process_memory::resident_bytes())],
+        );
+        family(
+            "candela_heap_bytes",
+            "gauge",
+            "glibc malloc: bytes allocated (of which mmapped) and free inside its arenas.",
+            &[
+                ("kind=\"allocated\"", heap.map(|h| h.allocated)),
+                ("kind=\"mmapped\"", heap.map(|h| h.mmapped)),
+                ("kind=\"free\"", heap.map(|h| h.free)),
+            ],
+        );
+        let c = self.caches();
+        let n = |v: usize| Some(v as u64);
+        family(
+            "candela_cache_entries",
+            "gauge",
+            "Entries of the in-memory caches: kernels (SPIR-V), pipelines (per device), volumes (vct).",
+            &[
+                ("cache=\"kernels\"", n(c.kernels)),
+                ("cache=\"pipelines\"", n(c.pipelines)),
+                ("cache=\"volumes\"", n(c.volumes)),
+            ],
+        );
+        family(
+            "candela_cache_limit_entries",
+            "gauge",
+            "Most entries each in-memory cache keeps (--cache-kernels, --cache-pipelines, --cache-volumes).",
+            &[
+                ("cache=\"kernels\"", n(c.limits.kernels)),
+                ("cache=\"pipelines\"", n(c.limits.pipelines)),
+                ("cache=\"volumes\"", n(c.limits.volumes)),
+            ],
+        );
+        family(
+            "candela_cache_bytes",
+            "gauge",
+            "Bytes of the in-memory caches: kernels (SPIR-V, host), volumes (GPU), pipeline_data (the driver's pipeline cache as last saved).",
+            &[
+                ("cache=\"kernels\"", Some(c.kernel_bytes)),
+                ("cache=\"volumes\"", Some(c.volume_bytes)),
+                ("cache=\"pipeline_data\"", c.pipeline_cache_bytes),
+            ],
+        );
+        family(
+            "candela_cache_limit_bytes",
+            "gauge",
+            "Most bytes the kernel cache keeps in memory (--cache-kernel-bytes).",
+            &[("cache=\"kernels\"", Some(c.limits.kernel_bytes))],
+        );
+        family(
+            "candela_cache_evictions_total",
+            "counter",
+            "Entries dropped from the in-memory caches to stay within their limits.",
+            &[
+                ("cache=\"kernels\"", Some(c.kernel_evictions)),
+                ("cache=\"pipelines\"", Some(c.pipeline_evictions)),
+            ],
+        );
+        family(
+            "candela_pipelines_live",
+            "gauge",
+            "Pipeline objects alive (cached, or held by rendering jobs).",
+            &[("", Some(c.pipelines_live))],
+        );
+        let (snapshots, snapshot_bytes) = self.snapshot_usage();
+        family(
+            "candela_snapshots",
+            "gauge",
+            "Latest images kept in memory for the image endpoints (one per rendering job).",
+            &[("", n(snapshots))],
+        );
+        family(
+            "candela_snapshot_bytes",
+            "gauge",
+            "Bytes of those images and their cached PNG/EXR encodings.",
+            &[("", Some(snapshot_bytes))],
+        );
     }
 }

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::{Arc, OnceLock};
 
-use renderer::compile::compile;
+use renderer::compile::{compile, CompiledScene};
 use renderer::film::Image;
 use renderer::gpu::{GpuContext, GpuOptions};
 use renderer::integrators::IntegratorOptions;
@@ -95,13 +95,25 @@ pub fn render_loaded(
     seed: u64,
     max_depth: Option<i32>,
 ) -> (Image, RenderStats) {
-    let ctx = gpu();
     let compiled = compile(scene, w, h).expect("compile");
+    render_compiled(scene, &compiled, integrator, spp, seed, max_depth)
+}
+
+/// Renders an already compiled scene (`scene` gives its `render.max_depth`).
+pub fn render_compiled(
+    scene: &renderer::scene::Scene,
+    compiled: &CompiledScene,
+    integrator: &str,
+    spp: u32,
+    seed: u64,
+    max_depth: Option<i32>,
+) -> (Image, RenderStats) {
+    let ctx = gpu();
     let mut options = IntegratorOptions::from_name(integrator).expect("integrator");
     if let Some(d) = max_depth {
         options.set_max_depth(d);
     }
-    let mut session = RenderSession::new(&ctx, &compiled, &options, scene.render.max_depth, seed)
+    let mut session = RenderSession::new(&ctx, compiled, &options, scene.render.max_depth, seed)
         .expect("session");
     let out = render(&mut session, Budget::Spp(spp)).expect("render");
     ctx.check_validation().expect("validation layer messages");
@@ -220,11 +232,25 @@ pub fn mean(img: &Image) -> [f64; 3] {
 
 /// Runs the `candela` binary with `args` from the repository root.
 pub fn run_candela(args: &[&str]) -> std::process::Output {
+    run_candela_env(args, &[])
+}
+
+/// [`run_candela`] with extra environment variables.
+pub fn run_candela_env(args: &[&str], env: &[(&str, &str)]) -> std::process::Output {
     Command::new(candela())
         .args(args)
+        .envs(env.iter().copied())
         .current_dir(repo_root())
         .output()
         .expect("run candela")
+}
+
+/// Runs `candela ARGS` (a `--json` report), asserts that it succeeded (stderr in the message)
+/// and parses stdout as one JSON object.
+pub fn run_json(args: &[&str]) -> serde_json::Value {
+    let o = run_candela(args);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    serde_json::from_slice(&o.stdout).expect("one JSON object on stdout")
 }
 
 /// Lossy UTF-8 of a process output stream.

@@ -139,6 +139,24 @@ impl Server {
         (status, serde_json::from_str(&text).unwrap_or(Value::Null))
     }
 
+    /// The `/metrics` text.
+    pub fn metrics(&self) -> String {
+        self.request(reqwest::Method::GET, "/metrics")
+            .send()
+            .and_then(|r| r.text())
+            .unwrap_or_else(|e| panic!("GET /metrics: {e}\n{}", self.log()))
+    }
+
+    /// The value of one `/metrics` series (its name and labels as written, e.g.
+    /// `candela_cache_entries{cache="kernels"}`).
+    pub fn metric(&self, series: &str) -> f64 {
+        let text = self.metrics();
+        text.lines()
+            .find_map(|l| l.strip_prefix(&format!("{series} ")))
+            .and_then(|v| v.trim().parse().ok())
+            .unwrap_or_else(|| panic!("no {series} in\n{text}"))
+    }
+
     /// `GET path` → (status, JSON).
     pub fn get(&self, path: &str) -> (u16, Value) {
         self.send(self.request(reqwest::Method::GET, path))

@@ -8,8 +8,6 @@ use glam::DVec3;
 use renderer::accel::{AccelOptions, CacheStatus};
 use renderer::compile::{compile_with, CompileOptions, CompiledScene};
 use renderer::film::Image;
-use renderer::integrators::IntegratorOptions;
-use renderer::render::{render, Budget, RenderSession};
 use renderer::scene::Scene;
 
 fn compiled(scene: &Scene, cache: Option<&std::path::Path>) -> CompiledScene {
@@ -21,11 +19,7 @@ fn compiled(scene: &Scene, cache: Option<&std::path::Path>) -> CompiledScene {
 }
 
 fn image(scene: &Scene, c: &CompiledScene) -> Image {
-    let ctx = gpu();
-    let options = IntegratorOptions::from_name("nee").unwrap();
-    let mut session =
-        RenderSession::new(&ctx, c, &options, scene.render.max_depth, 9).expect("session");
-    render(&mut session, Budget::Spp(2)).expect("render").0
+    render_compiled(scene, c, "nee", 2, 9, None).0
 }
 
 #[test]
@@ -70,7 +64,7 @@ fn cli_reports_a_cache_hit_after_a_camera_move() {
     let render = |v: &serde_json::Value, name: &str| -> serde_json::Value {
         let path = dir.join(format!("{name}.json"));
         std::fs::write(&path, v.to_string()).unwrap();
-        let o = run_candela(&[
+        run_json(&[
             "render",
             path.to_str().unwrap(),
             "-o",
@@ -84,9 +78,7 @@ fn cli_reports_a_cache_hit_after_a_camera_move() {
             "--json",
             "--accel-cache",
             cache.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", text(&o.stderr));
-        serde_json::from_slice(&o.stdout).expect("one JSON object")
+        ])
     };
     assert_eq!(render(&v, "first")["accel_cache"], "miss");
     v["camera"]["position"] = serde_json::json!([0.4, 0.2, 3.5]);

@@ -9,18 +9,15 @@ use candela_tests::server::Server;
 use candela_tests::*;
 use serde_json::{json, Value};
 
+/// `candela render` of the textured mesh at 8×8, 1 spp, with `extra` flags and `env`.
 fn render(env: &[(&str, &str)], extra: &[&str]) -> std::process::Output {
-    let dir = scratch("scene-memory");
-    let out = dir.join("o.exr");
+    let out = scratch("scene-memory").join("o.exr");
     let scene = scene_path("textured_mesh.json");
-    let mut cmd = std::process::Command::new(candela());
-    cmd.args([
+    let mut args = vec![
         "render",
         scene.to_str().unwrap(),
         "-o",
         out.to_str().unwrap(),
-    ])
-    .args([
         "--width",
         "8",
         "--height",
@@ -28,12 +25,9 @@ fn render(env: &[(&str, &str)], extra: &[&str]) -> std::process::Output {
         "--spp",
         "1",
         "--no-accel-cache",
-    ])
-    .args(extra);
-    for (k, v) in env {
-        cmd.env(k, v);
-    }
-    cmd.output().expect("run candela")
+    ];
+    args.extend_from_slice(extra);
+    run_candela_env(&args, env)
 }
 
 #[test]

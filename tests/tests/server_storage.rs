@@ -20,17 +20,6 @@ use serde_json::{json, Value};
 
 const T: Duration = Duration::from_secs(120);
 
-fn metric(s: &Server, name: &str) -> f64 {
-    let text = reqwest::blocking::get(s.at("/metrics"))
-        .unwrap()
-        .text()
-        .unwrap();
-    text.lines()
-        .find_map(|l| l.strip_prefix(&format!("{name} ")))
-        .and_then(|v| v.trim().parse().ok())
-        .unwrap_or_else(|| panic!("no {name} in\n{text}"))
-}
-
 #[test]
 fn low_space_refuses_new_jobs_with_507() {
     let dir = scratch("server_storage_low");
@@ -43,7 +32,7 @@ fn low_space_refuses_new_jobs_with_507() {
     assert_eq!(st, 507, "{body}");
     assert_eq!(body["error"]["code"], "insufficient_storage", "{body}");
     let m = body["error"]["message"].as_str().unwrap();
-    let free = metric(&s, "candela_storage_free_bytes");
+    let free = s.metric("candela_storage_free_bytes");
     assert!(free > 0.0);
     assert!(m.contains(&data.display().to_string()), "{m}");
     assert!(
@@ -51,8 +40,8 @@ fn low_space_refuses_new_jobs_with_507() {
         "{m}"
     );
     assert!(m.contains(" bytes) free"), "{m}");
-    assert_eq!(metric(&s, "candela_storage_low"), 1.0);
-    assert_eq!(metric(&s, "candela_storage_min_free_bytes"), 1e18);
+    assert_eq!(s.metric("candela_storage_low"), 1.0);
+    assert_eq!(s.metric("candela_storage_min_free_bytes"), 1e18);
     let (_, health) = s.get("/api/health");
     assert_eq!(health["storage"]["low"], true, "{health}");
     // Reading still works; nothing was stored.
@@ -61,7 +50,7 @@ fn low_space_refuses_new_jobs_with_507() {
 
     // The default minimum on this disk: accepted, not low.
     let s2 = Server::start(&dir.join("data2"), &["--min-free-space", "0"]);
-    assert_eq!(metric(&s2, "candela_storage_low"), 0.0);
+    assert_eq!(s2.metric("candela_storage_low"), 0.0);
     let (st, body) = s2.post(
         "/api/jobs",
         &json!({"scene_name": "furnace", "spp": 1, "width": 8, "height": 8}),
@@ -118,7 +107,7 @@ fn hold_and_resume(s: &Server, fill: impl FnOnce(), free: impl FnOnce(), width: 
         held["progress"]["spp"], later["progress"]["spp"],
         "no progress while held"
     );
-    assert_eq!(metric(s, "candela_jobs_held_for_storage"), 1.0);
+    assert_eq!(s.metric("candela_jobs_held_for_storage"), 1.0);
     free();
     let done = until(s, id, "finished", |j| j["state"] == "done");
     assert!(

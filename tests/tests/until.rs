@@ -4,8 +4,8 @@
 use std::time::Duration;
 
 use candela_tests::server::Server;
-use candela_tests::{run_candela, scratch, text};
-use serde_json::{json, Value};
+use candela_tests::{run_candela, run_json, scratch};
+use serde_json::json;
 
 /// An easy target for the Cornell box at 16×16 with nee (its estimate is about 0.1 at 8 spp
 /// and falls as 1/spp): reached after tens of samples, far below the cap.
@@ -16,7 +16,7 @@ const CAP: u32 = 100_000;
 fn cli_render_stops_at_the_target_before_the_cap() {
     let dir = scratch("until_cli");
     let out = dir.join("until.exr");
-    let o = run_candela(&[
+    let report = run_json(&[
         "render",
         "scenes/cornell.json",
         "-o",
@@ -32,8 +32,6 @@ fn cli_render_stops_at_the_target_before_the_cap() {
         "--json",
         "--no-accel-cache",
     ]);
-    assert!(o.status.success(), "{}", text(&o.stderr));
-    let report: Value = serde_json::from_slice(&o.stdout).expect("one JSON object");
     println!(
         "stopped by {} at {} spp, estimate {}",
         report["stopped_by"], report["spp"], report["rel_mse_estimate"]
@@ -45,7 +43,7 @@ fn cli_render_stops_at_the_target_before_the_cap() {
     assert!(estimate > 0.0 && estimate <= TARGET, "{report}");
 
     // Without a target: the cap ends it, and the estimate is still reported.
-    let o = run_candela(&[
+    let report = run_json(&[
         "render",
         "scenes/cornell.json",
         "-o",
@@ -59,8 +57,6 @@ fn cli_render_stops_at_the_target_before_the_cap() {
         "--json",
         "--no-accel-cache",
     ]);
-    assert!(o.status.success(), "{}", text(&o.stderr));
-    let report: Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(report["stopped_by"], "spp", "{report}");
     assert!(
         report["rel_mse_estimate"].as_f64().is_some_and(|e| e > 0.0),

@@ -560,6 +560,20 @@ impl GpuContext {
             .try_for_each(|r| r.map(|_| ()))
     }
 
+    /// The pipeline objects this device keeps (at most [`super::CacheLimits::pipelines`]) and
+    /// how many it has evicted.
+    pub fn pipeline_usage(&self) -> (usize, u64) {
+        self.pipeline_objects.usage()
+    }
+
+    /// Bytes of the driver's pipeline cache data when it was last saved or loaded (None
+    /// without a kernel cache folder).
+    pub fn pipeline_cache_bytes(&self) -> Option<u64> {
+        self.kernel_dir
+            .as_ref()
+            .map(|_| self.pipelines.saved_bytes())
+    }
+
     /// Which driver build this device is (the pipeline cache's key).
     pub fn driver_key(&self) -> DriverKey {
         self.pipelines.driver
@@ -606,7 +620,7 @@ impl Drop for GpuContext {
         unsafe {
             let _ = self.device.device_wait_idle();
             self.pipelines.save(&self.device);
-            self.pipeline_objects.destroy_all(&self.device);
+            self.pipeline_objects.destroy_all();
             self.device.destroy_pipeline_cache(self.pipelines.raw, None);
             if let Ok(mut a) = self.allocator.lock() {
                 a.take();

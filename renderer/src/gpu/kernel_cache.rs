@@ -17,9 +17,11 @@
 //!
 //! In memory each (path, defines) has one slot that the first caller fills: concurrent callers
 //! of one kernel wait for that compile instead of repeating it, and [`compile_kernels`]
-//! compiles a list on several threads (see shader.rs for why glslang may run in parallel).
+//! compiles a list on several threads (see shader.rs for why glslang may run in parallel). The
+//! memory tier is bounded ([`super::CacheLimits`]: modules and bytes, least recently used out
+//! first); the disk tier keeps every module.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
@@ -27,6 +29,7 @@ use std::time::Instant;
 
 use ash::vk;
 
+use super::lru::{cache_limits, Lru};
 use super::shader::{glslang_compile, resolve_include, shader_source, ShaderDefines, COMPILER_ID};
 use super::{GpuError, GpuResult};
 use crate::cache_file::{read_checked, write_checked, FileKind, Hasher128};
@@ -170,10 +173,31 @@ pub fn spirv_path(dir: &Path, key: [u64; 2]) -> PathBuf {
 
 type Compiled = Result<Arc<Vec<u32>>, String>;
 type Slot = Arc<OnceLock<Compiled>>;
+type Memory = Lru<(String, ShaderDefines), Slot>;
 
-fn memory() -> &'static Mutex<HashMap<(String, ShaderDefines), Slot>> {
-    static MEMORY: OnceLock<Mutex<HashMap<(String, ShaderDefines), Slot>>> = OnceLock::new();
-    MEMORY.get_or_init(|| Mutex::new(HashMap::new()))
+fn memory() -> &'static Mutex<Memory> {
+    static MEMORY: OnceLock<Mutex<Memory>> = OnceLock::new();
+    MEMORY.get_or_init(|| Mutex::new(Lru::new()))
+}
+
+/// Bytes of SPIR-V a slot holds (0 while it is being compiled, or for a failed compile).
+fn slot_bytes(slot: &Slot) -> u64 {
+    match slot.get() {
+        Some(Ok(words)) => 4 * words.len() as u64,
+        _ => 0,
+    }
+}
+
+/// What the in-memory SPIR-V tier holds: (modules, bytes, evictions so far).
+pub fn spirv_memory() -> (usize, u64, u64) {
+    let m = memory().lock().unwrap_or_else(|e| e.into_inner());
+    (m.len(), m.values().map(slot_bytes).sum(), m.evictions)
+}
+
+/// Empties the in-memory SPIR-V tier (tests).
+pub fn clear_spirv_memory() {
+    let gone = memory().lock().unwrap_or_else(|e| e.into_inner()).drain();
+    drop(gone);
 }
 
 /// Compiles the compute shader `path` (relative to shaders/) with `defines`, cached in memory
@@ -189,14 +213,24 @@ pub fn kernel_spirv(
     defines: &ShaderDefines,
     dir: Option<&Path>,
 ) -> GpuResult<Arc<Vec<u32>>> {
-    let slot = {
-        let mut m = memory().lock().unwrap_or_else(|e| e.into_inner());
-        m.entry((path.to_string(), defines.clone()))
-            .or_default()
-            .clone()
-    };
+    let slot = memory()
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .get_or_insert_with((path.to_string(), defines.clone()), Slot::default);
     if slot.get().is_some() {
         count(|s| s.memory_hits += 1);
+    } else {
+        slot.get_or_init(|| load_or_compile(path, defines, dir));
+        // A new module: keep the tier within its bounds (the least recently used go; the disk
+        // tier still has them). Slots still being compiled stay.
+        let limits = cache_limits();
+        let gone = memory().lock().unwrap_or_else(|e| e.into_inner()).trim(
+            limits.kernels,
+            limits.kernel_bytes,
+            slot_bytes,
+            |s| s.get().is_some(),
+        );
+        drop(gone);
     }
     slot.get_or_init(|| load_or_compile(path, defines, dir))
         .clone()
@@ -416,6 +450,11 @@ impl PipelineCache {
             saved_bytes: AtomicU64::new(initial.len() as u64),
             saving: AtomicBool::new(false),
         })
+    }
+
+    /// The data size last saved or loaded.
+    pub(crate) fn saved_bytes(&self) -> u64 {
+        self.saved_bytes.load(Ordering::Relaxed)
     }
 
     pub(crate) fn note_created(&self) {

@@ -3,7 +3,8 @@
 //! `context` (instance, device, queue, validation), `buffer`, `shader` (GLSL → SPIR-V with
 //! glslang, in-process), `kernel_cache` (compiled kernels in memory and on disk, the driver's
 //! pipeline cache, parallel compiles), `pipeline` (compute pipelines and their descriptor
-//! sets), `commands` (recording, submission, timestamps).
+//! sets), `lru` (the bounds of the in-memory caches), `commands` (recording, submission,
+//! timestamps).
 //!
 //! Everything is Vulkan 1.2 compute, so the same code runs on Mesa lavapipe (tests, CI) and on
 //! NVIDIA GPUs.
@@ -13,6 +14,7 @@ mod commands;
 mod context;
 mod kernel_cache;
 mod limits;
+mod lru;
 mod pipeline;
 mod shader;
 
@@ -20,11 +22,12 @@ pub use buffer::{Buffer, BufferUsage};
 pub use commands::{DispatchTiming, Frame, Recorder};
 pub use context::{list_devices, DeviceInfo, GpuContext, GpuOptions};
 pub use kernel_cache::{
-    compile_glsl, compile_kernels, compile_uncached, kernel_spirv, kernel_stats, source_closure,
-    spirv_key, spirv_path, DriverKey, KernelStats,
+    clear_spirv_memory, compile_glsl, compile_kernels, compile_uncached, kernel_spirv,
+    kernel_stats, source_closure, spirv_key, spirv_memory, spirv_path, DriverKey, KernelStats,
 };
 pub use limits::{DeviceLimits, BUFFER_LIMIT_ENV, MEMORY_LIMIT_ENV};
-pub use pipeline::{Binding, ComputePipeline};
+pub use lru::{cache_limits, set_cache_limits, CacheLimits};
+pub use pipeline::{live_pipelines, Binding, ComputePipeline};
 pub use shader::{shader_source, ShaderDefines, COMPILER_ID};
 
 /// Errors of the GPU layer. Messages name the stage that failed.

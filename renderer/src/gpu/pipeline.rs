@@ -4,15 +4,18 @@
 //!
 //! The pipeline itself (and its layouts) depends only on the SPIR-V, the binding indices and
 //! the push-constant size, so it is made once per device and shared ([`PipelineObjects`]): a
-//! second session of the same kernel only allocates its descriptor set. Pipelines are created
+//! second session of the same kernel only allocates its descriptor set. The device keeps at most
+//! [`super::CacheLimits::pipelines`] of them (least recently used out first); an object
+//! evicted while sessions use it lives until the last of them is dropped. Pipelines are created
 //! through the device's pipeline cache (kernel_cache.rs), so even the first one after a restart
 //! is quick where the driver cached it.
 
-use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 
 use ash::vk;
 
+use super::lru::{cache_limits, Lru};
 use super::{Buffer, GpuContext, GpuError, GpuResult};
 use crate::cache_file::Hasher128;
 
@@ -22,42 +25,86 @@ pub struct Binding<'a> {
     pub buffer: &'a Buffer,
 }
 
-/// The shareable part of a compute pipeline (destroyed with the device).
-#[derive(Clone, Copy)]
+/// The shareable part of a compute pipeline, destroyed when the last session using it and the
+/// device's cache have let go of it.
 pub(crate) struct PipelineObject {
+    device: ash::Device,
     pipeline: vk::Pipeline,
     layout: vk::PipelineLayout,
     set_layout: vk::DescriptorSetLayout,
 }
 
+/// Pipeline objects alive in this process (in a cache, a session, or both).
+static LIVE: AtomicU64 = AtomicU64::new(0);
+
+/// Pipeline objects alive in this process, on every device.
+pub fn live_pipelines() -> u64 {
+    LIVE.load(Ordering::Relaxed)
+}
+
+impl Drop for PipelineObject {
+    fn drop(&mut self) {
+        // SAFETY: the last holder is gone: no session records or submits with the pipeline any
+        // more (a session waits for its submissions before its pipelines are dropped), and the
+        // device outlives its objects (GpuContext's Drop empties the cache first).
+        unsafe {
+            self.device.destroy_pipeline(self.pipeline, None);
+            self.device.destroy_pipeline_layout(self.layout, None);
+            self.device
+                .destroy_descriptor_set_layout(self.set_layout, None);
+        }
+        LIVE.fetch_sub(1, Ordering::Relaxed);
+    }
+}
+
 /// What a pipeline object depends on: a hash of the SPIR-V, the binding indices, the push size.
 type PipelineKey = ([u64; 2], Vec<u32>, u32);
-type PipelineSlot = Arc<OnceLock<Result<PipelineObject, GpuError>>>;
+type PipelineSlot = Arc<OnceLock<Result<Arc<PipelineObject>, GpuError>>>;
 
-/// Every pipeline object of a device, one slot per key (filled by the first caller, which the
-/// others wait for).
-#[derive(Default)]
-pub(crate) struct PipelineObjects(Mutex<HashMap<PipelineKey, PipelineSlot>>);
+/// The pipeline objects of a device, one slot per key (filled by the first caller, which the
+/// others wait for), at most [`super::CacheLimits::pipelines`] of them, the least recently
+/// used dropped first (destroyed once no session holds them).
+pub(crate) struct PipelineObjects(Mutex<Lru<PipelineKey, PipelineSlot>>);
+
+impl Default for PipelineObjects {
+    fn default() -> Self {
+        PipelineObjects(Mutex::new(Lru::new()))
+    }
+}
 
 impl PipelineObjects {
-    /// Destroys every object (the device is idle and about to go).
-    pub(crate) fn destroy_all(&self, dev: &ash::Device) {
-        let map = std::mem::take(&mut *self.0.lock().unwrap_or_else(|e| e.into_inner()));
-        for slot in map.values() {
-            if let Some(Ok(o)) = slot.get() {
-                // SAFETY: nothing uses the objects any more (the device is idle).
-                unsafe {
-                    dev.destroy_pipeline(o.pipeline, None);
-                    dev.destroy_pipeline_layout(o.layout, None);
-                    dev.destroy_descriptor_set_layout(o.set_layout, None);
-                }
-            }
-        }
+    fn lock(&self) -> std::sync::MutexGuard<'_, Lru<PipelineKey, PipelineSlot>> {
+        self.0.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Lets go of every object (the device is idle and about to go; sessions are gone).
+    pub(crate) fn destroy_all(&self) {
+        let gone = self.lock().drain();
+        drop(gone);
+    }
+
+    /// (objects kept, evictions so far).
+    pub(crate) fn usage(&self) -> (usize, u64) {
+        let m = self.lock();
+        (m.len(), m.evictions)
+    }
+
+    /// Drops the least recently used beyond the limit (slots being filled stay).
+    fn trim(&self) {
+        let max = cache_limits().pipelines;
+        let gone = self
+            .lock()
+            .trim(max, u64::MAX, |_| 0, |s| s.get().is_some());
+        drop(gone); // outside the lock: destroying calls the driver
     }
 }
 
 /// A compute pipeline and the one descriptor set it is used with.
 pub struct ComputePipeline {
+    /// Keeps `pipeline` and `layout` alive while this session may use them. Declared before
+    /// `ctx` so that it is dropped first: where this holds the context's last reference, the
+    /// object is destroyed before the device.
+    _object: Arc<PipelineObject>,
     ctx: Arc<GpuContext>,
     pub(crate) pipeline: vk::Pipeline,
     pub(crate) layout: vk::PipelineLayout,
@@ -73,9 +120,10 @@ fn create_object(
     spirv: &[u32],
     indices: &[u32],
     push_size: u32,
-) -> GpuResult<PipelineObject> {
+) -> GpuResult<Arc<PipelineObject>> {
     let dev = &ctx.device;
     let mut o = PipelineObject {
+        device: dev.clone(),
         pipeline: vk::Pipeline::null(),
         layout: vk::PipelineLayout::null(),
         set_layout: vk::DescriptorSetLayout::null(),
@@ -142,15 +190,10 @@ fn create_object(
             Ok(())
         })()
     };
-    if let Err(e) = made {
-        // SAFETY: the partially made objects are not in use.
-        unsafe {
-            dev.destroy_pipeline_layout(o.layout, None);
-            dev.destroy_descriptor_set_layout(o.set_layout, None);
-        }
-        return Err(e);
-    }
-    Ok(o)
+    // Counted from here: dropping `o` (on failure too) destroys what was made (null handles
+    // are ignored).
+    LIVE.fetch_add(1, Ordering::Relaxed);
+    made.map(|()| Arc::new(o))
 }
 
 impl ComputePipeline {
@@ -171,21 +214,22 @@ impl ComputePipeline {
         let key = (h.finish(), indices.clone(), push_size);
         let slot = ctx
             .pipeline_objects
-            .0
             .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .entry(key)
-            .or_default()
-            .clone();
+            .get_or_insert_with(key, PipelineSlot::default);
+        let fresh = slot.get().is_none();
         let object = match slot.get_or_init(|| create_object(ctx, name, spirv, &indices, push_size))
         {
-            Ok(o) => *o,
+            Ok(o) => o.clone(),
             Err(e) => return Err(GpuError::Other(format!("{name}: {e}"))),
         };
+        if fresh {
+            ctx.pipeline_objects.trim();
+        }
         let mut p = ComputePipeline {
             ctx: ctx.clone(),
             pipeline: object.pipeline,
             layout: object.layout,
+            _object: object.clone(),
             pool: vk::DescriptorPool::null(),
             set: vk::DescriptorSet::null(),
             name: name.to_string(),
@@ -289,7 +333,7 @@ impl ComputePipeline {
 impl Drop for ComputePipeline {
     fn drop(&mut self) {
         // SAFETY: submissions using the set are waited on before pipelines are dropped; the
-        // shared pipeline object lives on with the device.
+        // shared pipeline object goes with its last holder (`object`, dropped after this).
         unsafe { self.ctx.device.destroy_descriptor_pool(self.pool, None) };
     }
 }

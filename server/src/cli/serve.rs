@@ -13,6 +13,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use clap::Args;
+use renderer::gpu::CacheLimits;
 use tokio::sync::watch;
 
 use super::CliError;
@@ -108,6 +109,20 @@ pub struct ServeArgs {
     /// Seconds between free-space checks (which also resume jobs paused for a full disk).
     #[arg(long, default_value_t = 5.0)]
     pub storage_check_interval: f64,
+    /// Kernel variants (compiled SPIR-V) kept in memory; the least recently used go first
+    /// (the kernel cache on disk keeps every one).
+    #[arg(long, value_name = "N", default_value_t = CacheLimits::DEFAULT.kernels)]
+    pub cache_kernels: usize,
+    /// Most bytes of SPIR-V kept in memory (64MiB, 16MB).
+    #[arg(long, value_name = "SIZE", default_value = "64MiB")]
+    pub cache_kernel_bytes: String,
+    /// Pipelines (the driver's compiled kernels; on lavapipe a few MB of machine code each)
+    /// kept per device; the least recently used are destroyed once no job uses them.
+    #[arg(long, value_name = "N", default_value_t = CacheLimits::DEFAULT.pipelines)]
+    pub cache_pipelines: usize,
+    /// vct voxel volumes kept on the device for the next render of the same geometry.
+    #[arg(long, value_name = "N", default_value_t = CacheLimits::DEFAULT.volumes)]
+    pub cache_volumes: usize,
     /// How often retention runs (10m, 1h).
     #[arg(long, value_name = "INTERVAL", default_value = "10m")]
     pub gc_interval: String,
@@ -196,6 +211,13 @@ fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), CliError> {
     c.min_free_space = crate::units::parse_size(&a.min_free_space)
         .map_err(|e| CliError::input(format!("--min-free-space: {e}")))?;
     c.storage_check_interval = seconds("--storage-check-interval", a.storage_check_interval)?;
+    c.caches = CacheLimits {
+        kernels: a.cache_kernels,
+        kernel_bytes: crate::units::parse_size(&a.cache_kernel_bytes)
+            .map_err(|e| CliError::input(format!("--cache-kernel-bytes: {e}")))?,
+        pipelines: a.cache_pipelines,
+        volumes: a.cache_volumes,
+    };
     c.gc_interval = crate::units::parse_duration(&a.gc_interval)
         .ok()
         .filter(|d| !d.is_zero())
@@ -331,6 +353,7 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
     if let Err(e) = crate::storage::make_reserve(dir) {
         tracing::warn!(error = %e, "could not make the space reserve");
     }
+    renderer::gpu::set_cache_limits(config.caches);
     let shared = Shared::default();
     shared.set_storage(crate::storage::status(dir, config.min_free_space));
     let (store, shared, config) = (Arc::new(store), Arc::new(shared), Arc::new(config));

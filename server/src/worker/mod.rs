@@ -97,6 +97,7 @@ pub fn spawn(
                 last_storage_check: None,
                 loss_trigger: device_loss::trigger_from_env(),
                 losses: BTreeMap::new(),
+                pipelines_seen: 0,
             };
             // A panic outside a pass (which is caught where it happens) restarts the loop with
             // a fresh device rather than ending the thread.
@@ -136,6 +137,8 @@ struct Worker {
     loss_trigger: Option<PathBuf>,
     /// Device losses in a row during each job's work (device_loss.rs).
     losses: BTreeMap<JobId, u32>,
+    /// Pipeline objects alive at the last [`Worker::publish_caches`].
+    pipelines_seen: u64,
 }
 
 /// Whether an error means the device itself is in doubt (rebuild it).
@@ -214,6 +217,7 @@ impl Worker {
                 let ctx = Arc::new(ctx);
                 warmup::start(&ctx, &self.config, &self.shared);
                 self.ctx = Some(ctx);
+                self.publish_caches();
                 self.dirty = true;
                 self.open_failures = 0;
                 true
@@ -251,6 +255,19 @@ impl Worker {
         self.last_open = None;
         self.dirty = true;
         self.set_unavailable(format!("restarting after: {why}"));
+        self.publish_caches();
+    }
+
+    /// Publishes the renderer's cache sizes for /metrics (after they may have changed); when
+    /// pipelines were destroyed since the last look (evicted, and no job holds them), hands
+    /// the heap pages they freed back to the system.
+    fn publish_caches(&mut self) {
+        let stats = renderer::caches::stats(self.ctx.as_deref());
+        if stats.pipelines_live < self.pipelines_seen {
+            crate::process_memory::release_free_heap();
+        }
+        self.pipelines_seen = stats.pipelines_live;
+        self.shared.set_caches(stats);
     }
 
     /// Brings the active set in line with the store: retires sessions of jobs that are no
@@ -383,6 +400,7 @@ impl Worker {
         }
         self.active.insert(id, job);
         self.sched.add(id, priority);
+        self.publish_caches();
     }
 
     /// Drops the session of a job that left the runnable states, saving what it rendered.
@@ -425,6 +443,8 @@ impl Worker {
         }
         job.flush_metrics();
         self.shared.forget(id);
+        drop(job);
+        self.publish_caches();
     }
 
     /// Queues the next pass of job `id` behind the passes in flight (after completing the

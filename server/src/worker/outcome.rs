@@ -105,7 +105,9 @@ impl Worker {
             }
             Err(e) => warn!(job = id, error = %e, "finishing job"),
         }
+        drop(job);
         self.shared.forget(id);
+        self.publish_caches();
     }
 
     /// Fails job `id` with `message` (no effect on the device).

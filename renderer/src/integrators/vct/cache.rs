@@ -3,7 +3,8 @@
 //! data, materials, textures, resolution, storage); an entry remembers which lights it was
 //! lit for, so a render with other lights re-injects (and refilters) without rebuilding, and a
 //! render with another camera (position, orientation, lens) or film reuses it as is, placed
-//! relative to the new camera (the volume's corner is kept in world space). At most [`CAPACITY`] volumes are kept;
+//! relative to the new camera (the volume's corner is kept in world space). At most
+//! [`crate::gpu::CacheLimits::volumes`] volumes are kept (least recently used out first);
 //! a volume in use by a live session with other lights is never changed underneath it (a fresh,
 //! uncached one is built instead).
 
@@ -16,13 +17,12 @@ use super::volume::Volume;
 use crate::compile::CompiledScene;
 use crate::gpu::GpuContext;
 
-/// Volumes kept.
-pub const CAPACITY: usize = 2;
-
 struct Entry {
     ctx: usize,
     key: u64,
     volume: Arc<Mutex<Volume>>,
+    /// GPU bytes of the volume's buffers.
+    bytes: u64,
 }
 
 fn cache() -> &'static Mutex<Vec<Entry>> {
@@ -93,8 +93,14 @@ pub fn lookup(ctx: &Arc<GpuContext>, key: u64) -> Lookup {
     }
 }
 
-/// Stores a freshly built volume, evicting the least recently used beyond [`CAPACITY`].
+/// Stores a freshly built volume, evicting the least recently used beyond the limit
+/// ([`crate::gpu::CacheLimits::volumes`]).
 pub fn store(ctx: &Arc<GpuContext>, key: u64, volume: Arc<Mutex<Volume>>) {
+    // (Fresh from its build, so nobody holds its lock; never wait for one here.)
+    let bytes = match volume.try_lock() {
+        Ok(v) => v.memory().iter().map(|(_, b)| b).sum(),
+        Err(_) => 0,
+    };
     let Ok(mut c) = cache().lock() else { return };
     let id = Arc::as_ptr(ctx) as usize;
     c.retain(|e| e.ctx == id && e.key != key);
@@ -102,9 +108,19 @@ pub fn store(ctx: &Arc<GpuContext>, key: u64, volume: Arc<Mutex<Volume>>) {
         ctx: id,
         key,
         volume,
+        bytes,
     });
-    while c.len() > CAPACITY {
+    let capacity = crate::gpu::cache_limits().volumes;
+    while c.len() > capacity {
         c.remove(0);
+    }
+}
+
+/// (volumes kept, their GPU bytes).
+pub fn usage() -> (usize, u64) {
+    match cache().lock() {
+        Ok(c) => (c.len(), c.iter().map(|e| e.bytes).sum()),
+        Err(_) => (0, 0),
     }
 }
 
