@@ -13,7 +13,7 @@
 #     same scene with all that power in one triangle ("single"); nee with the power and the BVH
 #     light sampler, max_depth 2, 1280x720: the time to an estimated relMSE of 0.01
 #     (--until-rel-mse 0.01, capped at 60 s) with the true relMSE it reached, and a time ladder
-#     (0.1, 0.3, 1, 3 s) against a 60 s BVH-sampler reference, from which the time to a true
+#     (0.1, 0.3, 1, 3 s) against a 60 s (ML_REF_TIME) BVH-sampler reference, from which the time to a true
 #     relMSE of 0.01 is interpolated (relMSE ∝ 1/time between the two rungs around it).
 # PARTS (default "lights estimate auto big") picks the parts. Writes OUT/*.jsonl; prints tables.
 # DRY=1: a quick run on any Vulkan device (lavapipe) before the GPU: no driver setup, the
@@ -30,7 +30,7 @@ else
   export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
   bin=${CANDELA:-.carry/main/candela}
   R="--width 1280 --height 720 --no-accel-cache"
-  ML_REF="--time 60"; ML_CAP=60; ML_LADDER="0.1 0.3 1 3"; ML_WARM=1
+  ML_REF="--time ${ML_REF_TIME:-60}"; ML_CAP=60; ML_LADDER="0.1 0.3 1 3"; ML_WARM=1
 fi
 out=${OUT:-/tmp}
 parts=${PARTS:-lights estimate auto big}
