@@ -172,8 +172,10 @@ fn cwbvh_in_its_own_order_converges_to_the_bvh_image() {
     let (a, _) = render_compiled(&scene, &bvh, "nee", 16, 1);
     let (b, _) = render_compiled(&scene, &bvh, "nee", 16, 2);
     let c = compiled(&scene, 16, cwbvh(false), None);
-    let identity = c.cwbvh.as_ref().unwrap().prims.iter().enumerate();
-    assert!(identity.into_iter().all(|(s, &p)| s == p as usize));
+    assert!(
+        c.cwbvh.as_ref().unwrap().prims.is_empty(),
+        "leaf order: no index buffer"
+    );
     let (g, _) = render_compiled(&scene, &c, "nee", 16, 1);
     let seeds = rel_mse(&b, &a).unwrap();
     let accel = rel_mse(&g, &a).unwrap();
@@ -209,12 +211,18 @@ fn cwbvh_cache_and_memory_figures() {
     println!("{names:?}");
     assert_eq!(names.iter().filter(|n| n.starts_with("cwbvh-")).count(), 2);
     assert_eq!(names.iter().filter(|n| n.starts_with("bvh-")).count(), 1);
-    // Memory: the CWBVH's nodes (80 bytes) and leaf indices (4 bytes a primitive) are the
-    // structure; no binary nodes beyond the 16-byte placeholder.
+    // Memory: the CWBVH's nodes (80 bytes) are the structure (in leaf order no index buffer;
+    // with the testing aid 4 bytes a primitive more); no binary nodes beyond the 16-byte
+    // placeholder.
     let cw = second.cwbvh.as_ref().unwrap();
-    let want = (cw.nodes.len() * std::mem::size_of::<GpuCwbvhNode>() + cw.prims.len() * 4) as u64;
+    let want = (cw.nodes.len() * std::mem::size_of::<GpuCwbvhNode>()) as u64;
     assert_eq!(second.accel.bytes, want);
-    assert_eq!(cw.prims.len(), second.prims.len());
+    assert!(cw.prims.is_empty());
+    let indirect = ordered.cwbvh.as_ref().unwrap();
+    assert_eq!(indirect.prims.len(), second.prims.len());
+    assert_eq!(ordered.accel.bytes, want + 4 * second.prims.len() as u64);
+    let ob = renderer::memory::scene_bytes(&ordered);
+    assert_eq!(ob.accel, want + 4 * second.prims.len() as u64 + 32);
     let b = renderer::memory::scene_bytes(&second);
     let bb = renderer::memory::scene_bytes(&bvh);
     assert_eq!(b.geometry, bb.geometry);

@@ -21,10 +21,11 @@
 //!    binary one it came from: when the first conversion is too deep, the binary tree is bounded
 //!    to [`STACK_DEPTH`] levels and converted again, which cannot fail.
 //!
-//! The leaves index the scene's primitives through `prims` (binding CWBVH_PRIMS): by default
-//! the primitives are stored in the CWBVH's own leaf order, so the indices are the identity and
-//! their reads coherent; the testing aid `cwbvh_bvh_order` stores them in the binary BVH's order
-//! instead, so images of both structures number primitives (and lights) alike.
+//! The leaves' slots are the primitives' indices: by default the primitives are stored in the
+//! CWBVH's own leaf order, and nothing more is uploaded. The testing aid `cwbvh_bvh_order`
+//! stores them in the binary BVH's order instead, so images of both structures number
+//! primitives (and lights) alike; the leaves then reach them through an index per slot
+//! (`prims`, binding CWBVH_PRIMS, kernels built with `CWBVH_INDIRECT`).
 
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::node::Bvh2Node;
@@ -55,7 +56,9 @@ pub struct Built {
 }
 
 /// The CWBVH as uploaded: nodes (binding CWBVH_NODES) and, per leaf slot, the index of its
-/// primitive in the scene's (reordered) primitives (binding CWBVH_PRIMS).
+/// primitive in the scene's (reordered) primitives (binding CWBVH_PRIMS; kernels built with
+/// `CWBVH_INDIRECT`). Empty `prims`: the identity (primitives stored in leaf order, the default),
+/// so no index buffer is uploaded or read.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Cwbvh {
     pub nodes: Vec<GpuCwbvhNode>,
