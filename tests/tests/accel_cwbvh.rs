@@ -442,3 +442,61 @@ fn cli_accel_cwbvh() {
     assert_eq!(second["accel_cache"], "hit");
     assert_eq!(first["accel_bytes"], second["accel_bytes"]);
 }
+
+/// A cache file whose CWBVH is not a tree within the stack (a cycle, a leaf out of range, too
+/// deep) is refused on load and rebuilt: the depth bound the traversal relies on is checked, not
+/// trusted.
+#[test]
+fn cwbvh_cache_entries_are_checked() {
+    use renderer::accel::cache;
+    let dir = scratch("cwbvh-cache-checked");
+    let scene = load("textured_mesh.json");
+    let built = compiled(&scene, 8, cwbvh(false), Some(&dir));
+    assert_eq!(built.accel.cache, CacheStatus::Miss);
+    let name = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .find(|n| n.starts_with("cwbvh-"))
+        .unwrap();
+    let hex = &name["cwbvh-".len()..name.len() - ".bin".len()];
+    let key = [
+        u64::from_str_radix(&hex[..16], 16).unwrap(),
+        u64::from_str_radix(&hex[16..], 16).unwrap(),
+    ];
+    let good = cache::load(&dir, AccelKind::Cwbvh, key).expect("the entry");
+    let (nodes, _) = good.cwbvh.clone().unwrap();
+    assert!(nodes.len() > 2 && nodes[0].e_imask[3] != 0);
+    // A chain deeper than the stack: node k's first inner child is node k + 1.
+    let mut chain = vec![nodes[0]; CWBVH_STACK_DEPTH as usize + 2];
+    for (k, n) in chain.iter_mut().enumerate() {
+        n.e_imask[3] = 1;
+        n.meta = [0b0011_1000, 0, 0, 0, 0, 0, 0, 0];
+        n.child_base = (k + 1) as u32;
+    }
+    chain.last_mut().unwrap().e_imask[3] = 0;
+    chain.last_mut().unwrap().meta = [0; 8];
+    let corruptions: Vec<(&str, Vec<GpuCwbvhNode>)> = vec![
+        ("a cycle", {
+            let mut v = nodes.clone();
+            v[0].child_base = 0;
+            v
+        }),
+        ("a leaf out of range", {
+            let mut v = nodes.clone();
+            let leaf = v.iter().position(|n| n.e_imask[3] != 0xff).unwrap();
+            v[leaf].prim_base = 1 << 30;
+            v
+        }),
+        ("deeper than the stack", chain),
+    ];
+    for (what, bad) in corruptions {
+        let mut e = good.clone();
+        e.cwbvh = Some((bad, Vec::new()));
+        cache::store(&dir, AccelKind::Cwbvh, key, &e).unwrap();
+        let again = compiled(&scene, 8, cwbvh(false), Some(&dir));
+        assert_eq!(again.accel.cache, CacheStatus::Miss, "{what}: accepted");
+        assert_eq!(again.cwbvh, built.cwbvh, "{what}: rebuilt");
+    }
+    let hit = compiled(&scene, 8, cwbvh(false), Some(&dir));
+    assert_eq!(hit.accel.cache, CacheStatus::Hit);
+}
