@@ -62,7 +62,9 @@ pub fn scene_buffers(s: &CompiledScene) -> Vec<(&'static str, u64)> {
     }
     if let Some(c) = &s.cwbvh {
         v.push(("cwbvh nodes", size(&c.nodes)));
-        v.push(("cwbvh prims", size(&c.prims)));
+        if !c.prims.is_empty() {
+            v.push(("cwbvh prims", size(&c.prims)));
+        }
     }
     // As allocated: Vulkan has no empty buffers (gpu::Buffer rounds up to 16 bytes).
     v.into_iter()

@@ -91,10 +91,12 @@ pub fn upload_scene(ctx: &Arc<GpuContext>, scene: &CompiledScene) -> GpuResult<V
             binding::CWBVH_NODES,
             up("cwbvh nodes", bytemuck::cast_slice(&c.nodes))?,
         ));
-        buffers.push((
-            binding::CWBVH_PRIMS,
-            up("cwbvh prims", bytemuck::cast_slice(&c.prims))?,
-        ));
+        if !c.prims.is_empty() {
+            buffers.push((
+                binding::CWBVH_PRIMS,
+                up("cwbvh prims", bytemuck::cast_slice(&c.prims))?,
+            ));
+        }
     }
     Ok(buffers)
 }

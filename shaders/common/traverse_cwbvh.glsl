@@ -6,7 +6,8 @@
 // children that the ray hit, each at bit 24 + (slot XOR the ray's octant), so the highest set
 // bit is the child nearest along the ray (the builder orders slots by octant); the low byte
 // holds the node's imask, to count inner children stored before a slot. A primitive group is a
-// base index into cwbvh_prims and a 24-bit mask of leaf slots hit. The walk takes the highest
+// base leaf slot (the primitive's index; with CWBVH_INDIRECT an index into cwbvh_prims) and a
+// 24-bit mask of leaf slots hit. The walk takes the highest
 // node of the current group, pushes the rest of the group, and intersects the node's eight
 // quantised child boxes at once; leaves' primitives are tested right away (no postponing).
 //
@@ -21,7 +22,10 @@
 #define COMMON_TRAVERSE_CWBVH_GLSL
 
 layout(set = 0, binding = B_CWBVH_NODES, scalar) readonly buffer CwbvhNodes { GpuCwbvhNode cw_nodes[]; };
+#ifdef CWBVH_INDIRECT
+// Leaf slot -> primitive, when the primitives are not stored in leaf order (a testing aid).
 layout(set = 0, binding = B_CWBVH_PRIMS, scalar) readonly buffer CwbvhPrims { uint cwbvh_prims[]; };
+#endif
 
 // Byte c (0..7) of eight packed in a uvec2.
 uint cw_byte(uvec2 v, uint c) {
@@ -82,7 +86,11 @@ bool traverse_cwbvh(Ray r, bool any_hit, out Hit hit) {
         while (prim_group.y != 0u) {
             uint b = uint(findMSB(prim_group.y));
             prim_group.y &= ~(1u << b);
+#ifdef CWBVH_INDIRECT
             uint i = cwbvh_prims[prim_group.x + b];
+#else
+            uint i = prim_group.x + b;
+#endif
             if (intersect_prim(r, pre, i, hit) && any_hit) return true;
         }
         // Step 4: the next group, or done.

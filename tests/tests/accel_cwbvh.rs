@@ -172,8 +172,10 @@ fn cwbvh_in_its_own_order_converges_to_the_bvh_image() {
     let (a, _) = render_compiled(&scene, &bvh, "nee", 16, 1);
     let (b, _) = render_compiled(&scene, &bvh, "nee", 16, 2);
     let c = compiled(&scene, 16, cwbvh(false), None);
-    let identity = c.cwbvh.as_ref().unwrap().prims.iter().enumerate();
-    assert!(identity.into_iter().all(|(s, &p)| s == p as usize));
+    assert!(
+        c.cwbvh.as_ref().unwrap().prims.is_empty(),
+        "leaf order: no index buffer"
+    );
     let (g, _) = render_compiled(&scene, &c, "nee", 16, 1);
     let seeds = rel_mse(&b, &a).unwrap();
     let accel = rel_mse(&g, &a).unwrap();
@@ -209,12 +211,18 @@ fn cwbvh_cache_and_memory_figures() {
     println!("{names:?}");
     assert_eq!(names.iter().filter(|n| n.starts_with("cwbvh-")).count(), 2);
     assert_eq!(names.iter().filter(|n| n.starts_with("bvh-")).count(), 1);
-    // Memory: the CWBVH's nodes (80 bytes) and leaf indices (4 bytes a primitive) are the
-    // structure; no binary nodes beyond the 16-byte placeholder.
+    // Memory: the CWBVH's nodes (80 bytes) are the structure (in leaf order no index buffer;
+    // with the testing aid 4 bytes a primitive more); no binary nodes beyond the 16-byte
+    // placeholder.
     let cw = second.cwbvh.as_ref().unwrap();
-    let want = (cw.nodes.len() * std::mem::size_of::<GpuCwbvhNode>() + cw.prims.len() * 4) as u64;
+    let want = (cw.nodes.len() * std::mem::size_of::<GpuCwbvhNode>()) as u64;
     assert_eq!(second.accel.bytes, want);
-    assert_eq!(cw.prims.len(), second.prims.len());
+    assert!(cw.prims.is_empty());
+    let indirect = ordered.cwbvh.as_ref().unwrap();
+    assert_eq!(indirect.prims.len(), second.prims.len());
+    assert_eq!(ordered.accel.bytes, want + 4 * second.prims.len() as u64);
+    let ob = renderer::memory::scene_bytes(&ordered);
+    assert_eq!(ob.accel, want + 4 * second.prims.len() as u64 + 32);
     let b = renderer::memory::scene_bytes(&second);
     let bb = renderer::memory::scene_bytes(&bvh);
     assert_eq!(b.geometry, bb.geometry);
@@ -433,4 +441,62 @@ fn cli_accel_cwbvh() {
     let second = json(run(&args));
     assert_eq!(second["accel_cache"], "hit");
     assert_eq!(first["accel_bytes"], second["accel_bytes"]);
+}
+
+/// A cache file whose CWBVH is not a tree within the stack (a cycle, a leaf out of range, too
+/// deep) is refused on load and rebuilt: the depth bound the traversal relies on is checked, not
+/// trusted.
+#[test]
+fn cwbvh_cache_entries_are_checked() {
+    use renderer::accel::cache;
+    let dir = scratch("cwbvh-cache-checked");
+    let scene = load("textured_mesh.json");
+    let built = compiled(&scene, 8, cwbvh(false), Some(&dir));
+    assert_eq!(built.accel.cache, CacheStatus::Miss);
+    let name = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .find(|n| n.starts_with("cwbvh-"))
+        .unwrap();
+    let hex = &name["cwbvh-".len()..name.len() - ".bin".len()];
+    let key = [
+        u64::from_str_radix(&hex[..16], 16).unwrap(),
+        u64::from_str_radix(&hex[16..], 16).unwrap(),
+    ];
+    let good = cache::load(&dir, AccelKind::Cwbvh, key).expect("the entry");
+    let (nodes, _) = good.cwbvh.clone().unwrap();
+    assert!(nodes.len() > 2 && nodes[0].e_imask[3] != 0);
+    // A chain deeper than the stack: node k's first inner child is node k + 1.
+    let mut chain = vec![nodes[0]; CWBVH_STACK_DEPTH as usize + 2];
+    for (k, n) in chain.iter_mut().enumerate() {
+        n.e_imask[3] = 1;
+        n.meta = [0b0011_1000, 0, 0, 0, 0, 0, 0, 0];
+        n.child_base = (k + 1) as u32;
+    }
+    chain.last_mut().unwrap().e_imask[3] = 0;
+    chain.last_mut().unwrap().meta = [0; 8];
+    let corruptions: Vec<(&str, Vec<GpuCwbvhNode>)> = vec![
+        ("a cycle", {
+            let mut v = nodes.clone();
+            v[0].child_base = 0;
+            v
+        }),
+        ("a leaf out of range", {
+            let mut v = nodes.clone();
+            let leaf = v.iter().position(|n| n.e_imask[3] != 0xff).unwrap();
+            v[leaf].prim_base = 1 << 30;
+            v
+        }),
+        ("deeper than the stack", chain),
+    ];
+    for (what, bad) in corruptions {
+        let mut e = good.clone();
+        e.cwbvh = Some((bad, Vec::new()));
+        cache::store(&dir, AccelKind::Cwbvh, key, &e).unwrap();
+        let again = compiled(&scene, 8, cwbvh(false), Some(&dir));
+        assert_eq!(again.accel.cache, CacheStatus::Miss, "{what}: accepted");
+        assert_eq!(again.cwbvh, built.cwbvh, "{what}: rebuilt");
+    }
+    let hit = compiled(&scene, 8, cwbvh(false), Some(&dir));
+    assert_eq!(hit.accel.cache, CacheStatus::Hit);
 }

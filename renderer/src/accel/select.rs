@@ -175,8 +175,7 @@ pub fn build_accel(
                 let prims = built.order.iter().map(|&i| slot[i as usize]).collect();
                 (order, prims)
             } else {
-                let prims = (0..built.order.len() as u32).collect();
-                (built.order, prims)
+                (built.order, Vec::new()) // the identity: no index buffer
             };
             cwbvh_accel(
                 order,
@@ -308,13 +307,14 @@ fn from_entry(opts: &AccelOptions, mut e: cache::Entry, n: usize) -> Option<Acce
         }
         AccelKind::Cwbvh => {
             let (nodes, prims) = e.cwbvh.take()?;
-            if e.grid.is_some() || !e.nodes.is_empty() || prims.len() != n {
+            let direct = prims.is_empty();
+            if e.grid.is_some() || !e.nodes.is_empty() || (!direct && prims.len() != n) {
                 return None;
             }
             // The depth bounds the traversal's stack: recompute it (this also rejects anything
             // but a tree), and check every leaf's primitives are in range.
             let depth = cwbvh::depth_of(&nodes)?;
-            if depth > cwbvh::STACK_DEPTH || !cwbvh::leaves_in_range(&nodes, prims.len()) {
+            if depth > cwbvh::STACK_DEPTH || !cwbvh::leaves_in_range(&nodes, n) {
                 return None;
             }
             if prims.iter().any(|&p| p as usize >= n) {

@@ -285,8 +285,11 @@ impl RenderSession {
         if scene.grid.is_some() {
             defines.push(("ACCEL_GRID".to_string(), "1".to_string()));
         }
-        if scene.cwbvh.is_some() {
+        if let Some(c) = &scene.cwbvh {
             defines.push(("ACCEL_CWBVH".to_string(), "1".to_string()));
+            if !c.prims.is_empty() {
+                defines.push(("CWBVH_INDIRECT".to_string(), "1".to_string()));
+            }
         }
         if scene.traversal_stack < crate::accel::STACK_DEPTH {
             let n = scene.traversal_stack.to_string();

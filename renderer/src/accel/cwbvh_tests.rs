@@ -1,0 +1,154 @@
+//! Host tests of the compressed wide BVH (renderer/src/accel/cwbvh.rs): every primitive in
+//! exactly one leaf whose decoded box contains it, chains far deeper than the stack bounded
+//! within it (and a bounded binary tree converted no deeper), `depth_of` rejecting what is not a
+//! tree, the empty scene.
+use super::*;
+
+fn unit_boxes(n: usize) -> Vec<PrimBounds> {
+    (0..n)
+        .map(|i| {
+            let (x, y) = ((i % 37) as f32, (i / 37) as f32 * 0.7);
+            PrimBounds {
+                min: [x, y, 0.0],
+                max: [x + 0.5, y + 1.0, 1.0],
+            }
+        })
+        .collect()
+}
+
+/// Boxes nested about a common corner, each 0.8 times the last: PLOC chains them.
+fn nested_boxes(n: usize) -> Vec<PrimBounds> {
+    (0..n)
+        .map(|i| {
+            let s = 0.8f32.powi(i as i32 % 300) * (1.0 + i as f32 * 1e-4);
+            PrimBounds {
+                min: [0.0, 0.0, 0.0],
+                max: [s, s, s * 1e-3],
+            }
+        })
+        .collect()
+}
+
+/// Child c's box of node n as the shader decodes it (f32, `p + e·q`).
+fn child_box(n: &GpuCwbvhNode, c: usize) -> ([f32; 3], [f32; 3]) {
+    let e = |a: usize| f32::from_bits((n.e_imask[a] as u32) << 23);
+    let lo = [0, 1, 2].map(|a| n.p[a] + e(a) * n.q[2 * a][c] as f32);
+    let hi = [0, 1, 2].map(|a| n.p[a] + e(a) * n.q[2 * a + 1][c] as f32);
+    (lo, hi)
+}
+
+/// Every primitive is in exactly one leaf, whose decoded box contains it (within the
+/// quantisation obvhs rounds with, a few ulps), every inner child's box contains the boxes
+/// of the node it points to, and the depth is within the stack.
+fn check(prims: &[PrimBounds], b: &Built) {
+    let mut seen = vec![0u32; prims.len()];
+    assert!(leaves_in_range(&b.nodes, b.order.len()));
+    assert_eq!(depth_of(&b.nodes), Some(b.depth));
+    assert!(b.depth <= STACK_DEPTH, "depth {}", b.depth);
+    let ulps = |x: f32| x.abs().max(1.0) * 1e-5;
+    for n in &b.nodes {
+        let mut inner = 0;
+        for c in 0..8 {
+            let meta = n.meta[c];
+            if meta == 0 {
+                continue;
+            }
+            let (lo, hi) = child_box(n, c);
+            if n.e_imask[3] & (1 << c) != 0 {
+                inner += 1;
+                continue;
+            }
+            let first = n.prim_base + (meta & 0x1f) as u32;
+            for s in first..first + (meta >> 5).count_ones() {
+                let i = b.order[s as usize] as usize;
+                seen[i] += 1;
+                for a in 0..3 {
+                    assert!(
+                        lo[a] <= prims[i].min[a] + ulps(lo[a]),
+                        "{lo:?} {:?}",
+                        prims[i]
+                    );
+                    assert!(
+                        hi[a] >= prims[i].max[a] - ulps(hi[a]),
+                        "{hi:?} {:?}",
+                        prims[i]
+                    );
+                }
+            }
+        }
+        assert_eq!(inner, n.e_imask[3].count_ones());
+    }
+    assert!(seen.iter().all(|&s| s == 1), "{seen:?}");
+}
+
+#[test]
+fn every_primitive_is_in_one_leaf_that_contains_it() {
+    for n in [1usize, 2, 3, 4, 9, 100, 3000] {
+        let prims = unit_boxes(n);
+        check(&prims, &build(&prims));
+    }
+}
+
+/// Chains far deeper than the stack (nested boxes; copies of one box) come out within it,
+/// and a binary tree bounded to a height is exactly that high at most.
+#[test]
+fn deep_chains_are_bounded() {
+    for prims in [nested_boxes(3000), vec![unit_boxes(1)[0]; 100_000]] {
+        let t = std::time::Instant::now();
+        let b = build(&prims);
+        println!(
+            "{} prims: CWBVH depth {}, built in {:.3} s",
+            prims.len(),
+            b.depth,
+            t.elapsed().as_secs_f64()
+        );
+        check(&prims, &b);
+        if prims.len() > 10_000 {
+            continue; // copies of one box: raw PLOC would be quadratic
+        }
+        let params = BvhBuildParams::medium_build();
+        let bvh2 = PlocBuilder::with_capacity(prims.len()).build(
+            params.ploc_search_distance,
+            &prims,
+            (0..prims.len() as u32).collect(),
+            params.sort_precision,
+            params.search_depth_threshold,
+        );
+        let before = heights(&bvh2).0[0] as usize;
+        for limit in [STACK_DEPTH, 16] {
+            if let Some(bounded) = bound_height(&bvh2, &prims, limit) {
+                let (h, count) = heights(&bounded);
+                assert!(h[0] as usize <= limit, "{} > {limit}", h[0]);
+                assert_eq!(count[0], prims.len() as u64);
+                let cw = convert(&bounded);
+                assert!(cw.depth <= limit, "{} > {limit}", cw.depth);
+                check(&prims, &cw);
+            } else {
+                assert!(before <= limit);
+            }
+        }
+    }
+}
+
+#[test]
+fn depth_of_rejects_what_is_not_a_tree() {
+    let mut b = build(&unit_boxes(500));
+    assert!(depth_of(&b.nodes).is_some());
+    let root = b.nodes[0];
+    assert!(root.e_imask[3] != 0);
+    b.nodes[0].child_base = 0; // a cycle back to the root
+    assert_eq!(depth_of(&b.nodes), None);
+    b.nodes[0].child_base = 1 << 30; // out of range
+    assert_eq!(depth_of(&b.nodes), None);
+    b.nodes[0] = root;
+    b.nodes[0].prim_base = 1 << 30;
+    assert!(!leaves_in_range(&b.nodes, b.order.len()) || root.e_imask[3] == 0xff);
+}
+
+#[test]
+fn empty_scene_has_a_root_without_children() {
+    let b = build(&[]);
+    assert_eq!(b.nodes.len(), 1);
+    assert_eq!(b.nodes[0].meta, [0; 8]);
+    assert_eq!(depth_of(&b.nodes), Some(1));
+}
