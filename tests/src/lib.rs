@@ -2,6 +2,7 @@
 //! repository's scenes, rendering through the library on one shared GPU context with the
 //! validation layer on, and Mitsuba 3 reference renders via tests/mitsuba/render_reference.py.
 
+pub mod database;
 pub mod server;
 
 use std::path::{Path, PathBuf};
@@ -218,13 +219,21 @@ pub fn mean(img: &Image) -> [f64; 3] {
     img.mean()
 }
 
-/// Runs the `candela` binary with `args` from the repository root.
+/// Runs the `candela` binary with `args` from the repository root (on the running test's
+/// database backend for the `--data-dir`/`--data` it names; see [`database`]).
 pub fn run_candela(args: &[&str]) -> std::process::Output {
-    Command::new(candela())
-        .args(args)
+    let mut cmd = Command::new(candela());
+    cmd.args(args)
         .current_dir(repo_root())
-        .output()
-        .expect("run candela")
+        .env_remove("CANDELA_DATABASE");
+    let data = args
+        .windows(2)
+        .find(|w| w[0] == "--data-dir" || w[0] == "--data")
+        .map(|w| w[1]);
+    if let Some(url) = database::database_env(Path::new(data.unwrap_or("candela-data"))) {
+        cmd.env("CANDELA_DATABASE", url);
+    }
+    cmd.output().expect("run candela")
 }
 
 /// Lossy UTF-8 of a process output stream.

@@ -116,7 +116,7 @@ pub fn migrate(c: &mut dyn Conn) -> Result<(), StoreError> {
     let dialect = c.dialect();
     if dialect == Dialect::Postgres {
         // Any fixed key: processes opening the same database at once migrate one by one.
-        c.query("SELECT pg_advisory_xact_lock(4242424242)", &[])?;
+        c.exec("SELECT pg_advisory_xact_lock(4242424242)", &[])?;
     }
     c.batch(match dialect {
         Dialect::Sqlite => {
