@@ -270,3 +270,29 @@ pub struct PassLimits {
     /// Smallest relative limit (`--pass-timeout-floor`).
     pub floor: Duration,
 }
+
+#[cfg(test)]
+mod database_tests {
+    use super::Database;
+    use std::path::Path;
+
+    /// `--database` picks the backend; without it the data directory's SQLite file (the
+    /// environment variable is read only when the flag is absent, so the flag cases are exact).
+    #[test]
+    fn database_flag_picks_the_backend() {
+        let dir = Path::new("data");
+        let pg = "postgres://u:secret@db:5433/candela";
+        assert_eq!(
+            Database::parse(Some(pg), dir),
+            Ok(Database::Postgres(pg.into()))
+        );
+        assert_eq!(
+            Database::parse(Some("sqlite:///tmp/x.db"), dir),
+            Ok(Database::Sqlite("/tmp/x.db".into()))
+        );
+        assert!(Database::parse(Some("mysql://db/x"), dir).is_err());
+        assert!(Database::parse(Some("sqlite://"), dir).is_err());
+        let described = Database::Postgres(pg.into()).describe();
+        assert_eq!(described, "postgres://u@db:5433/candela");
+    }
+}

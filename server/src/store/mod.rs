@@ -154,8 +154,31 @@ mod tests {
         );
         assert_eq!(store.user_count().unwrap(), 0);
         drop(store);
+        // The adopted and the applied steps are recorded; user_version follows the latest.
+        let conn = Connection::open(&path).unwrap();
+        let versions: Vec<i64> = conn
+            .prepare("SELECT version FROM schema_migrations ORDER BY version")
+            .unwrap()
+            .query_map([], |r| r.get(0))
+            .unwrap()
+            .collect::<Result<_, _>>()
+            .unwrap();
+        assert_eq!(versions, (1..=migrate::LATEST).collect::<Vec<_>>());
+        let uv: i64 = conn
+            .pragma_query_value(None, "user_version", |r| r.get(0))
+            .unwrap();
+        assert_eq!(uv, migrate::LATEST);
         // Opening again is a no-op.
         assert!(Store::open(&path).unwrap().get_job(1).is_ok());
+        // A step this build does not know: refused, naming it.
+        conn.execute(
+            "INSERT INTO schema_migrations (version, applied_at) VALUES (?1, 0)",
+            [migrate::LATEST + 1],
+        )
+        .unwrap();
+        drop(conn);
+        let err = Store::open(&path).err().expect("a newer schema is refused");
+        assert!(err.to_string().contains("newer candela"), "{err}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
