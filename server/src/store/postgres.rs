@@ -217,9 +217,10 @@ impl Conn for PgConn<'_> {
             .collect()
     }
     fn batch(&mut self, sql: &str) -> Result<(), StoreError> {
-        Ok(match self {
+        match self {
             PgConn::Client(c) => block_on(c.batch_execute(sql))?,
             PgConn::Tx(t) => block_on(t.batch_execute(sql))?,
-        })
+        }
+        Ok(())
     }
 }
