@@ -3,7 +3,8 @@
 # (Mesa lavapipe, a CPU Vulkan driver; skipped when a Vulkan driver is already present), the
 # Khronos validation layer (tests turn it on), Chromium and the npm packages of the browser test
 # (skip with CANDELA_SKIP_BROWSER=1), and Mitsuba 3 (the independent reference the tests compare
-# against; skip with CANDELA_SKIP_MITSUBA=1). Safe to run again; needs root for apt-get (uses sudo when not root).
+# against; skip with CANDELA_SKIP_MITSUBA=1), and PostgreSQL (the store tests run on it too; skip with
+# CANDELA_SKIP_POSTGRES=1). Safe to run again; needs root for apt-get (uses sudo when not root).
 set -euo pipefail
 
 SUDO=""
@@ -20,6 +21,11 @@ dpkg -s vulkan-validationlayers >/dev/null 2>&1 || need_apt+=(vulkan-validationl
 if [ "${CANDELA_SKIP_BROWSER:-0}" != 1 ]; then
   dpkg -s chromium >/dev/null 2>&1 || need_apt+=(chromium)
   command -v node >/dev/null 2>&1 || need_apt+=(nodejs npm)
+fi
+# PostgreSQL server binaries (Debian: /usr/lib/postgresql/N/bin; the tests look there).
+if [ "${CANDELA_SKIP_POSTGRES:-0}" != 1 ] && ! command -v initdb >/dev/null 2>&1 \
+  && ! compgen -G "/usr/lib/postgresql/*/bin/initdb" >/dev/null; then
+  need_apt+=(postgresql)
 fi
 if [ "${#need_apt[@]}" -gt 0 ]; then
   echo "setup: installing ${need_apt[*]}"

@@ -6,9 +6,9 @@
 //! failure. No input may make it panic.
 //!
 //! The server's modules: `app` (router), `auth` (tokens, roles), `state` (what handlers reach),
-//! `routes/` (handlers), `jobs/` (model, requests, uploads), `store/` (SQLite jobs, event log,
-//! users), `worker/` (GPU thread, scheduler, checkpoints, storage holds), `shared` (snapshots,
-//! metrics), `retention` (deleting finished jobs), `storage` (free space), `builtin_scenes`,
+//! `routes/` (handlers), `jobs/` (model, requests, uploads), `store/` (SQLite or PostgreSQL:
+//! jobs, event log, users), `worker/` (GPU thread, scheduler, checkpoints, storage holds),
+//! `shared` (snapshots, metrics), `retention` (deleting finished jobs), `storage` (free space), `builtin_scenes`,
 //! `config`, `units`, `api_error`.
 
 mod api_error;

@@ -2,6 +2,7 @@
 //! repository's scenes, rendering through the library on one shared GPU context with the
 //! validation layer on, and Mitsuba 3 reference renders via tests/mitsuba/render_reference.py.
 
+pub mod database;
 pub mod server;
 
 use std::path::{Path, PathBuf};
@@ -230,19 +231,27 @@ pub fn mean(img: &Image) -> [f64; 3] {
     img.mean()
 }
 
-/// Runs the `candela` binary with `args` from the repository root.
+/// Runs the `candela` binary with `args` from the repository root (on the running test's
+/// database backend for the `--data-dir`/`--data` it names; see [`database`]).
 pub fn run_candela(args: &[&str]) -> std::process::Output {
     run_candela_env(args, &[])
 }
 
 /// [`run_candela`] with extra environment variables.
 pub fn run_candela_env(args: &[&str], env: &[(&str, &str)]) -> std::process::Output {
-    Command::new(candela())
-        .args(args)
-        .envs(env.iter().copied())
+    let mut cmd = Command::new(candela());
+    cmd.args(args)
         .current_dir(repo_root())
-        .output()
-        .expect("run candela")
+        .env_remove("CANDELA_DATABASE")
+        .envs(env.iter().copied());
+    let data = args
+        .windows(2)
+        .find(|w| w[0] == "--data-dir" || w[0] == "--data")
+        .map(|w| w[1]);
+    if let Some(url) = database::database_env(Path::new(data.unwrap_or("candela-data"))) {
+        cmd.env("CANDELA_DATABASE", url);
+    }
+    cmd.output().expect("run candela")
 }
 
 /// Runs `candela ARGS` (a `--json` report), asserts that it succeeded (stderr in the message)

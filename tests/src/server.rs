@@ -70,9 +70,13 @@ impl Server {
             .current_dir(repo_root())
             .env("CANDELA_LOG", "info")
             .env_remove("CANDELA_TOKEN")
+            .env_remove("CANDELA_DATABASE")
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped());
+        if let Some(url) = crate::database::database_env(data_dir) {
+            cmd.env("CANDELA_DATABASE", url);
+        }
         for (k, v) in env {
             cmd.env(k, v);
         }

@@ -10,6 +10,13 @@ use candela_tests::{candela, repo_root, scratch};
 use reqwest::Method;
 use serde_json::{json, Value};
 
+// Each test runs on SQLite and on PostgreSQL (NAME::sqlite, NAME::postgres).
+candela_tests::on_both_databases!(
+    jobs_endpoints_and_errors,
+    limits_give_clear_errors,
+    token_auth_and_bind_refusal
+);
+
 const T: Duration = Duration::from_secs(90);
 
 /// Asserts `status` and the error JSON shape; returns the error object.
@@ -29,7 +36,6 @@ fn state(job: &Value) -> &str {
     job["state"].as_str().unwrap_or("")
 }
 
-#[test]
 fn jobs_endpoints_and_errors() {
     let dir = scratch("server_api_jobs");
     let s = Server::start(
@@ -331,7 +337,6 @@ fn jobs_endpoints_and_errors() {
     assert!(!s.log().contains("panicked"), "{}", s.log());
 }
 
-#[test]
 fn limits_give_clear_errors() {
     let dir = scratch("server_api_limits");
     let s = Server::start(
@@ -398,7 +403,6 @@ fn limits_give_clear_errors() {
     s.send(s.request(Method::POST, &format!("/api/jobs/{c}/cancel")));
 }
 
-#[test]
 fn token_auth_and_bind_refusal() {
     let dir = scratch("server_api_auth");
     // A non-loopback address without a token is refused with exit status 2.

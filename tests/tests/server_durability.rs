@@ -11,6 +11,12 @@ use candela_tests::{candela, repo_root, scene_path, scratch};
 use reqwest::Method;
 use serde_json::{json, Value};
 
+// Each test runs on SQLite and on PostgreSQL (NAME::sqlite, NAME::postgres).
+candela_tests::on_both_databases!(
+    sigkill_mid_render_resumes_to_the_same_result,
+    sigterm_writes_a_final_checkpoint_and_exits_zero
+);
+
 const T: Duration = Duration::from_secs(120);
 
 fn spp(job: &Value) -> u64 {
@@ -46,7 +52,6 @@ fn reference(
     (report, renderer::film::read_exr(out).unwrap())
 }
 
-#[test]
 fn sigkill_mid_render_resumes_to_the_same_result() {
     let dir = scratch("server_durability_kill");
     let data = dir.join("data");
@@ -130,7 +135,6 @@ fn sigkill_mid_render_resumes_to_the_same_result() {
     assert_eq!(events.last().unwrap().event, "done");
 }
 
-#[test]
 fn sigterm_writes_a_final_checkpoint_and_exits_zero() {
     let dir = scratch("server_durability_term");
     let data = dir.join("data");

@@ -12,6 +12,13 @@ use candela_tests::{run_candela, scratch, text};
 use reqwest::Method;
 use serde_json::{json, Value};
 
+// Each test runs on SQLite and on PostgreSQL (NAME::sqlite, NAME::postgres).
+candela_tests::on_both_databases!(
+    delete_removes_finished_jobs_only,
+    retention_pass_and_gc_command,
+    a_job_deleted_mid_pass_leaves_no_files
+);
+
 const T: Duration = Duration::from_secs(120);
 
 /// A tiny job that ends quickly; `wait=true` answers once it is done.
@@ -43,7 +50,6 @@ fn files_in(dir: &Path) -> usize {
     std::fs::read_dir(dir).map(|d| d.count()).unwrap_or(0)
 }
 
-#[test]
 fn delete_removes_finished_jobs_only() {
     let dir = scratch("server_retention_delete");
     let data = dir.join("data");
@@ -133,7 +139,6 @@ fn delete_removes_finished_jobs_only() {
     assert!(!job_dir(&data, long).exists());
 }
 
-#[test]
 fn retention_pass_and_gc_command() {
     let dir = scratch("server_retention_gc");
     let data = dir.join("data");
@@ -256,7 +261,6 @@ fn retention_pass_and_gc_command() {
 /// Canceled and deleted while the worker is still inside the job's (long) pass: the checkpoint
 /// and image the worker writes when that pass completes must not outlive the job (bench/soak.py
 /// found such an orphaned folder).
-#[test]
 fn a_job_deleted_mid_pass_leaves_no_files() {
     let dir = scratch("server_retention_mid_pass");
     let data = dir.join("data");

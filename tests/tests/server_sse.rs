@@ -11,6 +11,13 @@ use candela_tests::server::{Server, SseEvent};
 use reqwest::Method;
 use serde_json::json;
 
+// Each test runs on SQLite and on PostgreSQL (NAME::sqlite, NAME::postgres).
+candela_tests::on_both_databases!(
+    events_in_order_and_resume_with_last_event_id,
+    keep_alive_comments_while_paused,
+    small_job_finishes_while_long_one_runs
+);
+
 const T: Duration = Duration::from_secs(90);
 
 fn ids(events: &[SseEvent]) -> Vec<i64> {
@@ -20,7 +27,6 @@ fn ids(events: &[SseEvent]) -> Vec<i64> {
         .collect()
 }
 
-#[test]
 fn events_in_order_and_resume_with_last_event_id() {
     let dir = scratch("server_sse_events");
     let s = Server::start(
@@ -138,7 +144,6 @@ fn events_in_order_and_resume_with_last_event_id() {
     );
 }
 
-#[test]
 fn keep_alive_comments_while_paused() {
     let dir = scratch("server_sse_keepalive");
     let s = Server::start(&dir.join("data"), &["--sse-keepalive", "0.2"]);
@@ -166,7 +171,6 @@ fn keep_alive_comments_while_paused() {
     assert_eq!(tail.last().unwrap().data["state"], "canceled", "{tail:?}");
 }
 
-#[test]
 fn small_job_finishes_while_long_one_runs() {
     let dir = scratch("server_sse_fairness");
     let s = Server::start(&dir.join("data"), &["--pass-ms", "100"]);

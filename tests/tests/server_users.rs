@@ -11,6 +11,9 @@ use candela_tests::{run_candela, scratch, text};
 use reqwest::Method;
 use serde_json::{json, Value};
 
+// Each test runs on SQLite and on PostgreSQL (NAME::sqlite, NAME::postgres).
+candela_tests::on_both_databases!(roles_are_enforced_and_changes_record_who);
+
 fn add_user(data: &str, name: &str, role: &str) -> String {
     let o = run_candela(&["users", "add", name, "--role", role, "--data-dir", data]);
     assert!(o.status.success(), "{}", text(&o.stderr));
@@ -19,7 +22,6 @@ fn add_user(data: &str, name: &str, role: &str) -> String {
     token
 }
 
-#[test]
 fn roles_are_enforced_and_changes_record_who() {
     let dir = scratch("server_users");
     let data = dir.join("data");
@@ -45,7 +47,7 @@ fn roles_are_enforced_and_changes_record_who() {
     }
     assert!(!list.contains(&alice[4..]), "{list}");
     // Only the hash is stored.
-    let db = std::fs::read(data.join("candela.db")).unwrap();
+    let db = candela_tests::database::store_bytes(&data);
     assert!(!db.windows(alice.len()).any(|w| w == alice.as_bytes()));
 
     let s = Server::start(&data, &[]);

@@ -1,13 +1,14 @@
 //! `candela gc`: retention by hand. Removes finished jobs of a data directory (older than an age,
 //! beyond a count, or while the job files exceed a size), prunes the event logs of finished jobs
 //! and removes folders of no job; prints each thing removed. Safe beside a running server on the
-//! same directory (it touches finished jobs only; SQLite arbitrates).
+//! same directory (it touches finished jobs only; the database arbitrates).
 
 use std::path::PathBuf;
 
 use clap::Args;
 
 use super::CliError;
+use crate::config::Database;
 use crate::jobs::model::{now_s, rfc3339};
 use crate::retention::{self, Policy};
 use crate::store::Store;
@@ -22,6 +23,10 @@ pub struct GcArgs {
         default_value = "candela-data"
     )]
     pub data_dir: PathBuf,
+    /// The job store, as `candela serve --database` (default: $CANDELA_DATABASE, else
+    /// <data-dir>/candela.db).
+    #[arg(long, value_name = "URL")]
+    pub database: Option<String>,
     /// Remove finished jobs that ended longer ago than this (7d, 12h, 30m).
     #[arg(long, value_name = "AGE")]
     pub older_than: Option<String>,
@@ -55,15 +60,19 @@ pub fn run(a: GcArgs) -> Result<(), CliError> {
         prune_events_after: Some(std::time::Duration::ZERO),
     };
     // Step 2: the store (never created here: a wrong path is an error).
-    let db = a.data_dir.join("candela.db");
-    if !db.is_file() {
+    let db = super::serve::database(a.database.as_deref(), &a.data_dir)?;
+    let missing = match &db {
+        Database::Sqlite(path) => !path.is_file(),
+        Database::Postgres(_) => !a.data_dir.join("jobs").is_dir(),
+    };
+    if missing {
         return Err(CliError::input(format!(
             "--data-dir {}: no candela.db there (not a candela data directory)",
             a.data_dir.display()
         )));
     }
     let store =
-        Store::open(&db).map_err(|e| CliError::failure(format!("{}: {e}", db.display())))?;
+        Store::connect(&db).map_err(|e| CliError::failure(format!("{}: {e}", db.describe())))?;
     // Step 3: the pass, and what it did.
     let report = retention::run(&store, &a.data_dir, &policy, now_s(), a.dry_run)
         .map_err(|e| CliError::failure(e.to_string()))?;

@@ -18,7 +18,7 @@ use tokio::sync::watch;
 
 use super::CliError;
 use crate::app::app;
-use crate::config::ServerConfig;
+use crate::config::{Database, ServerConfig};
 use crate::shared::Shared;
 use crate::state::AppState;
 use crate::store::Store;
@@ -31,6 +31,10 @@ pub struct ServeArgs {
     /// Where jobs, images and checkpoints are kept.
     #[arg(long, default_value = "candela-data")]
     pub data_dir: PathBuf,
+    /// The job store: postgres://USER@HOST:PORT/DB (shared by several processes) or
+    /// sqlite://PATH (default: $CANDELA_DATABASE, else <data-dir>/candela.db).
+    #[arg(long, value_name = "URL")]
+    pub database: Option<String>,
     /// Require `Authorization: Bearer TOKEN` on the API (default: $CANDELA_TOKEN).
     #[arg(long)]
     pub token: Option<String>,
@@ -138,13 +142,22 @@ fn seconds(flag: &str, v: f64) -> Result<Duration, CliError> {
     }
 }
 
-/// Whether the data directory's store has users (then every request needs a token).
-fn has_users(data_dir: &std::path::Path) -> bool {
-    let db = data_dir.join("candela.db");
-    db.is_file()
-        && Store::open(&db)
+/// Whether the store has users (then every request needs a token). A SQLite store that does not
+/// exist yet has none.
+fn has_users(db: &Database) -> bool {
+    let exists = match db {
+        Database::Sqlite(path) => path.is_file(),
+        Database::Postgres(_) => true,
+    };
+    exists
+        && Store::connect(db)
             .and_then(|s| s.user_count())
             .is_ok_and(|n| n > 0)
+}
+
+/// The `--database` flag (or `$CANDELA_DATABASE`, or the data directory's SQLite file).
+pub fn database(flag: Option<&str>, data_dir: &std::path::Path) -> Result<Database, CliError> {
+    Database::parse(flag, data_dir).map_err(|e| CliError::input(format!("--database {e}")))
 }
 
 /// Checks the flags and builds the configuration and bind address.
@@ -162,7 +175,10 @@ fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), CliError> {
         .clone()
         .or_else(|| std::env::var("CANDELA_TOKEN").ok())
         .filter(|t| !t.trim().is_empty());
-    if token.is_none() && !addrs.iter().all(|a| a.ip().is_loopback()) && !has_users(&a.data_dir) {
+    if token.is_none()
+        && !addrs.iter().all(|a| a.ip().is_loopback())
+        && !has_users(&database(a.database.as_deref(), &a.data_dir)?)
+    {
         return Err(CliError::input(format!(
             "--bind {}: refusing to listen on a non-loopback address without a token; give --token TOKEN (or set CANDELA_TOKEN), or add users (candela users add NAME --role R)",
             a.bind
@@ -346,8 +362,9 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
     }
     let _ = std::fs::remove_dir_all(config.tmp_dir());
     let _ = std::fs::create_dir_all(config.tmp_dir());
-    let store = Store::open(&dir.join("candela.db"))
-        .map_err(|e| CliError::failure(format!("{}: {e}", dir.join("candela.db").display())))?;
+    let db = database(a.database.as_deref(), dir)?;
+    let store =
+        Store::connect(&db).map_err(|e| CliError::failure(format!("{}: {e}", db.describe())))?;
     crate::builtin_scenes::install(&config.builtin_dir())
         .map_err(|e| CliError::failure(format!("writing the built-in scenes: {e}")))?;
     if let Err(e) = crate::storage::make_reserve(dir) {

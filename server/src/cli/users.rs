@@ -1,5 +1,5 @@
 //! `candela users add NAME --role R | list | remove NAME`: named tokens of a data directory.
-//! `add` prints the new token once (only its SHA-256 is stored); changes take effect at once,
+//! (or of the `--database` it uses). `add` prints the new token once (only its SHA-256 is stored); changes take effect at once,
 //! also on a server running on that directory.
 
 use std::path::PathBuf;
@@ -21,6 +21,10 @@ pub struct UsersArgs {
         global = true
     )]
     pub data_dir: PathBuf,
+    /// The job store, as `candela serve --database` (default: $CANDELA_DATABASE, else
+    /// <data-dir>/candela.db).
+    #[arg(long, value_name = "URL", global = true)]
+    pub database: Option<String>,
     #[command(subcommand)]
     pub command: UsersCommand,
 }
@@ -61,9 +65,9 @@ pub fn run(a: UsersArgs) -> Result<(), CliError> {
     let dir = &a.data_dir;
     std::fs::create_dir_all(dir)
         .map_err(|e| CliError::failure(format!("--data-dir {}: {e}", dir.display())))?;
-    let db = dir.join("candela.db");
+    let db = super::serve::database(a.database.as_deref(), dir)?;
     let store =
-        Store::open(&db).map_err(|e| CliError::failure(format!("{}: {e}", db.display())))?;
+        Store::connect(&db).map_err(|e| CliError::failure(format!("{}: {e}", db.describe())))?;
     match a.command {
         UsersCommand::Add { name, role } => {
             check_name(&name)?;

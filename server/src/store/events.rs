@@ -3,9 +3,9 @@
 //! then broadcast to live subscribers. A client that reconnects with `Last-Event-ID: N` is sent
 //! the stored events after N, then the live ones, deduplicated by id.
 
-use rusqlite::{params, Connection, OptionalExtension};
 use serde_json::Value;
 
+use super::db::{params, Conn};
 use super::{Store, StoreError};
 use crate::jobs::model::{now_s, JobId};
 
@@ -32,22 +32,21 @@ impl StoredEvent {
     }
 }
 
-/// Appends an event inside the caller's transaction (or connection) and returns it.
+/// Appends an event inside the caller's transaction and returns it.
 pub(super) fn append_in(
-    conn: &Connection,
+    c: &mut dyn Conn,
     job_id: JobId,
     kind: &str,
     data: &Value,
 ) -> Result<StoredEvent, StoreError> {
-    let seq: Option<i64> = conn
-        .query_row(
+    let seq = c
+        .query_opt(
             "UPDATE jobs SET event_seq = event_seq + 1 WHERE id = ?1 RETURNING event_seq",
             params![job_id],
-            |r| r.get(0),
-        )
-        .optional()?;
-    let seq = seq.ok_or(StoreError::NotFound(job_id))?;
-    conn.execute(
+        )?
+        .ok_or(StoreError::NotFound(job_id))?
+        .i64(0)?;
+    c.exec(
         "INSERT INTO events (job_id, seq, kind, data, at) VALUES (?1, ?2, ?3, ?4, ?5)",
         params![job_id, seq, kind, data.to_string(), now_s()],
     )?;
@@ -67,14 +66,13 @@ impl Store {
         kind: &str,
         data: Value,
     ) -> Result<StoredEvent, StoreError> {
-        let conn = self.conn();
-        let event = append_in(&conn, job_id, kind, &data)?;
-        // Sent while the lock is held, so subscribers see events in id order.
-        let _ = self.events.send(event.clone());
-        Ok(event)
+        self.write(|c| {
+            let event = append_in(c, job_id, kind, &data)?;
+            Ok((event.clone(), vec![event]))
+        })
     }
 
-    /// Broadcasts events already committed (called with the connection lock held).
+    /// Broadcasts events already committed (called with the connection held).
     pub(super) fn broadcast(&self, events: Vec<StoredEvent>) {
         for e in events {
             let _ = self.events.send(e);
@@ -83,33 +81,35 @@ impl Store {
 
     /// The stored events of a job with a sequence number above `after`, in order.
     pub fn events_after(&self, job_id: JobId, after: i64) -> Result<Vec<StoredEvent>, StoreError> {
-        let conn = self.conn();
-        let mut stmt = conn.prepare_cached(
-            "SELECT seq, kind, data FROM events WHERE job_id = ?1 AND seq > ?2 ORDER BY seq",
-        )?;
-        let rows = stmt.query_map(params![job_id, after], |r| {
-            let data: String = r.get(2)?;
-            Ok(StoredEvent {
-                job_id,
-                seq: r.get(0)?,
-                kind: r.get(1)?,
-                data: serde_json::from_str(&data).unwrap_or(Value::Null),
-            })
+        let rows = self.read(|c| {
+            c.query(
+                "SELECT seq, kind, data FROM events WHERE job_id = ?1 AND seq > ?2 ORDER BY seq",
+                params![job_id, after],
+            )
         })?;
-        Ok(rows.collect::<Result<Vec<_>, _>>()?)
+        rows.iter()
+            .map(|r| {
+                Ok(StoredEvent {
+                    job_id,
+                    seq: r.i64(0)?,
+                    kind: r.text(1)?,
+                    data: serde_json::from_str(&r.text(2)?).unwrap_or(Value::Null),
+                })
+            })
+            .collect()
     }
 
     /// The `metrics` of a job's latest `progress` event that has them.
     pub fn latest_metrics(&self, job_id: JobId) -> Result<Option<Value>, StoreError> {
-        let conn = self.conn();
-        let data: Option<String> = conn
-            .query_row(
+        let data = self.read(|c| {
+            c.query_opt(
                 "SELECT data FROM events WHERE job_id = ?1 AND kind = 'progress' \
                  AND data LIKE '%\"metrics\"%' ORDER BY seq DESC LIMIT 1",
                 params![job_id],
-                |r| r.get(0),
-            )
-            .optional()?;
+            )?
+            .map(|r| r.text(0))
+            .transpose()
+        })?;
         Ok(data
             .and_then(|d| serde_json::from_str::<Value>(&d).ok())
             .and_then(|v| v.get("metrics").cloned()))

@@ -1,13 +1,20 @@
-//! The job store: one SQLite database (bundled, WAL journal) holding the jobs (settings, scene,
-//! state, progress, timestamps) and their event log, so that everything a client was told
-//! survives a restart or a crash. Files (checkpoints, images, uploaded assets) live beside it
-//! under the data directory; see [`JobPaths`].
+//! The job store: a database holding the jobs (settings, scene, state, progress, timestamps),
+//! their event log and the users, so that everything a client was told survives a restart or a
+//! crash. Two backends (db.rs): SQLite (bundled, WAL journal; a file in the data directory, the
+//! zero-setup default) and PostgreSQL (postgres.rs; one database several processes share). Files
+//! (checkpoints, images, uploaded assets) live under the data directory; see [`JobPaths`].
 //!
-//! One connection behind a mutex: statements are short, and holding the lock across "write the
-//! event, then broadcast it" makes the broadcast order equal the event id order (events.rs).
+//! One connection per store, held for the whole of each call: statements are short, and holding
+//! it across "commit the event, then broadcast it" makes the broadcast order equal the event id
+//! order (events.rs). Per-job event ids are dense and increasing on both backends: each is taken
+//! by `UPDATE jobs SET event_seq = event_seq + 1 … RETURNING` in the transaction that stores the
+//! event, and that row stays locked until the commit.
 
+mod db;
 mod events;
 mod jobs;
+mod migrate;
+mod postgres;
 mod retention;
 mod users;
 
@@ -15,64 +22,18 @@ pub use events::StoredEvent;
 pub use jobs::Transition;
 
 use std::path::{Path, PathBuf};
-use std::sync::{Mutex, MutexGuard};
+use std::sync::Mutex;
 
 use rusqlite::Connection;
 use tokio::sync::broadcast;
 
+use crate::config::Database;
 use crate::jobs::model::JobId;
-
-/// The schema of version 1 (`user_version`); [`MIGRATE_V2`] brings it to 2.
-const SCHEMA: &str = "
-CREATE TABLE IF NOT EXISTS jobs (
-    id          INTEGER PRIMARY KEY AUTOINCREMENT,
-    name        TEXT NOT NULL,
-    state       TEXT NOT NULL,
-    priority    INTEGER NOT NULL,
-    settings    TEXT NOT NULL,
-    scene       TEXT NOT NULL,
-    scene_name  TEXT,
-    source      TEXT NOT NULL,
-    progress    TEXT,
-    stats       TEXT,
-    error       TEXT,
-    created_at  REAL NOT NULL,
-    started_at  REAL,
-    finished_at REAL,
-    updated_at  REAL NOT NULL,
-    event_seq   INTEGER NOT NULL DEFAULT 0
-);
-CREATE INDEX IF NOT EXISTS jobs_by_state ON jobs(state);
-CREATE TABLE IF NOT EXISTS events (
-    job_id INTEGER NOT NULL,
-    seq    INTEGER NOT NULL,
-    kind   TEXT NOT NULL,
-    data   TEXT NOT NULL,
-    at     REAL NOT NULL,
-    PRIMARY KEY (job_id, seq)
-) WITHOUT ROWID;
-";
-
-/// Version 2: who submitted each job (`owner`), why the server holds a job paused (`hold`,
-/// e.g. a full disk; NULL when paused by a user), and the named tokens (`users`).
-const MIGRATE_V2: &str = "
-ALTER TABLE jobs ADD COLUMN owner TEXT;
-ALTER TABLE jobs ADD COLUMN hold TEXT;
-CREATE TABLE IF NOT EXISTS users (
-    name         TEXT PRIMARY KEY,
-    role         TEXT NOT NULL,
-    token_sha256 TEXT NOT NULL UNIQUE,
-    created_at   REAL NOT NULL
-);
-PRAGMA user_version = 2;
-";
-
-/// The schema version this build writes.
-const SCHEMA_VERSION: i64 = 2;
+use db::{Backend, SqliteConn};
 
 /// The database plus the broadcast channel of new events.
 pub struct Store {
-    conn: Mutex<Connection>,
+    db: Backend,
     events: broadcast::Sender<StoredEvent>,
 }
 
@@ -86,7 +47,7 @@ pub enum StoreError {
         state: crate::jobs::model::JobState,
         message: String,
     },
-    /// SQLite (or file system) trouble.
+    /// Database (or file system) trouble.
     Db(String),
 }
 
@@ -118,51 +79,42 @@ impl From<StoreError> for crate::api_error::ApiError {
 }
 
 impl Store {
-    /// Opens (creating if needed) the database at `path`.
+    /// Opens (creating and migrating if needed) the database `db` names.
+    pub fn connect(db: &Database) -> Result<Store, StoreError> {
+        match db {
+            Database::Sqlite(path) => Store::open(path),
+            Database::Postgres(url) => {
+                let pg = postgres::Pg::open(url)?;
+                let store = Store::with(Backend::Postgres(pg));
+                store.write(|c| migrate::migrate(c).map(|()| ((), Vec::new())))?;
+                Ok(store)
+            }
+        }
+    }
+
+    /// Opens (creating and migrating if needed) the SQLite database at `path`.
     pub fn open(path: &Path) -> Result<Store, StoreError> {
-        let conn = Connection::open(path)?;
+        let mut conn = Connection::open(path)?;
         // WAL: readers never block the writer; NORMAL sync: a commit survives a process crash
         // (kill -9) — only a power loss may drop the last transactions.
         conn.pragma_update(None, "journal_mode", "WAL")?;
         conn.pragma_update(None, "synchronous", "NORMAL")?;
         conn.pragma_update(None, "foreign_keys", "ON")?;
         conn.busy_timeout(std::time::Duration::from_secs(5))?;
-        let version: i64 = conn.pragma_query_value(None, "user_version", |r| r.get(0))?;
-        if version > SCHEMA_VERSION {
-            return Err(StoreError::Db(format!(
-                "{} was written by a newer candela (schema {version})",
-                path.display()
-            )));
-        }
-        conn.execute_batch(SCHEMA)?;
-        if version < 2 {
-            // Immediate: another process (`candela gc`) opening the same file waits, then finds
-            // it migrated.
-            conn.execute_batch("BEGIN IMMEDIATE")?;
-            let now: i64 = conn.pragma_query_value(None, "user_version", |r| r.get(0))?;
-            let migrated = if now < 2 {
-                conn.execute_batch(MIGRATE_V2)
-            } else {
-                Ok(())
-            };
-            match migrated {
-                Ok(()) => conn.execute_batch("COMMIT")?,
-                Err(e) => {
-                    let _ = conn.execute_batch("ROLLBACK");
-                    return Err(e.into());
-                }
-            }
-        }
-        let (events, _) = broadcast::channel(1024);
-        Ok(Store {
-            conn: Mutex::new(conn),
-            events,
-        })
+        // Immediate: another process (`candela gc`) opening the same file waits, then finds it
+        // migrated.
+        let tx = conn.transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;
+        migrate::migrate(&mut SqliteConn(&tx)).map_err(|e| match e {
+            StoreError::Db(m) => StoreError::Db(format!("{}: {m}", path.display())),
+            e => e,
+        })?;
+        tx.commit()?;
+        Ok(Store::with(Backend::Sqlite(Mutex::new(conn))))
     }
 
-    /// The connection (a poisoned lock is recovered: SQLite keeps itself consistent).
-    fn conn(&self) -> MutexGuard<'_, Connection> {
-        self.conn.lock().unwrap_or_else(|p| p.into_inner())
+    fn with(db: Backend) -> Store {
+        let (events, _) = broadcast::channel(1024);
+        Store { db, events }
     }
 
     /// Receives every event appended from now on (all jobs).
@@ -184,7 +136,7 @@ mod tests {
         let path = dir.join("candela.db");
         {
             let conn = Connection::open(&path).unwrap();
-            conn.execute_batch(SCHEMA).unwrap();
+            conn.execute_batch(migrate::sqlite_step(1)).unwrap();
             conn.execute_batch(
                 "PRAGMA user_version = 1; INSERT INTO jobs (name, state, priority, settings, \
                  scene, source, created_at, updated_at) VALUES ('old', 'done', 10, \
@@ -202,8 +154,31 @@ mod tests {
         );
         assert_eq!(store.user_count().unwrap(), 0);
         drop(store);
+        // The adopted and the applied steps are recorded; user_version follows the latest.
+        let conn = Connection::open(&path).unwrap();
+        let versions: Vec<i64> = conn
+            .prepare("SELECT version FROM schema_migrations ORDER BY version")
+            .unwrap()
+            .query_map([], |r| r.get(0))
+            .unwrap()
+            .collect::<Result<_, _>>()
+            .unwrap();
+        assert_eq!(versions, (1..=migrate::LATEST).collect::<Vec<_>>());
+        let uv: i64 = conn
+            .pragma_query_value(None, "user_version", |r| r.get(0))
+            .unwrap();
+        assert_eq!(uv, migrate::LATEST);
         // Opening again is a no-op.
         assert!(Store::open(&path).unwrap().get_job(1).is_ok());
+        // A step this build does not know: refused, naming it.
+        conn.execute(
+            "INSERT INTO schema_migrations (version, applied_at) VALUES (?1, 0)",
+            [migrate::LATEST + 1],
+        )
+        .unwrap();
+        drop(conn);
+        let err = Store::open(&path).err().expect("a newer schema is refused");
+        assert!(err.to_string().contains("newer candela"), "{err}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -2,8 +2,7 @@
 //! never stored). Managed by `candela users`; read by the authentication on every request, so
 //! a user added or removed takes effect at once, even while a server runs.
 
-use rusqlite::{params, OptionalExtension};
-
+use super::db::params;
 use super::{Store, StoreError};
 use crate::jobs::model::now_s;
 
@@ -19,49 +18,47 @@ pub struct UserRecord {
 impl Store {
     /// Adds a user; Conflict when the name is taken.
     pub fn add_user(&self, name: &str, role: &str, token_sha256: &str) -> Result<(), StoreError> {
-        let conn = self.conn();
-        let taken: Option<String> = conn
-            .query_row(
-                "SELECT name FROM users WHERE name = ?1",
-                params![name],
-                |r| r.get(0),
-            )
-            .optional()?;
-        if taken.is_some() {
-            return Err(StoreError::Db(format!("a user named \"{name}\" exists")));
-        }
-        conn.execute(
-            "INSERT INTO users (name, role, token_sha256, created_at) VALUES (?1, ?2, ?3, ?4)",
-            params![name, role, token_sha256, now_s()],
-        )?;
-        Ok(())
+        self.write(|c| {
+            if c.query_opt("SELECT name FROM users WHERE name = ?1", params![name])?
+                .is_some()
+            {
+                return Err(StoreError::Db(format!("a user named \"{name}\" exists")));
+            }
+            c.exec(
+                "INSERT INTO users (name, role, token_sha256, created_at) VALUES (?1, ?2, ?3, ?4)",
+                params![name, role, token_sha256, now_s()],
+            )?;
+            Ok(((), Vec::new()))
+        })
     }
 
     /// Removes a user; whether there was one.
     pub fn remove_user(&self, name: &str) -> Result<bool, StoreError> {
-        let conn = self.conn();
-        Ok(conn.execute("DELETE FROM users WHERE name = ?1", params![name])? > 0)
+        self.read(|c| Ok(c.exec("DELETE FROM users WHERE name = ?1", params![name])? > 0))
     }
 
     /// Every user, by name.
     pub fn list_users(&self) -> Result<Vec<UserRecord>, StoreError> {
-        let conn = self.conn();
-        let mut stmt =
-            conn.prepare_cached("SELECT name, role, created_at FROM users ORDER BY name")?;
-        let rows = stmt.query_map([], |r| {
-            Ok(UserRecord {
-                name: r.get(0)?,
-                role: r.get(1)?,
-                created_at: r.get(2)?,
-            })
+        let rows = self.read(|c| {
+            c.query(
+                "SELECT name, role, created_at FROM users ORDER BY name",
+                &[],
+            )
         })?;
-        Ok(rows.collect::<Result<Vec<_>, _>>()?)
+        rows.iter()
+            .map(|r| {
+                Ok(UserRecord {
+                    name: r.text(0)?,
+                    role: r.text(1)?,
+                    created_at: r.f64(2)?,
+                })
+            })
+            .collect()
     }
 
     /// Number of users.
     pub fn user_count(&self) -> Result<u64, StoreError> {
-        let conn = self.conn();
-        let n: i64 = conn.query_row("SELECT COUNT(*) FROM users", [], |r| r.get(0))?;
+        let n = self.read(|c| c.query_one("SELECT COUNT(*) FROM users", &[])?.i64(0))?;
         Ok(n.max(0) as u64)
     }
 
@@ -70,13 +67,12 @@ impl Store {
         &self,
         token_sha256: &str,
     ) -> Result<Option<(String, String)>, StoreError> {
-        let conn = self.conn();
-        Ok(conn
-            .query_row(
+        let row = self.read(|c| {
+            c.query_opt(
                 "SELECT name, role FROM users WHERE token_sha256 = ?1",
                 params![token_sha256],
-                |r| Ok((r.get(0)?, r.get(1)?)),
             )
-            .optional()?)
+        })?;
+        row.map(|r| Ok((r.text(0)?, r.text(1)?))).transpose()
     }
 }
