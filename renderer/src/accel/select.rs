@@ -188,7 +188,8 @@ pub fn build_accel(
         }
         AccelKind::Grid => {
             let order: Vec<u32> = if opts.grid_bvh_order {
-                build(bounds, false).order
+                // The BVH's own input (scene-frame boxes), so the order is exactly the BVH's.
+                build(bvh_bounds, false).order
             } else {
                 (0..prims.len() as u32).collect()
             };
