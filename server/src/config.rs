@@ -174,6 +174,12 @@ pub struct ServerConfig {
     pub storage_check_interval: Duration,
     /// Bounds of the renderer's in-memory caches (kernels, pipelines, vct volumes).
     pub caches: renderer::gpu::CacheLimits,
+    /// This process's name in render leases (store/leases.rs): `HOST:PID`, or `--worker-id`.
+    pub worker_id: String,
+    /// How long a claim on a job holds without a heartbeat (`--lease`).
+    pub lease: Duration,
+    /// How often the worker renews its leases (a third of the lease).
+    pub heartbeat: Duration,
 }
 
 /// Which kernels the server builds when its device opens (worker/warmup.rs).
@@ -251,6 +257,9 @@ impl ServerConfig {
             min_free_space: 500_000_000,
             storage_check_interval: Duration::from_secs(5),
             caches: renderer::gpu::CacheLimits::DEFAULT,
+            worker_id: default_worker_id(),
+            lease: Duration::from_secs(15),
+            heartbeat: Duration::from_secs(5),
         }
     }
 
@@ -263,6 +272,17 @@ impl ServerConfig {
     pub fn tmp_dir(&self) -> PathBuf {
         self.data_dir.join("tmp")
     }
+}
+
+/// `HOST:PID`: this process's default name in render leases.
+pub fn default_worker_id() -> String {
+    let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .ok()
+        .or_else(|| std::env::var("HOSTNAME").ok())
+        .map(|h| h.trim().to_string())
+        .filter(|h| !h.is_empty())
+        .unwrap_or_else(|| "localhost".into());
+    format!("{host}:{}", std::process::id())
 }
 
 /// The pass watchdog's limits (worker/watchdog.rs).
