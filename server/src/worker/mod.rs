@@ -12,6 +12,10 @@
 //! far past its expected time shrinks its job's passes, or stops the job (watchdog.rs). On
 //! shutdown every active job is checkpointed and stays `running` in the store, to be resumed at
 //! the next start.
+//!
+//! Several workers (processes) may share one store: each job is rendered under a lease the
+//! worker claims and renews by heartbeats (store/leases.rs); a job whose lease was lost is
+//! dropped unsaved, and the store is looked at every second for changes other processes made.
 
 mod active;
 mod auto;
@@ -677,5 +681,12 @@ impl Worker {
         self.active.clear();
         self.sched.clear();
         self.ctx = None;
+        // Checkpointed: another worker (or this one, restarted) may take the jobs at once.
+        if let Err(e) = self
+            .store
+            .renew_leases(&self.config.worker_id, &[], self.config.lease)
+        {
+            warn!(error = %e, "giving up the render leases");
+        }
     }
 }
