@@ -117,6 +117,13 @@ fn two_workers_share_the_jobs_on_postgres() {
         Worker::start(&data, "w1", "6"),
         Worker::start(&data, "w2", "6"),
     ];
+    // The API server alone is healthy: it renders nothing by design.
+    let (_, health) = api.get("/api/health");
+    assert_eq!(
+        (health["status"].as_str(), health["gpu"]["state"].as_str()),
+        (Some("ok"), Some("none")),
+        "{health}"
+    );
     // Step 1: six small jobs; the first one's events followed live from its submission.
     let mut ids: Vec<(i64, u64)> = Vec::new();
     let mut stream = None;

@@ -453,6 +453,11 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
             .local_addr()
             .map_err(|e| CliError::failure(e.to_string()))?;
         let (worker, thread) = if workers == 0 {
+            shared.set_gpu(crate::shared::GpuStatus {
+                state: "none",
+                device: None,
+                error: None,
+            });
             (crate::worker::detached(), None)
         } else {
             let (w, t) = crate::worker::spawn(store.clone(), shared.clone(), config.clone())

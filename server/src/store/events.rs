@@ -112,6 +112,12 @@ impl Store {
                     .filter_map(|r| Some((r.i64(0).ok()?, r.i64(1).ok()?)))
                     .collect(),
             };
+            if jobs.is_none() {
+                // Jobs deleted since (retention): forgotten.
+                let present: std::collections::HashSet<JobId> =
+                    heads.iter().map(|(id, _)| *id).collect();
+                seen.retain(|id, _| present.contains(id));
+            }
             // Step 2: their new events, broadcast in order.
             for (id, head) in heads {
                 let last = seen.get(&id).copied().unwrap_or(0);
