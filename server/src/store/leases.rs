@@ -106,3 +106,56 @@ impl Store {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fresh SQLite store with jobs 1 (queued, priority 10), 2 (queued, priority 20) and 3
+    /// (done).
+    fn store(name: &str) -> (Store, std::path::PathBuf) {
+        let dir = std::env::temp_dir().join(format!("candela-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let store = Store::open(&dir.join("candela.db")).unwrap();
+        let row = |state: &str, priority: u32| {
+            format!(
+                "INSERT INTO jobs (name, state, priority, settings, scene, source, created_at, \
+                 updated_at) VALUES ('j', '{state}', {priority}, '{{}}', '{{}}', 'inline', 1, 1);"
+            )
+        };
+        let sql = [row("queued", 10), row("queued", 20), row("done", 30)].concat();
+        store.read(|c| c.batch(&sql)).unwrap();
+        (store, dir)
+    }
+
+    /// Claims go by priority, never to a job another worker holds while its lease lives, and
+    /// to another worker once it expired; the old holder's heartbeat then finds it lost.
+    #[test]
+    fn claims_exclude_live_leases_and_take_over_expired_ones() {
+        let (s, dir) = store("leases");
+        let long = Duration::from_secs(60);
+        // Step 1: the higher priority first; held jobs are not claimed twice.
+        assert_eq!(s.claim_job("a", long, &[]).unwrap().map(|c| c.0), Some(2));
+        assert_eq!(s.claim_job("b", long, &[]).unwrap().map(|c| c.0), Some(1));
+        assert_eq!(s.claim_job("c", long, &[]).unwrap(), None, "done or held");
+        // Step 2: a's lease on 2 expires (renewed with a zero lease); c takes it over.
+        assert_eq!(s.renew_leases("a", &[2], Duration::ZERO).unwrap(), vec![2]);
+        std::thread::sleep(Duration::from_millis(20));
+        assert_eq!(s.claim_job("c", long, &[]).unwrap().map(|c| c.0), Some(2));
+        assert!(s.renew_leases("a", &[2], long).unwrap().is_empty(), "lost");
+        assert_eq!(s.renew_leases("c", &[2], long).unwrap(), vec![2]);
+        // Step 3: b gives up 1 (a heartbeat without it); a may claim it, and exclude it.
+        assert!(s.renew_leases("b", &[], long).unwrap().is_empty());
+        assert_eq!(s.claim_job("a", long, &[1]).unwrap(), None);
+        assert_eq!(s.claim_job("a", long, &[]).unwrap().map(|c| c.0), Some(1));
+        // Every claim is in the history.
+        let n = s
+            .read(|c| c.query_one("SELECT COUNT(*) FROM leases", &[]))
+            .unwrap()
+            .i64(0)
+            .unwrap();
+        assert_eq!(n, 4);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
