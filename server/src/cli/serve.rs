@@ -133,9 +133,11 @@ pub struct ServeArgs {
     pub workers: u32,
     /// Seconds a claim on a job holds without a heartbeat (renewed every third of it); after
     /// that another process may take the job over from its checkpoint.
-    #[arg(long, value_name = "SECONDS", default_value_t = 15.0)]
+    #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
     pub lease: f64,
-    /// This process's name in render leases (default: HOST:PID).
+    /// This process's name in render leases (default: HOST:serve for a rendering server on
+    /// PostgreSQL, else HOST:PID). A restarted process with the same name resumes its jobs at
+    /// once; never give two live processes one name.
     #[arg(long, value_name = "NAME")]
     pub worker_id: Option<String>,
     /// How often retention runs (10m, 1h).
@@ -401,15 +403,35 @@ fn check_device(want: Option<&str>) -> Result<(), CliError> {
 }
 
 pub fn run(a: ServeArgs) -> Result<(), CliError> {
-    let (config, addr) = configure(&a)?;
+    let (mut config, addr) = configure(&a)?;
     check_device(a.device.as_deref())?;
     // Step 1: the data directory (one server per directory), the store, the built-in assets.
-    let dir = &config.data_dir;
+    let data_dir = config.data_dir.clone();
+    let dir = &data_dir;
     std::fs::create_dir_all(dir.join("jobs"))
         .map_err(|e| CliError::failure(format!("--data-dir {}: {e}", dir.display())))?;
     let db = database(a.database.as_deref(), dir)?;
     let farm = matches!(db, Database::Postgres(_));
     let lock = lock_data_dir(dir, farm)?;
+    // A rendering server of a farm: one per machine and data directory, under a name that
+    // stays the same across restarts, so that a restarted server resumes its jobs at once
+    // rather than after their leases expire.
+    let _serve_lock = if farm && a.workers > 0 && a.worker_id.is_none() {
+        let host = crate::config::host_name();
+        let path = dir.join(format!("serve-{host}.lock"));
+        let f = std::fs::File::create(&path)
+            .map_err(|e| CliError::failure(format!("{}: {e}", path.display())))?;
+        if f.try_lock().is_err() {
+            return Err(CliError::failure(format!(
+                "--data-dir {}: another rendering candela serve on {host} uses it (give --workers 0 or --worker-id NAME)",
+                dir.display()
+            )));
+        }
+        config.worker_id = format!("{host}:serve");
+        Some(f)
+    } else {
+        None
+    };
     if !farm {
         // Alone on the directory: nobody else's uploads are being unpacked.
         let _ = std::fs::remove_dir_all(config.tmp_dir());
