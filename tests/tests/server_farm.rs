@@ -3,7 +3,8 @@
 //! data directory. Jobs submitted to the API are rendered by the workers, each by one worker
 //! (the `leases` table records every claim), to exactly their sample count; their events reach
 //! the API server's SSE clients live; and a worker killed mid-job (SIGKILL) has its job taken
-//! over, once its lease expires, by the other worker, which resumes it from its checkpoint.
+//! over, once its lease expires, by the other worker, which resumes it from its checkpoint. A
+//! SQLite server cannot share the farm's data directory.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -124,6 +125,26 @@ fn two_workers_share_the_jobs_on_postgres() {
         (Some("ok"), Some("none")),
         "{health}"
     );
+    // A SQLite server cannot join the farm's data directory; a worker needs PostgreSQL.
+    let sqlite = format!("sqlite://{}", dir.join("other.db").display());
+    let run = |cmd: &str| {
+        Command::new(candela())
+            .arg(cmd)
+            .arg("--data-dir")
+            .arg(&data)
+            .args(["--database", &sqlite, "--bind", "127.0.0.1:0"])
+            .env_remove("CANDELA_DATABASE")
+            .output()
+            .expect("run candela")
+    };
+    let o = run("serve");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("another candela server is using it"), "{err}");
+    let o = run("worker");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("postgres://"), "{err}");
     // Step 1: six small jobs; the first one's events followed live from its submission.
     let mut ids: Vec<(i64, u64)> = Vec::new();
     let mut stream = None;
