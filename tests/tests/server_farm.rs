@@ -141,6 +141,15 @@ fn two_workers_share_the_jobs_on_postgres() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(err.contains("another candela server is using it"), "{err}");
+    let o = Command::new(candela())
+        .args(["serve", "--workers", "0", "--data-dir"])
+        .arg(dir.join("alone"))
+        .env_remove("CANDELA_DATABASE")
+        .output()
+        .expect("run candela");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("--workers 0"), "{err}");
     let o = run("worker");
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");

@@ -412,6 +412,11 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
         .map_err(|e| CliError::failure(format!("--data-dir {}: {e}", dir.display())))?;
     let db = database(a.database.as_deref(), dir)?;
     let farm = matches!(db, Database::Postgres(_));
+    if !farm && a.workers == 0 {
+        return Err(CliError::input(
+            "--workers 0: only with a shared store (--database postgres://…); with SQLite nothing would render the jobs",
+        ));
+    }
     let lock = lock_data_dir(dir, farm)?;
     // A rendering server of a farm: one per machine and data directory, under a name that
     // stays the same across restarts, so that a restarted server resumes its jobs at once
