@@ -174,6 +174,13 @@ pub struct ServerConfig {
     pub storage_check_interval: Duration,
     /// Bounds of the renderer's in-memory caches (kernels, pipelines, vct volumes).
     pub caches: renderer::gpu::CacheLimits,
+    /// This process's name in render leases (store/leases.rs): `--worker-id`, else `HOST:serve`
+    /// for a rendering `candela serve` on PostgreSQL, else `HOST:PID`.
+    pub worker_id: String,
+    /// How long a claim on a job holds without a heartbeat (`--lease`).
+    pub lease: Duration,
+    /// How often the worker renews its leases (a third of the lease).
+    pub heartbeat: Duration,
 }
 
 /// Which kernels the server builds when its device opens (worker/warmup.rs).
@@ -251,6 +258,9 @@ impl ServerConfig {
             min_free_space: 500_000_000,
             storage_check_interval: Duration::from_secs(5),
             caches: renderer::gpu::CacheLimits::DEFAULT,
+            worker_id: default_worker_id(),
+            lease: Duration::from_secs(30),
+            heartbeat: Duration::from_secs(10),
         }
     }
 
@@ -263,6 +273,21 @@ impl ServerConfig {
     pub fn tmp_dir(&self) -> PathBuf {
         self.data_dir.join("tmp")
     }
+}
+
+/// This machine's name (for render lease names).
+pub fn host_name() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .ok()
+        .or_else(|| std::env::var("HOSTNAME").ok())
+        .map(|h| h.trim().to_string())
+        .filter(|h| !h.is_empty())
+        .unwrap_or_else(|| "localhost".into())
+}
+
+/// `HOST:PID`: this process's default name in render leases.
+pub fn default_worker_id() -> String {
+    format!("{}:{}", host_name(), std::process::id())
 }
 
 /// The pass watchdog's limits (worker/watchdog.rs).

@@ -1,5 +1,5 @@
 //! `candela`: the render server's single binary. Subcommands: `render` (one image from a scene
-//! file), `serve` (the HTTP render server and web viewer), `bench`, `compare`, `convert`, `gc`,
+//! file), `serve` (the HTTP render server and web viewer), `worker` (a render farm process), `bench`, `compare`, `convert`, `gc`,
 //! `users`, `devices`.
 //!
 //! Exit codes: 0 success, 2 bad input (a one-line error naming what and where), 1 any other
@@ -37,7 +37,7 @@ fn main() -> ExitCode {
     let args = cli::Cli::parse();
     // The server logs what it does (info); the one-shot commands only warnings.
     let default_filter = match args.command {
-        cli::Command::Serve(_) => "warn,candela=info",
+        cli::Command::Serve(_) | cli::Command::Worker(_) => "warn,candela=info",
         _ => "warn",
     };
     tracing_subscriber::fmt()

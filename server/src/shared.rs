@@ -46,7 +46,7 @@ impl Snapshot {
 /// Whether the worker has a device.
 #[derive(Debug, Clone, Serialize)]
 pub struct GpuStatus {
-    /// "starting", "ready" or "unavailable".
+    /// "starting", "ready", "unavailable", or "none" (`serve --workers 0`: renders nothing).
     pub state: &'static str,
     pub device: Option<DeviceInfo>,
     pub error: Option<String>,

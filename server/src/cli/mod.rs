@@ -9,6 +9,7 @@ mod render;
 mod scene_file;
 mod serve;
 mod users;
+mod worker;
 
 use clap::{Parser, Subcommand};
 
@@ -136,6 +137,9 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Serve the HTTP API and web viewer, rendering queued jobs on the GPU.
     Serve(serve::ServeArgs),
+    /// Render jobs of a shared (PostgreSQL) store, without an HTTP server: a farm's render
+    /// process (the serve flags that concern rendering apply; --bind and --token are unused).
+    Worker(serve::ServeArgs),
     /// Measure error against a reference over time for several integrators.
     Bench(bench::BenchArgs),
     /// Compare two images (EXR) with MSE, relMSE, PSNR, SSIM and FLIP.
@@ -158,6 +162,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Render(a) => render::run(a),
         Command::Serve(a) => serve::run(a),
+        Command::Worker(a) => worker::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Compare(a) => compare::run(a),
         Command::Convert(a) => convert::run(a),

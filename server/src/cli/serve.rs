@@ -127,6 +127,19 @@ pub struct ServeArgs {
     /// vct voxel volumes kept on the device for the next render of the same geometry.
     #[arg(long, value_name = "N", default_value_t = CacheLimits::DEFAULT.volumes)]
     pub cache_volumes: usize,
+    /// Render threads in this process: 1, or 0 for the API alone (with PostgreSQL, separate
+    /// `candela worker` processes render).
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub workers: u32,
+    /// Seconds a claim on a job holds without a heartbeat (renewed every third of it); after
+    /// that another process may take the job over from its checkpoint.
+    #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
+    pub lease: f64,
+    /// This process's name in render leases (default: HOST:serve for a rendering server on
+    /// PostgreSQL, else HOST:PID). A restarted process with the same name resumes its jobs at
+    /// once; never give two live processes one name.
+    #[arg(long, value_name = "NAME")]
+    pub worker_id: Option<String>,
     /// How often retention runs (10m, 1h).
     #[arg(long, value_name = "INTERVAL", default_value = "10m")]
     pub gc_interval: String,
@@ -161,7 +174,7 @@ pub fn database(flag: Option<&str>, data_dir: &std::path::Path) -> Result<Databa
 }
 
 /// Checks the flags and builds the configuration and bind address.
-fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), CliError> {
+pub(super) fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), CliError> {
     let addrs: Vec<SocketAddr> = a
         .bind
         .to_socket_addrs()
@@ -234,6 +247,16 @@ fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), CliError> {
         pipelines: a.cache_pipelines,
         volumes: a.cache_volumes,
     };
+    c.lease = seconds("--lease", a.lease)?;
+    c.heartbeat = c.lease / 3;
+    if let Some(id) = a.worker_id.as_ref().filter(|i| !i.trim().is_empty()) {
+        c.worker_id = id.trim().to_string();
+    }
+    if a.workers > 1 {
+        return Err(CliError::input(
+            "--workers: 0 or 1 (run `candela worker` processes for more)",
+        ));
+    }
     c.gc_interval = crate::units::parse_duration(&a.gc_interval)
         .ok()
         .filter(|d| !d.is_zero())
@@ -306,8 +329,42 @@ async fn retention_task(st: AppState) {
     }
 }
 
+/// Takes the data directory's lock file: exclusive with SQLite (one server per directory),
+/// shared with PostgreSQL (the processes of one farm share the directory, and a SQLite server
+/// cannot join them).
+pub(super) fn lock_data_dir(dir: &std::path::Path, farm: bool) -> Result<std::fs::File, CliError> {
+    let lock = std::fs::File::create(dir.join("lock"))
+        .map_err(|e| CliError::failure(format!("--data-dir {}: {e}", dir.display())))?;
+    let taken = if farm {
+        lock.try_lock_shared().is_ok()
+    } else {
+        lock.try_lock().is_ok()
+    };
+    if !taken {
+        return Err(CliError::failure(format!(
+            "--data-dir {}: another candela server is using it{}",
+            dir.display(),
+            if farm { " with SQLite" } else { "" }
+        )));
+    }
+    Ok(lock)
+}
+
+/// Broadcasts the events other processes of the farm wrote, every quarter second (events.rs).
+async fn relay_task(store: Arc<Store>) {
+    loop {
+        let s = store.clone();
+        match tokio::task::spawn_blocking(move || s.relay_new_events()).await {
+            Ok(Err(e)) => tracing::warn!(error = %e, "relaying events"),
+            Err(e) => tracing::warn!(error = %e, "relaying events panicked"),
+            Ok(Ok(())) => {}
+        }
+        tokio::time::sleep(Duration::from_millis(250)).await;
+    }
+}
+
 /// Resolves on SIGTERM or Ctrl-C.
-async fn shutdown_signal() {
+pub(super) async fn shutdown_signal() {
     let ctrl_c = async {
         let _ = tokio::signal::ctrl_c().await;
     };
@@ -346,25 +403,59 @@ fn check_device(want: Option<&str>) -> Result<(), CliError> {
 }
 
 pub fn run(a: ServeArgs) -> Result<(), CliError> {
-    let (config, addr) = configure(&a)?;
+    let (mut config, addr) = configure(&a)?;
     check_device(a.device.as_deref())?;
     // Step 1: the data directory (one server per directory), the store, the built-in assets.
-    let dir = &config.data_dir;
+    let data_dir = config.data_dir.clone();
+    let dir = &data_dir;
     std::fs::create_dir_all(dir.join("jobs"))
         .map_err(|e| CliError::failure(format!("--data-dir {}: {e}", dir.display())))?;
-    let lock = std::fs::File::create(dir.join("lock"))
-        .map_err(|e| CliError::failure(format!("--data-dir {}: {e}", dir.display())))?;
-    if lock.try_lock().is_err() {
-        return Err(CliError::failure(format!(
-            "--data-dir {}: another candela server is using it",
-            dir.display()
-        )));
-    }
-    let _ = std::fs::remove_dir_all(config.tmp_dir());
-    let _ = std::fs::create_dir_all(config.tmp_dir());
     let db = database(a.database.as_deref(), dir)?;
-    let store =
+    let farm = matches!(db, Database::Postgres(_));
+    if !farm && a.workers == 0 {
+        return Err(CliError::input(
+            "--workers 0: only with a shared store (--database postgres://…); with SQLite nothing would render the jobs",
+        ));
+    }
+    let lock = lock_data_dir(dir, farm)?;
+    // A rendering server of a farm: one per machine and data directory, under a name that
+    // stays the same across restarts, so that a restarted server resumes its jobs at once
+    // rather than after their leases expire.
+    let _serve_lock = if farm && a.workers > 0 && a.worker_id.is_none() {
+        let host = crate::config::host_name();
+        let path = dir.join(format!("serve-{host}.lock"));
+        let f = std::fs::File::create(&path)
+            .map_err(|e| CliError::failure(format!("{}: {e}", path.display())))?;
+        if f.try_lock().is_err() {
+            return Err(CliError::failure(format!(
+                "--data-dir {}: another rendering candela serve on {host} uses it (give --workers 0 or --worker-id NAME)",
+                dir.display()
+            )));
+        }
+        config.worker_id = format!("{host}:serve");
+        Some(f)
+    } else {
+        None
+    };
+    if !farm {
+        // Alone on the directory: nobody else's uploads are being unpacked.
+        let _ = std::fs::remove_dir_all(config.tmp_dir());
+    }
+    let _ = std::fs::create_dir_all(config.tmp_dir());
+    let mut store =
         Store::connect(&db).map_err(|e| CliError::failure(format!("{}: {e}", db.describe())))?;
+    if farm {
+        // Workers in other processes write events too: stream them from the table.
+        store = store
+            .with_event_relay()
+            .map_err(|e| CliError::failure(format!("{}: {e}", db.describe())))?;
+    } else {
+        // Alone on the store: claims of an earlier run of this server are void.
+        store
+            .clear_leases()
+            .map_err(|e| CliError::failure(format!("{}: {e}", db.describe())))?;
+    }
+    let workers = a.workers;
     crate::builtin_scenes::install(&config.builtin_dir())
         .map_err(|e| CliError::failure(format!("writing the built-in scenes: {e}")))?;
     if let Err(e) = crate::storage::make_reserve(dir) {
@@ -388,8 +479,21 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
         let local = listener
             .local_addr()
             .map_err(|e| CliError::failure(e.to_string()))?;
-        let (worker, thread) = crate::worker::spawn(store.clone(), shared.clone(), config.clone())
-            .map_err(|e| CliError::failure(format!("starting the GPU worker: {e}")))?;
+        let (worker, thread) = if workers == 0 {
+            shared.set_gpu(crate::shared::GpuStatus {
+                state: "none",
+                device: None,
+                error: None,
+            });
+            (crate::worker::detached(), None)
+        } else {
+            let (w, t) = crate::worker::spawn(store.clone(), shared.clone(), config.clone())
+                .map_err(|e| CliError::failure(format!("starting the GPU worker: {e}")))?;
+            (w, Some(t))
+        };
+        if farm {
+            tokio::spawn(relay_task(store.clone()));
+        }
         let (stop_tx, stop_rx) = watch::channel(false);
         let stop_watch = stop_rx.clone();
         let state = AppState {
@@ -437,8 +541,8 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
             }
         };
         worker.shutdown();
-        let joined = tokio::task::spawn_blocking(move || thread.join()).await;
-        if joined.is_err() {
+        let joined = tokio::task::spawn_blocking(move || thread.map(|t| t.join())).await;
+        if !matches!(joined, Ok(None | Some(Ok(())))) {
             tracing::error!("the GPU worker did not stop cleanly");
         }
         match result {

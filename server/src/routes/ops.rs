@@ -19,7 +19,7 @@ pub async fn health(State(st): State<AppState>) -> Result<Json<Value>, ApiError>
     let jobs = st.store.count_by_state()?;
     let status = match (st.shutting_down(), gpu.state) {
         (true, _) => "shutting_down",
-        (false, "ready") => "ok",
+        (false, "ready" | "none") => "ok",
         (false, _) => "degraded",
     };
     Ok(Json(json!({

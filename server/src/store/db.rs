@@ -123,6 +123,15 @@ impl Dialect {
             Dialect::Postgres => " FOR UPDATE",
         }
     }
+    /// Appended to the `SELECT` that picks a job to claim (leases.rs): PostgreSQL locks the row
+    /// and passes over rows other processes are claiming; SQLite's write transaction already
+    /// excludes every other writer.
+    pub fn skip_locked(self) -> &'static str {
+        match self {
+            Dialect::Sqlite => "",
+            Dialect::Postgres => " FOR UPDATE SKIP LOCKED",
+        }
+    }
     /// The position of a substring (1-based, 0 when absent): `instr(hay, needle)` in SQLite,
     /// `strpos(hay, needle)` in PostgreSQL.
     pub fn instr(self) -> &'static str {
@@ -237,16 +246,27 @@ impl Store {
         &self,
         f: impl FnOnce(&mut dyn Conn) -> Result<(T, Vec<StoredEvent>), StoreError>,
     ) -> Result<T, StoreError> {
-        match &self.db {
+        // Relaying: the jobs written to, whose new events are then broadcast from the table.
+        let mut touched = Vec::new();
+        let mut deliver = |events: Vec<StoredEvent>| match &self.relay {
+            Some(_) => touched.extend(events.iter().map(|e| e.job_id)),
+            None => self.broadcast(events),
+        };
+        let out = match &self.db {
             Backend::Sqlite(m) => {
                 let mut conn = Backend::sqlite(m);
                 let tx = conn.transaction()?;
                 let (out, events) = f(&mut SqliteConn(&tx))?;
                 tx.commit()?;
-                self.broadcast(events);
-                Ok(out)
+                deliver(events);
+                out
             }
-            Backend::Postgres(pg) => pg.write(f, |events| self.broadcast(events)),
+            Backend::Postgres(pg) => pg.write(f, deliver)?,
+        };
+        if !touched.is_empty() {
+            // Committed already: a failure here only delays the broadcast to the next poll.
+            let _ = self.relay_jobs(Some(&touched));
         }
+        Ok(out)
     }
 }

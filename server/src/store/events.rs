@@ -79,6 +79,72 @@ impl Store {
         }
     }
 
+    /// Relaying (a farm, [`Store::with_event_relay`]): broadcasts every event written since
+    /// the last call, by this process or another, in id order per job. Call it periodically.
+    pub fn relay_new_events(&self) -> Result<(), StoreError> {
+        self.relay_jobs(None)
+    }
+
+    /// Broadcasts the events of `jobs` (None: every job) not broadcast yet. Runs holding the
+    /// connection and the relay's map, so broadcasts of one job never interleave out of order.
+    pub(super) fn relay_jobs(&self, jobs: Option<&[JobId]>) -> Result<(), StoreError> {
+        let Some(relay) = &self.relay else {
+            return Ok(());
+        };
+        self.read(|c| {
+            let mut seen = relay.lock().unwrap_or_else(|p| p.into_inner());
+            // Step 1: the jobs with events past the last broadcast (`event_seq` is committed
+            // with the events it numbers, so 1..=event_seq are all there).
+            let heads: Vec<(JobId, i64)> = match jobs {
+                Some(ids) => ids
+                    .iter()
+                    .filter_map(|id| {
+                        c.query_opt("SELECT event_seq FROM jobs WHERE id = ?1", params![*id])
+                            .ok()
+                            .flatten()
+                            .and_then(|r| r.i64(0).ok())
+                            .map(|seq| (*id, seq))
+                    })
+                    .collect(),
+                None => c
+                    .query("SELECT id, event_seq FROM jobs", &[])?
+                    .iter()
+                    .filter_map(|r| Some((r.i64(0).ok()?, r.i64(1).ok()?)))
+                    .collect(),
+            };
+            if jobs.is_none() {
+                // Jobs deleted since (retention): forgotten.
+                let present: std::collections::HashSet<JobId> =
+                    heads.iter().map(|(id, _)| *id).collect();
+                seen.retain(|id, _| present.contains(id));
+            }
+            // Step 2: their new events, broadcast in order.
+            for (id, head) in heads {
+                let last = seen.get(&id).copied().unwrap_or(0);
+                if head <= last {
+                    continue;
+                }
+                let rows = c.query(
+                    "SELECT seq, kind, data FROM events WHERE job_id = ?1 AND seq > ?2 ORDER BY seq",
+                    params![id, last],
+                )?;
+                let mut upto = last;
+                for r in &rows {
+                    let e = StoredEvent {
+                        job_id: id,
+                        seq: r.i64(0)?,
+                        kind: r.text(1)?,
+                        data: serde_json::from_str(&r.text(2)?).unwrap_or(Value::Null),
+                    };
+                    upto = upto.max(e.seq);
+                    let _ = self.events.send(e);
+                }
+                seen.insert(id, upto.max(head));
+            }
+            Ok(())
+        })
+    }
+
     /// The stored events of a job with a sequence number above `after`, in order.
     pub fn events_after(&self, job_id: JobId, after: i64) -> Result<Vec<StoredEvent>, StoreError> {
         let rows = self.read(|c| {

@@ -103,10 +103,33 @@ CREATE TABLE users (
     created_at   DOUBLE PRECISION NOT NULL
 );",
     },
+    // 3: render leases (store/leases.rs): which worker renders a job and until when its claim
+    // holds, and every claim made (`leases`: who rendered what, for audits and tests).
+    Migration {
+        version: 3,
+        sqlite: "
+ALTER TABLE jobs ADD COLUMN lease_owner TEXT;
+ALTER TABLE jobs ADD COLUMN lease_until REAL;
+CREATE TABLE IF NOT EXISTS leases (
+    job_id     INTEGER NOT NULL,
+    worker     TEXT NOT NULL,
+    claimed_at REAL NOT NULL
+);
+CREATE INDEX IF NOT EXISTS leases_by_job ON leases(job_id);",
+        postgres: "
+ALTER TABLE jobs ADD COLUMN lease_owner TEXT;
+ALTER TABLE jobs ADD COLUMN lease_until DOUBLE PRECISION;
+CREATE TABLE leases (
+    job_id     BIGINT NOT NULL,
+    worker     TEXT NOT NULL,
+    claimed_at DOUBLE PRECISION NOT NULL
+);
+CREATE INDEX leases_by_job ON leases(job_id);",
+    },
 ];
 
 /// The schema version this build writes.
-pub const LATEST: i64 = 2;
+pub const LATEST: i64 = 3;
 
 /// Brings the database to [`LATEST`]; runs inside the caller's transaction, which must exclude
 /// other processes migrating at once (SQLite: `BEGIN IMMEDIATE`; PostgreSQL: this takes an

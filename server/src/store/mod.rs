@@ -13,6 +13,7 @@
 mod db;
 mod events;
 mod jobs;
+mod leases;
 mod migrate;
 mod postgres;
 mod retention;
@@ -35,6 +36,9 @@ use db::{Backend, SqliteConn};
 pub struct Store {
     db: Backend,
     events: broadcast::Sender<StoredEvent>,
+    /// With other processes writing events (a farm): the last event id broadcast of each job;
+    /// events are then broadcast from the table (events.rs, [`Store::relay_new_events`]).
+    relay: Option<Mutex<std::collections::HashMap<JobId, i64>>>,
 }
 
 /// Why a store operation failed.
@@ -114,7 +118,24 @@ impl Store {
 
     fn with(db: Backend) -> Store {
         let (events, _) = broadcast::channel(1024);
-        Store { db, events }
+        Store {
+            db,
+            events,
+            relay: None,
+        }
+    }
+
+    /// Broadcasts events from the table rather than as they are written, so that subscribers
+    /// also see the events other processes (`candela worker`) write; call
+    /// [`Store::relay_new_events`] periodically. Events already stored are not broadcast.
+    pub fn with_event_relay(mut self) -> Result<Store, StoreError> {
+        let rows = self.read(|c| c.query("SELECT id, event_seq FROM jobs", &[]))?;
+        let seen = rows
+            .iter()
+            .map(|r| Ok((r.i64(0)?, r.i64(1)?)))
+            .collect::<Result<_, StoreError>>()?;
+        self.relay = Some(Mutex::new(seen));
+        Ok(self)
     }
 
     /// Receives every event appended from now on (all jobs).

@@ -12,6 +12,10 @@
 //! far past its expected time shrinks its job's passes, or stops the job (watchdog.rs). On
 //! shutdown every active job is checkpointed and stays `running` in the store, to be resumed at
 //! the next start.
+//!
+//! Several workers (processes) may share one store: each job is rendered under a lease the
+//! worker claims and renews by heartbeats (store/leases.rs); a job whose lease was lost is
+//! dropped unsaved, and the store is looked at every second for changes other processes made.
 
 mod active;
 mod auto;
@@ -71,6 +75,12 @@ impl WorkerHandle {
     }
 }
 
+/// A handle on no worker (`candela serve --workers 0`): its messages go nowhere.
+pub fn detached() -> WorkerHandle {
+    let (tx, _) = mpsc::channel();
+    WorkerHandle { tx }
+}
+
 /// Starts the worker thread.
 pub fn spawn(
     store: Arc<Store>,
@@ -98,6 +108,8 @@ pub fn spawn(
                 loss_trigger: device_loss::trigger_from_env(),
                 losses: BTreeMap::new(),
                 pipelines_seen: 0,
+                last_heartbeat: Instant::now(),
+                last_reconcile: Instant::now(),
             };
             // A panic outside a pass (which is caught where it happens) restarts the loop with
             // a fresh device rather than ending the thread.
@@ -139,7 +151,15 @@ struct Worker {
     losses: BTreeMap<JobId, u32>,
     /// Pipeline objects alive at the last [`Worker::publish_caches`].
     pipelines_seen: u64,
+    /// When the leases were last renewed (store/leases.rs).
+    last_heartbeat: Instant,
+    /// When the worker last looked at the store (other processes change it unannounced).
+    last_reconcile: Instant,
 }
+
+/// How often a busy worker looks at the store for jobs other processes submitted, paused or
+/// canceled (an idle one looks every half second).
+const RECONCILE_EVERY: Duration = Duration::from_secs(1);
 
 /// Whether an error means the device itself is in doubt (rebuild it).
 fn is_device_error(e: &RenderError) -> bool {
@@ -175,18 +195,26 @@ impl Worker {
                     }
                 }
             }
-            // Step 2: free space (and held jobs resumed when it returns).
+            // Step 2: the leases renewed; jobs taken over by another worker dropped.
+            if self.last_heartbeat.elapsed() >= self.config.heartbeat {
+                self.heartbeat();
+            }
+            if self.last_reconcile.elapsed() >= RECONCILE_EVERY {
+                self.dirty = true;
+            }
+            // Step 3: free space (and held jobs resumed when it returns).
             self.check_storage();
-            // Step 3: a device.
+            // Step 4: a device.
             if self.ctx.is_none() && !self.open_device() {
                 continue;
             }
-            // Step 4: which jobs to render.
+            // Step 5: which jobs to render.
             if self.dirty {
                 self.dirty = false;
+                self.last_reconcile = Instant::now();
                 self.reconcile();
             }
-            // Step 5: one pass of the job the scheduler picks.
+            // Step 6: one pass of the job the scheduler picks.
             if let Some(id) = self.sched.pick() {
                 self.step(id);
             }
@@ -290,14 +318,62 @@ impl Worker {
         for id in gone {
             self.retire(id);
         }
-        for (id, state, priority) in runnable {
+        for (id, _, priority) in runnable {
             if self.active.contains_key(&id) {
                 self.sched.set_weight(id, priority);
-            } else if self.held.contains_key(&id) {
-                // Held for a storage fault: waits for space (storage_hold.rs).
-            } else if self.active.len() < self.config.max_active.max(1) && self.ctx.is_some() {
-                self.admit(id, state, priority);
             }
+        }
+        // Free slots: claim runnable jobs (store/leases.rs) — none another worker holds, none
+        // held for a storage fault (storage_hold.rs).
+        let mut skip: Vec<JobId> = self.held.keys().copied().collect();
+        while self.active.len() < self.config.max_active.max(1) && self.ctx.is_some() {
+            let exclude: Vec<JobId> = self.active.keys().chain(&skip).copied().collect();
+            let claim = self
+                .store
+                .claim_job(&self.config.worker_id, self.config.lease, &exclude);
+            match claim {
+                Ok(Some((id, state, priority))) => {
+                    self.admit(id, state, priority);
+                    // Admitting may take long (kernels to build): renew at once, and let the
+                    // job go if another worker took it meanwhile.
+                    self.heartbeat();
+                    // Not admitted (failed, or paused meanwhile): its lease goes at the next
+                    // heartbeat; not again in this round.
+                    skip.push(id);
+                }
+                Ok(None) => break,
+                Err(e) => {
+                    error!(error = %e, "claiming a job");
+                    self.dirty = true;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Renews the leases of the active jobs and gives up the others; drops, unsaved, every job
+    /// whose lease was lost (it expired and another worker took the job over).
+    fn heartbeat(&mut self) {
+        self.last_heartbeat = Instant::now();
+        let held: Vec<JobId> = self.active.keys().copied().collect();
+        let kept = match self
+            .store
+            .renew_leases(&self.config.worker_id, &held, self.config.lease)
+        {
+            Ok(k) => k,
+            Err(e) => return error!(error = %e, "renewing the render leases"),
+        };
+        for id in held.into_iter().filter(|id| !kept.contains(id)) {
+            warn!(
+                job = id,
+                "lost the job's lease to another worker; stopping it"
+            );
+            self.sched.remove(id);
+            self.queued.retain(|j| *j != id);
+            if let Some(job) = self.active.remove(&id) {
+                job.flush_metrics();
+            }
+            self.shared.forget(id);
         }
     }
 
@@ -605,5 +681,12 @@ impl Worker {
         self.active.clear();
         self.sched.clear();
         self.ctx = None;
+        // Checkpointed: another worker (or this one, restarted) may take the jobs at once.
+        if let Err(e) = self
+            .store
+            .renew_leases(&self.config.worker_id, &[], self.config.lease)
+        {
+            warn!(error = %e, "giving up the render leases");
+        }
     }
 }

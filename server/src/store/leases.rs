@@ -1,0 +1,161 @@
+//! Render leases: which worker renders a job, so that several processes sharing one database
+//! (`candela worker`, `candela serve`) never render the same job at once. A worker claims a
+//! runnable job (queued, or running with no live lease) in one transaction — on PostgreSQL the
+//! candidate row is picked with `FOR UPDATE SKIP LOCKED`, so concurrent claims take different
+//! jobs; on SQLite the write transaction is serialised anyway — and stamps it with its id and an
+//! expiry. It renews the expiry by heartbeats while it renders; a worker that dies stops
+//! renewing, the lease expires, and another worker claims the job and resumes it from its
+//! checkpoint. A worker whose renewal finds the lease gone (expired and taken) stops rendering
+//! that job. Every claim is recorded in `leases` (job, worker, time).
+
+use std::time::Duration;
+
+use super::db::params;
+use super::{Store, StoreError};
+use crate::jobs::model::{now_s, JobId, JobState};
+
+/// `id, id, …` for an `IN (…)` list (ids are integers: nothing to quote); `-1` when empty.
+fn id_list(ids: &[JobId]) -> String {
+    if ids.is_empty() {
+        return "-1".into();
+    }
+    ids.iter()
+        .map(|i| i.to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+impl Store {
+    /// Claims the next runnable job for `worker` for `lease`: running before queued, then by
+    /// priority (highest first), then oldest first; a running job only when its lease expired
+    /// or is `worker`'s own. `exclude`: jobs the worker already holds. Returns the job's id,
+    /// state and priority.
+    pub fn claim_job(
+        &self,
+        worker: &str,
+        lease: Duration,
+        exclude: &[JobId],
+    ) -> Result<Option<(JobId, JobState, u32)>, StoreError> {
+        let now = now_s();
+        self.write(|c| {
+            let pick = format!(
+                "SELECT id, state, priority FROM jobs WHERE state IN ('queued', 'running') \
+                 AND (lease_owner IS NULL OR lease_owner = ?1 OR lease_until < ?2) \
+                 AND id NOT IN ({}) \
+                 ORDER BY state = 'running' DESC, priority DESC, id ASC LIMIT 1{}",
+                id_list(exclude),
+                c.dialect().skip_locked()
+            );
+            let Some(row) = c.query_opt(&pick, params![worker, now])? else {
+                return Ok((None, Vec::new()));
+            };
+            let id = row.i64(0)?;
+            let state = JobState::parse(&row.text(1)?).unwrap_or(JobState::Queued);
+            let priority = u32::try_from(row.i64(2)?).unwrap_or(1);
+            c.exec(
+                "UPDATE jobs SET lease_owner = ?2, lease_until = ?3 WHERE id = ?1",
+                params![id, worker, now + lease.as_secs_f64()],
+            )?;
+            c.exec(
+                "INSERT INTO leases (job_id, worker, claimed_at) VALUES (?1, ?2, ?3)",
+                params![id, worker, now],
+            )?;
+            Ok((Some((id, state, priority)), Vec::new()))
+        })
+    }
+
+    /// The heartbeat: extends `worker`'s leases on `held` by `lease` and gives up its leases on
+    /// every other job; returns the jobs of `held` whose lease it still has (the others were
+    /// taken over after expiring: stop rendering them).
+    pub fn renew_leases(
+        &self,
+        worker: &str,
+        held: &[JobId],
+        lease: Duration,
+    ) -> Result<Vec<JobId>, StoreError> {
+        let list = id_list(held);
+        self.write(|c| {
+            c.exec(
+                &format!(
+                    "UPDATE jobs SET lease_owner = NULL, lease_until = NULL \
+                     WHERE lease_owner = ?1 AND id NOT IN ({list})"
+                ),
+                params![worker],
+            )?;
+            let rows = c.query(
+                &format!(
+                    "UPDATE jobs SET lease_until = ?2 WHERE lease_owner = ?1 AND id IN ({list}) \
+                     RETURNING id"
+                ),
+                params![worker, now_s() + lease.as_secs_f64()],
+            )?;
+            let kept = rows.iter().map(|r| r.i64(0)).collect::<Result<_, _>>()?;
+            Ok((kept, Vec::new()))
+        })
+    }
+
+    /// Drops every lease (a process that alone uses the store, at its start: a SQLite server).
+    pub fn clear_leases(&self) -> Result<(), StoreError> {
+        self.read(|c| {
+            c.exec(
+                "UPDATE jobs SET lease_owner = NULL, lease_until = NULL \
+                 WHERE lease_owner IS NOT NULL",
+                &[],
+            )
+        })?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fresh SQLite store with jobs 1 (queued, priority 10), 2 (queued, priority 20) and 3
+    /// (done).
+    fn store(name: &str) -> (Store, std::path::PathBuf) {
+        let dir = std::env::temp_dir().join(format!("candela-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let store = Store::open(&dir.join("candela.db")).unwrap();
+        let row = |state: &str, priority: u32| {
+            format!(
+                "INSERT INTO jobs (name, state, priority, settings, scene, source, created_at, \
+                 updated_at) VALUES ('j', '{state}', {priority}, '{{}}', '{{}}', 'inline', 1, 1);"
+            )
+        };
+        let sql = [row("queued", 10), row("queued", 20), row("done", 30)].concat();
+        store.read(|c| c.batch(&sql)).unwrap();
+        (store, dir)
+    }
+
+    /// Claims go by priority, never to a job another worker holds while its lease lives, and
+    /// to another worker once it expired; the old holder's heartbeat then finds it lost.
+    #[test]
+    fn claims_exclude_live_leases_and_take_over_expired_ones() {
+        let (s, dir) = store("leases");
+        let long = Duration::from_secs(60);
+        // Step 1: the higher priority first; held jobs are not claimed twice.
+        assert_eq!(s.claim_job("a", long, &[]).unwrap().map(|c| c.0), Some(2));
+        assert_eq!(s.claim_job("b", long, &[]).unwrap().map(|c| c.0), Some(1));
+        assert_eq!(s.claim_job("c", long, &[]).unwrap(), None, "done or held");
+        // Step 2: a's lease on 2 expires (renewed with a zero lease); c takes it over.
+        assert_eq!(s.renew_leases("a", &[2], Duration::ZERO).unwrap(), vec![2]);
+        std::thread::sleep(Duration::from_millis(20));
+        assert_eq!(s.claim_job("c", long, &[]).unwrap().map(|c| c.0), Some(2));
+        assert!(s.renew_leases("a", &[2], long).unwrap().is_empty(), "lost");
+        assert_eq!(s.renew_leases("c", &[2], long).unwrap(), vec![2]);
+        // Step 3: b gives up 1 (a heartbeat without it); a may claim it, and exclude it.
+        assert!(s.renew_leases("b", &[], long).unwrap().is_empty());
+        assert_eq!(s.claim_job("a", long, &[1]).unwrap(), None);
+        assert_eq!(s.claim_job("a", long, &[]).unwrap().map(|c| c.0), Some(1));
+        // Every claim is in the history.
+        let n = s
+            .read(|c| c.query_one("SELECT COUNT(*) FROM leases", &[]))
+            .unwrap()
+            .i64(0)
+            .unwrap();
+        assert_eq!(n, 4);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -1,0 +1,234 @@
+//! A render farm on one PostgreSQL store, against the real binaries: an API server that renders
+//! nothing (`candela serve --workers 0`) and `candela worker` processes sharing its database and
+//! data directory. Jobs submitted to the API are rendered by the workers, each by one worker
+//! (the `leases` table records every claim), to exactly their sample count; their events reach
+//! the API server's SSE clients live; and a worker killed mid-job (SIGKILL) has its job taken
+//! over, once its lease expires, by the other worker, which resumes it from its checkpoint. A
+//! SQLite server cannot share the farm's data directory.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use candela_tests::database::{cluster, database_env, run_on, Backend};
+use candela_tests::server::Server;
+use candela_tests::{candela, repo_root, scratch};
+use serde_json::{json, Value};
+
+const T: Duration = Duration::from_secs(180);
+
+/// The farm runs on PostgreSQL only (SQLite is one process's store).
+#[test]
+fn two_workers_share_the_jobs() {
+    run_on(Backend::Postgres, two_workers_share_the_jobs_on_postgres)
+}
+
+#[test]
+fn a_killed_workers_job_is_taken_over() {
+    run_on(
+        Backend::Postgres,
+        a_killed_workers_job_is_taken_over_on_postgres,
+    )
+}
+
+/// A `candela worker` process, killed when dropped; its output goes to `<name>.log`.
+struct Worker {
+    child: Child,
+    log: PathBuf,
+}
+
+impl Worker {
+    /// Starts worker `name` on `data`'s store and waits for its `rendering` line.
+    fn start(data: &Path, name: &str, lease_s: &str) -> Worker {
+        let log = data.parent().unwrap().join(format!("{name}.log"));
+        let out = std::fs::File::create(&log).unwrap();
+        let url = database_env(data).expect("a PostgreSQL database");
+        let child = Command::new(candela())
+            .arg("worker")
+            .arg("--data-dir")
+            .arg(data)
+            .args(["--database", &url, "--worker-id", name, "--lease", lease_s])
+            .args(["--pass-ms", "40", "--checkpoint-interval", "0.2"])
+            .args(["--snapshot-interval", "0.2", "--max-active", "2"])
+            .args(["--warm-kernels", "none"])
+            .current_dir(repo_root())
+            .env("CANDELA_LOG", "info")
+            .stdin(Stdio::null())
+            .stdout(out.try_clone().unwrap())
+            .stderr(out)
+            .spawn()
+            .expect("start candela worker");
+        let w = Worker { child, log };
+        let deadline = Instant::now() + Duration::from_secs(60);
+        while !w.log().contains("candela: worker") {
+            assert!(Instant::now() < deadline, "worker {name}:\n{}", w.log());
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        w
+    }
+
+    fn log(&self) -> String {
+        std::fs::read_to_string(&self.log).unwrap_or_default()
+    }
+
+    fn kill9(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for Worker {
+    fn drop(&mut self) {
+        self.kill9();
+    }
+}
+
+/// Every claim in the store's lease history: (job, worker, claimed_at), in claim order.
+fn claims(data: &Path) -> Vec<(i64, String, f64)> {
+    let url = database_env(data).unwrap();
+    let o = Command::new(cluster().tool("psql"))
+        .args([&url, "-At", "-F", "|", "-c"])
+        .arg("SELECT job_id, worker, claimed_at FROM leases ORDER BY claimed_at, job_id")
+        .output()
+        .expect("run psql");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| {
+            let f: Vec<&str> = l.split('|').collect();
+            (
+                f[0].parse().unwrap(),
+                f[1].to_string(),
+                f[2].parse().unwrap(),
+            )
+        })
+        .collect()
+}
+
+fn spp(job: &Value) -> u64 {
+    job["progress"]["spp"].as_u64().unwrap_or(0)
+}
+
+fn two_workers_share_the_jobs_on_postgres() {
+    let dir = scratch("server_farm_two");
+    let data = dir.join("data");
+    let api = Server::start(&data, &["--workers", "0"]);
+    let workers = [
+        Worker::start(&data, "w1", "6"),
+        Worker::start(&data, "w2", "6"),
+    ];
+    // The API server alone is healthy: it renders nothing by design.
+    let (_, health) = api.get("/api/health");
+    assert_eq!(
+        (health["status"].as_str(), health["gpu"]["state"].as_str()),
+        (Some("ok"), Some("none")),
+        "{health}"
+    );
+    // A SQLite server cannot join the farm's data directory; a worker needs PostgreSQL.
+    let sqlite = format!("sqlite://{}", dir.join("other.db").display());
+    let run = |cmd: &str| {
+        Command::new(candela())
+            .arg(cmd)
+            .arg("--data-dir")
+            .arg(&data)
+            .args(["--database", &sqlite, "--bind", "127.0.0.1:0"])
+            .env_remove("CANDELA_DATABASE")
+            .output()
+            .expect("run candela")
+    };
+    let o = run("serve");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("another candela server is using it"), "{err}");
+    let o = Command::new(candela())
+        .args(["serve", "--workers", "0", "--data-dir"])
+        .arg(dir.join("alone"))
+        .env_remove("CANDELA_DATABASE")
+        .output()
+        .expect("run candela");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("--workers 0"), "{err}");
+    let o = run("worker");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("postgres://"), "{err}");
+    // Step 1: six small jobs; the first one's events followed live from its submission.
+    let mut ids: Vec<(i64, u64)> = Vec::new();
+    let mut stream = None;
+    for i in 0..6u64 {
+        let spp = 20 + i;
+        let job = api.submit(&json!({"scene_name": "furnace", "spp": spp,
+                                     "width": 16, "height": 16, "seed": i}));
+        ids.push((job["id"].as_i64().unwrap(), spp));
+        if i == 0 {
+            stream = Some(api.events(ids[0].0, Some(0)));
+        }
+    }
+    let mut stream = stream.unwrap();
+    // Step 2: all complete, each with exactly its samples.
+    for (id, want) in &ids {
+        let done = api.wait_job(*id, T, |j| {
+            matches!(j["state"].as_str(), Some("done" | "failed"))
+        });
+        assert_eq!(
+            done["state"],
+            "done",
+            "{done}\n{}\n{}",
+            workers[0].log(),
+            workers[1].log()
+        );
+        assert_eq!(spp(&done), *want, "{done}");
+        assert_eq!(done["stats"]["spp"], *want, "{done}");
+    }
+    // Step 3: the API server streamed the worker's events: dense ids, through to `done`.
+    let events = stream.collect_all();
+    let seqs: Vec<i64> = events.iter().map(|e| e.id.unwrap()).collect();
+    assert!(seqs.windows(2).all(|w| w[1] == w[0] + 1), "{seqs:?}");
+    assert_eq!(events.last().unwrap().event, "done", "{events:?}");
+    assert!(events.iter().any(|e| e.event == "progress"), "{events:?}");
+    // Step 4: each job was claimed by one worker only, and both workers rendered.
+    let mut by_job: BTreeMap<i64, BTreeSet<String>> = BTreeMap::new();
+    for (job, worker, _) in claims(&data) {
+        by_job.entry(job).or_default().insert(worker);
+    }
+    assert_eq!(by_job.len(), ids.len(), "{by_job:?}");
+    assert!(by_job.values().all(|w| w.len() == 1), "{by_job:?}");
+    let used: BTreeSet<&String> = by_job.values().flatten().collect();
+    assert_eq!(used.len(), 2, "{by_job:?}");
+}
+
+fn a_killed_workers_job_is_taken_over_on_postgres() {
+    let dir = scratch("server_farm_kill");
+    let data = dir.join("data");
+    let api = Server::start(&data, &["--workers", "0"]);
+    let mut w1 = Worker::start(&data, "w1", "2");
+    let total = 1200u64;
+    let job = api.submit(&json!({"scene_name": "cornell", "spp": total,
+                                 "width": 16, "height": 16, "seed": 3}));
+    let id = job["id"].as_i64().unwrap();
+    // Step 1: w1 renders it past a checkpoint; then w2 joins and w1 dies.
+    let ckpt = data.join(format!("jobs/{id}/checkpoint.bin"));
+    let before = api.wait_job(id, T, |j| spp(j) >= 20 && ckpt.exists());
+    assert!(spp(&before) < total, "finished before the kill: {before}");
+    let w2 = Worker::start(&data, "w2", "2");
+    w1.kill9();
+    // Step 2: w2 takes it over from the checkpoint and finishes it, exactly.
+    let done = api.wait_job(id, T, |j| {
+        matches!(j["state"].as_str(), Some("done" | "failed"))
+    });
+    assert_eq!(done["state"], "done", "{done}\n{}", w2.log());
+    assert_eq!(spp(&done), total, "{done}");
+    assert_eq!(done["stats"]["spp"], total, "{done}");
+    assert!(w2.log().contains("resumed from checkpoint"), "{}", w2.log());
+    // Step 3: the lease history: w1, then w2 only after w1's claim.
+    let c = claims(&data);
+    let who: Vec<&str> = c.iter().map(|(_, w, _)| w.as_str()).collect();
+    assert_eq!(who.first(), Some(&"w1"), "{c:?}");
+    assert_eq!(who.last(), Some(&"w2"), "{c:?}");
+    assert!(
+        c.iter().all(|(j, _, _)| *j == id),
+        "only the one job: {c:?}"
+    );
+}
