@@ -30,6 +30,12 @@ pub fn scene_path(name: &str) -> PathBuf {
 
 /// A scratch folder for one test, emptied first.
 pub fn scratch(name: &str) -> PathBuf {
+    // A test's SQLite and PostgreSQL variants (`on_both_databases!`) run in parallel: each gets
+    // its own folder.
+    let name = match database::backend() {
+        database::Backend::Sqlite => name.to_string(),
+        database::Backend::Postgres => format!("{name}.postgres"),
+    };
     let dir = repo_root().join("target").join("test-scratch").join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("scratch dir");
