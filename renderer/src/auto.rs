@@ -1,5 +1,5 @@
 //! `auto`: the integrator chosen for the scene by a short pilot (issue 14 item 4). Each unbiased
-//! integrator of the registry renders a few percent of the budget; its relMSE estimated without
+//! integrator of the registry that can see the scene's lights (not pt with delta lights) renders a few percent of the budget; its relMSE estimated without
 //! a reference (metrics/estimate.rs) times its render time is its cost (for an unbiased
 //! estimator relMSE falls as 1/time, so error × time is what it pays for a given error), and the
 //! cheapest continues from its pilot's samples to the budget. The choice and every pilot's
@@ -60,9 +60,12 @@ pub fn pilot(
     max_depth: Option<i32>,
     budget: Budget,
 ) -> Result<Piloted, RenderError> {
+    // Unbiased for this scene: pt is left out where the scene has delta lights (it cannot see
+    // them, so its image is dark and its estimate small, not good).
+    let delta = prepared.compiled.features.delta_lights;
     let candidates: Vec<&'static str> = INTEGRATORS
         .iter()
-        .filter(|i| i.unbiased)
+        .filter(|i| i.unbiased && (i.delta_lights || !delta))
         .map(|i| i.name)
         .collect();
     let n = candidates.len().max(1) as f64;

@@ -57,6 +57,10 @@ pub struct IntegratorInfo {
     /// shaders/common/lights.glsl); false: they keep the power sampler whatever the scene says
     /// (an integrator whose MIS weights assume the power pick). All take it now.
     pub light_bvh: bool,
+    /// Its paths can reach delta lights (point, spot, directional): false for pt, whose paths
+    /// only find light by hitting it, so on a scene with delta lights it converges to another
+    /// image (their light missing) and is no candidate for `auto`.
+    pub delta_lights: bool,
     /// The per-pass kernel, relative to shaders/ (its other stages live in the same folder).
     pub kernel: &'static str,
     /// Its documentation page in the repository, if it has one.
@@ -74,6 +78,7 @@ macro_rules! integrators {
             summary: $summary:literal,
             unbiased: $unbiased:literal,
             light_bvh: $light_bvh:literal,
+            delta_lights: $delta_lights:literal,
             kernel: $kernel:literal,
             doc: $doc:expr,
             build: $build:path $(,)?
@@ -98,6 +103,7 @@ macro_rules! integrators {
                 summary: $summary,
                 unbiased: $unbiased,
                 light_bvh: $light_bvh,
+                delta_lights: $delta_lights,
                 kernel: $kernel,
                 doc: $doc,
                 options: <$opts as OptionsInfo>::FIELDS,
@@ -150,6 +156,7 @@ integrators! {
         summary: "Path tracing with BSDF sampling only: the simplest unbiased reference.",
         unbiased: true,
         light_bvh: true,
+        delta_lights: false,
         kernel: "pt/pt.comp",
         doc: None,
         build: pt::new,
@@ -159,6 +166,7 @@ integrators! {
         summary: "Path tracing with next-event estimation and MIS (power heuristic).",
         unbiased: true,
         light_bvh: true,
+        delta_lights: true,
         kernel: "nee/nee.comp",
         doc: None,
         build: nee::new,
@@ -168,6 +176,7 @@ integrators! {
         summary: "Bidirectional path tracing: every (s, t) strategy, MIS, light-tracing splats.",
         unbiased: true,
         light_bvh: true,
+        delta_lights: true,
         kernel: "bdpt/bdpt.comp",
         doc: None,
         build: bdpt::new,
@@ -177,6 +186,7 @@ integrators! {
         summary: "Whitted ray tracing: mirror and refraction recursion, shadow rays; deterministic.",
         unbiased: false,
         light_bvh: true,
+        delta_lights: true,
         kernel: "whitted/whitted.comp",
         doc: Some("docs/whitted.md"),
         build: whitted::new,
@@ -186,6 +196,7 @@ integrators! {
         summary: "Deferred many-light shading: packed G-buffer, tiled light culling.",
         unbiased: false,
         light_bvh: true,
+        delta_lights: true,
         kernel: "deferred/deferred.comp",
         doc: Some("docs/deferred.md"),
         build: deferred::new,
@@ -195,6 +206,7 @@ integrators! {
         summary: "Voxel cone tracing over a GPU-built sparse voxel octree.",
         unbiased: false,
         light_bvh: true,
+        delta_lights: true,
         kernel: "vct/vct.comp",
         doc: Some("docs/vct.md"),
         build: vct::new,
