@@ -35,6 +35,7 @@ use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
 use obvhs::ploc::PlocBuilder;
 use obvhs::BvhBuildParams;
 
+use super::flatten::heights;
 use super::PrimBounds;
 use crate::layout::GpuCwbvhNode;
 
@@ -194,29 +195,6 @@ fn expand_copies(bvh: &Bvh2, prims: &[PrimBounds], groups: &[Vec<u32>]) -> Bvh2 
         primitive_indices: indices,
         ..Default::default()
     }
-}
-
-/// Heights (inner levels; 0 for a leaf) and primitive counts of every subtree of `bvh`.
-fn heights(bvh: &Bvh2) -> (Vec<u32>, Vec<u64>) {
-    let src = &bvh.nodes;
-    let mut height = vec![0u32; src.len()];
-    let mut count = vec![0u64; src.len()];
-    let mut stack = vec![(0usize, false)];
-    while let Some((i, expanded)) = stack.pop() {
-        let n = &src[i];
-        if n.prim_count > 0 {
-            count[i] = n.prim_count as u64;
-            continue;
-        }
-        let (l, r) = (n.first_index as usize, n.first_index as usize + 1);
-        if expanded {
-            height[i] = 1 + height[l].max(height[r]);
-            count[i] = count[l] + count[r];
-        } else {
-            stack.extend([(i, true), (l, false), (r, false)]);
-        }
-    }
-    (height, count)
 }
 
 /// Inner levels of a balanced tree over `n` single-primitive leaves: ⌈log2 n⌉.

@@ -72,14 +72,12 @@ fn balanced_height(n: usize) -> usize {
     h
 }
 
-/// Flattens `bvh` (built over `bounds`). `limit`: the depth to keep the tree within (None: copy
-/// obvhs's tree as it is, a testing aid for deep trees).
-pub fn flatten(bvh: &Bvh2, bounds: &[PrimBounds], limit: Option<usize>) -> Flat {
+/// Heights (inner levels; 0 for a leaf) and primitive counts of every subtree of `bvh`,
+/// iteratively in post-order (chains may be deep).
+pub(super) fn heights(bvh: &Bvh2) -> (Vec<u32>, Vec<u64>) {
     let src = &bvh.nodes;
-    let n_src = src.len();
-    // Step 1: heights (inner levels) and primitive counts of every subtree, post-order.
-    let mut height = vec![0u32; n_src];
-    let mut count = vec![0u64; n_src];
+    let mut height = vec![0u32; src.len()];
+    let mut count = vec![0u64; src.len()];
     let mut stack = vec![(0usize, false)];
     while let Some((i, expanded)) = stack.pop() {
         let n = &src[i];
@@ -95,6 +93,16 @@ pub fn flatten(bvh: &Bvh2, bounds: &[PrimBounds], limit: Option<usize>) -> Flat 
             stack.extend([(i, true), (l, false), (r, false)]);
         }
     }
+    (height, count)
+}
+
+/// Flattens `bvh` (built over `bounds`). `limit`: the depth to keep the tree within (None: copy
+/// obvhs's tree as it is, a testing aid for deep trees).
+pub fn flatten(bvh: &Bvh2, bounds: &[PrimBounds], limit: Option<usize>) -> Flat {
+    let src = &bvh.nodes;
+    let n_src = src.len();
+    // Step 1: heights (inner levels) and primitive counts of every subtree, post-order.
+    let (height, count) = heights(bvh);
     let mut out = Flat {
         nodes: Vec::with_capacity(n_src / 2 + 1),
         order: Vec::with_capacity(bvh.primitive_indices.len()),
