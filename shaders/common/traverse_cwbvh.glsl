@@ -21,11 +21,24 @@
 #ifndef COMMON_TRAVERSE_CWBVH_GLSL
 #define COMMON_TRAVERSE_CWBVH_GLSL
 
-layout(set = 0, binding = B_CWBVH_NODES, scalar) readonly buffer CwbvhNodes { GpuCwbvhNode cw_nodes[]; };
+// Nodes are read as five 16-byte words each, so every node is fetched with five wide loads (the
+// struct declared over a scalar-layout buffer may be read a word at a time).
+layout(set = 0, binding = B_CWBVH_NODES, std430) readonly buffer CwbvhNodes { uvec4 cw_words[]; };
 #ifdef CWBVH_INDIRECT
 // Leaf slot -> primitive, when the primitives are not stored in leaf order (a testing aid).
 layout(set = 0, binding = B_CWBVH_PRIMS, scalar) readonly buffer CwbvhPrims { uint cwbvh_prims[]; };
 #endif
+
+// Node i (the word layout of GpuCwbvhNode, renderer/src/layout.rs).
+GpuCwbvhNode cw_node(uint i) {
+    uvec4 w0 = cw_words[5u * i], w1 = cw_words[5u * i + 1u], w2 = cw_words[5u * i + 2u],
+          w3 = cw_words[5u * i + 3u], w4 = cw_words[5u * i + 4u];
+    GpuCwbvhNode n;
+    n.p = uintBitsToFloat(w0.xyz); n.e_imask = w0.w;
+    n.child_base = w1.x; n.prim_base = w1.y; n.meta = w1.zw;
+    n.q[0] = w2.xy; n.q[1] = w2.zw; n.q[2] = w3.xy; n.q[3] = w3.zw; n.q[4] = w4.xy; n.q[5] = w4.zw;
+    return n;
+}
 
 // Byte c (0..7) of eight packed in a uvec2.
 uint cw_byte(uvec2 v, uint c) {
@@ -88,7 +101,7 @@ bool traverse_cwbvh(Ray r, bool any_hit, out Hit hit) {
             if ((node_group.y & 0xff000000u) != 0u && sp < CWBVH_STACK) stack[sp++] = node_group;
             uint slot = (bit - 24u) ^ oct_inv;
             uint rel = bitCount(hits & ~(0xffffffffu << slot));
-            GpuCwbvhNode n = cw_nodes[node_group.x + rel];
+            GpuCwbvhNode n = cw_node(node_group.x + rel);
             // Step 2: its children's boxes.
             uint hitmask = cw_intersect_node(n, r, pre, oct_inv);
             node_group = uvec2(n.child_base, (hitmask & 0xff000000u) | (n.e_imask >> 24));
