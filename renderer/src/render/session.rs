@@ -11,8 +11,10 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::dispatch::DispatchShape;
+use super::estimate_gpu::{self, GpuEstimator, ESTIMATE_LABELS};
 use super::inflight::{
-    charge, snapshot_target, CompletedPass, InFlight, PassRing, PassStats, PIPELINE_DEPTH,
+    charge, snapshot_target, CompletedPass, InFlight, PassEstimate, PassRing, PassStats,
+    PIPELINE_DEPTH,
 };
 use super::{RenderError, RenderStats};
 use crate::compile::{CompiledScene, KernelMode};
@@ -87,6 +89,11 @@ pub struct RenderSession {
     kernel_build: KernelStats,
     /// The first pass this session ran (a GPU coming from idle runs it at low clocks).
     first_pass: Option<PassStats>,
+    /// The GPU error estimate, built with the first pass that asks for one.
+    estimator: Option<GpuEstimator>,
+    /// Estimates computed by passes, and their GPU time.
+    estimate_checks: u32,
+    estimate_gpu: Duration,
 }
 
 struct SceneInfo {
@@ -247,6 +254,9 @@ impl RenderSession {
             ring: PassRing::default(),
             kernel_build: kernel_stats().since(&kernels_before),
             first_pass: None,
+            estimator: None,
+            estimate_checks: 0,
+            estimate_gpu: Duration::ZERO,
             info: SceneInfo {
                 triangles: scene.triangle_count,
                 primitives: scene.prims.len(),
@@ -394,6 +404,8 @@ impl RenderSession {
         self.dropped = 0;
         self.elapsed = Duration::ZERO;
         self.gpu_time = Duration::ZERO;
+        self.estimate_checks = 0;
+        self.estimate_gpu = Duration::ZERO;
         Ok(())
     }
 
@@ -444,6 +456,17 @@ impl RenderSession {
         spp: u32,
         snapshot: bool,
     ) -> Result<Vec<CompletedPass>, RenderError> {
+        self.submit_pass_with(spp, snapshot, false)
+    }
+
+    /// [`Self::submit_pass`]; with `estimate`, the pass also computes the error estimate of
+    /// the accumulation after it on the GPU ([`CompletedPass::estimate`], estimate_gpu.rs).
+    pub fn submit_pass_with(
+        &mut self,
+        spp: u32,
+        snapshot: bool,
+        estimate: bool,
+    ) -> Result<Vec<CompletedPass>, RenderError> {
         if spp == 0 {
             return Err(RenderError::Invalid(
                 "a pass needs at least one sample".into(),
@@ -476,12 +499,32 @@ impl RenderSession {
         } else {
             None
         };
+        if estimate && self.estimator.is_none() {
+            self.estimator = Some(GpuEstimator::new(
+                &self.ctx,
+                self.integrator.gpu_resolve(),
+                self.width,
+                self.height,
+                &self.accum,
+                &self.accum_odd,
+                &self.extra,
+            )?);
+        }
+        let estimate_target = match estimate {
+            true => Some((
+                self.submitted_spp() + spp,
+                estimate_gpu::readback(&self.ctx)?,
+            )),
+            false => None,
+        };
         let mut slot = self.ring.take(&self.ctx)?;
         let (integrator, pipeline) = (&self.integrator, &self.pipeline);
         let most: u32 = dispatches
             .iter()
             .map(|(c, _)| integrator.dispatches_per_pass(c.spp))
-            .sum();
+            .sum::<u32>()
+            + 2 * estimate as u32;
+        let estimator = self.estimator.as_ref().filter(|_| estimate);
         let (stats_buf, accum, extra) = (&self.stats_buf, &self.accum, &self.extra);
         let accum_odd = &self.accum_odd;
         let counters = &slot.counters;
@@ -503,6 +546,9 @@ impl RenderSession {
                     at += b.size;
                 }
             }
+            if let (Some(e), Some((spp, readback))) = (estimator, &estimate_target) {
+                e.record(rec, *spp, readback)?;
+            }
             Ok(())
         });
         if let Err(e) = recorded {
@@ -515,6 +561,7 @@ impl RenderSession {
             spp,
             submitted: Instant::now(),
             snapshot: target,
+            estimate: estimate_target,
         });
         Ok(done)
     }
@@ -534,6 +581,25 @@ impl RenderSession {
             }
         };
         self.integrator.observe_timings(&timings);
+        let estimate = match &p.estimate {
+            Some((spp, readback)) => match estimate_gpu::read(readback) {
+                Ok(rel_mse) => Some(PassEstimate { spp: *spp, rel_mse }),
+                Err(e) => {
+                    self.ring.spare.push(p.slot);
+                    return Err(e);
+                }
+            },
+            None => None,
+        };
+        if estimate.is_some() {
+            self.estimate_checks += 1;
+            let ms: f64 = timings
+                .iter()
+                .filter(|t| ESTIMATE_LABELS.contains(&t.label.as_str()))
+                .map(|t| t.gpu_ms)
+                .sum();
+            self.estimate_gpu += Duration::from_secs_f64(ms * 1e-3);
+        }
         let s = p.slot.read_counters();
         self.ring.spare.push(p.slot);
         let s = s?;
@@ -555,6 +621,7 @@ impl RenderSession {
         Ok(Some(CompletedPass {
             stats,
             snapshot: p.snapshot,
+            estimate,
         }))
     }
 
@@ -764,6 +831,11 @@ impl RenderSession {
             }),
             details: self.integrator.details(),
             rel_mse_estimate: None,
+            estimate_checks: (self.estimate_checks > 0).then(|| super::EstimateChecks {
+                checks: self.estimate_checks,
+                gpu_ms: self.estimate_gpu.as_secs_f64() * 1e3,
+                wait_ms: None,
+            }),
             stopped_by: None,
             light_sampler: self.info.light_sampler,
             auto: None,
