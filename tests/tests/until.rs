@@ -46,6 +46,14 @@ fn cli_render_stops_at_the_target_before_the_cap() {
     assert!((8..CAP as u64).contains(&spp), "{report}");
     let estimate = report["rel_mse_estimate"].as_f64().unwrap();
     assert!(estimate > 0.0 && estimate <= TARGET, "{report}");
+    // The checks (GPU estimates at the check points up to the stop) and what they took.
+    let checks = &report["estimate_checks"];
+    assert!(
+        checks["checks"].as_u64().is_some_and(|n| n >= 1),
+        "{report}"
+    );
+    assert!(checks["gpu_ms"].as_f64().is_some(), "{report}");
+    assert!(checks["wait_ms"].as_f64().is_some(), "{report}");
 
     // Without a target: the cap ends it, and the estimate is still reported.
     let report = run_json(&[
@@ -63,6 +71,7 @@ fn cli_render_stops_at_the_target_before_the_cap() {
         "--no-accel-cache",
     ]);
     assert_eq!(report["stopped_by"], "spp", "{report}");
+    assert!(report.get("estimate_checks").is_none(), "{report}");
     assert!(
         report["rel_mse_estimate"].as_f64().is_some_and(|e| e > 0.0),
         "{report}"
@@ -117,6 +126,12 @@ fn job_with_until_completes_at_its_target() {
         "{done}"
     );
     assert_eq!(done["settings"]["until_rel_mse"], TARGET, "{done}");
+    assert!(
+        stats["estimate_checks"]["checks"]
+            .as_u64()
+            .is_some_and(|n| n >= 1),
+        "{done}"
+    );
     // Its progress events carry the estimate, and the last one has reached the target.
     let events = s.events(id, Some(0)).collect_all();
     let estimates: Vec<f64> = events
