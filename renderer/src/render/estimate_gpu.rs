@@ -17,8 +17,11 @@
 //! they agree to about 1e-5 relative.
 
 use std::sync::Arc;
+use std::time::Duration;
 
-use super::RenderError;
+use super::inflight::PassEstimate;
+use super::{EstimateChecks, RenderError};
+use crate::gpu::DispatchTiming;
 use crate::gpu::{Binding, Buffer, BufferUsage, ComputePipeline, GpuContext, GpuResult, Recorder};
 use crate::integrators::{ExtraBuffer, GpuResolve};
 use crate::layout::{binding, GpuEstimatePush, GpuEstimateResult};
@@ -162,7 +165,7 @@ impl GpuEstimator {
 }
 
 /// A host-visible buffer for one estimate.
-pub(super) fn readback(ctx: &Arc<GpuContext>) -> Result<Buffer, RenderError> {
+fn readback(ctx: &Arc<GpuContext>) -> Result<Buffer, RenderError> {
     Ok(Buffer::new(
         ctx,
         "error estimate readback",
@@ -173,11 +176,97 @@ pub(super) fn readback(ctx: &Arc<GpuContext>) -> Result<Buffer, RenderError> {
 
 /// The estimate a pass copied into `readback` (after its fence): sum / count, None when no
 /// pixel had samples in both halves (as [`crate::metrics::rel_mse_estimate`]).
-pub(super) fn read(readback: &Buffer) -> Result<Option<f64>, RenderError> {
+fn read(readback: &Buffer) -> Result<Option<f64>, RenderError> {
     let bytes = readback
         .mapped()
         .ok_or_else(|| RenderError::Invalid("estimate buffer not mapped".into()))?;
     let r: GpuEstimateResult =
         bytemuck::pod_read_unaligned(&bytes[..std::mem::size_of::<GpuEstimateResult>()]);
     Ok((r.count > 0).then(|| f64::from(r.sum) / f64::from(r.count)))
+}
+
+/// A session's GPU estimates: the estimator (built by the first pass that asks for one), how
+/// many passes computed one, and their GPU time.
+#[derive(Default)]
+pub(super) struct SessionEstimates {
+    estimator: Option<GpuEstimator>,
+    checks: u32,
+    gpu: Duration,
+}
+
+/// A session's film buffers, as the estimator binds them.
+pub(super) struct Film<'a> {
+    pub resolve: GpuResolve,
+    pub width: u32,
+    pub height: u32,
+    pub accum: &'a Buffer,
+    pub accum_odd: &'a Buffer,
+    pub extra: &'a [(ExtraBuffer, Buffer)],
+}
+
+impl SessionEstimates {
+    /// Before a pass that computes the estimate at `spp` samples per pixel: the estimator
+    /// (built for `film` the first time) and the readback it copies to.
+    pub fn prepare(
+        &mut self,
+        ctx: &Arc<GpuContext>,
+        film: Film<'_>,
+        spp: u32,
+    ) -> Result<(u32, Buffer), RenderError> {
+        if self.estimator.is_none() {
+            self.estimator = Some(GpuEstimator::new(
+                ctx,
+                film.resolve,
+                film.width,
+                film.height,
+                film.accum,
+                film.accum_odd,
+                film.extra,
+            )?);
+        }
+        Ok((spp, readback(ctx)?))
+    }
+
+    /// Records the estimate into a pass ([`Self::prepare`] first; `target` what it returned).
+    pub fn record(&self, rec: &mut Recorder<'_>, target: &(u32, Buffer)) -> GpuResult<()> {
+        match &self.estimator {
+            Some(e) => e.record(rec, target.0, &target.1),
+            None => Err(crate::gpu::GpuError::Other("no estimator prepared".into())),
+        }
+    }
+
+    /// The estimate of a completed pass, counted with its dispatches' GPU time.
+    pub fn complete(
+        &mut self,
+        target: &(u32, Buffer),
+        timings: &[DispatchTiming],
+    ) -> Result<PassEstimate, RenderError> {
+        let rel_mse = read(&target.1)?;
+        self.checks += 1;
+        let ms: f64 = timings
+            .iter()
+            .filter(|t| ESTIMATE_LABELS.contains(&t.label.as_str()))
+            .map(|t| t.gpu_ms)
+            .sum();
+        self.gpu += Duration::from_secs_f64(ms * 1e-3);
+        Ok(PassEstimate {
+            spp: target.0,
+            rel_mse,
+        })
+    }
+
+    /// Forgets the counts (a session reset).
+    pub fn reset_counts(&mut self) {
+        self.checks = 0;
+        self.gpu = Duration::ZERO;
+    }
+
+    /// The report's figures (None before any estimate).
+    pub fn report(&self) -> Option<EstimateChecks> {
+        (self.checks > 0).then(|| EstimateChecks {
+            checks: self.checks,
+            gpu_ms: self.gpu.as_secs_f64() * 1e3,
+            wait_ms: None,
+        })
+    }
 }

@@ -7,16 +7,17 @@
 //! [`PIPELINE_DEPTH`] at once, inflight.rs) and cut into dispatches sized to the GPU
 //! (dispatch.rs); [`RenderSession::run_pass`] is the one-pass-and-wait form.
 
+mod stats;
+
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::dispatch::DispatchShape;
-use super::estimate_gpu::{self, GpuEstimator, ESTIMATE_LABELS};
+use super::estimate_gpu::{Film, SessionEstimates};
 use super::inflight::{
-    charge, snapshot_target, CompletedPass, InFlight, PassEstimate, PassRing, PassStats,
-    PIPELINE_DEPTH,
+    charge, snapshot_target, CompletedPass, InFlight, PassRing, PassStats, PIPELINE_DEPTH,
 };
-use super::{RenderError, RenderStats};
+use super::RenderError;
 use crate::compile::{CompiledScene, KernelMode};
 use crate::film::Image;
 use crate::gpu::{
@@ -89,11 +90,8 @@ pub struct RenderSession {
     kernel_build: KernelStats,
     /// The first pass this session ran (a GPU coming from idle runs it at low clocks).
     first_pass: Option<PassStats>,
-    /// The GPU error estimate, built with the first pass that asks for one.
-    estimator: Option<GpuEstimator>,
-    /// Estimates computed by passes, and their GPU time.
-    estimate_checks: u32,
-    estimate_gpu: Duration,
+    /// The error estimates computed on the GPU by passes (estimate_gpu.rs).
+    estimates: SessionEstimates,
 }
 
 struct SceneInfo {
@@ -254,9 +252,7 @@ impl RenderSession {
             ring: PassRing::default(),
             kernel_build: kernel_stats().since(&kernels_before),
             first_pass: None,
-            estimator: None,
-            estimate_checks: 0,
-            estimate_gpu: Duration::ZERO,
+            estimates: SessionEstimates::default(),
             info: SceneInfo {
                 triangles: scene.triangle_count,
                 primitives: scene.prims.len(),
@@ -404,8 +400,7 @@ impl RenderSession {
         self.dropped = 0;
         self.elapsed = Duration::ZERO;
         self.gpu_time = Duration::ZERO;
-        self.estimate_checks = 0;
-        self.estimate_gpu = Duration::ZERO;
+        self.estimates.reset_counts();
         Ok(())
     }
 
@@ -499,22 +494,19 @@ impl RenderSession {
         } else {
             None
         };
-        if estimate && self.estimator.is_none() {
-            self.estimator = Some(GpuEstimator::new(
-                &self.ctx,
-                self.integrator.gpu_resolve(),
-                self.width,
-                self.height,
-                &self.accum,
-                &self.accum_odd,
-                &self.extra,
-            )?);
-        }
         let estimate_target = match estimate {
-            true => Some((
-                self.submitted_spp() + spp,
-                estimate_gpu::readback(&self.ctx)?,
-            )),
+            true => {
+                let film = Film {
+                    resolve: self.integrator.gpu_resolve(),
+                    width: self.width,
+                    height: self.height,
+                    accum: &self.accum,
+                    accum_odd: &self.accum_odd,
+                    extra: &self.extra,
+                };
+                let spp = self.submitted_spp() + spp;
+                Some(self.estimates.prepare(&self.ctx, film, spp)?)
+            }
             false => None,
         };
         let mut slot = self.ring.take(&self.ctx)?;
@@ -524,7 +516,7 @@ impl RenderSession {
             .map(|(c, _)| integrator.dispatches_per_pass(c.spp))
             .sum::<u32>()
             + 2 * estimate as u32;
-        let estimator = self.estimator.as_ref().filter(|_| estimate);
+        let estimates = &self.estimates;
         let (stats_buf, accum, extra) = (&self.stats_buf, &self.accum, &self.extra);
         let accum_odd = &self.accum_odd;
         let counters = &slot.counters;
@@ -546,8 +538,8 @@ impl RenderSession {
                     at += b.size;
                 }
             }
-            if let (Some(e), Some((spp, readback))) = (estimator, &estimate_target) {
-                e.record(rec, *spp, readback)?;
+            if let Some(t) = &estimate_target {
+                estimates.record(rec, t)?;
             }
             Ok(())
         });
@@ -581,25 +573,18 @@ impl RenderSession {
             }
         };
         self.integrator.observe_timings(&timings);
-        let estimate = match &p.estimate {
-            Some((spp, readback)) => match estimate_gpu::read(readback) {
-                Ok(rel_mse) => Some(PassEstimate { spp: *spp, rel_mse }),
-                Err(e) => {
-                    self.ring.spare.push(p.slot);
-                    return Err(e);
-                }
-            },
-            None => None,
+        let estimate = p
+            .estimate
+            .as_ref()
+            .map(|t| self.estimates.complete(t, &timings))
+            .transpose();
+        let estimate = match estimate {
+            Ok(e) => e,
+            Err(e) => {
+                self.ring.spare.push(p.slot);
+                return Err(e);
+            }
         };
-        if estimate.is_some() {
-            self.estimate_checks += 1;
-            let ms: f64 = timings
-                .iter()
-                .filter(|t| ESTIMATE_LABELS.contains(&t.label.as_str()))
-                .map(|t| t.gpu_ms)
-                .sum();
-            self.estimate_gpu += Duration::from_secs_f64(ms * 1e-3);
-        }
         let s = p.slot.read_counters();
         self.ring.spare.push(p.slot);
         let s = s?;
@@ -774,71 +759,6 @@ impl RenderSession {
             width: self.width,
             height: self.height,
             pixels,
-        }
-    }
-
-    pub fn stats(&self) -> RenderStats {
-        let t = self.elapsed.as_secs_f64();
-        let samples = self.spp as f64 * self.width as f64 * self.height as f64;
-        RenderStats {
-            device: self.ctx.info.clone(),
-            integrator: self.entry.name.to_string(),
-            width: self.width,
-            height: self.height,
-            spp: self.spp,
-            passes: self.passes,
-            max_depth: self.integrator.max_depth(),
-            seed: self.seed,
-            time_s: t,
-            gpu_time_s: self.gpu_time.as_secs_f64(),
-            msamples_per_s: if t > 0.0 { samples / t * 1e-6 } else { 0.0 },
-            rays_per_s: if t > 0.0 { self.rays as f64 / t } else { 0.0 },
-            rays: self.rays,
-            dropped_samples: self.dropped,
-            triangles: self.info.triangles,
-            primitives: self.info.primitives,
-            lights: self.info.lights,
-            bvh_nodes: self.info.bvh_nodes,
-            bvh_depth: self.info.bvh_depth,
-            bvh_build_s: self.info.bvh_build.as_secs_f64(),
-            setup_s: self.setup.as_secs_f64(),
-            kernel_s: self.kernel_time.as_secs_f64(),
-            kernel_stats: self.pipeline.statistics().into_iter().collect(),
-            features: self.info.features.names(),
-            kernels: self.info.kernels,
-            accel: self.info.accel.kind.name().to_string(),
-            accel_build_s: self.info.accel.build_time.as_secs_f64(),
-            accel_bytes: self.info.bytes.accel,
-            geometry_bytes: self.info.bytes.geometry,
-            scene_gpu_bytes: self.info.bytes.total(),
-            gpu_bytes_per_triangle: if self.info.triangles > 0 {
-                (self.info.bytes.geometry + self.info.bytes.accel) as f64
-                    / self.info.triangles as f64
-            } else {
-                0.0
-            },
-            peak_rss_bytes: crate::memory::peak_rss_bytes(),
-            load_s: self.info.load_time.as_secs_f64(),
-            compile_s: self.info.compile_time.as_secs_f64(),
-            accel_cache: self.info.accel.cache,
-            grid_resolution: self.info.accel.grid_resolution,
-            grid_refs: self.info.accel.grid_refs,
-            kernel_build: self.kernel_build,
-            first_pass: self.first_pass.map(|p| super::FirstPass {
-                spp: p.spp,
-                gpu_ms: p.gpu.as_secs_f64() * 1e3,
-                wall_ms: p.wall.as_secs_f64() * 1e3,
-            }),
-            details: self.integrator.details(),
-            rel_mse_estimate: None,
-            estimate_checks: (self.estimate_checks > 0).then(|| super::EstimateChecks {
-                checks: self.estimate_checks,
-                gpu_ms: self.estimate_gpu.as_secs_f64() * 1e3,
-                wait_ms: None,
-            }),
-            stopped_by: None,
-            light_sampler: self.info.light_sampler,
-            auto: None,
         }
     }
 }
