@@ -190,7 +190,7 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
         scene.render.light_sampler = Some(s.clone());
     }
     // `auto`: chosen by a pilot of every unbiased integrator (renderer::auto).
-    let auto = a.integrator.as_deref() == Some("auto");
+    let auto = a.integrator.as_deref() == Some(renderer::auto::AUTO);
     let mut options = if auto {
         IntegratorOptions::from_name(DEFAULT_INTEGRATOR).expect("the default integrator")
     } else {
