@@ -4,12 +4,13 @@
 //! 16-byte host-visible buffer. A quality target (`until`) reads that instead of copying the
 //! film out and computing [`crate::metrics::rel_mse_estimate`] on the CPU.
 //!
-//! What it replaces, per check of a W×H render (measured before this file, issue 14 deliver 3):
-//! a readback of 2·W·H·16 bytes (accumulation and odd half; bdpt's splats add 2·W·H·16 or
-//! 4·W·H·16 more): 29.5 MB at 1280×720; then on the host the image and both halves resolved
-//! and the 3×3 box mean, all in f64 (tens of ms at 1280×720: ~8 ms per 100k pixels on the
-//! dev machine's core); and a check after every pass. The GPU version reads the film once
-//! (plus the 3×3 neighbourhood, from cache) and writes 16 bytes.
+//! What it replaces (issue 14 deliver 3; docs/error-estimate.md has the figures): after every
+//! pass of an until-render, a readback of 2·W·H·16 bytes (accumulation and odd half; bdpt's
+//! splats and their odd share add 2·W·H·16 as floats, 4·W·H·16 as fixed point): 29.5 MB at
+//! 1280×720; then on the host the image and both halves resolved and the estimate with its 3×3
+//! box mean, in f64: 100–160 ms at 1280×720 on the 2-core dev machine (the mean resolver;
+//! `metrics::rel_mse_estimate` alone). The GPU version reads the film once (plus the 3×3
+//! neighbourhood, from cache) and the host reads 16 bytes, at each check point only.
 //!
 //! The CPU estimate stays the one definition (metrics/estimate.rs, render/halves.rs); the
 //! kernel mirrors it for the resolvers of [`GpuResolve`], and tests/tests/until.rs checks that

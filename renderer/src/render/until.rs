@@ -96,11 +96,6 @@ impl UntilChecks {
         self.reached |= target_reached(self.goal, spp, estimate);
         self.last = Some((spp, estimate));
     }
-
-    /// Forgets a pending check (its pass failed or the session was replaced).
-    pub fn reset_pending(&mut self) {
-        self.pending = None;
-    }
 }
 
 #[cfg(test)]
