@@ -264,7 +264,7 @@ impl SessionEstimates {
 
     /// The report's figures (None before any estimate).
     pub fn report(&self) -> Option<EstimateChecks> {
-        (self.checks > 0).then(|| EstimateChecks {
+        (self.checks > 0).then_some(EstimateChecks {
             checks: self.checks,
             gpu_ms: self.gpu.as_secs_f64() * 1e3,
             wait_ms: None,
