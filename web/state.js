@@ -76,7 +76,9 @@ export function jobLinks(j) {
   };
 }
 
+/** The job's integrator; an `auto` job's is "auto", with its choice once made ("auto: nee"). */
 export function jobIntegrator(j) {
+  if (jobSettings(j).auto) return j.stats && j.stats.integrator ? `auto: ${j.stats.integrator}` : 'auto';
   const i = jobSettings(j).integrator;
   return typeof i === 'string' ? i : (i && i.type) || '';
 }
