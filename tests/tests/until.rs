@@ -150,13 +150,13 @@ fn job_with_until_completes_at_its_target() {
 /// The GPU estimate (computed by a pass, estimate_gpu.rs) equals the CPU one
 /// (metrics/estimate.rs via render/halves.rs, read back after the same pass) within float
 /// rounding, for each resolver: the mean (pt, nee) and bdpt's splats as floats and as 64-bit
-/// fixed point. Cornell box, 20×12 (not square, not a multiple of the 16-pixel tile), max_depth
-/// 3, after 1, 8 and 11 spp (1 spp: the odd half is empty, so both say None).
+/// fixed point. Cornell box, 40×20 (not square, 3×2 workgroups of 16×16 partly outside the film),
+/// max_depth 3, after 1, 8 and 11 spp (1 spp: the odd half is empty, so both say None).
 #[test]
 fn gpu_estimate_equals_the_cpu_estimate() {
     let ctx = gpu();
     let loaded = renderer::scene::load_file(&scene_path("cornell.json")).unwrap();
-    let compiled = compile(&loaded, 20, 12).unwrap();
+    let compiled = compile(&loaded, 40, 20).unwrap();
     for json in [
         r#"{"type":"pt"}"#,
         r#"{"type":"nee"}"#,
