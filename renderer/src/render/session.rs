@@ -134,6 +134,19 @@ impl RenderSession {
         kernels: KernelMode,
     ) -> Result<Self, RenderError> {
         let start = Instant::now();
+        if !scene.instances.is_empty() && !options.info().instances {
+            return Err(RenderError::Invalid(format!(
+                "integrator \"{}\" does not support instances (objects of type \"instance\") yet; \
+                 use one of {}",
+                options.name(),
+                crate::integrators::INTEGRATORS
+                    .iter()
+                    .filter(|i| i.instances)
+                    .map(|i| i.name)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        }
         let kernels_before = kernel_stats();
         let mut integrator = options.build(scene_max_depth);
         integrator.prepare(ctx);
@@ -747,6 +760,13 @@ impl RenderSession {
             gpu_bytes_per_triangle: if self.info.triangles > 0 {
                 (self.info.bytes.geometry + self.info.bytes.accel) as f64
                     / self.info.triangles as f64
+            } else {
+                0.0
+            },
+            instances: self.info.accel.instances,
+            instanced_triangles: self.info.accel.instanced_triangles,
+            gpu_bytes_per_instance: if self.info.accel.instances > 0 {
+                self.info.accel.instance_bytes as f64 / self.info.accel.instances as f64
             } else {
                 0.0
             },

@@ -103,6 +103,7 @@ fn every_documented_field_is_accepted_and_every_accepted_field_documented() {
             "sphere" => accepted::<SphereDesc>(),
             "quad" => accepted::<QuadDesc>(),
             "box" => accepted::<BoxDesc>(),
+            "instance" => accepted::<InstanceDesc>(),
             other => panic!("object type {other}: add it to this test and to the docs"),
         };
         want.insert(format!("object: {t}"), fields);
