@@ -193,3 +193,119 @@ pub(super) fn build(
     out.build_time = start.elapsed();
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two definitions, three instances (one unused definition): every BLAS leaf indexes its
+    /// own prototype's primitives, the matrices are each other's inverse, every instance is in
+    /// one TLAS leaf, and each world box holds its instance's vertices.
+    #[test]
+    fn two_levels_index_and_bound_correctly() {
+        let json = r#"{
+            "version": 1,
+            "camera": {"position": [3, 2, 9], "look_at": [0, 0, 0]},
+            "film": {"width": 8, "height": 8},
+            "materials": {"a": {"type": "diffuse"}, "b": {"type": "diffuse"}},
+            "definitions": {
+                "cube": {"type": "box", "min": [-1, -1, -1], "max": [1, 1, 1], "material": "a"},
+                "unused": {"type": "quad", "origin": [0, 0, 0], "edge_u": [1, 0, 0], "edge_v": [0, 1, 0], "material": "a"},
+                "tri": {"type": "triangles", "positions": [0,0,0, 1,0,0, 0,1,0], "indices": [0,1,2], "material": "b"}
+            },
+            "objects": [
+                {"type": "quad", "origin": [-5, -1, 5], "edge_u": [10, 0, 0], "edge_v": [0, 0, -10], "material": "a"},
+                {"type": "instance", "definition": "cube", "transform": {"scale": [1, 2, 0.5], "translate": [2, 0, 0]}},
+                {"type": "instance", "definition": "tri", "material": "a", "transform": {"scale": [-1, 1, 1]}},
+                {"type": "instance", "definition": "cube", "transform": {"rotate": {"axis": [1, 1, 1], "angle": 33}, "translate": [-2, 1, 0]}}
+            ]
+        }"#;
+        let scene = crate::scene::load_str(json, None).unwrap();
+        assert_eq!(scene.prototypes.len(), 3);
+        let origin = scene.camera.position;
+        let bases = Bases {
+            nodes: 5,
+            prims: 2,
+            tri_shading: 2,
+        };
+        let out = build(&scene, origin, bases, &AccelOptions::default(), None);
+        assert_eq!(
+            out.prototype_triangles,
+            12 + 1,
+            "the unused quad is not built"
+        );
+        assert_eq!(out.instanced_triangles, 12 + 1 + 12);
+        assert_eq!(out.prims.len(), 13);
+        assert_eq!(out.instances.len(), 3);
+        // Leaves of each BLAS stay within its prototype's primitives.
+        for inst in &out.instances {
+            let mut stack = vec![inst.root as usize];
+            let mut count = 0;
+            while let Some(i) = stack.pop() {
+                let n = out.nodes[i - bases.nodes];
+                for (c, k) in [(n.left, n.l_count), (n.right, n.r_count)] {
+                    if k == 0 {
+                        stack.push(c as usize);
+                    } else {
+                        assert!(c as usize >= bases.prims && (c + k) as usize <= bases.prims + 13);
+                        count += k;
+                    }
+                }
+            }
+            assert!(count >= 1);
+        }
+        // Every instance once in the TLAS leaves.
+        let mut seen = [0; 3];
+        for n in &out.tlas {
+            for (c, k) in [(n.left, n.l_count), (n.right, n.r_count)] {
+                for i in c..c + k {
+                    seen[i as usize] += 1;
+                }
+            }
+        }
+        assert!(seen.iter().all(|&s| s >= 1), "{seen:?}");
+        // Matrices: inverse of each other; the mirrored instance is flagged.
+        for inst in &out.instances {
+            let m = |r: [[f32; 4]; 3]| {
+                DMat4::from_cols_array(&[
+                    r[0][0] as f64,
+                    r[1][0] as f64,
+                    r[2][0] as f64,
+                    0.0,
+                    r[0][1] as f64,
+                    r[1][1] as f64,
+                    r[2][1] as f64,
+                    0.0,
+                    r[0][2] as f64,
+                    r[1][2] as f64,
+                    r[2][2] as f64,
+                    0.0,
+                    r[0][3] as f64,
+                    r[1][3] as f64,
+                    r[2][3] as f64,
+                    1.0,
+                ])
+            };
+            let id = m(inst.world_to_object) * m(inst.object_to_world);
+            assert!(id.abs_diff_eq(DMat4::IDENTITY, 1e-5), "{id:?}");
+        }
+        let mirrored: Vec<bool> = out
+            .instances
+            .iter()
+            .map(|i| i.flags & INST_MIRROR != 0)
+            .collect();
+        assert_eq!(mirrored.iter().filter(|&&m| m).count(), 1);
+        assert_eq!(out.instances.iter().filter(|i| i.material == 0).count(), 1);
+        // World boxes hold the instances' vertices (camera-relative).
+        for (k, inst) in scene.instances.iter().enumerate() {
+            let mesh = &scene.prototypes[inst.prototype as usize];
+            let b = out.bounds[k];
+            for p in &mesh.positions {
+                let w = inst.to_world.transform_point3(*p) - origin;
+                for a in 0..3 {
+                    assert!(b.min[a] as f64 <= w[a] && w[a] <= b.max[a] as f64);
+                }
+            }
+        }
+    }
+}

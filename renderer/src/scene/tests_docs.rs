@@ -160,7 +160,10 @@ fn the_probe_reads_serde_field_lists() {
 /// definition twice.
 #[test]
 fn the_instancing_example_loads() {
-    let section = DOC.split("\n## definitions\n").nth(1).expect("a definitions section");
+    let section = DOC
+        .split("\n## definitions\n")
+        .nth(1)
+        .expect("a definitions section");
     let json = section
         .split("```json\n")
         .nth(1)
@@ -172,5 +175,9 @@ fn the_instancing_example_loads() {
     assert_eq!(scene.instances.len(), 2);
     assert_eq!(scene.instances[1].material, Some(1));
     assert!(scene.instances[1].to_world.determinant() < 0.0);
-    assert_eq!(scene.meshes.len(), 2, "the definition itself is not rendered");
+    assert_eq!(
+        scene.meshes.len(),
+        2,
+        "the definition itself is not rendered"
+    );
 }
