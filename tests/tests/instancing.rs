@@ -29,6 +29,8 @@ fn cornell_with(objects: Vec<Value>, definitions: Option<Value>) -> Scene {
     }
     v["materials"]["blue"] = json!({"type": "diffuse", "reflectance": [0.1, 0.2, 0.7]});
     v["materials"]["metal"] = json!({"type": "conductor", "roughness": 0.3});
+    v["materials"]["cutout"] = json!({"type": "diffuse", "reflectance": [0.7, 0.6, 0.2],
+        "alpha_mask": {"texture": "assets/checker.png", "scale": [2, 2]}});
     let dir = scene_path("cornell.json").parent().unwrap().to_path_buf();
     renderer::scene::load_str(&v.to_string(), Some(&dir)).unwrap_or_else(|e| panic!("{e}"))
 }
@@ -59,11 +61,21 @@ fn placements() -> Vec<(Value, Option<&'static str>)> {
 /// The scene with `shape` (an object without material and transform) defined once and placed
 /// by every placement, and its flattened copy.
 fn instanced_and_flat(shape: Value, material: &str) -> (Scene, Scene) {
+    let overrides: Vec<_> = placements().into_iter().map(|p| p.1).collect();
+    instanced_and_flat_with(shape, material, &overrides)
+}
+
+/// [`instanced_and_flat`] with the placements' material overrides replaced by `overrides`.
+fn instanced_and_flat_with(
+    shape: Value,
+    material: &str,
+    overrides: &[Option<&str>],
+) -> (Scene, Scene) {
     let mut def = shape.clone();
     def["material"] = json!(material);
     let mut instances = Vec::new();
     let mut flat = Vec::new();
-    for (t, m) in placements() {
+    for ((t, _), &m) in placements().into_iter().zip(overrides) {
         let mut i = json!({"type": "instance", "definition": "piece", "transform": t});
         let mut f = shape.clone();
         f["transform"] = t;
@@ -352,4 +364,40 @@ fn bdpt_and_whitted_render_instances_like_their_flattened_copy() {
         assert!(mean(&a)[0] > 0.01);
         assert!(rel < 1e-3 && share < 0.01, "{integrator}: {rel} {share}");
     }
+}
+
+/// Alpha masks through instances: a definition whose own material is masked, and instances
+/// whose replacing material is masked (and one replacing a masked material by a plain one), on
+/// a PLY-backed definition with normals and uvs.
+#[test]
+fn masked_and_ply_backed_instances_render_like_their_flattened_copy() {
+    let ply = json!({"type": "mesh", "file": "testdata/meshes/floor.ply"});
+    let (inst, flat) =
+        instanced_and_flat_with(ply.clone(), "cutout", &[None, Some("blue"), None, None]);
+    assert_same_image(&inst, &flat, "masked PLY");
+    let (inst, flat) = instanced_and_flat_with(
+        ply,
+        "white",
+        &[Some("cutout"), None, Some("cutout"), Some("metal")],
+    );
+    assert_same_image(&inst, &flat, "masked overrides");
+}
+
+/// The shader's fallbacks for trees deeper than its stack (the prototype's BVH: the stackless
+/// walk; the top-level BVH: testing every instance) give the image of the full stack.
+#[test]
+fn a_short_stack_renders_instances_the_same() {
+    let (inst, _) = instanced_and_flat(
+        json!({"type": "mesh", "file": "assets/uv_sphere.obj"}),
+        "white",
+    );
+    let c = compile(&inst, 24, 24).unwrap();
+    let short = c.clone().with_traversal_stack(1);
+    assert!(!short.bvh_parents.is_empty());
+    let (a, _) = render_compiled(&inst, &c, "nee", 2, 3, Some(3));
+    let (b, _) = render_compiled(&inst, &short, "nee", 2, 3, Some(3));
+    assert!(mean(&a)[0] > 0.01);
+    let (rel, share) = difference(&b, &a);
+    println!("short stack: mean |Δ| {rel:.2e}, {share:.3} of pixels off");
+    assert!(rel < 1e-4 && share < 0.01, "{rel} {share}");
 }
