@@ -288,6 +288,13 @@ fn instance_errors_name_the_field() {
         ),
         (
             minimal(
+                json!([{"type": "instance", "definition": "quad", "transform": {"translate": [1e39, 0, 0]}}]),
+                json!({"quad": quad}),
+            ),
+            "objects[0].transform: places the definition beyond the range of 32-bit floats",
+        ),
+        (
+            minimal(
                 json!([{"type": "instance", "definition": "quad", "radius": 2}]),
                 json!({"quad": quad}),
             ),

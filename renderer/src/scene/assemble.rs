@@ -71,6 +71,7 @@ pub(crate) fn load(json: &str, root: AssetRoot<'_>, limits: &Limits) -> Result<S
         meshes: Vec::new(),
         spheres: Vec::new(),
         prototypes: Vec::new(),
+        prototype_boxes: Vec::new(),
         definitions: HashMap::new(),
         instances: Vec::new(),
         defining: false,
@@ -146,6 +147,8 @@ struct Objects<'a> {
     /// The definitions' meshes, and each definition's index among them (None: it has no
     /// triangles, so its instances are skipped).
     prototypes: Vec<TriangleMesh>,
+    /// Each prototype's bounding box (its own frame).
+    prototype_boxes: Vec<(DVec3, DVec3)>,
     definitions: HashMap<String, Option<u32>>,
     instances: Vec<Instance>,
     /// Converting a definition: meshes go to `prototypes`; spheres and instances are refused.
@@ -240,6 +243,24 @@ impl Objects<'_> {
                     "instances of emissive meshes are not supported yet (material \"{}\" emits); place the mesh as an object instead",
                     self.names[m as usize]
                 ),
+            ));
+        }
+        // The placed box must stay within f32 (the GPU's frame), checked on the prototype's
+        // box corners: O(1) per instance.
+        let (lo, hi) = self.prototype_boxes[prototype as usize];
+        let inside = (0..8).all(|k| {
+            let c = DVec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            );
+            let w = transform.point(c);
+            w.is_finite() && w.abs().max_element() < f32::MAX as f64 / 4.0
+        });
+        if !inside {
+            return Err(SceneError::invalid(
+                join_path(path, "transform"),
+                "places the definition beyond the range of 32-bit floats",
             ));
         }
         self.instances.push(Instance {
@@ -423,6 +444,15 @@ impl Objects<'_> {
         let mesh = to_world(raw, transform, shading, name, materials, path)?;
         self.triangles += count;
         if self.defining {
+            let lo = mesh
+                .positions
+                .iter()
+                .fold(DVec3::INFINITY, |a, &p| a.min(p));
+            let hi = mesh
+                .positions
+                .iter()
+                .fold(DVec3::NEG_INFINITY, |a, &p| a.max(p));
+            self.prototype_boxes.push((lo, hi));
             self.prototypes.push(mesh);
         } else {
             self.meshes.push(mesh);
