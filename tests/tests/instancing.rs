@@ -5,7 +5,7 @@
 //! unique geometry; what is not supported is refused naming the field or the setting.
 
 use candela_tests::*;
-use renderer::accel::{AccelKind, AccelOptions};
+use renderer::accel::{AccelKind, AccelOptions, CacheStatus};
 use renderer::compile::{compile, compile_with, CompileOptions};
 use renderer::film::Image;
 use renderer::scene::Scene;
@@ -390,15 +390,31 @@ fn masked_and_ply_backed_instances_render_like_their_flattened_copy() {
     assert_same_image(&inst, &flat, "masked overrides");
 }
 
-/// The shader's fallbacks for trees deeper than its stack (the prototype's BVH: the stackless
-/// walk; the top-level BVH: testing every instance) give the image of the full stack.
+/// Prototype BVHs come from the cache on a second compile; the shader's fallbacks for trees
+/// deeper than its stack (the prototype's BVH: the stackless walk; the top-level BVH: testing
+/// every instance) give the image of the full stack.
 #[test]
 fn a_short_stack_renders_instances_the_same() {
     let (inst, _) = instanced_and_flat(
         json!({"type": "mesh", "file": "assets/uv_sphere.obj"}),
         "white",
     );
-    let c = compile(&inst, 24, 24).unwrap();
+    // The prototype's BVH is cached like the scene's: the second compile loads it.
+    let dir = scratch("instancing-cache");
+    let cached = |d: &std::path::Path| {
+        let opts = CompileOptions {
+            accel: AccelOptions::default(),
+            cache: Some(d),
+        };
+        compile_with(&inst, 24, 24, &opts).unwrap()
+    };
+    assert_eq!(cached(&dir).accel.cache, CacheStatus::Miss);
+    let c = cached(&dir);
+    assert_eq!(c.accel.cache, CacheStatus::Hit);
+    assert!(
+        std::fs::read_dir(&dir).unwrap().count() >= 2,
+        "scene and prototype BVHs"
+    );
     let short = c.clone().with_traversal_stack(1);
     assert!(!short.bvh_parents.is_empty());
     let (a, _) = render_compiled(&inst, &c, "nee", 2, 3, Some(3));

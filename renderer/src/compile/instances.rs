@@ -20,7 +20,7 @@ use glam::{DMat4, DVec3};
 
 use super::frame::outward;
 use super::prims::{self, Frames, Prims};
-use crate::accel::{self, AccelOptions, PrimBounds};
+use crate::accel::{self, AccelOptions, CacheStatus, PrimBounds};
 use crate::layout::*;
 use crate::scene::Scene;
 
@@ -45,6 +45,8 @@ pub(super) struct Instanced {
     pub instanced_triangles: u64,
     /// BLAS builds (or cache loads) and the TLAS build.
     pub build_time: Duration,
+    /// The BLASes' cache status: a hit only when every one was loaded.
+    pub cache: CacheStatus,
 }
 
 /// Where the instanced arrays start in the scene's: node, primitive and shading record counts.
@@ -104,6 +106,11 @@ pub(super) fn build(
     if scene.instances.is_empty() {
         return out;
     }
+    out.cache = if cache.is_some() {
+        CacheStatus::Hit
+    } else {
+        CacheStatus::Off
+    };
     let alpha_material = prims::alpha_materials(scene);
     // Step 1: each used prototype's primitives (object frame) and BLAS.
     let mut used = vec![false; scene.prototypes.len()];
@@ -154,6 +161,11 @@ pub(super) fn build(
             n
         }));
         out.depth = out.depth.max(built.depth);
+        out.cache = match (out.cache, built.info.cache) {
+            (_, CacheStatus::Off) => CacheStatus::Off,
+            (CacheStatus::Miss, _) | (_, CacheStatus::Miss) => CacheStatus::Miss,
+            _ => CacheStatus::Hit,
+        };
         out.prototype_triangles += mesh.indices.len() as u64;
         roots[p] = Some((node_base, lo, hi));
     }

@@ -255,6 +255,9 @@ pub fn compile_with(
             as u64;
         accel_info.instanced_triangles = inst.instanced_triangles;
         accel_info.build_time += inst.build_time;
+        if inst.cache == accel::CacheStatus::Miss {
+            accel_info.cache = accel::CacheStatus::Miss;
+        }
     }
     let (textures, texels) = if features.textures || features.alpha {
         materials::pack_textures(&scene.textures, &emitters.clamp_rows)
