@@ -249,7 +249,7 @@ fn instance_errors_name_the_field() {
                 json!([]),
                 json!({"a": quad, "b": {"type": "instance", "definition": "a"}}),
             ),
-            "definitions.b.type: a definition holds triangles (mesh, triangles, quad or box), not a instance (nested instancing is not supported)",
+            "definitions.b.type: a definition holds triangles (mesh, triangles, quad or box), not an instance (nested instancing is not supported)",
         ),
         (
             minimal(

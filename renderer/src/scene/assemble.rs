@@ -166,22 +166,15 @@ impl Objects<'_> {
     /// own frame).
     fn define(&mut self, name: &str, o: &ObjectDesc) -> Result<(), SceneError> {
         let path = key_path("definitions", name);
-        let kind = match &o.shape {
-            ShapeDesc::Sphere(_) => Some("sphere"),
-            ShapeDesc::Instance(_) => Some("instance"),
+        let refused = match &o.shape {
+            ShapeDesc::Sphere(_) => Some("a sphere"),
+            ShapeDesc::Instance(_) => Some("an instance (nested instancing is not supported)"),
             _ => None,
         };
-        if let Some(kind) = kind {
+        if let Some(what) = refused {
             return Err(SceneError::invalid(
                 join_path(&path, "type"),
-                format!(
-                    "a definition holds triangles (mesh, triangles, quad or box), not a {kind}{}",
-                    if kind == "instance" {
-                        " (nested instancing is not supported)"
-                    } else {
-                        ""
-                    }
-                ),
+                format!("a definition holds triangles (mesh, triangles, quad or box), not {what}"),
             ));
         }
         let before = self.prototypes.len();
