@@ -228,9 +228,7 @@ pub fn compile_with(
     );
 
     // Step 4: scene bounds (camera-relative) for directional and environment lights.
-    let mut all_bounds = prims.bounds.clone();
-    all_bounds.extend_from_slice(&inst.bounds);
-    let (center, radius) = prims::scene_sphere(scene, &all_bounds, origin);
+    let (center, radius) = prims::scene_sphere(scene, &[&prims.bounds, &inst.bounds], origin);
 
     // Step 5: lights: emissive primitives, then delta lights, then the environment (instances
     // of emissive meshes are refused when the scene is loaded).

@@ -173,11 +173,12 @@ fn spheres(scene: &Scene, frames: Frames, out: &mut Prims) {
     }
 }
 
-/// The camera-relative bounding sphere (centre, radius) of the primitives and the point and spot
-/// lights; a unit sphere at the camera for an empty scene.
-pub(super) fn scene_sphere(scene: &Scene, bounds: &[PrimBounds], origin: DVec3) -> (DVec3, f64) {
+/// The camera-relative bounding sphere (centre, radius) of the primitives (and instances: every
+/// list of boxes in `bounds`) and the point and spot lights; a unit sphere at the camera for an
+/// empty scene.
+pub(super) fn scene_sphere(scene: &Scene, bounds: &[&[PrimBounds]], origin: DVec3) -> (DVec3, f64) {
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for b in bounds {
+    for b in bounds.iter().flat_map(|list| list.iter()) {
         lo = lo.min(DVec3::from(b.min.map(f64::from)));
         hi = hi.max(DVec3::from(b.max.map(f64::from)));
     }
