@@ -83,6 +83,7 @@ pub fn pilot(
     let candidates: Vec<&'static str> = INTEGRATORS
         .iter()
         .filter(|i| i.unbiased && (i.delta_lights || !delta))
+        .filter(|i| i.instances || prepared.compiled.instances.is_empty())
         .map(|i| i.name)
         .collect();
     let n = candidates.len().max(1) as f64;

@@ -60,6 +60,11 @@ pub mod binding {
     /// per-pixel terms, and the reduced total (`GpuEstimateResult`).
     pub const ESTIMATE_PARTIALS: u32 = 56;
     pub const ESTIMATE_RESULT: u32 = 57;
+    /// Instancing (scenes with `instance` objects only; renderer/src/compile/instances.rs):
+    /// the instances (`GpuInstance`) and the top-level BVH over their world boxes, whose leaves
+    /// index INSTANCES (the meshes' own BVHs live in BVH_NODES after the scene's).
+    pub const INSTANCES: u32 = 58;
+    pub const TLAS_NODES: u32 = 59;
 }
 
 /// Entries of the BVH traversal's short stack (`BVH_STACK` in the shaders): trees up to this
@@ -151,6 +156,28 @@ pub struct GpuGridInfo {
     pub inv_cell: [f32; 3],
     pub prim_refs: u32,
 }
+
+/// An instance of a prototype mesh (112 bytes, binding INSTANCES): rows of two 3×4 affine
+/// matrices, composed in f64 on the host and rounded once: camera-relative world → object
+/// (rays are moved into the prototype's frame with it; the transpose of its 3×3 part moves
+/// normals back) and object → camera-relative world (hit vertices). `root`: the prototype's
+/// BVH root in BVH_NODES (its leaves index PRIMS directly). `material`: the instance's material
+/// replacing the prototype's, or NONE. `flags`: INST_MIRROR (negative determinant: the winding
+/// is swapped back, as a flattened copy's), INST_ALPHA (the replacing material is alpha-masked).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuInstance {
+    pub world_to_object: [[f32; 4]; 3],
+    pub object_to_world: [[f32; 4]; 3],
+    pub root: u32,
+    pub material: u32,
+    pub flags: u32,
+    pub pad: u32,
+}
+
+/// `GpuInstance::flags` bits.
+pub const INST_MIRROR: u32 = 1;
+pub const INST_ALPHA: u32 = 2;
 
 /// Material type ids (MAT_*, MATF_* in the shaders).
 pub mod mat {
@@ -269,6 +296,8 @@ pub struct GpuGlobals {
     /// (number of primitives, number of BVH nodes, light BVH tree nodes, infinite lights after
     /// them; the last two 0 with the power light sampler)
     pub counts: [u32; 4],
+    /// (number of instances, top-level BVH nodes, 0, 0): zero without instances.
+    pub instances: [u32; 4],
 }
 
 /// Per-dispatch constants (push constants, 32 bytes).
@@ -376,6 +405,8 @@ pub fn glsl_constants() -> String {
         ("B_SPLAT_ODD", binding::SPLAT_ODD),
         ("B_ESTIMATE_PARTIALS", binding::ESTIMATE_PARTIALS),
         ("B_ESTIMATE_RESULT", binding::ESTIMATE_RESULT),
+        ("B_INSTANCES", binding::INSTANCES),
+        ("B_TLAS_NODES", binding::TLAS_NODES),
     ];
     let flags = [
         ("NONE", NONE),
@@ -383,6 +414,8 @@ pub fn glsl_constants() -> String {
         ("PRIM_SPHERE", PRIM_SPHERE),
         ("PRIM_FLIP_NORMALS", PRIM_FLIP_NORMALS),
         ("PRIM_ALPHA", PRIM_ALPHA),
+        ("INST_MIRROR", INST_MIRROR),
+        ("INST_ALPHA", INST_ALPHA),
         ("LIGHT_TRIANGLE", light::TRIANGLE),
         ("LIGHT_SPHERE", light::SPHERE),
         ("LIGHT_POINT", light::POINT),
@@ -434,7 +467,8 @@ mod tests {
         assert_eq!(size_of::<GpuLight>(), 80);
         assert_eq!(size_of::<GpuAlias>(), 8);
         assert_eq!(size_of::<GpuLightNode>(), 64);
-        assert_eq!(size_of::<GpuGlobals>(), 160);
+        assert_eq!(size_of::<GpuGlobals>(), 176);
+        assert_eq!(size_of::<GpuInstance>(), 112);
         assert_eq!(size_of::<GpuPush>(), 32);
         assert_eq!(size_of::<GpuStats>(), 16);
     }

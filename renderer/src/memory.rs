@@ -23,7 +23,8 @@ pub use crate::gpu::{DeviceLimits, BUFFER_LIMIT_ENV, MEMORY_LIMIT_ENV};
 pub struct SceneBytes {
     /// Primitives and per-triangle shading data (normals, uvs).
     pub geometry: u64,
-    /// BVH nodes and parent pointers, the CWBVH's nodes and leaf indices, or the grid's buffers.
+    /// BVH nodes and parent pointers, the CWBVH's nodes and leaf indices, or the grid's buffers;
+    /// with instances also their records and the top-level BVH.
     pub accel: u64,
     /// Everything else the scene uploads: materials, textures, lights, globals.
     pub other: u64,
@@ -55,6 +56,10 @@ pub fn scene_buffers(s: &CompiledScene) -> Vec<(&'static str, u64)> {
         ("light alias", size(&s.alias)),
         ("env distribution", size(&s.env_dist)),
     ];
+    if !s.instances.is_empty() {
+        v.push(("instances", size(&s.instances)));
+        v.push(("tlas nodes", size(&s.tlas_nodes)));
+    }
     if let Some(g) = &s.grid {
         v.push(("grid", std::mem::size_of_val(&g.info) as u64));
         v.push(("grid cells", size(&g.cells)));
@@ -79,7 +84,7 @@ pub fn scene_bytes(s: &CompiledScene) -> SceneBytes {
         match name {
             "prims" | "tri shading" => b.geometry += bytes,
             "bvh nodes" | "bvh parents" | "grid" | "grid cells" | "grid prims" | "cwbvh nodes"
-            | "cwbvh prims" => b.accel += bytes,
+            | "cwbvh prims" | "instances" | "tlas nodes" => b.accel += bytes,
             _ => b.other += bytes,
         }
     }

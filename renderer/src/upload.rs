@@ -73,6 +73,17 @@ pub fn upload_scene(ctx: &Arc<GpuContext>, scene: &CompiledScene) -> GpuResult<V
             up("light bvh", bytemuck::cast_slice(&scene.light_bvh))?,
         ));
     }
+    // The instances and their top-level BVH exist only when the scene has instances.
+    if !scene.instances.is_empty() {
+        buffers.push((
+            binding::INSTANCES,
+            up("instances", bytemuck::cast_slice(&scene.instances))?,
+        ));
+        buffers.push((
+            binding::TLAS_NODES,
+            up("tlas nodes", bytemuck::cast_slice(&scene.tlas_nodes))?,
+        ));
+    }
     // The uniform grid's buffers exist only when the scene uses it.
     if let Some(grid) = &scene.grid {
         buffers.push((binding::GRID, up("grid", bytemuck::bytes_of(&grid.info))?));

@@ -91,8 +91,14 @@ fn glsl_mirror_matches_rust_layout() {
             size_of::<GpuStats>() / 4,
             512,
         ),
+        (
+            10,
+            buffer::<GpuInstance>(&ctx, "instance", 11000),
+            size_of::<GpuInstance>() / 4,
+            640,
+        ),
     ];
-    let out = Buffer::new(&ctx, "out", 640 * 4, BufferUsage::Storage).unwrap();
+    let out = Buffer::new(&ctx, "out", 704 * 4, BufferUsage::Storage).unwrap();
     ctx.fill_zero(&out).unwrap();
     let mut bindings: Vec<Binding<'_>> = structs
         .iter()
@@ -123,7 +129,7 @@ fn glsl_mirror_matches_rust_layout() {
         )
     })
     .unwrap();
-    let words: Vec<u32> = ctx.download_vec(&out, 640).unwrap();
+    let words: Vec<u32> = ctx.download_vec(&out, 704).unwrap();
     let mut checks = structs
         .iter()
         .map(|(_, b, n, at)| (b.name.clone(), *n, *at, 1000 * (*at as u32 / 64 + 1)))

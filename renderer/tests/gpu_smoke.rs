@@ -44,6 +44,8 @@ fn furnace() -> Scene {
             flip_normals: false,
             material: 0,
         }],
+        prototypes: vec![],
+        instances: vec![],
         lights: vec![],
         environment: Some(Environment::Constant {
             radiance: Vec3::ONE,

@@ -50,7 +50,7 @@ bool traverse_grid(Ray r, bool any_hit, out Hit hit) {
         uint ci = (uint(cell.z) * uint(res.y) + uint(cell.y)) * uint(res.x) + uint(cell.x);
         uint end = grid_cells[ci + 1u];
         for (uint k = grid_cells[ci]; k < end; ++k)
-            if (intersect_prim(r, pre, grid_prims[k], hit) && any_hit) return true;
+            if (intersect_prim(r, pre, grid_prims[k], NONE, hit) && any_hit) return true;
         // Step 5: stop once the nearest hit (or the ray's end) lies before this cell's exit.
         float t_exit = min(min(t_next.x, t_next.y), t_next.z);
         if (r.tmax <= t_exit || t_exit > t_leave) break;

@@ -53,8 +53,37 @@ Surface surface_at(Hit hit, Ray ray) {
     {
         vec3 p0 = p.a.xyz, p1 = p.b.xyz, p2 = p.c.xyz;
         float b1 = hit.b12.x, b2 = hit.b12.y, b0 = 1.0 - b1 - b2;
+#ifdef HAS_INSTANCES
+        // An instance's triangle: vertices to the (camera-relative) world, where it is what its
+        // flattened copy would be: a mirroring instance swaps v1 and v2 (with their
+        // barycentrics and shading data) to keep the facing, as the loader does for meshes.
+        bool instanced = hit.inst != NONE;
+        GpuInstance inst;
+        vec3 p_obj_err = vec3(0.0);
+        bool mirror = false;
+        if (instanced) {
+            inst = instances[hit.inst];
+            if (inst.material != NONE) s.material = inst.material;
+            s.light = NONE;
+            vec3 po = b0 * p0 + b1 * p1 + b2 * p2;
+            mat3 lin = mat3(inst.object_to_world[0].xyz, inst.object_to_world[1].xyz, inst.object_to_world[2].xyz);
+            vec3 tr = vec3(inst.object_to_world[0].w, inst.object_to_world[1].w, inst.object_to_world[2].w);
+            // Rows in lin's columns: world = po * lin + tr. Rounding of the vertices' move and of
+            // the ray's move into the object frame widen the error bound.
+            p0 = p0 * lin + tr; p1 = p1 * lin + tr; p2 = p2 * lin + tr;
+            p_obj_err = gamma_n(16.0) * (abs(po) * mat3(abs(lin[0]), abs(lin[1]), abs(lin[2])) + abs(tr));
+            mirror = (inst.flags & INST_MIRROR) != 0u;
+            if (mirror) {
+                vec3 tp = p1; p1 = p2; p2 = tp;
+                float tb = b1; b1 = b2; b2 = tb;
+            }
+        }
+#endif
         s.p = b0 * p0 + b1 * p1 + b2 * p2;
         s.p_err = gamma_n(7.0) * (abs(b0 * p0) + abs(b1 * p1) + abs(b2 * p2));
+#ifdef HAS_INSTANCES
+        s.p_err += p_obj_err;
+#endif
         s.ng = normalize(cross(p1 - p0, p2 - p0));
         s.ns = s.ng;
         s.uv = vec2(b1, b2);
@@ -62,6 +91,22 @@ Surface surface_at(Hit hit, Ray ray) {
 #ifdef HAS_TRI_SHADING
         if (si != NONE) {
             GpuTriShading sh = tri_shading[si];
+#ifdef HAS_INSTANCES
+            if (instanced) {
+                if (mirror) {
+                    vec4 tn = sh.n1; sh.n1 = sh.n2; sh.n2 = tn;
+                    sh.uv_v.yz = sh.uv_v.zy;
+                }
+                // Normals through the inverse transpose (the world-to-object rows, transposed),
+                // each renormalised as the loader does for a flattened copy.
+                mat3 nm = mat3(inst.world_to_object[0].xyz, inst.world_to_object[1].xyz, inst.world_to_object[2].xyz);
+                if (sh.uv_v.w > 0.5) {
+                    sh.n0.xyz = normalize(nm * sh.n0.xyz);
+                    sh.n1.xyz = normalize(nm * sh.n1.xyz);
+                    sh.n2.xyz = normalize(nm * sh.n2.xyz);
+                }
+            }
+#endif
             vec2 uv0 = vec2(sh.n0.w, sh.uv_v.x), uv1 = vec2(sh.n1.w, sh.uv_v.y), uv2 = vec2(sh.n2.w, sh.uv_v.z);
             s.uv = b0 * uv0 + b1 * uv1 + b2 * uv2;
             if (sh.uv_v.w > 0.5) {

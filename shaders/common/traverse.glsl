@@ -8,6 +8,12 @@
 // renders: when a push would overflow, the walk restarts from the root with the nearest hit so
 // far (r.tmax already shortened) as a stackless walk over parent pointers (Hapala et al. 2011,
 // `traverse_stackless`), which needs no stack at all and visits every node the ray reaches.
+//
+// Instances (HAS_INSTANCES, renderer/src/compile/instances.rs): after the scene's own BVH, rays
+// walk a top-level BVH whose leaves are instances; at each, the ray is moved into the
+// instance's frame (its direction not renormalised, so distances t are the same in both
+// frames) and walks the prototype's BVH, rooted inside `nodes`, with the same code as the
+// scene's. Hits record the instance; common/surface.glsl moves them back to the world.
 #ifndef COMMON_TRAVERSE_GLSL
 #define COMMON_TRAVERSE_GLSL
 #include "common/bindings.glsl"
@@ -27,12 +33,22 @@ struct Hit {
     float t;
     uint prim;   // index into prims (BVH order), NONE when missed
     vec2 b12;    // triangle barycentrics of v1, v2
+#ifdef HAS_INSTANCES
+    uint inst;   // the instance hit (index into instances), NONE for the scene's own primitives
+#endif
 };
 
+#ifdef HAS_INSTANCES
+#if defined(ACCEL_CWBVH) || defined(ACCEL_GRID)
+#error "instances are traversed with the binary BVH only"
+#endif
+layout(set = 0, binding = B_INSTANCES, scalar) readonly buffer Instances { GpuInstance instances[]; };
+layout(set = 0, binding = B_TLAS_NODES, scalar) readonly buffer TlasNodes { GpuBvhNode tlas_nodes[]; };
+#endif
+
 #ifdef HAS_ALPHA
-// True when the alpha mask of the triangle cuts the point with barycentrics b12 away.
-bool alpha_cut(GpuPrim p, vec2 b12) {
-    uint m = floatBitsToUint(p.a.w) & PRIM_MATERIAL_MASK;
+// True when the alpha mask of material m cuts the triangle's point with barycentrics b12 away.
+bool alpha_cut(uint m, GpuPrim p, vec2 b12) {
     uint tex = materials[m].header.z;
     uint si = floatBitsToUint(p.c.w);
     if (tex == NONE || si == NONE) return false;
@@ -42,8 +58,9 @@ bool alpha_cut(GpuPrim p, vec2 b12) {
 }
 #endif
 
-// Tests primitive `i` against the ray; shortens r.tmax on a hit.
-bool intersect_prim(inout Ray r, RayPre pre, uint i, inout Hit hit) {
+// Tests primitive `i` against the ray (in the frame of instance `inst`, NONE for the scene's
+// own primitives); shortens r.tmax on a hit.
+bool intersect_prim(inout Ray r, RayPre pre, uint i, uint inst, inout Hit hit) {
     GpuPrim p = prims[i];
     uint bits = floatBitsToUint(p.a.w);
     float t;
@@ -57,9 +74,21 @@ bool intersect_prim(inout Ray r, RayPre pre, uint i, inout Hit hit) {
     vec2 b12;
     if (!intersect_triangle(r, pre, p.a.xyz, p.b.xyz, p.c.xyz, t, b12)) return false;
 #ifdef HAS_ALPHA
-    if ((bits & PRIM_ALPHA) != 0u && alpha_cut(p, b12)) return false;
+    uint m = bits & PRIM_MATERIAL_MASK;
+    bool masked = (bits & PRIM_ALPHA) != 0u;
+#ifdef HAS_INSTANCES
+    // An instance's own material replaces the prototype's, mask included.
+    if (inst != NONE && instances[inst].material != NONE) {
+        m = instances[inst].material;
+        masked = (instances[inst].flags & INST_ALPHA) != 0u;
+    }
+#endif
+    if (masked && alpha_cut(m, p, b12)) return false;
 #endif
     r.tmax = t; hit.t = t; hit.prim = i; hit.b12 = b12;
+#ifdef HAS_INSTANCES
+    hit.inst = inst;
+#endif
     return true;
 }
 
@@ -70,12 +99,12 @@ bool stackless_left_first(GpuBvhNode n, vec3 d) {
     return dot((n.l_min + n.l_max) - (n.r_min + n.r_max), d) <= 0.0;
 }
 
-// Walks the whole tree without a stack (Hapala et al. 2011): down into the near child, then the
-// far one, then up to the parent. `phase` says what is next at `node`: 0 its near child, 1 its
-// far child, 2 going up. r.tmax and hit carry the nearest hit found so far. Returns true when
-// any_hit found an intersection.
-bool traverse_stackless(inout Ray r, RayPre pre, bool any_hit, inout Hit hit) {
-    uint node = 0u;
+// Walks the whole tree rooted at `root` without a stack (Hapala et al. 2011): down into the near
+// child, then the far one, then up to the parent. `phase` says what is next at `node`: 0 its
+// near child, 1 its far child, 2 going up. r.tmax and hit carry the nearest hit found so far.
+// Returns true when any_hit found an intersection.
+bool traverse_stackless(inout Ray r, RayPre pre, uint root, uint inst, bool any_hit, inout Hit hit) {
+    uint node = root;
     uint phase = 0u;
     while (true) {
         if (phase == 2u) {
@@ -98,7 +127,7 @@ bool traverse_stackless(inout Ray r, RayPre pre, bool any_hit, inout Hit hit) {
         uint count = left ? n.l_count : n.r_count;
         if (count > 0u) {
             for (uint i = child; i < child + count; ++i)
-                if (intersect_prim(r, pre, i, hit) && any_hit) return true;
+                if (intersect_prim(r, pre, i, inst, hit) && any_hit) return true;
         } else {
             node = child;
             phase = 0u;
@@ -107,14 +136,13 @@ bool traverse_stackless(inout Ray r, RayPre pre, bool any_hit, inout Hit hit) {
     return false;
 }
 
-// Traverses the BVH. With any_hit it returns at the first intersection.
-bool traverse(Ray r, bool any_hit, out Hit hit) {
-    hit.t = r.tmax; hit.prim = NONE; hit.b12 = vec2(0.0);
-    if (g.counts.x == 0u) return false; // empty scene
-    RayPre pre = ray_precompute(r.d);
+// Walks the BVH rooted at `root` (the scene's at 0, or an instance's prototype's, the ray then
+// in the instance's frame), shortening r.tmax and updating hit at each nearer hit. Returns true
+// when any_hit found an intersection.
+bool traverse_tree(inout Ray r, RayPre pre, uint root, uint inst, bool any_hit, inout Hit hit) {
     uint stack[STACK_ENTRIES];
     int sp = 0;
-    uint node = 0u;
+    uint node = root;
     while (true) {
         GpuBvhNode n = nodes[node];
         float tl = intersect_box(r.o, pre, n.l_min, n.l_max, r.tmin, r.tmax);
@@ -123,20 +151,20 @@ bool traverse(Ray r, bool any_hit, out Hit hit) {
         // Leaves are intersected at once; inner children are visited nearest first.
         if (hl && n.l_count > 0u) {
             for (uint i = n.left; i < n.left + n.l_count; ++i)
-                if (intersect_prim(r, pre, i, hit) && any_hit) return true;
+                if (intersect_prim(r, pre, i, inst, hit) && any_hit) return true;
             hl = false;
             tr = intersect_box(r.o, pre, n.r_min, n.r_max, r.tmin, r.tmax);
             hr = !isinf(tr);
         }
         if (hr && n.r_count > 0u) {
             for (uint i = n.right; i < n.right + n.r_count; ++i)
-                if (intersect_prim(r, pre, i, hit) && any_hit) return true;
+                if (intersect_prim(r, pre, i, inst, hit) && any_hit) return true;
             hr = false;
         }
         if (hl && hr) {
             if (sp == STACK_ENTRIES) {
                 // The tree is deeper than the stack: finish without one (see the top).
-                return traverse_stackless(r, pre, any_hit, hit) || hit.prim != NONE;
+                return traverse_stackless(r, pre, root, inst, any_hit, hit);
             }
             bool left_first = tl <= tr;
             stack[sp++] = left_first ? n.right : n.left;
@@ -150,8 +178,89 @@ bool traverse(Ray r, bool any_hit, out Hit hit) {
             node = stack[--sp];
         }
     }
-    return hit.prim != NONE;
+    return false;
 }
+
+// Traverses the scene's own BVH. With any_hit it returns at the first intersection.
+bool traverse(Ray r, bool any_hit, out Hit hit) {
+    hit.t = r.tmax; hit.prim = NONE; hit.b12 = vec2(0.0);
+#ifdef HAS_INSTANCES
+    hit.inst = NONE;
+#endif
+    if (g.counts.x == 0u) return false; // empty scene
+    RayPre pre = ray_precompute(r.d);
+    return traverse_tree(r, pre, 0u, NONE, any_hit, hit) || hit.prim != NONE;
+}
+
+#ifdef HAS_INSTANCES
+// Tests instance k: the ray moved into its frame walks its prototype's BVH; r.tmax follows the
+// nearest hit (the same t in both frames).
+bool intersect_instance(inout Ray r, uint k, bool any_hit, inout Hit hit) {
+    GpuInstance inst = instances[k];
+    Ray ro;
+    ro.o = vec3(dot(inst.world_to_object[0].xyz, r.o) + inst.world_to_object[0].w,
+                dot(inst.world_to_object[1].xyz, r.o) + inst.world_to_object[1].w,
+                dot(inst.world_to_object[2].xyz, r.o) + inst.world_to_object[2].w);
+    ro.d = vec3(dot(inst.world_to_object[0].xyz, r.d),
+                dot(inst.world_to_object[1].xyz, r.d),
+                dot(inst.world_to_object[2].xyz, r.d));
+    ro.tmin = r.tmin;
+    ro.tmax = r.tmax;
+    RayPre pre = ray_precompute(ro.d);
+    bool found = traverse_tree(ro, pre, inst.root, k, any_hit, hit);
+    r.tmax = ro.tmax;
+    return found;
+}
+
+// Walks the top-level BVH over the instances (leaves index instances), continuing from the
+// nearest hit so far (r.tmax, hit). Returns true when any_hit found an intersection. A tree
+// deeper than the stack (thousands of instances with the same box) finishes by testing every
+// instance: slow, but exact.
+bool traverse_instances(Ray r, bool any_hit, inout Hit hit) {
+    uint n_inst = g.instances.x;
+    if (n_inst == 0u) return false;
+    RayPre pre = ray_precompute(r.d);
+    uint stack[STACK_ENTRIES];
+    int sp = 0;
+    uint node = 0u;
+    while (true) {
+        GpuBvhNode n = tlas_nodes[node];
+        float tl = intersect_box(r.o, pre, n.l_min, n.l_max, r.tmin, r.tmax);
+        float tr = intersect_box(r.o, pre, n.r_min, n.r_max, r.tmin, r.tmax);
+        bool hl = !isinf(tl), hr = !isinf(tr);
+        if (hl && n.l_count > 0u) {
+            for (uint i = n.left; i < n.left + n.l_count; ++i)
+                if (intersect_instance(r, i, any_hit, hit) && any_hit) return true;
+            hl = false;
+            tr = intersect_box(r.o, pre, n.r_min, n.r_max, r.tmin, r.tmax);
+            hr = !isinf(tr);
+        }
+        if (hr && n.r_count > 0u) {
+            for (uint i = n.right; i < n.right + n.r_count; ++i)
+                if (intersect_instance(r, i, any_hit, hit) && any_hit) return true;
+            hr = false;
+        }
+        if (hl && hr) {
+            if (sp == STACK_ENTRIES) {
+                for (uint i = 0u; i < n_inst; ++i)
+                    if (intersect_instance(r, i, any_hit, hit) && any_hit) return true;
+                return false;
+            }
+            bool left_first = tl <= tr;
+            stack[sp++] = left_first ? n.right : n.left;
+            node = left_first ? n.left : n.right;
+        } else if (hl) {
+            node = n.left;
+        } else if (hr) {
+            node = n.right;
+        } else {
+            if (sp == 0) break;
+            node = stack[--sp];
+        }
+    }
+    return false;
+}
+#endif
 
 #if defined(ACCEL_CWBVH)
 // accel "cwbvh": the compressed 8-wide BVH (common/traverse_cwbvh.glsl) answers both queries.
@@ -170,6 +279,20 @@ bool trace_closest(Ray r, out Hit hit) { return traverse_grid(r, false, hit); }
 bool trace_any(Ray r) {
     Hit h;
     return traverse_grid(r, true, h);
+}
+#elif defined(HAS_INSTANCES)
+// The scene's own BVH, then the instances, beyond its nearest hit.
+bool trace_closest(Ray r, out Hit hit) {
+    traverse(r, false, hit);
+    r.tmax = hit.t;
+    traverse_instances(r, false, hit);
+    return hit.prim != NONE;
+}
+
+bool trace_any(Ray r) {
+    Hit h;
+    if (traverse(r, true, h)) return true;
+    return traverse_instances(r, true, h);
 }
 #else
 bool trace_closest(Ray r, out Hit hit) { return traverse(r, false, hit); }

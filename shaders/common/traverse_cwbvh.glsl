@@ -118,7 +118,7 @@ bool traverse_cwbvh(Ray r, bool any_hit, out Hit hit) {
 #else
             uint i = prim_group.x + b;
 #endif
-            if (intersect_prim(r, pre, i, hit) && any_hit) return true;
+            if (intersect_prim(r, pre, i, NONE, hit) && any_hit) return true;
         }
         // Step 4: the next group, or done.
         if ((node_group.y & 0xff000000u) == 0u) {

@@ -52,6 +52,12 @@ struct GpuGlobals {
     uvec4 env;
     vec4 env_params;
     uvec4 counts;
+    uvec4 instances;
+};
+struct GpuInstance {
+    vec4 world_to_object[3];
+    vec4 object_to_world[3];
+    uint root; uint material; uint flags; uint pad;
 };
 struct GpuStats { uint dropped_samples; uint rays_lo; uint rays_hi; uint pad; };
 

@@ -17,6 +17,7 @@ layout(binding = 6, scalar) readonly buffer B6 { GpuLight v_light; };
 layout(binding = 7, scalar) readonly buffer B7 { GpuAlias v_alias; };
 layout(binding = 8, scalar) readonly buffer B8 { GpuStats v_stats; };
 layout(binding = 9, scalar) buffer Out { uint o[]; };
+layout(binding = 10, scalar) readonly buffer B10 { GpuInstance v_instance; };
 
 uint k = 0u;
 void pu(uint x) { o[k++] = x; }
@@ -31,7 +32,7 @@ void main() {
     k = 0u;
     p4(v_globals.cam_forward); p4(v_globals.cam_right); p4(v_globals.cam_up); p4(v_globals.lens);
     u4(v_globals.film); p4(v_globals.filter_params); p4(v_globals.scene_sphere); u4(v_globals.env);
-    p4(v_globals.env_params); u4(v_globals.counts);
+    p4(v_globals.env_params); u4(v_globals.counts); u4(v_globals.instances);
     k = 64u;
     p3(v_node.l_min); pu(v_node.left); p3(v_node.l_max); pu(v_node.right);
     p3(v_node.r_min); pu(v_node.l_count); p3(v_node.r_max); pu(v_node.r_count);
@@ -57,4 +58,8 @@ void main() {
     k = 576u;
     pu(pc.seed_lo); pu(pc.seed_hi); pu(pc.sample_base); pu(pc.spp);
     pi(pc.max_depth); pi(pc.rr_depth); pu(pc.flags); pu(pc.dispatch);
+    k = 640u;
+    for (int i = 0; i < 3; ++i) p4(v_instance.world_to_object[i]);
+    for (int i = 0; i < 3; ++i) p4(v_instance.object_to_world[i]);
+    pu(v_instance.root); pu(v_instance.material); pu(v_instance.flags); pu(v_instance.pad);
 }

@@ -94,6 +94,12 @@ pub struct AccelInfo {
     /// Grid only: primitive references (a primitive counts once per cell it overlaps).
     pub grid_refs: Option<u64>,
     pub cache: CacheStatus,
+    /// Instances (`instance` objects; 0 without), and bytes of their GPU records and of the
+    /// top-level BVH over them (`bytes` already counts the prototypes' own BVHs).
+    pub instances: u64,
+    pub instance_bytes: u64,
+    /// Triangles as rendered through instances (each instance counts its prototype's).
+    pub instanced_triangles: u64,
 }
 
 /// A built acceleration structure.

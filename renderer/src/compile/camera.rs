@@ -18,6 +18,8 @@ pub(super) struct SceneFacts {
     pub node_count: u32,
     /// The light BVH's node count and infinite-light count (zero with the power sampler).
     pub light_nodes: [u32; 2],
+    /// The instance count and the top-level BVH's node count (zero without instances).
+    pub instances: [u32; 2],
 }
 
 /// The globals of `scene` for a `width` × `height` film.
@@ -54,5 +56,6 @@ pub(super) fn globals(scene: &Scene, width: u32, height: u32, facts: SceneFacts)
             facts.light_nodes[0],
             facts.light_nodes[1],
         ],
+        instances: [facts.instances[0], facts.instances[1], 0, 0],
     }
 }

@@ -32,6 +32,9 @@ pub struct FeatureSet {
     pub mat_dielectric: bool,
     pub mat_principled: bool,
     pub mat_phong: bool,
+    /// Instances (`instance` objects): rays also walk the top-level BVH and the prototypes'
+    /// BVHs (shaders/common/traverse.glsl). Off, the kernels have no trace of instancing.
+    pub instances: bool,
 }
 
 /// Which kernels a render compiles.
@@ -76,10 +79,11 @@ impl FeatureSet {
         mat_dielectric: true,
         mat_principled: true,
         mat_phong: true,
+        instances: true,
     };
 
     /// Each flag with its name in reports and its kernel define.
-    fn flags(&self) -> [(bool, &'static str, &'static str); 11] {
+    fn flags(&self) -> [(bool, &'static str, &'static str); 12] {
         [
             (self.spheres, "spheres", "HAS_SPHERES"),
             (self.tri_shading, "tri_shading", "HAS_TRI_SHADING"),
@@ -92,6 +96,7 @@ impl FeatureSet {
             (self.mat_dielectric, "mat_dielectric", "HAS_MAT_DIELECTRIC"),
             (self.mat_principled, "mat_principled", "HAS_MAT_PRINCIPLED"),
             (self.mat_phong, "mat_phong", "HAS_MAT_PHONG"),
+            (self.instances, "instances", "HAS_INSTANCES"),
         ]
     }
 
@@ -105,11 +110,16 @@ impl FeatureSet {
             .collect()
     }
 
-    /// The features of `mode`: the scene's own, or every one.
+    /// The features of `mode`: the scene's own, or every one (instancing only where the scene
+    /// has instances: its buffers exist only then, and the generic kernel of a scene without
+    /// them stays the one it always was).
     pub fn for_mode(self, mode: KernelMode) -> FeatureSet {
         match mode {
             KernelMode::Specialized => self,
-            KernelMode::Generic => FeatureSet::GENERIC,
+            KernelMode::Generic => FeatureSet {
+                instances: self.instances,
+                ..FeatureSet::GENERIC
+            },
         }
     }
 
@@ -130,13 +140,35 @@ impl FeatureSet {
         for s in &scene.spheres {
             mark(s.material);
         }
+        // Instances reach their prototype's materials, or the one replacing them.
+        // (Each prototype is looked at once, however many instances place it.)
+        let mut instanced = vec![false; scene.prototypes.len()];
+        let mut own_materials = vec![false; scene.prototypes.len()];
+        for i in &scene.instances {
+            instanced[i.prototype as usize] = true;
+            match i.material {
+                Some(m) => mark(m),
+                None => own_materials[i.prototype as usize] = true,
+            }
+        }
+        for (mesh, _) in scene.prototypes.iter().zip(&own_materials).filter(|p| *p.1) {
+            for t in 0..mesh.indices.len() {
+                mark(mesh.materials.get(t).copied().unwrap_or(0));
+            }
+        }
+        let shaded = |m: &&crate::scene::TriangleMesh| {
+            !m.indices.is_empty() && (m.normals.is_some() || m.uvs.is_some())
+        };
         let mut f = FeatureSet {
             spheres: !scene.spheres.is_empty(),
-            tri_shading: scene
-                .meshes
-                .iter()
-                .any(|m| !m.indices.is_empty() && (m.normals.is_some() || m.uvs.is_some())),
+            tri_shading: scene.meshes.iter().any(|m| shaded(&m))
+                || scene
+                    .prototypes
+                    .iter()
+                    .zip(&instanced)
+                    .any(|(m, &u)| u && shaded(&m)),
             delta_lights: !scene.lights.is_empty(),
+            instances: !scene.instances.is_empty(),
             ..Default::default()
         };
         for (m, _) in scene.materials.iter().zip(&used).filter(|(_, u)| **u) {

@@ -14,6 +14,7 @@ mod camera;
 mod emitters;
 mod features;
 mod frame;
+mod instances;
 pub mod light_bvh;
 mod lights;
 mod materials;
@@ -70,6 +71,11 @@ pub struct CompiledScene {
     pub cwbvh: Option<Cwbvh>,
     /// Which structure was built, how long it took, its size, cache hit or miss.
     pub accel: AccelInfo,
+    /// Instances (`instance` objects) in the top-level BVH's leaf order, and that BVH (empty
+    /// without instances: then the kernels are built without `HAS_INSTANCES`). The prototypes'
+    /// own BVHs are in `nodes` after the scene's, their primitives in `prims` after the scene's.
+    pub instances: Vec<GpuInstance>,
+    pub tlas_nodes: Vec<GpuBvhNode>,
     /// The camera's position in world space (f64): every position above is relative to it.
     pub camera_position: [f64; 3],
     /// A hash of the world-space geometry (positions, indices, per-triangle materials, spheres),
@@ -111,6 +117,22 @@ fn world_geometry_hash(scene: &Scene) -> u64 {
         )
             .hash(&mut h);
     }
+    for m in &scene.prototypes {
+        let bits: Vec<[u64; 3]> = m
+            .positions
+            .iter()
+            .map(|p| p.to_array().map(f64::to_bits))
+            .collect();
+        (bits, &m.indices, &m.materials).hash(&mut h);
+    }
+    for i in &scene.instances {
+        (
+            i.prototype,
+            i.to_world.to_cols_array().map(f64::to_bits),
+            i.material,
+        )
+            .hash(&mut h);
+    }
     h.finish()
 }
 
@@ -131,6 +153,12 @@ pub enum CompileError {
     /// A primitive's material index has the low 24 bits of a u32 (`PRIM_MATERIAL_MASK`).
     #[error("scene has {0} materials; at most {max} are supported", max = PRIM_MATERIAL_MASK)]
     TooManyMaterials(usize),
+    /// Instances are traversed through binary BVHs only (docs/accel.md).
+    #[error("accel \"{0}\" does not support instances (objects of type \"instance\"); use accel \"bvh\"")]
+    InstancesNeedBvh(&'static str),
+    /// Instance indices are u32, and u32::MAX marks "none".
+    #[error("scene has {0} instances; at most {max} are supported", max = NONE - 1)]
+    TooManyInstances(usize),
 }
 
 /// Compiles `scene` for a film of `width` × `height` (the job may override the scene's film),
@@ -149,6 +177,14 @@ pub fn compile_with(
     let start = std::time::Instant::now();
     let origin = scene.camera.position;
     let features = FeatureSet::detect(scene);
+    if !scene.instances.is_empty() {
+        if options.accel.kind != accel::AccelKind::Bvh {
+            return Err(CompileError::InstancesNeedBvh(options.accel.kind.name()));
+        }
+        if scene.instances.len() >= NONE as usize {
+            return Err(CompileError::TooManyInstances(scene.instances.len()));
+        }
+    }
 
     // Step 1: materials (textures are packed with the lights, which mark the environment's).
     let materials: Vec<GpuMaterial> = scene
@@ -176,12 +212,51 @@ pub fn compile_with(
         frame::place_cwbvh(&mut c.nodes, origin - centre);
     }
     let mut sorted: Vec<GpuPrim> = bvh.order.iter().map(|&i| prims.gpu[i as usize]).collect();
+    let scene_prims = sorted.len();
+
+    // Step 3b: instances: the prototypes' BVHs after the scene's, and the top-level BVH.
+    let inst = instances::build(
+        scene,
+        origin,
+        instances::Bases {
+            nodes: bvh.nodes.len(),
+            prims: sorted.len(),
+            tri_shading: prims.tri_shading.len(),
+        },
+        &options.accel,
+        options.cache,
+    );
 
     // Step 4: scene bounds (camera-relative) for directional and environment lights.
-    let (center, radius) = prims::scene_sphere(scene, &prims.bounds, origin);
+    let (center, radius) = prims::scene_sphere(scene, &[&prims.bounds, &inst.bounds], origin);
 
-    // Step 5: lights: emissive primitives, then delta lights, then the environment.
+    // Step 5: lights: emissive primitives, then delta lights, then the environment (instances
+    // of emissive meshes are refused when the scene is loaded).
     let emitters = emitters::gather(scene, &bvh.order, &mut sorted, &prims.shapes, radius);
+    sorted.extend_from_slice(&inst.prims);
+    let mut tri_shading = prims.tri_shading;
+    tri_shading.extend_from_slice(&inst.tri_shading);
+    let mut nodes = bvh.nodes;
+    nodes.extend_from_slice(&inst.nodes);
+    let depth = bvh.depth.max(inst.depth);
+    let bvh_parents = if depth > accel::STACK_DEPTH {
+        accel::parents(&nodes)
+    } else {
+        Vec::new()
+    };
+    let mut accel_info = bvh.info;
+    if !inst.instances.is_empty() {
+        accel_info.bytes += (inst.nodes.len() * std::mem::size_of::<GpuBvhNode>()) as u64;
+        accel_info.instances = inst.instances.len() as u64;
+        accel_info.instance_bytes = (inst.instances.len() * std::mem::size_of::<GpuInstance>()
+            + inst.tlas.len() * std::mem::size_of::<GpuBvhNode>())
+            as u64;
+        accel_info.instanced_triangles = inst.instanced_triangles;
+        accel_info.build_time += inst.build_time;
+        if inst.cache == accel::CacheStatus::Miss {
+            accel_info.cache = accel::CacheStatus::Miss;
+        }
+    }
     let (textures, texels) = if features.textures || features.alpha {
         materials::pack_textures(&scene.textures, &emitters.clamp_rows)
     } else {
@@ -199,16 +274,17 @@ pub fn compile_with(
             light_count: emitters.lights.len() as u32,
             env: emitters.env,
             env_params: emitters.env_params,
-            prim_count: sorted.len() as u32,
-            node_count: bvh.nodes.len() as u32,
+            prim_count: scene_prims as u32,
+            node_count: nodes.len() as u32,
             light_nodes: emitters.light_counts,
+            instances: [inst.instances.len() as u32, inst.tlas.len() as u32],
         },
     );
     Ok(CompiledScene {
         globals,
-        nodes: bvh.nodes,
+        nodes,
         prims: sorted,
-        tri_shading: prims.tri_shading,
+        tri_shading,
         materials,
         textures,
         texels,
@@ -219,20 +295,22 @@ pub fn compile_with(
         features,
         width,
         height,
-        triangle_count: prims.triangle_count,
-        bvh_depth: bvh.depth,
-        bvh_parents: bvh.parents,
+        triangle_count: prims.triangle_count + inst.prototype_triangles as usize,
+        bvh_depth: depth,
+        bvh_parents,
         traversal_stack: accel::STACK_DEPTH,
         load_time: Duration::ZERO,
         compile_time: start.elapsed(),
         bvh_build_time: if bvh.grid.is_none() {
-            bvh.info.build_time
+            accel_info.build_time
         } else {
             Duration::ZERO
         },
         grid: bvh.grid,
         cwbvh: bvh.cwbvh,
-        accel: bvh.info,
+        accel: accel_info,
+        instances: inst.instances,
+        tlas_nodes: inst.tlas,
         camera_position: origin.to_array(),
         geometry_hash: world_geometry_hash(scene),
     })

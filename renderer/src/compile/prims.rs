@@ -11,13 +11,14 @@ use crate::layout::*;
 use crate::scene::{Light, Scene, TriangleMesh};
 
 /// A primitive's exact (f64, camera-relative) geometry.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 pub(super) enum Shape {
     Triangle([DVec3; 3]),
     Sphere { center: DVec3, radius: f64 },
 }
 
 /// The primitives of a scene in input order (meshes' triangles, then spheres).
+#[derive(Default)]
 pub(super) struct Prims {
     pub gpu: Vec<GpuPrim>,
     pub bounds: Vec<PrimBounds>,
@@ -36,23 +37,18 @@ pub(super) fn f3(v: DVec3) -> [f32; 3] {
 /// with its bounds relative to `origin` and to `centre` (the BVH's frame).
 pub(super) fn gather(scene: &Scene, origin: DVec3, centre: DVec3) -> Result<Prims, CompileError> {
     let frames = Frames { origin, centre };
-    let mut out = Prims {
-        gpu: Vec::new(),
-        bounds: Vec::new(),
-        bvh_bounds: Vec::new(),
-        tri_shading: Vec::new(),
-        shapes: Vec::new(),
-        triangle_count: 0,
-    };
-    let alpha_material: Vec<bool> = scene
-        .materials
-        .iter()
-        .map(|m| m.alpha_mask.is_some())
-        .collect();
+    let mut out = Prims::default();
+    let alpha_material = alpha_materials(scene);
     if scene.materials.len() > PRIM_MATERIAL_MASK as usize {
         return Err(CompileError::TooManyMaterials(scene.materials.len()));
     }
-    let prims = scene.meshes.iter().map(|m| m.indices.len()).sum::<usize>() + scene.spheres.len();
+    let prims = scene.meshes.iter().map(|m| m.indices.len()).sum::<usize>()
+        + scene.spheres.len()
+        + scene
+            .prototypes
+            .iter()
+            .map(|m| m.indices.len())
+            .sum::<usize>();
     if prims >= NONE as usize {
         return Err(CompileError::TooManyPrims(prims));
     }
@@ -63,15 +59,29 @@ pub(super) fn gather(scene: &Scene, origin: DVec3, centre: DVec3) -> Result<Prim
     Ok(out)
 }
 
+/// Whether each material is alpha-masked.
+pub(super) fn alpha_materials(scene: &Scene) -> Vec<bool> {
+    scene
+        .materials
+        .iter()
+        .map(|m| m.alpha_mask.is_some())
+        .collect()
+}
+
 /// The camera's position and the BVH frame's origin (world space).
 #[derive(Clone, Copy)]
-struct Frames {
-    origin: DVec3,
-    centre: DVec3,
+pub(super) struct Frames {
+    pub origin: DVec3,
+    pub centre: DVec3,
 }
 
 /// One mesh's triangles, with a shading record where the mesh has normals or uvs.
-fn triangles(mesh: &TriangleMesh, frames: Frames, alpha_material: &[bool], out: &mut Prims) {
+pub(super) fn triangles(
+    mesh: &TriangleMesh,
+    frames: Frames,
+    alpha_material: &[bool],
+    out: &mut Prims,
+) {
     let origin = frames.origin;
     let shaded = mesh.normals.is_some() || mesh.uvs.is_some();
     for (t, idx) in mesh.indices.iter().enumerate() {
@@ -163,11 +173,12 @@ fn spheres(scene: &Scene, frames: Frames, out: &mut Prims) {
     }
 }
 
-/// The camera-relative bounding sphere (centre, radius) of the primitives and the point and spot
-/// lights; a unit sphere at the camera for an empty scene.
-pub(super) fn scene_sphere(scene: &Scene, bounds: &[PrimBounds], origin: DVec3) -> (DVec3, f64) {
+/// The camera-relative bounding sphere (centre, radius) of the primitives (and instances: every
+/// list of boxes in `bounds`) and the point and spot lights; a unit sphere at the camera for an
+/// empty scene.
+pub(super) fn scene_sphere(scene: &Scene, bounds: &[&[PrimBounds]], origin: DVec3) -> (DVec3, f64) {
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for b in bounds {
+    for b in bounds.iter().flat_map(|list| list.iter()) {
         lo = lo.min(DVec3::from(b.min.map(f64::from)));
         hi = hi.max(DVec3::from(b.max.map(f64::from)));
     }

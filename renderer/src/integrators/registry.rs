@@ -61,6 +61,10 @@ pub struct IntegratorInfo {
     /// only find light by hitting it, so on a scene with delta lights it converges to another
     /// image (their light missing) and is no candidate for `auto`.
     pub delta_lights: bool,
+    /// It renders scenes with instances (`instance` objects): its rays go through the shared
+    /// traversal and surface code. False where it reads primitives by index on its own (vct's
+    /// voxelisation, deferred's G-buffer passes): such scenes are refused with an error.
+    pub instances: bool,
     /// The per-pass kernel, relative to shaders/ (its other stages live in the same folder).
     pub kernel: &'static str,
     /// Its documentation page in the repository, if it has one.
@@ -79,6 +83,7 @@ macro_rules! integrators {
             unbiased: $unbiased:literal,
             light_bvh: $light_bvh:literal,
             delta_lights: $delta_lights:literal,
+            instances: $instances:literal,
             kernel: $kernel:literal,
             doc: $doc:expr,
             build: $build:path $(,)?
@@ -104,6 +109,7 @@ macro_rules! integrators {
                 unbiased: $unbiased,
                 light_bvh: $light_bvh,
                 delta_lights: $delta_lights,
+                instances: $instances,
                 kernel: $kernel,
                 doc: $doc,
                 options: <$opts as OptionsInfo>::FIELDS,
@@ -157,6 +163,7 @@ integrators! {
         unbiased: true,
         light_bvh: true,
         delta_lights: false,
+        instances: true,
         kernel: "pt/pt.comp",
         doc: None,
         build: pt::new,
@@ -167,6 +174,7 @@ integrators! {
         unbiased: true,
         light_bvh: true,
         delta_lights: true,
+        instances: true,
         kernel: "nee/nee.comp",
         doc: None,
         build: nee::new,
@@ -177,6 +185,7 @@ integrators! {
         unbiased: true,
         light_bvh: true,
         delta_lights: true,
+        instances: true,
         kernel: "bdpt/bdpt.comp",
         doc: None,
         build: bdpt::new,
@@ -187,6 +196,7 @@ integrators! {
         unbiased: false,
         light_bvh: true,
         delta_lights: true,
+        instances: true,
         kernel: "whitted/whitted.comp",
         doc: Some("docs/whitted.md"),
         build: whitted::new,
@@ -197,6 +207,7 @@ integrators! {
         unbiased: false,
         light_bvh: true,
         delta_lights: true,
+        instances: false,
         kernel: "deferred/deferred.comp",
         doc: Some("docs/deferred.md"),
         build: deferred::new,
@@ -207,6 +218,7 @@ integrators! {
         unbiased: false,
         light_bvh: true,
         delta_lights: true,
+        instances: false,
         kernel: "vct/vct.comp",
         doc: Some("docs/vct.md"),
         build: vct::new,

@@ -96,8 +96,15 @@ pub struct RenderStats {
     pub geometry_bytes: u64,
     /// GPU bytes of every scene buffer (geometry, accel, materials, textures, lights, ...).
     pub scene_gpu_bytes: u64,
-    /// (geometry_bytes + accel_bytes) / triangles (0 without triangles).
+    /// (geometry_bytes + accel_bytes) / triangles (0 without triangles). Triangles count once
+    /// however many instances place them.
     pub gpu_bytes_per_triangle: f64,
+    /// Instances (`instance` objects; 0 without), the triangles they render (each instance
+    /// counts its prototype's), and the GPU bytes each costs (its record and its share of the
+    /// top-level BVH; included in accel_bytes).
+    pub instances: u64,
+    pub instanced_triangles: u64,
+    pub gpu_bytes_per_instance: f64,
     /// The host process's peak resident memory so far (VmHWM; absent where unknown). In the
     /// server it covers every job the process has run.
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -139,6 +139,19 @@ impl RenderSession {
         kernels: KernelMode,
     ) -> Result<Self, RenderError> {
         let start = Instant::now();
+        if !scene.instances.is_empty() && !options.info().instances {
+            return Err(RenderError::Invalid(format!(
+                "integrator \"{}\" does not support instances (objects of type \"instance\") yet; \
+                 use one of {}",
+                options.name(),
+                crate::integrators::INTEGRATORS
+                    .iter()
+                    .filter(|i| i.instances)
+                    .map(|i| i.name)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        }
         let kernels_before = kernel_stats();
         let mut integrator = options.build(scene_max_depth);
         integrator.prepare(ctx);

@@ -7,14 +7,14 @@ use std::collections::HashMap;
 use glam::{DVec3, Vec2};
 
 use super::desc::*;
-use super::error::{from_json_error, index_path, join_path, SceneError};
+use super::error::{from_json_error, index_path, join_path, key_path, SceneError};
 use super::mesh::{to_world, FileError, Materials, RawMesh, Shading};
 use super::paths::AssetRoot;
 use super::texture::TextureCache;
 use super::transform::Transform;
 use super::validate::{f32_of, non_negative, non_negative3, positive};
 use super::{materials, obj, paths, ply, shapes, validate};
-use super::{Environment, Limits, Scene, Sphere, TriangleMesh};
+use super::{Environment, Instance, Limits, Scene, Sphere, TriangleMesh};
 
 /// Parses the document (syntax, types, unknown fields, version).
 pub(crate) fn parse(json: &str) -> Result<SceneDesc, SceneError> {
@@ -63,15 +63,37 @@ pub(crate) fn load(json: &str, root: AssetRoot<'_>, limits: &Limits) -> Result<S
             .enumerate()
             .map(|(i, n)| (n.as_str(), i as u32))
             .collect(),
+        names: &material_names,
+        emissive: material_list
+            .iter()
+            .map(|m| m.emission != glam::Vec3::ZERO)
+            .collect(),
         meshes: Vec::new(),
         spheres: Vec::new(),
+        prototypes: Vec::new(),
+        prototype_boxes: Vec::new(),
+        definitions: HashMap::new(),
+        instances: Vec::new(),
+        defining: false,
         triangles: 0,
     };
+    // Definitions first (they may appear after the objects that instance them in the file).
+    if let Some(defs) = &desc.definitions {
+        objects.defining = true;
+        for (name, o) in &defs.0 {
+            objects.define(name, o)?;
+        }
+        objects.defining = false;
+    }
     for (i, o) in desc.objects.iter().enumerate() {
-        objects.add(i, o)?;
+        objects.add(&index_path("objects", i), o)?;
     }
     let Objects {
-        meshes, spheres, ..
+        meshes,
+        spheres,
+        prototypes,
+        instances,
+        ..
     } = objects;
 
     let lights = desc
@@ -104,6 +126,8 @@ pub(crate) fn load(json: &str, root: AssetRoot<'_>, limits: &Limits) -> Result<S
         textures: textures.textures,
         meshes,
         spheres,
+        prototypes,
+        instances,
         lights,
         environment,
         render,
@@ -115,8 +139,20 @@ struct Objects<'a> {
     root: AssetRoot<'a>,
     limits: &'a Limits,
     by_name: HashMap<&'a str, u32>,
+    /// Material names and whether each emits (instances of emissive meshes are refused).
+    names: &'a [String],
+    emissive: Vec<bool>,
     meshes: Vec<TriangleMesh>,
     spheres: Vec<Sphere>,
+    /// The definitions' meshes, and each definition's index among them (None: it has no
+    /// triangles, so its instances are skipped).
+    prototypes: Vec<TriangleMesh>,
+    /// Each prototype's bounding box (its own frame).
+    prototype_boxes: Vec<(DVec3, DVec3)>,
+    definitions: HashMap<String, Option<u32>>,
+    instances: Vec<Instance>,
+    /// Converting a definition: meshes go to `prototypes`; spheres and instances are refused.
+    defining: bool,
     /// Triangles so far (bounded by `limits.max_triangles`).
     triangles: usize,
 }
@@ -126,9 +162,111 @@ impl Objects<'_> {
         self.limits.max_triangles.saturating_sub(self.triangles)
     }
 
-    /// Converts `objects[i]`.
-    fn add(&mut self, i: usize, o: &ObjectDesc) -> Result<(), SceneError> {
-        let path = index_path("objects", i);
+    /// Converts `definitions.<name>` into a prototype (its transform applied once, in its
+    /// own frame).
+    fn define(&mut self, name: &str, o: &ObjectDesc) -> Result<(), SceneError> {
+        let path = key_path("definitions", name);
+        let refused = match &o.shape {
+            ShapeDesc::Sphere(_) => Some("a sphere"),
+            ShapeDesc::Instance(_) => Some("an instance (nested instancing is not supported)"),
+            _ => None,
+        };
+        if let Some(what) = refused {
+            return Err(SceneError::invalid(
+                join_path(&path, "type"),
+                format!("a definition holds triangles (mesh, triangles, quad or box), not {what}"),
+            ));
+        }
+        let before = self.prototypes.len();
+        self.add(&path, o)?;
+        let index = (self.prototypes.len() > before).then_some(before as u32);
+        self.definitions.insert(name.to_string(), index);
+        Ok(())
+    }
+
+    /// An `instance` object at `path`: its definition placed with `transform`.
+    fn instance(
+        &mut self,
+        path: &str,
+        d: &InstanceDesc,
+        material: Option<u32>,
+        transform: &Transform,
+    ) -> Result<(), SceneError> {
+        let def_path = join_path(path, "definition");
+        let Some(&entry) = self.definitions.get(d.definition.as_str()) else {
+            let mut known: Vec<&str> = self.definitions.keys().map(String::as_str).collect();
+            known.sort_unstable();
+            return Err(SceneError::invalid(
+                def_path,
+                if known.is_empty() {
+                    format!(
+                        "no definition \"{}\" (the scene has no top-level \"definitions\")",
+                        d.definition
+                    )
+                } else {
+                    format!(
+                        "no definition \"{}\" (defined: {})",
+                        d.definition,
+                        known.join(", ")
+                    )
+                },
+            ));
+        };
+        let Some(prototype) = entry else {
+            tracing::warn!(
+                "{path}: definition \"{}\" has no triangles; skipped",
+                d.definition
+            );
+            return Ok(());
+        };
+        // Emissive instances would need a light per instanced triangle: refused for now.
+        let mesh = &self.prototypes[prototype as usize];
+        let emitter = match material {
+            Some(m) => self.emissive[m as usize].then_some((m, "material")),
+            None => mesh
+                .materials
+                .iter()
+                .find(|&&m| self.emissive.get(m as usize).copied().unwrap_or(false))
+                .map(|&m| (m, "definition")),
+        };
+        if let Some((m, field)) = emitter {
+            return Err(SceneError::invalid(
+                join_path(path, field),
+                format!(
+                    "instances of emissive meshes are not supported yet (material \"{}\" emits); place the mesh as an object instead",
+                    self.names[m as usize]
+                ),
+            ));
+        }
+        // The placed box must stay within f32 (the GPU's frame), checked on the prototype's
+        // box corners: O(1) per instance.
+        let (lo, hi) = self.prototype_boxes[prototype as usize];
+        let inside = (0..8).all(|k| {
+            let c = DVec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            );
+            let w = transform.point(c);
+            w.is_finite() && w.abs().max_element() < f32::MAX as f64 / 4.0
+        });
+        if !inside {
+            return Err(SceneError::invalid(
+                join_path(path, "transform"),
+                "places the definition beyond the range of 32-bit floats",
+            ));
+        }
+        self.instances.push(Instance {
+            prototype,
+            to_world: transform.matrix,
+            material,
+        });
+        Ok(())
+    }
+
+    /// Converts the object at `path` (`objects[3]`, or `definitions.<name>` while defining).
+    fn add(&mut self, path: &str, o: &ObjectDesc) -> Result<(), SceneError> {
+        let path = path.to_string();
         let transform_path = join_path(&path, "transform");
         let transform = Transform::from_desc(o.common.transform.as_ref(), &transform_path)?;
         let material = match &o.common.material {
@@ -190,6 +328,7 @@ impl Objects<'_> {
                 self.push(raw, &transform, Shading::SourceOnly, path.clone(), m, &path)
             }
             ShapeDesc::Mesh(m) => self.mesh_file(&path, m, material, &transform),
+            ShapeDesc::Instance(d) => self.instance(&path, d, material, &transform),
         }
     }
 
@@ -297,7 +436,20 @@ impl Objects<'_> {
         }
         let mesh = to_world(raw, transform, shading, name, materials, path)?;
         self.triangles += count;
-        self.meshes.push(mesh);
+        if self.defining {
+            let lo = mesh
+                .positions
+                .iter()
+                .fold(DVec3::INFINITY, |a, &p| a.min(p));
+            let hi = mesh
+                .positions
+                .iter()
+                .fold(DVec3::NEG_INFINITY, |a, &p| a.max(p));
+            self.prototype_boxes.push((lo, hi));
+            self.prototypes.push(mesh);
+        } else {
+            self.meshes.push(mesh);
+        }
         Ok(())
     }
 }

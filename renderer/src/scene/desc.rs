@@ -25,6 +25,9 @@ pub struct SceneDesc {
     pub film: FilmDesc,
     pub materials: OrderedMap<MaterialDesc>,
     pub objects: Vec<ObjectDesc>,
+    /// Named geometry that is not rendered by itself, only through `instance` objects.
+    #[serde(default)]
+    pub definitions: Option<OrderedMap<ObjectDesc>>,
     #[serde(default)]
     pub lights: Vec<LightDesc>,
     #[serde(default)]
@@ -207,6 +210,7 @@ pub enum ShapeDesc {
     Sphere(SphereDesc),
     Quad(QuadDesc),
     Box(BoxDesc),
+    Instance(InstanceDesc),
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -250,6 +254,13 @@ pub struct QuadDesc {
 pub struct BoxDesc {
     pub min: V3,
     pub max: V3,
+}
+
+/// An instance of a named definition (top-level `definitions`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InstanceDesc {
+    pub definition: String,
 }
 
 /// `{"matrix": [16 numbers, row-major]}` or any of scale / rotate / translate.

@@ -105,7 +105,8 @@ impl<'de> Deserialize<'de> for MaterialDesc {
     }
 }
 
-pub(crate) const OBJECT_TYPES: &[&str] = &["mesh", "triangles", "sphere", "quad", "box"];
+pub(crate) const OBJECT_TYPES: &[&str] =
+    &["mesh", "triangles", "sphere", "quad", "box", "instance"];
 pub(crate) const OBJECT_SHARED: &[&str] = &["type", "material", "transform"];
 
 impl<'de> Deserialize<'de> for ObjectDesc {
@@ -118,6 +119,7 @@ impl<'de> Deserialize<'de> for ObjectDesc {
             "triangles" => ShapeDesc::Triangles(from_map(map, OBJECT_SHARED)?),
             "sphere" => ShapeDesc::Sphere(from_map(map, OBJECT_SHARED)?),
             "quad" => ShapeDesc::Quad(from_map(map, OBJECT_SHARED)?),
+            "instance" => ShapeDesc::Instance(from_map(map, OBJECT_SHARED)?),
             _ => ShapeDesc::Box(from_map(map, OBJECT_SHARED)?),
         };
         Ok(ObjectDesc { common, shape })

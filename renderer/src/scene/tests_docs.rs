@@ -103,6 +103,7 @@ fn every_documented_field_is_accepted_and_every_accepted_field_documented() {
             "sphere" => accepted::<SphereDesc>(),
             "quad" => accepted::<QuadDesc>(),
             "box" => accepted::<BoxDesc>(),
+            "instance" => accepted::<InstanceDesc>(),
             other => panic!("object type {other}: add it to this test and to the docs"),
         };
         want.insert(format!("object: {t}"), fields);
@@ -153,4 +154,30 @@ fn every_documented_field_is_accepted_and_every_accepted_field_documented() {
 fn the_probe_reads_serde_field_lists() {
     assert_eq!(accepted::<RotateDesc>(), set(&["axis", "angle"]));
     assert_eq!(accepted::<DiffuseDesc>(), set(&["reflectance"]));
+}
+
+/// The example under "definitions" loads (its mesh file from scenes/assets), placing one
+/// definition twice.
+#[test]
+fn the_instancing_example_loads() {
+    let section = DOC
+        .split("\n## definitions\n")
+        .nth(1)
+        .expect("a definitions section");
+    let json = section
+        .split("```json\n")
+        .nth(1)
+        .and_then(|s| s.split("\n```").next())
+        .expect("a json example");
+    let scenes = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+    let scene = super::load_str(json, Some(&scenes)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.prototypes.len(), 1);
+    assert_eq!(scene.instances.len(), 2);
+    assert_eq!(scene.instances[1].material, Some(1));
+    assert!(scene.instances[1].to_world.determinant() < 0.0);
+    assert_eq!(
+        scene.meshes.len(),
+        2,
+        "the definition itself is not rendered"
+    );
 }

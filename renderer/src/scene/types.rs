@@ -4,7 +4,7 @@
 //! in f64 (world space), textures are decoded to linear RGBA f32. The GPU compile step
 //! (`crate::compile`) turns this into camera-relative f32 buffers; nothing here knows about Vulkan.
 
-use glam::{DVec3, Vec2, Vec3};
+use glam::{DMat4, DVec3, Vec2, Vec3};
 
 /// A fully loaded scene, in world space, f64 where precision matters.
 #[derive(Debug, Clone)]
@@ -17,10 +17,37 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     pub meshes: Vec<TriangleMesh>,
     pub spheres: Vec<Sphere>,
+    /// The meshes of the top-level `definitions`, in their own frame (the definition's
+    /// `transform` applied): rendered only through `instances`, each stored once however many
+    /// instances place it.
+    pub prototypes: Vec<TriangleMesh>,
+    /// Objects of type `instance`: a prototype placed with a transform.
+    pub instances: Vec<Instance>,
     pub lights: Vec<Light>,
     pub environment: Option<Environment>,
     /// The optional `render` section (defaults a job may override).
     pub render: RenderDefaults,
+}
+
+/// A prototype placed in the world (an `instance` object): small, whatever the mesh's size.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Instance {
+    /// Index into `Scene::prototypes`.
+    pub prototype: u32,
+    /// Object (the prototype's frame) to world, affine and invertible (validated), f64.
+    pub to_world: DMat4,
+    /// A material replacing every one of the prototype's (None: the prototype's own).
+    pub material: Option<u32>,
+}
+
+impl Scene {
+    /// Triangles as rendered: the meshes' plus every instance's copy of its prototype's.
+    pub fn instanced_triangles(&self) -> u64 {
+        self.instances
+            .iter()
+            .map(|i| self.prototypes[i.prototype as usize].indices.len() as u64)
+            .sum()
+    }
 }
 
 #[derive(Debug, Clone)]

@@ -381,6 +381,12 @@ fn print_report(stats: &RenderStats, output: &std::path::Path) {
             .peak_rss_bytes
             .map_or("unknown".to_string(), |b| format!("{b} bytes"))
     );
+    if stats.instances > 0 {
+        println!(
+            "instances   {} ({} triangles as rendered; {:.1} GPU bytes per instance)",
+            stats.instances, stats.instanced_triangles, stats.gpu_bytes_per_instance
+        );
+    }
     println!(
         "load        {:.3} s, compile {:.3} s (accel {:.3} s)",
         stats.load_s, stats.compile_s, stats.accel_build_s

@@ -46,6 +46,13 @@ impl RenderSession {
             } else {
                 0.0
             },
+            instances: self.info.accel.instances,
+            instanced_triangles: self.info.accel.instanced_triangles,
+            gpu_bytes_per_instance: if self.info.accel.instances > 0 {
+                self.info.accel.instance_bytes as f64 / self.info.accel.instances as f64
+            } else {
+                0.0
+            },
             peak_rss_bytes: crate::memory::peak_rss_bytes(),
             load_s: self.info.load_time.as_secs_f64(),
             compile_s: self.info.compile_time.as_secs_f64(),

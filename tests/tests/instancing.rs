@@ -1,0 +1,426 @@
+//! Instancing (docs/scene-format.md, `definitions` and `instance` objects): an instanced scene
+//! renders the image of its flattened copy (the same objects written out in place), for inline
+//! and OBJ-backed definitions placed with rotations, non-uniform scales, a mirror and a material
+//! override; ten thousand instances build and render quickly with memory that follows the
+//! unique geometry; what is not supported is refused naming the field or the setting.
+
+use candela_tests::*;
+use renderer::accel::{AccelKind, AccelOptions, CacheStatus};
+use renderer::compile::{compile, compile_with, CompileOptions};
+use renderer::film::Image;
+use renderer::scene::Scene;
+use serde_json::{json, Value};
+
+/// The Cornell box of scenes/cornell.json without its two blocks, lit by one emissive sphere
+/// instead of its quad (lights are numbered in BVH order, which the flattened copy's extra
+/// triangles change: with one light, the same seed draws the same light samples), with
+/// `objects` added, and `definitions` when given. Assets resolve against scenes/.
+fn cornell_with(objects: Vec<Value>, definitions: Option<Value>) -> Scene {
+    let base = std::fs::read_to_string(scene_path("cornell.json")).unwrap();
+    let mut v: Value = serde_json::from_str(&base).unwrap();
+    let list = v["objects"].as_array_mut().unwrap();
+    list.retain(|o| o["type"] != "box" && o["material"] != "light");
+    list.push(
+        json!({"type": "sphere", "center": [0, 0.75, 0], "radius": 0.12, "material": "light"}),
+    );
+    list.extend(objects);
+    if let Some(d) = definitions {
+        v["definitions"] = d;
+    }
+    v["materials"]["blue"] = json!({"type": "diffuse", "reflectance": [0.1, 0.2, 0.7]});
+    v["materials"]["metal"] = json!({"type": "conductor", "roughness": 0.3});
+    v["materials"]["cutout"] = json!({"type": "diffuse", "reflectance": [0.7, 0.6, 0.2],
+        "alpha_mask": {"texture": "assets/checker.png", "scale": [2, 2]}});
+    let dir = scene_path("cornell.json").parent().unwrap().to_path_buf();
+    renderer::scene::load_str(&v.to_string(), Some(&dir)).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The placements: rotation with uniform scale, a non-uniform scale, a mirror (negative
+/// determinant) with a rotation, a sheared matrix; (transform, material override).
+fn placements() -> Vec<(Value, Option<&'static str>)> {
+    vec![
+        (
+            json!({"scale": 0.3, "rotate": {"axis": [0, 1, 0], "angle": 30}, "translate": [-0.45, -0.65, -0.3]}),
+            None,
+        ),
+        (
+            json!({"scale": [0.2, 0.35, 0.25], "rotate": {"axis": [1, 1, 0], "angle": 40}, "translate": [0.45, -0.55, 0.1]}),
+            Some("blue"),
+        ),
+        (
+            json!({"scale": [-0.25, 0.25, 0.25], "rotate": {"axis": [0, 0, 1], "angle": 20}, "translate": [0.0, 0.35, -0.4]}),
+            Some("metal"),
+        ),
+        (
+            json!({"matrix": [0.2, 0.1, 0, -0.5, 0, 0.2, 0.05, 0.3, 0, 0, 0.15, 0.3, 0, 0, 0, 1]}),
+            None,
+        ),
+    ]
+}
+
+/// The scene with `shape` (an object without material and transform) defined once and placed
+/// by every placement, and its flattened copy.
+fn instanced_and_flat(shape: Value, material: &str) -> (Scene, Scene) {
+    let overrides: Vec<_> = placements().into_iter().map(|p| p.1).collect();
+    instanced_and_flat_with(shape, material, &overrides)
+}
+
+/// [`instanced_and_flat`] with the placements' material overrides replaced by `overrides`.
+fn instanced_and_flat_with(
+    shape: Value,
+    material: &str,
+    overrides: &[Option<&str>],
+) -> (Scene, Scene) {
+    let mut def = shape.clone();
+    def["material"] = json!(material);
+    let mut instances = Vec::new();
+    let mut flat = Vec::new();
+    for ((t, _), &m) in placements().into_iter().zip(overrides) {
+        let mut i = json!({"type": "instance", "definition": "piece", "transform": t});
+        let mut f = shape.clone();
+        f["transform"] = t;
+        f["material"] = json!(m.unwrap_or(material));
+        if let Some(m) = m {
+            i["material"] = json!(m);
+        }
+        instances.push(i);
+        flat.push(f);
+    }
+    (
+        cornell_with(instances, Some(json!({ "piece": def }))),
+        cornell_with(flat, None),
+    )
+}
+
+/// Mean |a − b| over the mean of b, and the share of pixels that differ by more than 1% of
+/// the image's mean.
+fn difference(a: &Image, b: &Image) -> (f64, f64) {
+    let m = mean(b).iter().sum::<f64>() / 3.0;
+    let (mut sum, mut off) = (0.0, 0usize);
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        let d: f64 = p
+            .iter()
+            .zip(q)
+            .map(|(x, y)| (*x as f64 - *y as f64).abs())
+            .sum::<f64>()
+            / 3.0;
+        sum += d;
+        if d > 0.01 * m {
+            off += 1;
+        }
+    }
+    let n = a.pixels.len() as f64;
+    (sum / n / m, off as f64 / n)
+}
+
+const SIZE: u32 = 32;
+
+fn assert_same_image(inst: &Scene, flat: &Scene, what: &str) {
+    for integrator in ["pt", "nee"] {
+        let (a, sa) = render_loaded(inst, integrator, 4, SIZE, SIZE, 7, Some(4));
+        let (b, sb) = render_loaded(flat, integrator, 4, SIZE, SIZE, 7, Some(4));
+        assert_eq!(sb.instances, 0);
+        assert_eq!(sa.instances, 4, "{what}");
+        let (rel, share) = difference(&a, &b);
+
+        println!("{what}, {integrator}: mean |Δ| {rel:.2e} of the mean, {share:.3} of pixels off");
+        assert!(mean(&a)[0] > 0.01, "{what}: a dark image proves nothing");
+        // Rounding differs (rays meet the triangles in the prototype's frame), so a path may
+        // now and then take another turn at an edge; nothing more.
+        assert!(
+            rel < 1e-3 && share < 0.01,
+            "{what}, {integrator}: {rel} {share}"
+        );
+    }
+}
+
+#[test]
+fn instanced_boxes_render_like_their_flattened_copy() {
+    let (inst, flat) = instanced_and_flat(
+        json!({"type": "box", "min": [-1, -1, -1], "max": [1, 1, 1]}),
+        "white",
+    );
+    assert_eq!(inst.prototypes.len(), 1);
+    assert_eq!(inst.instances.len(), 4);
+    assert_eq!(inst.instanced_triangles(), 48);
+    assert_same_image(&inst, &flat, "boxes");
+}
+
+#[test]
+fn obj_backed_instances_render_like_their_flattened_copy() {
+    // uv_sphere.obj has vertex normals and uvs: shading normals go through the inverse
+    // transpose, and a mirrored instance keeps its facing.
+    let (inst, flat) = instanced_and_flat(
+        json!({"type": "mesh", "file": "assets/uv_sphere.obj"}),
+        "white",
+    );
+    assert_same_image(&inst, &flat, "OBJ spheres");
+}
+
+/// Ten thousand instances of a 12-triangle box, on a grid with rotations: the prototype is
+/// stored once (GPU memory for triangles follows the unique geometry; each instance costs a
+/// record and a top-level BVH leaf), and a tiny image renders.
+#[test]
+fn ten_thousand_instances_build_and_render() {
+    let mut objects = Vec::new();
+    for k in 0..10_000 {
+        let (i, j) = ((k % 100) as f64, (k / 100) as f64);
+        objects.push(json!({
+            "type": "instance",
+            "definition": "cube",
+            "transform": {
+                "scale": [0.006, 0.01, 0.006],
+                "rotate": {"axis": [0, 1, 0], "angle": (k * 7) % 360},
+                "translate": [-0.9 + 0.018 * i, -0.99, -0.9 + 0.018 * j]
+            }
+        }));
+    }
+    let defs =
+        json!({"cube": {"type": "box", "min": [-1, 0, -1], "max": [1, 2, 1], "material": "white"}});
+    let scene = cornell_with(objects, Some(defs));
+    assert_eq!(scene.instances.len(), 10_000);
+    assert_eq!(scene.instanced_triangles(), 120_000);
+    let start = std::time::Instant::now();
+    let c = compile(&scene, 24, 24).unwrap();
+    println!("compiled 10000 instances in {:?}", start.elapsed());
+    let unique = c.triangle_count;
+    assert_eq!(unique, 10 + 12, "walls (10 triangles) and one cube");
+    assert_eq!(c.instances.len(), 10_000);
+    let (img, stats) = render_loaded(&scene, "nee", 1, 24, 24, 3, Some(3));
+    assert_eq!(stats.instances, 10_000);
+    assert_eq!(stats.instanced_triangles, 120_000);
+    // A record (112 bytes) and about two top-level nodes (64 bytes each) per instance.
+    assert!(
+        stats.gpu_bytes_per_instance > 112.0 && stats.gpu_bytes_per_instance < 112.0 + 3.0 * 64.0,
+        "{}",
+        stats.gpu_bytes_per_instance
+    );
+    assert!(
+        stats.geometry_bytes < 40 * 48 * 4,
+        "{}",
+        stats.geometry_bytes
+    );
+    assert!(mean(&img)[0] > 0.01);
+    println!(
+        "{} GPU bytes per instance, geometry {} bytes, accel {} bytes, {:?} in all",
+        stats.gpu_bytes_per_instance,
+        stats.geometry_bytes,
+        stats.accel_bytes,
+        start.elapsed()
+    );
+}
+
+fn load_err(v: Value) -> String {
+    let dir = scene_path("cornell.json").parent().unwrap().to_path_buf();
+    renderer::scene::load_str(&v.to_string(), Some(&dir))
+        .err()
+        .unwrap_or_else(|| panic!("accepted {v}"))
+        .to_string()
+}
+
+fn minimal(objects: Value, definitions: Value) -> Value {
+    json!({
+        "version": 1,
+        "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0]},
+        "film": {"width": 8, "height": 8},
+        "materials": {
+            "white": {"type": "diffuse"},
+            "lamp": {"type": "diffuse", "emission": [4, 4, 4]}
+        },
+        "objects": objects,
+        "definitions": definitions
+    })
+}
+
+#[test]
+fn instance_errors_name_the_field() {
+    let quad = json!({"type": "quad", "origin": [0, 0, 0], "edge_u": [1, 0, 0], "edge_v": [0, 1, 0], "material": "white"});
+    let cases = [
+        (
+            minimal(json!([{"type": "instance", "definition": "qaud"}]), json!({"quad": quad})),
+            "objects[0].definition: no definition \"qaud\" (defined: quad)",
+        ),
+        (
+            minimal(json!([{"type": "instance", "definition": "x"}]), json!({})),
+            "objects[0].definition: no definition \"x\"",
+        ),
+        (
+            minimal(
+                json!([]),
+                json!({"a": quad, "b": {"type": "instance", "definition": "a"}}),
+            ),
+            "definitions.b.type: a definition holds triangles (mesh, triangles, quad or box), not an instance (nested instancing is not supported)",
+        ),
+        (
+            minimal(
+                json!([]),
+                json!({"s": {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "white"}}),
+            ),
+            "definitions.s.type: a definition holds triangles",
+        ),
+        (
+            minimal(
+                json!([{"type": "instance", "definition": "quad", "material": "lamp"}]),
+                json!({"quad": quad}),
+            ),
+            "objects[0].material: instances of emissive meshes are not supported yet (material \"lamp\" emits)",
+        ),
+        (
+            minimal(
+                json!([{"type": "instance", "definition": "lit"}]),
+                json!({"lit": {"type": "box", "min": [0, 0, 0], "max": [1, 1, 1], "material": "lamp"}}),
+            ),
+            "objects[0].definition: instances of emissive meshes are not supported yet",
+        ),
+        (
+            minimal(
+                json!([{"type": "instance", "definition": "quad", "material": "wood"}]),
+                json!({"quad": quad}),
+            ),
+            "objects[0].material: no material \"wood\"",
+        ),
+        (
+            minimal(
+                json!([{"type": "instance", "definition": "quad", "transform": {"scale": [1, 0, 1]}}]),
+                json!({"quad": quad}),
+            ),
+            "objects[0].transform.scale: must be non-zero",
+        ),
+        (
+            minimal(
+                json!([{"type": "instance", "definition": "quad", "transform": {"translate": [1e39, 0, 0]}}]),
+                json!({"quad": quad}),
+            ),
+            "objects[0].transform: places the definition beyond the range of 32-bit floats",
+        ),
+        (
+            minimal(
+                json!([{"type": "instance", "definition": "quad", "radius": 2}]),
+                json!({"quad": quad}),
+            ),
+            "objects[0].radius: unknown field",
+        ),
+        (
+            minimal(
+                json!([]),
+                json!({"m": {"type": "mesh", "file": "assets/missing.obj", "material": "white"}}),
+            ),
+            "definitions.m.file",
+        ),
+    ];
+    for (scene, want) in cases {
+        let e = load_err(scene);
+        assert!(e.starts_with(want), "expected {want:?}, got {e:?}");
+    }
+}
+
+/// The binary BVH is the only structure with a second level; vct and deferred read primitives
+/// by index on their own: each refuses an instanced scene with a message saying why.
+#[test]
+fn unsupported_settings_refuse_instances() {
+    let (inst, _) = instanced_and_flat(
+        json!({"type": "box", "min": [-1, -1, -1], "max": [1, 1, 1]}),
+        "white",
+    );
+    for kind in [AccelKind::Cwbvh, AccelKind::Grid] {
+        let opts = CompileOptions {
+            accel: AccelOptions {
+                kind,
+                ..Default::default()
+            },
+            cache: None,
+        };
+        let e = compile_with(&inst, 8, 8, &opts).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            format!(
+                "accel \"{}\" does not support instances (objects of type \"instance\"); use accel \"bvh\"",
+                kind.name()
+            )
+        );
+    }
+    let c = compile(&inst, 8, 8).unwrap();
+    for name in ["vct", "deferred"] {
+        let options = renderer::integrators::IntegratorOptions::from_name(name).unwrap();
+        let Err(e) = renderer::render::RenderSession::new(&gpu(), &c, &options, None, 1) else {
+            panic!("{name} accepted an instanced scene");
+        };
+        let e = e.to_string();
+        assert!(
+            e.starts_with(&format!(
+                "integrator \"{name}\" does not support instances (objects of type \"instance\") yet; use one of pt, nee, bdpt, whitted"
+            )),
+            "{e}"
+        );
+    }
+}
+
+/// bdpt and whitted take instances through the shared traversal too: same image as the
+/// flattened copy.
+#[test]
+fn bdpt_and_whitted_render_instances_like_their_flattened_copy() {
+    let (inst, flat) = instanced_and_flat(
+        json!({"type": "box", "min": [-1, -1, -1], "max": [1, 1, 1]}),
+        "white",
+    );
+    for integrator in ["bdpt", "whitted"] {
+        let (a, _) = render_loaded(&inst, integrator, 2, 24, 24, 5, Some(3));
+        let (b, _) = render_loaded(&flat, integrator, 2, 24, 24, 5, Some(3));
+        let (rel, share) = difference(&a, &b);
+        println!("{integrator}: mean |Δ| {rel:.2e} of the mean, {share:.3} of pixels off");
+        assert!(mean(&a)[0] > 0.01);
+        assert!(rel < 1e-3 && share < 0.01, "{integrator}: {rel} {share}");
+    }
+}
+
+/// Alpha masks through instances: a definition whose own material is masked, and instances
+/// whose replacing material is masked (and one replacing a masked material by a plain one), on
+/// a PLY-backed definition with normals and uvs.
+#[test]
+fn masked_and_ply_backed_instances_render_like_their_flattened_copy() {
+    let ply = json!({"type": "mesh", "file": "testdata/meshes/floor.ply"});
+    let (inst, flat) =
+        instanced_and_flat_with(ply.clone(), "cutout", &[None, Some("blue"), None, None]);
+    assert_same_image(&inst, &flat, "masked PLY");
+    let (inst, flat) = instanced_and_flat_with(
+        ply,
+        "white",
+        &[Some("cutout"), None, Some("cutout"), Some("metal")],
+    );
+    assert_same_image(&inst, &flat, "masked overrides");
+}
+
+/// Prototype BVHs come from the cache on a second compile; the shader's fallbacks for trees
+/// deeper than its stack (the prototype's BVH: the stackless walk; the top-level BVH: testing
+/// every instance) give the image of the full stack.
+#[test]
+fn a_short_stack_renders_instances_the_same() {
+    let (inst, _) = instanced_and_flat(
+        json!({"type": "mesh", "file": "assets/uv_sphere.obj"}),
+        "white",
+    );
+    // The prototype's BVH is cached like the scene's: the second compile loads it.
+    let dir = scratch("instancing-cache");
+    let cached = |d: &std::path::Path| {
+        let opts = CompileOptions {
+            accel: AccelOptions::default(),
+            cache: Some(d),
+        };
+        compile_with(&inst, 24, 24, &opts).unwrap()
+    };
+    assert_eq!(cached(&dir).accel.cache, CacheStatus::Miss);
+    let c = cached(&dir);
+    assert_eq!(c.accel.cache, CacheStatus::Hit);
+    assert!(
+        std::fs::read_dir(&dir).unwrap().count() >= 2,
+        "scene and prototype BVHs"
+    );
+    let short = c.clone().with_traversal_stack(1);
+    assert!(!short.bvh_parents.is_empty());
+    let (a, _) = render_compiled(&inst, &c, "nee", 2, 3, Some(3));
+    let (b, _) = render_compiled(&inst, &short, "nee", 2, 3, Some(3));
+    assert!(mean(&a)[0] > 0.01);
+    let (rel, share) = difference(&b, &a);
+    println!("short stack: mean |Δ| {rel:.2e}, {share:.3} of pixels off");
+    assert!(rel < 1e-4 && share < 0.01, "{rel} {share}");
+}
