@@ -181,6 +181,9 @@ pub struct ServerConfig {
     pub lease: Duration,
     /// How often the worker renews its leases (a third of the lease).
     pub heartbeat: Duration,
+    /// Jobs this process claims first are split into shards of this many samples per pixel
+    /// (`--shard-spp`; 0: never, and always on SQLite; store/shards.rs).
+    pub shard_spp: u32,
 }
 
 /// Which kernels the server builds when its device opens (worker/warmup.rs).
@@ -261,6 +264,7 @@ impl ServerConfig {
             worker_id: default_worker_id(),
             lease: Duration::from_secs(30),
             heartbeat: Duration::from_secs(10),
+            shard_spp: 0,
         }
     }
 

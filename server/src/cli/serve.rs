@@ -140,6 +140,11 @@ pub struct ServeArgs {
     /// once; never give two live processes one name.
     #[arg(long, value_name = "NAME")]
     pub worker_id: Option<String>,
+    /// On PostgreSQL, cut a job with a sample budget above N samples per pixel into shards of
+    /// N sample indices that any worker may render, merged exactly at the end (0: never;
+    /// store/shards.rs). The process that first claims a job decides.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub shard_spp: u32,
     /// How often retention runs (10m, 1h).
     #[arg(long, value_name = "INTERVAL", default_value = "10m")]
     pub gc_interval: String,
@@ -249,6 +254,7 @@ pub(super) fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), Cli
     };
     c.lease = seconds("--lease", a.lease)?;
     c.heartbeat = c.lease / 3;
+    c.shard_spp = a.shard_spp;
     if let Some(id) = a.worker_id.as_ref().filter(|i| !i.trim().is_empty()) {
         c.worker_id = id.trim().to_string();
     }
@@ -438,6 +444,8 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
         None
     };
     if !farm {
+        // Alone on the store: one worker, nothing to split jobs for.
+        config.shard_spp = 0;
         // Alone on the directory: nobody else's uploads are being unpacked.
         let _ = std::fs::remove_dir_all(config.tmp_dir());
     }

@@ -126,10 +126,44 @@ CREATE TABLE leases (
 );
 CREATE INDEX leases_by_job ON leases(job_id);",
     },
+    // 4: jobs split by sample index over several workers (store/shards.rs): how many shards a
+    // job has (0: rendered whole), and each shard's sample range, progress, completion and
+    // lease; which shard each claim in `leases` took (NULL: the whole job, or its merge).
+    Migration {
+        version: 4,
+        sqlite: "
+ALTER TABLE jobs ADD COLUMN shard_count INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE leases ADD COLUMN shard INTEGER;
+CREATE TABLE IF NOT EXISTS shards (
+    job_id       INTEGER NOT NULL,
+    idx          INTEGER NOT NULL,
+    first_sample INTEGER NOT NULL,
+    samples      INTEGER NOT NULL,
+    progress     TEXT,
+    done         INTEGER NOT NULL DEFAULT 0,
+    lease_owner  TEXT,
+    lease_until  REAL,
+    PRIMARY KEY (job_id, idx)
+);",
+        postgres: "
+ALTER TABLE jobs ADD COLUMN shard_count BIGINT NOT NULL DEFAULT 0;
+ALTER TABLE leases ADD COLUMN shard BIGINT;
+CREATE TABLE shards (
+    job_id       BIGINT NOT NULL,
+    idx          BIGINT NOT NULL,
+    first_sample BIGINT NOT NULL,
+    samples      BIGINT NOT NULL,
+    progress     TEXT,
+    done         BIGINT NOT NULL DEFAULT 0,
+    lease_owner  TEXT,
+    lease_until  DOUBLE PRECISION,
+    PRIMARY KEY (job_id, idx)
+);",
+    },
 ];
 
 /// The schema version this build writes.
-pub const LATEST: i64 = 3;
+pub const LATEST: i64 = 4;
 
 /// Brings the database to [`LATEST`]; runs inside the caller's transaction, which must exclude
 /// other processes migrating at once (SQLite: `BEGIN IMMEDIATE`; PostgreSQL: this takes an

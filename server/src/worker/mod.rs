@@ -24,6 +24,7 @@ mod device_loss;
 mod metrics_lane;
 mod outcome;
 mod scheduler;
+mod shard;
 mod storage_hold;
 mod warmup;
 mod watchdog;
@@ -44,7 +45,7 @@ use tracing::{error, info, warn};
 use crate::config::ServerConfig;
 use crate::jobs::model::{now_s, JobId, JobState, SceneSource};
 use crate::shared::{GpuStatus, Shared};
-use crate::store::{JobPaths, Store, StoreError, Transition};
+use crate::store::{Claim, JobPaths, Part, Store, StoreError, Transition};
 use active::{ActiveJob, CheckpointError};
 use metrics_lane::SnapshotImage;
 use scheduler::Scheduler;
@@ -328,12 +329,16 @@ impl Worker {
         let mut skip: Vec<JobId> = self.held.keys().copied().collect();
         while self.active.len() < self.config.max_active.max(1) && self.ctx.is_some() {
             let exclude: Vec<JobId> = self.active.keys().chain(&skip).copied().collect();
-            let claim = self
-                .store
-                .claim_job(&self.config.worker_id, self.config.lease, &exclude);
+            let claim = self.store.claim_job(
+                &self.config.worker_id,
+                self.config.lease,
+                &exclude,
+                self.config.shard_spp,
+            );
             match claim {
-                Ok(Some((id, state, priority))) => {
-                    self.admit(id, state, priority);
+                Ok(Some(claim)) => {
+                    let id = claim.id;
+                    self.admit(claim);
                     // Admitting may take long (kernels to build): renew at once, and let the
                     // job go if another worker took it meanwhile.
                     self.heartbeat();
@@ -377,8 +382,15 @@ impl Worker {
         }
     }
 
-    /// Creates the session of a runnable job (restoring its checkpoint) and schedules it.
-    fn admit(&mut self, id: JobId, state: JobState, priority: u32) {
+    /// Creates the session of a runnable job (restoring its checkpoint) and schedules it; of
+    /// one shard of it, or of the merge of its shards, when the claim says so (shard.rs).
+    fn admit(&mut self, claim: Claim) {
+        let Claim {
+            id,
+            state,
+            priority,
+            part,
+        } = claim;
         let Some(ctx) = self.ctx.clone() else { return };
         let (rec, text) = match (self.store.get_job(id), self.store.get_scene(id)) {
             (Ok(r), Ok(t)) => (r, t),
@@ -435,9 +447,30 @@ impl Worker {
             Ok(Err(e)) => return self.render_failed(id, e, "creating the render session"),
             Err(_) => return self.panicked(id, "creating the render session"),
         };
-        if paths.checkpoint().exists() {
+        let ckpt = match part {
+            Part::Shard { range, .. } => paths.shard_checkpoint(range.idx),
+            _ => paths.checkpoint(),
+        };
+        if let Part::Merge { count } = part {
+            match shard::merged(&self.store, &session, &s, &paths, id) {
+                Ok(Some((acc, progress))) => {
+                    if let Err(e) = session.restore(&acc, progress) {
+                        return self.render_failed(id, e, "restoring the merged shards");
+                    }
+                    info!(
+                        job = id,
+                        shards = count,
+                        spp = progress.spp,
+                        "merged the shards"
+                    );
+                }
+                // A shard to render again: the merge's lease goes at the next heartbeat.
+                Ok(None) => return,
+                Err(e) => return error!(job = id, error = %e, "merging the shards"),
+            }
+        } else if ckpt.exists() {
             let entries = session.accumulation_len();
-            match checkpoint::read(&paths.checkpoint(), s.width, s.height, s.seed, entries) {
+            match checkpoint::read(&ckpt, s.width, s.height, s.seed, entries) {
                 Ok((progress, acc)) => {
                     if let Err(e) = session.restore(&acc, progress) {
                         return self.render_failed(id, e, "restoring the checkpoint");
@@ -459,6 +492,11 @@ impl Worker {
                         self.shared.observe_queue_wait(now_s() - rec.created_at);
                     }
                 }
+                // Another shard's worker started it first.
+                Err(StoreError::Conflict {
+                    state: JobState::Running,
+                    ..
+                }) if matches!(part, Part::Shard { .. }) => {}
                 Err(StoreError::Conflict { .. }) | Err(StoreError::NotFound(_)) => return,
                 Err(e) => return error!(job = id, error = %e, "starting job"),
             }
@@ -466,7 +504,28 @@ impl Worker {
         info!(job = id, name = %rec.name, "rendering");
         // New pipelines go to the kernel cache folder, off this thread.
         ctx.save_pipeline_cache_later();
+        let job_spp = s.spp.unwrap_or(1);
         let mut job = ActiveJob::new(session, s, paths);
+        match part {
+            Part::Shard { range, count } => {
+                info!(
+                    job = id,
+                    shard = range.idx,
+                    first = range.first,
+                    samples = range.samples,
+                    "rendering a shard"
+                );
+                job.settings.spp = Some(range.samples);
+                job.shard = Some(shard::ShardRun {
+                    range,
+                    count,
+                    job_spp,
+                    others_spp: 0,
+                });
+            }
+            Part::Merge { count } => job.merged_shards = Some(count),
+            Part::Whole => {}
+        }
         if let Some((run, fresh)) = auto_run {
             if fresh {
                 info!(job = id, choice = %run.report["choice"], "auto: pilot done");
@@ -489,7 +548,7 @@ impl Worker {
         match self.store.get_job(id).map(|r| r.state) {
             Ok(JobState::Paused) => match job.write_checkpoint() {
                 Ok(p) => {
-                    let _ = self.store.set_progress(id, &p);
+                    shard::record_progress(&self.store, &self.config.worker_id, id, &mut job, &p);
                     info!(job = id, spp = p.spp, "paused and checkpointed");
                 }
                 Err(e) => self.checkpoint_failed(id, e),
@@ -498,8 +557,10 @@ impl Worker {
                 if let Ok(img) = job.session.image() {
                     let _ = job.write_image(&img);
                 }
-                let _ = self.store.set_progress(id, &job.session.progress());
-                let _ = std::fs::remove_file(job.paths.checkpoint());
+                if job.shard.is_none() {
+                    let _ = self.store.set_progress(id, &job.session.progress());
+                }
+                let _ = std::fs::remove_file(job.checkpoint_path());
                 info!(job = id, "canceled");
             }
             _ => {}
@@ -557,8 +618,14 @@ impl Worker {
         }
         // Step 3: queue it, with a copy of the accumulation when a snapshot is due.
         // (A job with a quality target copies it with every pass, to check the target.)
-        let snapshot = job.snapshot_due(interval.saturating_sub(target / 2));
+        // (A shard has no live snapshots: its checkpoints write the merged image.)
+        let snapshot = job.shard.is_none() && job.snapshot_due(interval.saturating_sub(target / 2));
         let copy = snapshot || job.settings.until_rel_mse.is_some();
+        if let Some(sh) = &job.shard {
+            // A shard's passes take the next indices of its range.
+            let next = sh.range.first + job.session.submitted_spp();
+            job.session.set_next_sample(next);
+        }
         let result = catch_unwind(AssertUnwindSafe(|| job.session.submit_pass(spp, copy)));
         let done = match result {
             Ok(Ok(done)) => done,
@@ -653,12 +720,7 @@ impl Worker {
             return;
         };
         if job.checkpoint_due(self.config.checkpoint_interval) {
-            match job.write_checkpoint() {
-                Ok(p) => {
-                    let _ = self.store.set_progress(id, &p);
-                }
-                Err(e) => self.checkpoint_failed(id, e),
-            }
+            self.save_checkpoint(id);
         }
     }
 
@@ -669,7 +731,7 @@ impl Worker {
             if let Some(job) = self.active.get_mut(&id) {
                 match job.write_checkpoint() {
                     Ok(p) => {
-                        let _ = self.store.set_progress(id, &p);
+                        shard::record_progress(&self.store, &self.config.worker_id, id, job, &p);
                         info!(job = id, spp = p.spp, "checkpointed for shutdown");
                     }
                     Err(CheckpointError::Io(e)) => error!(job = id, error = %e, "checkpoint"),
