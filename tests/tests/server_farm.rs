@@ -4,7 +4,9 @@
 //! (the `leases` table records every claim), to exactly their sample count; their events reach
 //! the API server's SSE clients live; and a worker killed mid-job (SIGKILL) has its job taken
 //! over, once its lease expires, by the other worker, which resumes it from its checkpoint. A
-//! SQLite server cannot share the farm's data directory.
+//! SQLite server cannot share the farm's data directory. A job split into shards
+//! (`--shard-spp`) is rendered by three workers at once, one of them killed mid-shard, and
+//! comes out with exactly its samples and the image one worker renders of it whole.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -14,6 +16,8 @@ use std::time::{Duration, Instant};
 use candela_tests::database::{cluster, database_env, run_on, Backend};
 use candela_tests::server::Server;
 use candela_tests::{candela, repo_root, scratch};
+use renderer::film::read_exr;
+use renderer::metrics::rel_mse;
 use serde_json::{json, Value};
 
 const T: Duration = Duration::from_secs(180);
@@ -22,6 +26,11 @@ const T: Duration = Duration::from_secs(180);
 #[test]
 fn two_workers_share_the_jobs() {
     run_on(Backend::Postgres, two_workers_share_the_jobs_on_postgres)
+}
+
+#[test]
+fn three_workers_split_one_job() {
+    run_on(Backend::Postgres, three_workers_split_one_job_on_postgres)
 }
 
 #[test]
@@ -41,6 +50,11 @@ struct Worker {
 impl Worker {
     /// Starts worker `name` on `data`'s store and waits for its `rendering` line.
     fn start(data: &Path, name: &str, lease_s: &str) -> Worker {
+        Worker::start_with(data, name, lease_s, &[])
+    }
+
+    /// [`Worker::start`] with more arguments.
+    fn start_with(data: &Path, name: &str, lease_s: &str, extra: &[&str]) -> Worker {
         let log = data.parent().unwrap().join(format!("{name}.log"));
         let out = std::fs::File::create(&log).unwrap();
         let url = database_env(data).expect("a PostgreSQL database");
@@ -52,6 +66,7 @@ impl Worker {
             .args(["--pass-ms", "40", "--checkpoint-interval", "0.2"])
             .args(["--snapshot-interval", "0.2", "--max-active", "2"])
             .args(["--warm-kernels", "none"])
+            .args(extra)
             .current_dir(repo_root())
             .env("CANDELA_LOG", "info")
             .stdin(Stdio::null())
@@ -84,26 +99,29 @@ impl Drop for Worker {
     }
 }
 
-/// Every claim in the store's lease history: (job, worker, claimed_at), in claim order.
-fn claims(data: &Path) -> Vec<(i64, String, f64)> {
+/// The rows of `sql` on `data`'s store, each as its fields.
+fn psql(data: &Path, sql: &str) -> Vec<Vec<String>> {
     let url = database_env(data).unwrap();
     let o = Command::new(cluster().tool("psql"))
-        .args([&url, "-At", "-F", "|", "-c"])
-        .arg("SELECT job_id, worker, claimed_at FROM leases ORDER BY claimed_at, job_id")
+        .args([&url, "-At", "-F", "|", "-c", sql])
         .output()
         .expect("run psql");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     String::from_utf8_lossy(&o.stdout)
         .lines()
-        .map(|l| {
-            let f: Vec<&str> = l.split('|').collect();
-            (
-                f[0].parse().unwrap(),
-                f[1].to_string(),
-                f[2].parse().unwrap(),
-            )
-        })
+        .map(|l| l.split('|').map(str::to_string).collect())
         .collect()
+}
+
+/// Every claim in the store's lease history: (job, worker, claimed_at), in claim order.
+fn claims(data: &Path) -> Vec<(i64, String, f64)> {
+    psql(
+        data,
+        "SELECT job_id, worker, claimed_at FROM leases ORDER BY claimed_at, job_id",
+    )
+    .into_iter()
+    .map(|f| (f[0].parse().unwrap(), f[1].clone(), f[2].parse().unwrap()))
+    .collect()
 }
 
 fn spp(job: &Value) -> u64 {
@@ -231,4 +249,115 @@ fn a_killed_workers_job_is_taken_over_on_postgres() {
         c.iter().all(|(j, _, _)| *j == id),
         "only the one job: {c:?}"
     );
+}
+
+/// Job `id`'s shards: (index, done, lease owner, spp checkpointed).
+fn shards(data: &Path, id: i64) -> Vec<(u32, bool, String, u64)> {
+    let sql = format!(
+        "SELECT idx, done, COALESCE(lease_owner, ''), COALESCE(progress, '{{}}') FROM shards \
+         WHERE job_id = {id} ORDER BY idx"
+    );
+    psql(data, &sql)
+        .into_iter()
+        .map(|f| {
+            let p: Value = serde_json::from_str(&f[3]).unwrap();
+            (
+                f[0].parse().unwrap(),
+                f[1] == "1",
+                f[2].clone(),
+                spp(&json!({ "progress": p })),
+            )
+        })
+        .collect()
+}
+
+fn three_workers_split_one_job_on_postgres() {
+    let dir = scratch("server_farm_split");
+    let data = dir.join("data");
+    let api = Server::start(&data, &["--workers", "0"]);
+    let split = ["--shard-spp", "40"];
+    let mut workers: Vec<Worker> = ["w1", "w2", "w3"]
+        .iter()
+        .map(|n| Worker::start_with(&data, n, "2", &split))
+        .collect();
+    let logs = |ws: &[Worker]| ws.iter().map(|w| w.log()).collect::<Vec<_>>().join("\n");
+    // Step 1: a job of 4 shards; once the three workers hold one each, the one whose shard has
+    // a checkpoint dies (SIGKILL) before finishing it.
+    let (total, seed) = (160u64, 11);
+    let body = json!({"scene_name": "cornell", "spp": total, "width": 12, "height": 12,
+                      "seed": seed});
+    let id = api.submit(&body)["id"].as_i64().unwrap();
+    let deadline = Instant::now() + T;
+    let victim = loop {
+        assert!(
+            Instant::now() < deadline,
+            "{:?}\n{}",
+            shards(&data, id),
+            logs(&workers)
+        );
+        let rows = shards(&data, id);
+        let owners: BTreeSet<&str> = rows.iter().map(|r| r.2.as_str()).collect();
+        let started = rows.iter().find(|r| !r.1 && r.3 > 0 && !r.2.is_empty());
+        if let (true, Some(r)) = (owners.len() >= 4, started) {
+            break r.2.clone(); // three owners and the unleased ""
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let at = workers
+        .iter()
+        .position(|w| w.log.ends_with(&format!("{victim}.log")))
+        .unwrap();
+    workers[at].kill9();
+    // Step 2: the others finish every shard (the victim's from its checkpoint) and merge them.
+    let done = api.wait_job(id, T, |j| {
+        matches!(j["state"].as_str(), Some("done" | "failed"))
+    });
+    assert_eq!(done["state"], "done", "{done}\n{}", logs(&workers));
+    assert_eq!(spp(&done), total, "{done}");
+    assert_eq!(done["stats"]["spp"], total, "{done}");
+    let rows = shards(&data, id);
+    assert_eq!(rows.len(), 4, "{rows:?}");
+    assert!(
+        rows.iter().all(|r| r.1 && r.3 == 40),
+        "every shard whole: {rows:?}"
+    );
+    let c = claims(&data);
+    let by: BTreeSet<&str> = c.iter().map(|(_, w, _)| w.as_str()).collect();
+    assert_eq!(by.len(), 3, "all three rendered: {c:?}");
+    assert!(
+        logs(&workers).contains("resumed from checkpoint"),
+        "{}",
+        logs(&workers)
+    );
+    assert!(
+        logs(&workers).contains("merged the shards"),
+        "{}",
+        logs(&workers)
+    );
+    let shard_files = std::fs::read_dir(data.join(format!("jobs/{id}")))
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .file_name()
+                .to_string_lossy()
+                .starts_with("shard-")
+        })
+        .count();
+    assert_eq!(
+        shard_files, 0,
+        "the shards' checkpoints are removed at the end"
+    );
+    // Step 3: one worker, splitting nothing, renders the same job whole: the same image.
+    drop(workers);
+    let _one = Worker::start_with(&data, "w4", "2", &["--shard-spp", "0"]);
+    let whole = api.submit(&body)["id"].as_i64().unwrap();
+    let done = api.wait_job(whole, T, |j| {
+        matches!(j["state"].as_str(), Some("done" | "failed"))
+    });
+    assert_eq!(done["state"], "done", "{done}");
+    assert!(shards(&data, whole).is_empty());
+    let image = |id: i64| read_exr(&data.join(format!("jobs/{id}/image.exr"))).unwrap();
+    let e = rel_mse(&image(id), &image(whole)).unwrap();
+    assert!(e < 1e-8, "split vs whole relMSE {e}");
 }

@@ -335,7 +335,7 @@ mod tests {
             })
         );
         assert_eq!(
-            part("b", std::time::Duration::ZERO),
+            part("b", long),
             Some(Part::Shard {
                 range: range(1, 4, 4),
                 count: 3
@@ -347,6 +347,13 @@ mod tests {
                 range: range(2, 8, 2),
                 count: 3
             })
+        );
+        assert_eq!(part("d", long), None);
+        // (b's lease runs out: renewed for no time.)
+        assert_eq!(
+            s.renew_leases("b", &[1], std::time::Duration::ZERO)
+                .unwrap(),
+            vec![1]
         );
         std::thread::sleep(std::time::Duration::from_millis(20));
         // Step 2: b's lease expired: d takes shard 1 over; b's report is refused.
