@@ -281,25 +281,20 @@ fn three_workers_split_one_job_on_postgres() {
         .map(|n| Worker::start_with(&data, n, "2", &split))
         .collect();
     let logs = |ws: &[Worker]| ws.iter().map(|w| w.log()).collect::<Vec<_>>().join("\n");
-    // Step 1: a job of 4 shards; once the three workers hold one each, the one whose shard has
-    // a checkpoint dies (SIGKILL) before finishing it.
-    let (total, seed) = (160u64, 11);
+    // Step 1: a job of 6 shards; once the three workers have claimed shards, one holding a
+    // shard with a checkpoint dies (SIGKILL) before finishing it.
+    let (total, seed) = (240u64, 11);
     let body = json!({"scene_name": "cornell", "spp": total, "width": 12, "height": 12,
                       "seed": seed});
     let id = api.submit(&body)["id"].as_i64().unwrap();
     let deadline = Instant::now() + T;
     let victim = loop {
-        assert!(
-            Instant::now() < deadline,
-            "{:?}\n{}",
-            shards(&data, id),
-            logs(&workers)
-        );
         let rows = shards(&data, id);
-        let owners: BTreeSet<&str> = rows.iter().map(|r| r.2.as_str()).collect();
+        assert!(Instant::now() < deadline, "{rows:?}\n{}", logs(&workers));
+        let claimers: BTreeSet<String> = claims(&data).into_iter().map(|c| c.1).collect();
         let started = rows.iter().find(|r| !r.1 && r.3 > 0 && !r.2.is_empty());
-        if let (true, Some(r)) = (owners.len() >= 4, started) {
-            break r.2.clone(); // three owners and the unleased ""
+        if let (3, Some(r)) = (claimers.len(), started) {
+            break r.2.clone();
         }
         std::thread::sleep(Duration::from_millis(20));
     };
@@ -316,7 +311,7 @@ fn three_workers_split_one_job_on_postgres() {
     assert_eq!(spp(&done), total, "{done}");
     assert_eq!(done["stats"]["spp"], total, "{done}");
     let rows = shards(&data, id);
-    assert_eq!(rows.len(), 4, "{rows:?}");
+    assert_eq!(rows.len(), 6, "{rows:?}");
     assert!(
         rows.iter().all(|r| r.1 && r.3 == 40),
         "every shard whole: {rows:?}"
