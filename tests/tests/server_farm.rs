@@ -275,7 +275,7 @@ fn three_workers_split_one_job_on_postgres() {
     let dir = scratch("server_farm_split");
     let data = dir.join("data");
     let api = Server::start(&data, &["--workers", "0"]);
-    let split = ["--shard-spp", "40"];
+    let split = ["--shard-spp", "100"];
     let mut workers: Vec<Worker> = ["w1", "w2", "w3"]
         .iter()
         .map(|n| Worker::start_with(&data, n, "2", &split))
@@ -283,8 +283,9 @@ fn three_workers_split_one_job_on_postgres() {
     let logs = |ws: &[Worker]| ws.iter().map(|w| w.log()).collect::<Vec<_>>().join("\n");
     // Step 1: a job of 6 shards; once the three workers have claimed shards, one holding a
     // shard with a checkpoint dies (SIGKILL) before finishing it.
-    let (total, seed) = (240u64, 11);
-    let body = json!({"scene_name": "cornell", "spp": total, "width": 12, "height": 12,
+    // (Shards of about a second each on lavapipe, five checkpoint intervals.)
+    let (total, seed) = (600u64, 11);
+    let body = json!({"scene_name": "cornell", "spp": total, "width": 24, "height": 24,
                       "seed": seed});
     let id = api.submit(&body)["id"].as_i64().unwrap();
     let deadline = Instant::now() + T;
@@ -313,7 +314,7 @@ fn three_workers_split_one_job_on_postgres() {
     let rows = shards(&data, id);
     assert_eq!(rows.len(), 6, "{rows:?}");
     assert!(
-        rows.iter().all(|r| r.1 && r.3 == 40),
+        rows.iter().all(|r| r.1 && r.3 == 100),
         "every shard whole: {rows:?}"
     );
     let c = claims(&data);
