@@ -145,6 +145,9 @@ pub struct ServerConfig {
     pub token: Option<String>,
     /// Vulkan device name filter.
     pub device: Option<String>,
+    /// The device's position in `candela devices` (`candela worker --devices`); takes
+    /// precedence over `device`.
+    pub device_index: Option<usize>,
     /// Enable the Vulkan validation layer (tests).
     pub validation: bool,
     /// How often a running job publishes a snapshot (and a progress event).
@@ -243,6 +246,7 @@ impl ServerConfig {
             data_dir: data_dir.clone(),
             token: None,
             device: None,
+            device_index: None,
             validation: false,
             snapshot_interval: Duration::from_secs(1),
             checkpoint_interval: Duration::from_secs(10),

@@ -6,7 +6,8 @@
 //! over, once its lease expires, by the other worker, which resumes it from its checkpoint. A
 //! SQLite server cannot share the farm's data directory. A job split into shards
 //! (`--shard-spp`) is rendered by three workers at once, one of them killed mid-shard, and
-//! comes out with exactly its samples and the image one worker renders of it whole.
+//! comes out with exactly its samples and the image one worker renders of it whole; a worker
+//! with `--devices 0,0` claims shards on both its contexts, under two names.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -31,6 +32,14 @@ fn two_workers_share_the_jobs() {
 #[test]
 fn three_workers_split_one_job() {
     run_on(Backend::Postgres, three_workers_split_one_job_on_postgres)
+}
+
+#[test]
+fn one_worker_renders_on_two_devices() {
+    run_on(
+        Backend::Postgres,
+        one_worker_renders_on_two_devices_on_postgres,
+    )
 }
 
 #[test]
@@ -356,4 +365,35 @@ fn three_workers_split_one_job_on_postgres() {
     let image = |id: i64| read_exr(&data.join(format!("jobs/{id}/image.exr"))).unwrap();
     let e = rel_mse(&image(id), &image(whole)).unwrap();
     assert!(e < 1e-8, "split vs whole relMSE {e}");
+}
+
+fn one_worker_renders_on_two_devices_on_postgres() {
+    let dir = scratch("server_farm_devices");
+    let data = dir.join("data");
+    let api = Server::start(&data, &["--workers", "0"]);
+    // (Two contexts on lavapipe's one device, as `candela render --devices 0,0`.)
+    let w = Worker::start_with(&data, "w", "6", &["--devices", "0,0", "--shard-spp", "20"]);
+    let total = 160u64;
+    let id = api.submit(&json!({"scene_name": "furnace", "spp": total,
+                                "width": 16, "height": 16, "seed": 2}))["id"]
+        .as_i64()
+        .unwrap();
+    let done = api.wait_job(id, T, |j| {
+        matches!(j["state"].as_str(), Some("done" | "failed"))
+    });
+    assert_eq!(done["state"], "done", "{done}\n{}", w.log());
+    assert_eq!(spp(&done), total, "{done}");
+    // Both threads claimed shards, each under its own name.
+    let by: BTreeSet<String> = claims(&data).into_iter().map(|c| c.1).collect();
+    let want: BTreeSet<String> = ["w/gpu0", "w/gpu1"].map(String::from).into();
+    assert_eq!(by, want, "{}", w.log());
+    // `serve` renders on one device.
+    let o = Command::new(candela())
+        .args(["serve", "--devices", "0", "--data-dir"])
+        .arg(dir.join("other"))
+        .output()
+        .expect("run candela");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("candela worker"), "{err}");
 }

@@ -41,6 +41,11 @@ pub struct ServeArgs {
     /// Use the first Vulkan device whose name contains this text.
     #[arg(long)]
     pub device: Option<String>,
+    /// `candela worker` only: render on these devices at once, one claiming thread each (named
+    /// NAME/gpu0, NAME/gpu1, … in leases): "all" (every GPU of the best kind) or indices from
+    /// `candela devices`, e.g. 0,1 (an index may repeat: two contexts on one device).
+    #[arg(long, value_name = "LIST", conflicts_with = "device")]
+    pub devices: Option<String>,
     /// Seconds between snapshots (image + progress event) of a running job.
     #[arg(long, default_value_t = 1.0)]
     pub snapshot_interval: f64,
@@ -410,6 +415,11 @@ fn check_device(want: Option<&str>) -> Result<(), CliError> {
 
 pub fn run(a: ServeArgs) -> Result<(), CliError> {
     let (mut config, addr) = configure(&a)?;
+    if a.devices.is_some() {
+        return Err(CliError::input(
+            "--devices: for `candela worker` (a server renders on one device: --device)",
+        ));
+    }
     check_device(a.device.as_deref())?;
     // Step 1: the data directory (one server per directory), the store, the built-in assets.
     let data_dir = config.data_dir.clone();

@@ -231,7 +231,7 @@ impl Worker {
         self.last_open = Some(Instant::now());
         let opts = GpuOptions {
             device: self.config.device.clone(),
-            index: None,
+            index: self.config.device_index,
             validation: self.config.validation,
             kernel_cache: self.config.kernel_cache.clone(),
         };
