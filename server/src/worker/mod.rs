@@ -102,6 +102,7 @@ pub fn spawn(
                 queued: VecDeque::new(),
                 sched: Scheduler::default(),
                 dirty: true,
+                claim_now: false,
                 last_open: None,
                 open_failures: 0,
                 held: BTreeMap::new(),
@@ -140,6 +141,8 @@ struct Worker {
     sched: Scheduler,
     /// The store may hold changes the worker has not looked at.
     dirty: bool,
+    /// Look at the store without waiting for a message (a shard just finished: claim more).
+    claim_now: bool,
     /// The last attempt to create the device, and failures in a row.
     last_open: Option<Instant>,
     open_failures: u32,
@@ -174,7 +177,7 @@ impl Worker {
     fn run(&mut self) {
         loop {
             // Step 1: messages; block only when there is nothing to render.
-            let first = if self.sched.len() == 0 {
+            let first = if self.sched.len() == 0 && !std::mem::take(&mut self.claim_now) {
                 match self.rx.recv_timeout(Duration::from_millis(500)) {
                     Ok(m) => Some(m),
                     Err(mpsc::RecvTimeoutError::Timeout) => {

@@ -181,6 +181,7 @@ impl Worker {
         drop(job);
         self.shared.forget(id);
         self.dirty = true;
+        self.claim_now = true;
         self.publish_caches();
     }
 }
