@@ -7,7 +7,8 @@
 //! SQLite server cannot share the farm's data directory. A job split into shards
 //! (`--shard-spp`) is rendered by three workers at once, one of them killed mid-shard, and
 //! comes out with exactly its samples and the image one worker renders of it whole; a worker
-//! with `--devices 0,0` claims shards on both its contexts, under two names.
+//! with `--devices 0,0` claims shards on both its contexts, under two names, each reported by
+//! the API server (`/api/workers`, `/metrics`) until it is lost.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -372,7 +373,7 @@ fn one_worker_renders_on_two_devices_on_postgres() {
     let data = dir.join("data");
     let api = Server::start(&data, &["--workers", "0"]);
     // (Two contexts on lavapipe's one device, as `candela render --devices 0,0`.)
-    let w = Worker::start_with(&data, "w", "6", &["--devices", "0,0", "--shard-spp", "20"]);
+    let mut w = Worker::start_with(&data, "w", "2", &["--devices", "0,0", "--shard-spp", "20"]);
     let total = 160u64;
     let id = api.submit(&json!({"scene_name": "furnace", "spp": total,
                                 "width": 16, "height": 16, "seed": 2}))["id"]
@@ -387,6 +388,56 @@ fn one_worker_renders_on_two_devices_on_postgres() {
     let by: BTreeSet<String> = claims(&data).into_iter().map(|c| c.1).collect();
     let want: BTreeSet<String> = ["w/gpu0", "w/gpu1"].map(String::from).into();
     assert_eq!(by, want, "{}", w.log());
+    // Step 2: the API server reports both from their heartbeats: device, passes, samples (all
+    // of the job's, once each), no job held.
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let workers = loop {
+        let (_, v) = api.get("/api/workers");
+        let list = v["workers"].as_array().cloned().unwrap_or_default();
+        let samples = |w: &Value| w["samples"].as_u64().unwrap_or(0);
+        let idle = |w: &Value| w["jobs"].as_array().is_some_and(|j| j.is_empty());
+        if list.len() == 2
+            && list.iter().all(|w| samples(w) > 0 && idle(w))
+            && list.iter().map(samples).sum::<u64>() == total * 16 * 16
+        {
+            break list;
+        }
+        assert!(Instant::now() < deadline, "{v}");
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    for (x, name) in workers.iter().zip(["w/gpu0", "w/gpu1"]) {
+        assert_eq!(
+            (x["name"].as_str(), x["state"].as_str()),
+            (Some(name), Some("running"))
+        );
+        assert!(x["device"].as_str().unwrap().contains("llvmpipe"), "{x}");
+        assert!(x["passes"].as_u64().unwrap() >= 1, "{x}");
+    }
+    let metrics = api.metrics();
+    for name in ["w/gpu0", "w/gpu1"] {
+        let up = format!("candela_worker_up{{worker=\"{name}\",device=\"llvmpipe");
+        assert!(metrics.contains(&up), "{metrics}");
+    }
+    // Step 3: killed, both are reported lost once their lease runs out.
+    w.kill9();
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let (_, v) = api.get("/api/workers");
+        let states: Vec<&str> = v["workers"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|w| w["state"].as_str().unwrap())
+            .collect();
+        if states == ["lost", "lost"] {
+            break;
+        }
+        assert!(Instant::now() < deadline, "{v}");
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    assert!(api
+        .metrics()
+        .contains("candela_worker_up{worker=\"w/gpu0\""));
     // `serve` renders on one device.
     let o = Command::new(candela())
         .args(["serve", "--devices", "0", "--data-dir"])

@@ -160,10 +160,31 @@ CREATE TABLE shards (
     PRIMARY KEY (job_id, idx)
 );",
     },
+    // 5: the workers of a farm as they last reported (store/workers.rs): heartbeat time, lease,
+    // whether they stopped, and their figures (device, passes, samples/s, jobs) as JSON.
+    Migration {
+        version: 5,
+        sqlite: "
+CREATE TABLE IF NOT EXISTS workers (
+    name    TEXT PRIMARY KEY,
+    seen_at REAL NOT NULL,
+    lease_s REAL NOT NULL,
+    stopped INTEGER NOT NULL DEFAULT 0,
+    report  TEXT NOT NULL
+);",
+        postgres: "
+CREATE TABLE workers (
+    name    TEXT PRIMARY KEY,
+    seen_at DOUBLE PRECISION NOT NULL,
+    lease_s DOUBLE PRECISION NOT NULL,
+    stopped BIGINT NOT NULL DEFAULT 0,
+    report  TEXT NOT NULL
+);",
+    },
 ];
 
 /// The schema version this build writes.
-pub const LATEST: i64 = 4;
+pub const LATEST: i64 = 5;
 
 /// Brings the database to [`LATEST`]; runs inside the caller's transaction, which must exclude
 /// other processes migrating at once (SQLite: `BEGIN IMMEDIATE`; PostgreSQL: this takes an

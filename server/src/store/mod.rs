@@ -19,10 +19,12 @@ mod postgres;
 mod retention;
 mod shards;
 mod users;
+mod workers;
 
 pub use events::StoredEvent;
 pub use jobs::Transition;
 pub use shards::{sum_progress, Claim, Part, ShardRange};
+pub use workers::WorkerRecord;
 
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;

@@ -190,6 +190,11 @@ impl ActiveJob {
         self.sizer.observe(stats);
     }
 
+    /// Seconds since the job was admitted (about since its lease was claimed).
+    pub fn held_s(&self) -> f64 {
+        self.admitted.elapsed().as_secs_f64()
+    }
+
     /// Whether a snapshot is due.
     pub fn snapshot_due(&self, interval: Duration) -> bool {
         self.last_snapshot.is_none_or(|t| t.elapsed() >= interval)

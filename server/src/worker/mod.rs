@@ -23,6 +23,7 @@ mod checkpoint;
 mod device_loss;
 mod metrics_lane;
 mod outcome;
+mod report;
 mod scheduler;
 mod shard;
 mod storage_hold;
@@ -112,6 +113,8 @@ pub fn spawn(
                 pipelines_seen: 0,
                 last_heartbeat: Instant::now(),
                 last_reconcile: Instant::now(),
+                started_at: now_s(),
+                last_report: None,
             };
             // A panic outside a pass (which is caught where it happens) restarts the loop with
             // a fresh device rather than ending the thread.
@@ -159,6 +162,9 @@ struct Worker {
     last_heartbeat: Instant,
     /// When the worker last looked at the store (other processes change it unannounced).
     last_reconcile: Instant,
+    /// Unix seconds at the start, and the counters at the last report (report.rs).
+    started_at: f64,
+    last_report: Option<report::LastReport>,
 }
 
 /// How often a busy worker looks at the store for jobs other processes submitted, paused or
@@ -250,6 +256,7 @@ impl Worker {
                 warmup::start(&ctx, &self.config, &self.shared);
                 self.ctx = Some(ctx);
                 self.publish_caches();
+                self.report(false);
                 self.dirty = true;
                 self.open_failures = 0;
                 true
@@ -363,6 +370,7 @@ impl Worker {
     /// whose lease was lost (it expired and another worker took the job over).
     fn heartbeat(&mut self) {
         self.last_heartbeat = Instant::now();
+        self.report(false);
         let held: Vec<JobId> = self.active.keys().copied().collect();
         let kept = match self
             .store
@@ -745,6 +753,7 @@ impl Worker {
         self.queued.clear();
         self.active.clear();
         self.sched.clear();
+        self.report(true);
         self.ctx = None;
         // Checkpointed: another worker (or this one, restarted) may take the jobs at once.
         if let Err(e) = self
