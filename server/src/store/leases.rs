@@ -43,7 +43,7 @@ impl Store {
         self.write(|c| {
             let free = "(j.lease_owner IS NULL OR j.lease_owner = ?1 OR j.lease_until < ?2)";
             let pick = format!(
-                "SELECT id, state, priority, shard_count, settings FROM jobs j \
+                "SELECT id, state, priority, shard_count, settings, started_at FROM jobs j \
                  WHERE state IN ('queued', 'running') AND id NOT IN ({}) AND ( \
                  (shard_count = 0 AND {free}) \
                  OR (shard_count > 0 AND EXISTS (SELECT 1 FROM shards s WHERE s.job_id = j.id \
@@ -62,7 +62,7 @@ impl Store {
             let state = JobState::parse(&row.text(1)?).unwrap_or(JobState::Queued);
             let priority = u32::try_from(row.i64(2)?).unwrap_or(1);
             let until = now + lease.as_secs_f64();
-            let part = claim_part(c, id, worker, until, row.i64(3)?, &row.text(4)?, shard_spp)?;
+            let part = claim_part(c, &row, worker, until, shard_spp)?;
             let claim = part.map(|part| Claim {
                 id,
                 state,

@@ -11,7 +11,7 @@
 
 use renderer::render::{Budget, Progress};
 
-use super::db::{params, Conn};
+use super::db::{params, Conn, Row};
 use super::{Store, StoreError};
 use crate::jobs::model::{now_s, JobId, JobSettings, JobState};
 
@@ -114,21 +114,25 @@ fn record_total(c: &mut dyn Conn, id: JobId) -> Result<Progress, StoreError> {
 }
 
 /// Inside a claim's transaction, with job `id`'s row locked: splits the job at its first claim
-/// (when [`plan`] says so), then takes its first free shard, or the merge once all are done, or
-/// the whole job. None: every undone shard is leased to another worker.
+/// (when [`plan`] says so and it never started: a job rendered whole so far stays whole, its
+/// checkpoint holds samples of every index), then takes a free shard (its own first: a worker
+/// back after a device loss resumes its shard), or the merge once all are done, or the whole
+/// job. None: every undone shard is leased to another worker.
 pub(super) fn claim_part(
     c: &mut dyn Conn,
-    id: JobId,
+    job: &Row,
     worker: &str,
     until: f64,
-    mut count: i64,
-    settings: &str,
     shard_spp: u32,
 ) -> Result<Option<Part>, StoreError> {
     let now = now_s();
+    // (The claim's row: id, state, priority, shard_count, settings, started_at.)
+    let (id, mut count) = (job.i64(0)?, job.i64(3)?);
+    let never_started = job.opt_f64(5)?.is_none();
+    let settings = job.text(4)?;
     // Step 1: the first claim cuts the job into shards.
-    if count == 0 {
-        let ranges = serde_json::from_str::<JobSettings>(settings)
+    if count == 0 && never_started {
+        let ranges = serde_json::from_str::<JobSettings>(&settings)
             .map(|s| plan(&s, shard_spp))
             .unwrap_or_default();
         for (idx, (first, samples)) in ranges.iter().enumerate() {
@@ -162,7 +166,8 @@ pub(super) fn claim_part(
     // Step 2: a free shard (never leased, given up, expired, or this worker's own).
     let free = c.query_opt(
         "SELECT idx, first_sample, samples FROM shards WHERE job_id = ?1 AND done = 0 \
-         AND (lease_owner IS NULL OR lease_owner = ?2 OR lease_until < ?3) ORDER BY idx LIMIT 1",
+         AND (lease_owner IS NULL OR lease_owner = ?2 OR lease_until < ?3) \
+         ORDER BY CASE WHEN lease_owner = ?2 THEN 0 ELSE 1 END, idx LIMIT 1",
         params![id, worker, now],
     )?;
     if let Some(r) = free {
