@@ -33,6 +33,14 @@ pub async fn list(State(st): State<AppState>) -> Result<Json<Value>, ApiError> {
     Ok(Json(json!({ "workers": workers })))
 }
 
+/// A per-worker series: name, type, help, and its value from a worker's report.
+type Series = (
+    &'static str,
+    &'static str,
+    &'static str,
+    fn(&WorkerRecord) -> f64,
+);
+
 /// A Prometheus label value, escaped.
 fn label(v: &str) -> String {
     v.replace('\\', "\\\\")
@@ -44,7 +52,7 @@ fn label(v: &str) -> String {
 pub fn prometheus(store: &Store) -> Result<String, StoreError> {
     let workers: Vec<WorkerRecord> = store.list_workers(KEEP_S)?;
     let mut out = String::new();
-    let series: [(&str, &str, &str, fn(&WorkerRecord) -> f64); 4] = [
+    let series: [Series; 4] = [
         (
             "candela_worker_up",
             "gauge",

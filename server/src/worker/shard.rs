@@ -56,6 +56,9 @@ pub fn add_shards(
         .collect()
 }
 
+/// Shards' summed accumulation and progress.
+type Merged = (Vec<[f32; 4]>, Progress);
+
 /// The merge of every shard of job `id`: their summed accumulation and progress. None when a
 /// shard's checkpoint is missing, unusable or short of its samples: that shard is reopened
 /// (to be rendered again) and its file removed.
@@ -65,7 +68,7 @@ pub fn merged(
     settings: &JobSettings,
     paths: &JobPaths,
     id: JobId,
-) -> Result<Option<(Vec<[f32; 4]>, Progress)>, String> {
+) -> Result<Option<Merged>, String> {
     let rows = store.shards(id).map_err(|e| e.to_string())?;
     let mut sums = vec![[0.0f32; 4]; session.accumulation_len()];
     let results = add_shards(session, settings, paths, rows.len() as u32, None, &mut sums);
