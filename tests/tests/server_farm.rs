@@ -311,7 +311,7 @@ fn three_workers_split_one_job_on_postgres() {
     };
     let at = workers
         .iter()
-        .position(|w| w.log.ends_with(&format!("{victim}.log")))
+        .position(|w| w.log.ends_with(format!("{victim}.log")))
         .unwrap();
     workers[at].kill9();
     // Step 2: the others finish every shard (the victim's from its checkpoint) and merge them.
