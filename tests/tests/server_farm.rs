@@ -2,7 +2,7 @@
 //! nothing (`candela serve --workers 0`) and `candela worker` processes sharing its database and
 //! data directory. Jobs submitted to the API are rendered by the workers, each by one worker
 //! (the `leases` table records every claim), to exactly their sample count; their events reach
-//! the API server's SSE clients live; and a worker killed mid-job (SIGKILL) has its job taken
+//! the API server's SSE clients live (LISTEN/NOTIFY); and a worker killed mid-job (SIGKILL) has its job taken
 //! over, once its lease expires, by the other worker, which resumes it from its checkpoint. A
 //! SQLite server cannot share the farm's data directory. A job split into shards
 //! (`--shard-spp`) is rendered by three workers at once, one of them killed mid-shard, and
@@ -141,7 +141,12 @@ fn spp(job: &Value) -> u64 {
 fn two_workers_share_the_jobs_on_postgres() {
     let dir = scratch("server_farm_two");
     let data = dir.join("data");
-    let api = Server::start(&data, &["--workers", "0"]);
+    // (The relay's fallback poll a minute: the events reach the stream by LISTEN/NOTIFY.)
+    let api = Server::start_with_env(
+        &data,
+        &["--workers", "0"],
+        &[("CANDELA_EVENT_POLL_S", "60")],
+    );
     let workers = [
         Worker::start(&data, "w1", "6"),
         Worker::start(&data, "w2", "6"),
@@ -210,8 +215,15 @@ fn two_workers_share_the_jobs_on_postgres() {
         assert_eq!(spp(&done), *want, "{done}");
         assert_eq!(done["stats"]["spp"], *want, "{done}");
     }
-    // Step 3: the API server streamed the worker's events: dense ids, through to `done`.
+    // Step 3: the API server streamed the worker's events: dense ids, through to `done`,
+    // notified at once (not at the minute's poll).
+    let t = Instant::now();
     let events = stream.collect_all();
+    assert!(
+        t.elapsed() < Duration::from_secs(10),
+        "{:?}: not notified",
+        t.elapsed()
+    );
     let seqs: Vec<i64> = events.iter().map(|e| e.id.unwrap()).collect();
     assert!(seqs.windows(2).all(|w| w[1] == w[0] + 1), "{seqs:?}");
     assert_eq!(events.last().unwrap().event, "done", "{events:?}");

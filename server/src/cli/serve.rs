@@ -361,8 +361,9 @@ pub(super) fn lock_data_dir(dir: &std::path::Path, farm: bool) -> Result<std::fs
     Ok(lock)
 }
 
-/// Broadcasts the events other processes of the farm wrote, every quarter second (events.rs).
-async fn relay_task(store: Arc<Store>) {
+/// Broadcasts the events other processes of the farm wrote (events.rs): when a notification
+/// says there are some (store/notify.rs), else every `poll`.
+async fn relay_task(store: Arc<Store>, notified: Arc<tokio::sync::Notify>, poll: Duration) {
     loop {
         let s = store.clone();
         match tokio::task::spawn_blocking(move || s.relay_new_events()).await {
@@ -370,8 +371,25 @@ async fn relay_task(store: Arc<Store>) {
             Err(e) => tracing::warn!(error = %e, "relaying events panicked"),
             Ok(Ok(())) => {}
         }
-        tokio::time::sleep(Duration::from_millis(250)).await;
+        tokio::select! {
+            _ = notified.notified() => {}
+            _ = tokio::time::sleep(poll) => {}
+        }
     }
+}
+
+/// The relay's poll with LISTEN/NOTIFY running: `$CANDELA_EVENT_POLL_S` seconds (default 1; a
+/// test sets it long to see that notifications alone carry the events); a quarter second
+/// without.
+fn event_poll(listening: bool) -> Duration {
+    if !listening {
+        return Duration::from_millis(250);
+    }
+    std::env::var("CANDELA_EVENT_POLL_S")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+        .filter(|s| s.is_finite() && *s > 0.0)
+        .map_or(Duration::from_secs(1), Duration::from_secs_f64)
 }
 
 /// Resolves on SIGTERM or Ctrl-C.
@@ -428,6 +446,10 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
         .map_err(|e| CliError::failure(format!("--data-dir {}: {e}", dir.display())))?;
     let db = database(a.database.as_deref(), dir)?;
     let farm = matches!(db, Database::Postgres(_));
+    let pg_url = match &db {
+        Database::Postgres(url) => Some(url.clone()),
+        Database::Sqlite(_) => None,
+    };
     if !farm && a.workers == 0 {
         return Err(CliError::input(
             "--workers 0: only with a shared store (--database postgres://…); with SQLite nothing would render the jobs",
@@ -509,8 +531,18 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
                 .map_err(|e| CliError::failure(format!("starting the GPU worker: {e}")))?;
             (w, Some(t))
         };
-        if farm {
-            tokio::spawn(relay_task(store.clone()));
+        if let Some(url) = &pg_url {
+            // Notifications relay events at once and wake the worker on job changes.
+            let notified = Arc::new(tokio::sync::Notify::new());
+            let (n, w) = (notified.clone(), worker.clone());
+            let listening = crate::store::listen(url, move |note| {
+                n.notify_one();
+                if note.changes_jobs() {
+                    w.wake();
+                }
+            })
+            .is_ok();
+            tokio::spawn(relay_task(store.clone(), notified, event_poll(listening)));
         }
         let (stop_tx, stop_rx) = watch::channel(false);
         let stop_watch = stop_rx.clone();

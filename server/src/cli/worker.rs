@@ -65,6 +65,19 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
                 .map_err(|e| CliError::failure(format!("starting the GPU worker: {e}")))?;
         running.push((worker, thread));
     }
+    // A job submitted, paused, resumed, canceled or reprioritised: every loop looks at once
+    // (store/notify.rs; else within a second).
+    if let Database::Postgres(url) = &db {
+        let handles: Vec<_> = running.iter().map(|(w, _)| w.clone()).collect();
+        let listened = crate::store::listen(url, move |note| {
+            if note.changes_jobs() {
+                handles.iter().for_each(|h| h.wake());
+            }
+        });
+        if let Err(e) = listened {
+            tracing::warn!(error = %e, "LISTEN: not started; polling only");
+        }
+    }
     println!("candela: worker {name} rendering");
     use std::io::Write;
     let _ = std::io::stdout().flush();

@@ -15,6 +15,7 @@ mod events;
 mod jobs;
 mod leases;
 mod migrate;
+mod notify;
 mod postgres;
 mod retention;
 mod shards;
@@ -23,6 +24,7 @@ mod workers;
 
 pub use events::StoredEvent;
 pub use jobs::Transition;
+pub use notify::listen;
 pub use shards::{sum_progress, Claim, Part, ShardRange};
 pub use workers::WorkerRecord;
 
