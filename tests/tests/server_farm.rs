@@ -8,7 +8,8 @@
 //! (`--shard-spp`) is rendered by three workers at once, one of them killed mid-shard, and
 //! comes out with exactly its samples and the image one worker renders of it whole; a worker
 //! with `--devices 0,0` claims shards on both its contexts, under two names, each reported by
-//! the API server (`/api/workers`, `/metrics`) until it is lost.
+//! the API server (`/api/workers`, `/metrics`) until it is lost; a split job paused and resumed
+//! ends with exactly its samples.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -430,7 +431,32 @@ fn one_worker_renders_on_two_devices_on_postgres() {
         let up = format!("candela_worker_up{{worker=\"{name}\",device=\"llvmpipe");
         assert!(metrics.contains(&up), "{metrics}");
     }
-    // Step 3: killed, both are reported lost once their lease runs out.
+    // Step 3: a split job paused mid-render keeps its shards' samples and, resumed, ends with
+    // exactly its spp.
+    let total = 400u64;
+    let id = api.submit(&json!({"scene_name": "cornell", "spp": total,
+                                "width": 16, "height": 16, "seed": 4}))["id"]
+        .as_i64()
+        .unwrap();
+    api.wait_job(id, T, |j| spp(j) >= 40);
+    let (code, _) = api.post(&format!("/api/jobs/{id}/pause"), &json!({}));
+    assert_eq!(code, 200);
+    let paused = api.wait_job(id, T, |j| j["state"] == "paused");
+    std::thread::sleep(Duration::from_millis(500));
+    let held = spp(&api.job(id));
+    assert!(held >= spp(&paused) && held < total, "{held} of {total}");
+    let (code, _) = api.post(&format!("/api/jobs/{id}/resume"), &json!({}));
+    assert_eq!(code, 200);
+    let done = api.wait_job(id, T, |j| {
+        matches!(j["state"].as_str(), Some("done" | "failed"))
+    });
+    assert_eq!(done["state"], "done", "{done}\n{}", w.log());
+    assert_eq!(
+        (spp(&done), done["stats"]["spp"].as_u64()),
+        (total, Some(total))
+    );
+    assert!(w.log().contains("paused and checkpointed"), "{}", w.log());
+    // Step 4: killed, both are reported lost once their lease runs out.
     w.kill9();
     let deadline = Instant::now() + Duration::from_secs(30);
     loop {
