@@ -3,13 +3,17 @@
 //! over the last heartbeat, the jobs it holds and for how long — with each lease heartbeat, so
 //! that any API server's `GET /api/workers`, `/metrics` and the viewer's farm table show every
 //! worker of the store. A worker is `running` while its last report is younger than its lease,
-//! `stopped` after a clean shutdown, else `lost` (killed, hung or cut off).
+//! `stopped` after a clean shutdown, else `lost` (killed, hung or cut off); a day after its last
+//! report it is forgotten.
 
 use serde_json::Value;
 
 use super::db::params;
 use super::{Store, StoreError};
 use crate::jobs::model::now_s;
+
+/// Reports older than this are deleted (by the next report of any worker).
+const FORGET_S: f64 = 86_400.0;
 
 /// A worker's last report.
 #[derive(Debug, Clone)]
@@ -40,6 +44,11 @@ impl Store {
                  seen_at = excluded.seen_at, lease_s = excluded.lease_s, \
                  stopped = excluded.stopped, report = excluded.report",
                 params![name, now_s(), lease_s, stopped as i64, text],
+            )?;
+            // Workers gone for a day (every restart has a new `HOST:PID`) are forgotten.
+            c.exec(
+                "DELETE FROM workers WHERE seen_at < ?1",
+                params![now_s() - FORGET_S],
             )
         })?;
         Ok(())
