@@ -6,7 +6,9 @@
 //! expiry. It renews the expiry by heartbeats while it renders; a worker that dies stops
 //! renewing, the lease expires, and another worker claims the job and resumes it from its
 //! checkpoint. A worker whose renewal finds the lease gone (expired and taken) stops rendering
-//! that job. Every claim is recorded in `leases` (job, worker, time).
+//! that job. Every claim is recorded in `leases` (job, worker, time, shard). A job split into
+//! shards (shards.rs) is leased shard by shard, on the `shards` rows, and its final merge on the
+//! job's row; a worker holds at most one part of a job, so both are renewed by job id.
 
 use std::time::Duration;
 
@@ -73,8 +75,8 @@ impl Store {
         })
     }
 
-    /// The heartbeat: extends `worker`'s leases on `held` by `lease` and gives up its leases on
-    /// every other job; returns the jobs of `held` whose lease it still has (the others were
+    /// The heartbeat: extends `worker`'s leases on `held` (whole jobs, merges and shards) by
+    /// `lease` and gives up its leases on every other job; returns the jobs of `held` whose lease it still has (the others were
     /// taken over after expiring: stop rendering them).
     pub fn renew_leases(
         &self,
