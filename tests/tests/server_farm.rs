@@ -356,6 +356,9 @@ fn three_workers_split_one_job_on_postgres() {
         "{}",
         logs(&workers)
     );
+    // A worker's next shard of the job reuses its session (no scene loaded again).
+    let reused = "reusing the session of the job's last shard";
+    assert!(logs(&workers).contains(reused), "{}", logs(&workers));
     let shard_files = std::fs::read_dir(data.join(format!("jobs/{id}")))
         .unwrap()
         .filter(|e| {

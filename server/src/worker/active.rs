@@ -190,6 +190,11 @@ impl ActiveJob {
         self.sizer.observe(stats);
     }
 
+    /// The session, the job done with (its metrics flushed first).
+    pub fn into_session(self) -> RenderSession {
+        self.session
+    }
+
     /// Seconds since the job was admitted (about since its lease was claimed).
     pub fn held_s(&self) -> f64 {
         self.admitted.elapsed().as_secs_f64()

@@ -40,11 +40,11 @@ use std::time::{Duration, Instant};
 use renderer::accel::AccelRequest;
 use renderer::gpu::{GpuContext, GpuError, GpuOptions};
 use renderer::prepare::{prepare, PrepareOptions};
-use renderer::render::{CompletedPass, RenderError, PIPELINE_DEPTH};
+use renderer::render::{CompletedPass, RenderError, RenderSession, PIPELINE_DEPTH};
 use tracing::{error, info, warn};
 
 use crate::config::ServerConfig;
-use crate::jobs::model::{now_s, JobId, JobState, SceneSource};
+use crate::jobs::model::{now_s, JobId, JobRecord, JobState, SceneSource};
 use crate::shared::{GpuStatus, Shared};
 use crate::store::{Claim, JobPaths, Part, Store, StoreError, Transition};
 use active::{ActiveJob, CheckpointError};
@@ -104,6 +104,7 @@ pub fn spawn(
                 sched: Scheduler::default(),
                 dirty: true,
                 claim_now: false,
+                spare: None,
                 last_open: None,
                 open_failures: 0,
                 held: BTreeMap::new(),
@@ -146,6 +147,8 @@ struct Worker {
     dirty: bool,
     /// Look at the store without waiting for a message (a shard just finished: claim more).
     claim_now: bool,
+    /// The session of the shard this worker finished last, for the job's next part (shard.rs).
+    spare: Option<(JobId, RenderSession)>,
     /// The last attempt to create the device, and failures in a row.
     last_open: Option<Instant>,
     open_failures: u32,
@@ -290,6 +293,7 @@ impl Worker {
         self.queued.clear();
         self.active.clear();
         self.sched.clear();
+        self.spare = None;
         self.ctx = None;
         self.last_open = None;
         self.dirty = true;
@@ -364,6 +368,8 @@ impl Worker {
                 }
             }
         }
+        // A spare session no claim took: its device memory goes.
+        self.spare = None;
     }
 
     /// Renews the leases of the active jobs and gives up the others; drops, unsaved, every job
@@ -409,54 +415,14 @@ impl Worker {
         };
         let paths = JobPaths::new(&self.config.data_dir, id);
         let s = rec.settings.clone();
-        // Step 1: scene, compiled for this film.
-        let base = match rec.source {
-            SceneSource::Inline => None,
-            SceneSource::Builtin => Some(self.config.builtin_dir()),
-            SceneSource::Upload => Some(paths.assets()),
-        };
-        let limits = self.config.limits.scene_limits();
-        let load_start = std::time::Instant::now();
-        let scene = match renderer::scene::load_str_with_limits(&text, base.as_deref(), &limits) {
-            Ok(s) => s,
-            Err(e) => return self.fail(id, format!("scene: {e}")),
-        };
-        // The request's film and accel (else the scene's); structures built once per scene in
-        // the data dir's cache.
-        let cache = self.config.data_dir.join("accel-cache");
-        let options = PrepareOptions {
-            width: Some(s.width),
-            height: Some(s.height),
-            limits: self.config.limits.film,
-            accel: AccelRequest {
-                kind: s.accel.as_ref().map(|a| a.kind.as_str()),
-                grid_resolution: s.accel.as_ref().and_then(|a| a.grid_resolution),
+        // Steps 1-2: the session (of the job's last shard this worker rendered, reset, when this
+        // is another part of that job: shard.rs).
+        let (mut session, auto_run) = match self.take_spare(id, part, s.seed) {
+            Some(session) => (session, None),
+            None => match self.make_session(id, &rec, &text, &paths, &ctx) {
+                Some(made) => made,
+                None => return,
             },
-            cache: Some(&cache),
-            kernels: s.kernels,
-            load_time: load_start.elapsed(),
-        };
-        let prepared = match prepare(&scene, &options) {
-            Ok(p) => p,
-            Err(e) => return self.fail(id, e.to_string()),
-        };
-        drop(scene);
-        // Step 2: the session, restored from the checkpoint when there is one.
-        // (`auto`: the saved choice's integrator, else the pilot's winner; auto.rs.)
-        let made = catch_unwind(AssertUnwindSafe(|| {
-            if s.auto {
-                auto::session(&prepared, &ctx, &s, &paths)
-                    .map(|(x, run, fresh)| (x, Some((run, fresh))))
-            } else {
-                prepared
-                    .session(&ctx, &s.integrator, s.seed)
-                    .map(|x| (x, None))
-            }
-        }));
-        let (mut session, auto_run) = match made {
-            Ok(Ok(made)) => made,
-            Ok(Err(e)) => return self.render_failed(id, e, "creating the render session"),
-            Err(_) => return self.panicked(id, "creating the render session"),
         };
         let ckpt = match part {
             Part::Shard { range, .. } => paths.shard_checkpoint(range.idx),
@@ -547,6 +513,80 @@ impl Worker {
         self.active.insert(id, job);
         self.sched.add(id, priority);
         self.publish_caches();
+    }
+
+    /// A new session of job `rec` (scene `text`): the scene loaded and prepared for the job's
+    /// film, the session made (`auto`: by the pilot, auto.rs). None: the job failed.
+    fn make_session(
+        &mut self,
+        id: JobId,
+        rec: &JobRecord,
+        text: &str,
+        paths: &JobPaths,
+        ctx: &Arc<GpuContext>,
+    ) -> Option<(RenderSession, Option<(auto::AutoRun, bool)>)> {
+        let s = &rec.settings;
+        // Step 1: scene, compiled for this film.
+        let base = match rec.source {
+            SceneSource::Inline => None,
+            SceneSource::Builtin => Some(self.config.builtin_dir()),
+            SceneSource::Upload => Some(paths.assets()),
+        };
+        let limits = self.config.limits.scene_limits();
+        let load_start = std::time::Instant::now();
+        let scene = match renderer::scene::load_str_with_limits(&text, base.as_deref(), &limits) {
+            Ok(s) => s,
+            Err(e) => {
+                self.fail(id, format!("scene: {e}"));
+                return None;
+            }
+        };
+        // The request's film and accel (else the scene's); structures built once per scene in
+        // the data dir's cache.
+        let cache = self.config.data_dir.join("accel-cache");
+        let options = PrepareOptions {
+            width: Some(s.width),
+            height: Some(s.height),
+            limits: self.config.limits.film,
+            accel: AccelRequest {
+                kind: s.accel.as_ref().map(|a| a.kind.as_str()),
+                grid_resolution: s.accel.as_ref().and_then(|a| a.grid_resolution),
+            },
+            cache: Some(&cache),
+            kernels: s.kernels,
+            load_time: load_start.elapsed(),
+        };
+        let prepared = match prepare(&scene, &options) {
+            Ok(p) => p,
+            Err(e) => {
+                self.fail(id, e.to_string());
+                return None;
+            }
+        };
+        drop(scene);
+        // Step 2: the session.
+        // (`auto`: the saved choice's integrator, else the pilot's winner; auto.rs.)
+        let made = catch_unwind(AssertUnwindSafe(|| {
+            if s.auto {
+                auto::session(&prepared, &ctx, &s, &paths)
+                    .map(|(x, run, fresh)| (x, Some((run, fresh))))
+            } else {
+                prepared
+                    .session(&ctx, &s.integrator, s.seed)
+                    .map(|x| (x, None))
+            }
+        }));
+        match made {
+            Ok(Ok(made)) => Some(made),
+            Ok(Err(e)) => {
+                self.render_failed(id, e, "creating the render session");
+                None
+            }
+            Err(_) => {
+                self.panicked(id, "creating the render session");
+                None
+            }
+        }
     }
 
     /// Drops the session of a job that left the runnable states, saving what it rendered.
@@ -754,6 +794,7 @@ impl Worker {
         self.active.clear();
         self.sched.clear();
         self.report(true);
+        self.spare = None;
         self.ctx = None;
         // Checkpointed: another worker (or this one, restarted) may take the jobs at once.
         if let Err(e) = self

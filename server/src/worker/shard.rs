@@ -4,7 +4,9 @@
 //! with each shard checkpoint, is the merge of that shard's sums with every other shard's latest
 //! checkpoint. The claim that finds every shard done merges their checkpoints into one
 //! accumulation (renderer::render::merge_accumulation, exact up to float addition order),
-//! restores it into a session of the whole job, and finishes the job as a whole render.
+//! restores it into a session of the whole job, and finishes the job as a whole render. A worker
+//! keeps the session of the shard it finished last, and reuses it (reset) when its next claim
+//! is another part of the same job.
 
 use std::sync::Arc;
 
@@ -17,7 +19,7 @@ use super::checkpoint;
 use super::storage_hold::is_storage_fault;
 use super::Worker;
 use crate::jobs::model::{JobId, JobSettings};
-use crate::store::{sum_progress, JobPaths, ShardRange, Store};
+use crate::store::{sum_progress, JobPaths, Part, ShardRange, Store};
 
 /// The shard a job's session renders.
 #[derive(Debug, Clone, Copy)]
@@ -122,6 +124,25 @@ pub fn record_progress(
 }
 
 impl Worker {
+    /// The spare session (of the shard this worker finished last), reset, when `part` is
+    /// another part of the same job `id`: no scene to load and prepare again.
+    pub(super) fn take_spare(&mut self, id: JobId, part: Part, seed: u64) -> Option<RenderSession> {
+        let (job, mut session) = self.spare.take()?;
+        if job != id || part == Part::Whole {
+            return None;
+        }
+        match session.reset(seed) {
+            Ok(()) => {
+                info!(job = id, "reusing the session of the job's last shard");
+                Some(session)
+            }
+            Err(e) => {
+                warn!(job = id, error = %e, "resetting the spare session; making a new one");
+                None
+            }
+        }
+    }
+
     /// Writes job `id`'s checkpoint and records its progress; None (handled) on failure.
     pub(super) fn save_checkpoint(&mut self, id: JobId) -> Option<Progress> {
         let job = self.active.get_mut(&id)?;
@@ -181,7 +202,8 @@ impl Worker {
             Err(e) => warn!(job = id, shard = sh.range.idx, error = %e, "recording a shard done"),
         }
         job.flush_metrics();
-        drop(job);
+        // Kept for the job's next shard (or merge), if this worker claims one next.
+        self.spare = Some((id, job.into_session()));
         self.shared.forget(id);
         self.dirty = true;
         self.claim_now = true;
