@@ -534,7 +534,7 @@ impl Worker {
         };
         let limits = self.config.limits.scene_limits();
         let load_start = std::time::Instant::now();
-        let scene = match renderer::scene::load_str_with_limits(&text, base.as_deref(), &limits) {
+        let scene = match renderer::scene::load_str_with_limits(text, base.as_deref(), &limits) {
             Ok(s) => s,
             Err(e) => {
                 self.fail(id, format!("scene: {e}"));
