@@ -568,11 +568,11 @@ impl Worker {
         // (`auto`: the saved choice's integrator, else the pilot's winner; auto.rs.)
         let made = catch_unwind(AssertUnwindSafe(|| {
             if s.auto {
-                auto::session(&prepared, &ctx, &s, &paths)
+                auto::session(&prepared, ctx, s, paths)
                     .map(|(x, run, fresh)| (x, Some((run, fresh))))
             } else {
                 prepared
-                    .session(&ctx, &s.integrator, s.seed)
+                    .session(ctx, &s.integrator, s.seed)
                     .map(|x| (x, None))
             }
         }));
