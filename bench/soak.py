@@ -1,11 +1,14 @@
 #!/usr/bin/env python3
-"""Soak test of `candela serve` (issue 18): hours of mixed traffic with kill -9 of the server.
+"""Soak test of `candela serve` (issue 18): hours of mixed traffic with kill -9 of the server
+(and, with --farm N, of N `candela worker` processes and of PostgreSQL).
 
 Starts `candela serve` on a temporary data directory and, for --duration seconds, submits a
 mix of small jobs (every integrator the server lists, small films, spp and time budgets,
 random priorities), cancels some, pauses and resumes some, changes priorities, deletes finished
 ones, and kills the server with SIGKILL at random intervals, restarting it on the same data
-directory. Then it stops making trouble, resumes what is paused, waits for every job to end and
+directory. With --farm N the store is a throwaway PostgreSQL cluster, the server only serves
+the API (`--workers 0`), N workers render, and each kill picks the server, one worker or
+PostgreSQL (bench/soak_farm.py), each restarted at once. Then it stops making trouble, resumes what is paused, waits for every job to end and
 checks the invariants:
 
   1. every job ended done, canceled or failed, and every failed job has a reason;
@@ -13,8 +16,9 @@ checks the invariants:
      before deleting them);
   3. no orphaned files: every folder under <data>/jobs belongs to a job the server lists, and
      no deleted job's folder is left;
-  4. memory is flat: the server's RSS, sampled every few seconds, fitted with a line per server
-     lifetime (after a warm-up), has a slope under --rss-slope-limit MB/hour on the longest.
+  4. memory is flat: the server's RSS (and each worker's), sampled every few seconds, fitted with
+     a line per process lifetime (after a warm-up), has a slope under --rss-slope-limit MB/hour
+     on the longest lifetime of each role (server, worker).
      The memory series of /metrics (in-memory cache entries and bytes, glibc malloc's
      allocated and free bytes) are sampled beside it, to say where the memory went.
 
@@ -22,6 +26,7 @@ It prints a summary and writes everything to --json. Python 3 standard library o
 
     python3 bench/soak.py --duration 600 --json bench/results/soak-lavapipe-600s.json
     python3 bench/soak.py --duration 20 --kill-every 6:10 --max-spp 64   # smoke run
+    python3 bench/soak.py --farm 2 --duration 3600 --rss-warmup 300 --json soak-farm.json
 """
 
 import argparse
@@ -38,6 +43,8 @@ import threading
 import time
 import urllib.error
 import urllib.request
+
+from soak_farm import Postgres, Worker, rss_mb
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TERMINAL = ("done", "canceled", "failed")
@@ -76,6 +83,14 @@ def parse_args():
                    help="seconds to wait for the last jobs to end")
     p.add_argument("--server-arg", action="append", default=[],
                    help="extra argument for candela serve (repeatable)")
+    p.add_argument("--farm", type=int, default=0, metavar="N",
+                   help="N candela worker processes on a throwaway PostgreSQL cluster, the server "
+                   "serving the API only; kills pick the server, a worker or PostgreSQL "
+                   "(default 0: one server on SQLite)")
+    p.add_argument("--lease", type=float, default=15.0,
+                   help="the workers' --lease, seconds (farm only; default 15)")
+    p.add_argument("--worker-arg", action="append", default=[],
+                   help="extra argument for candela worker (repeatable)")
     return p.parse_args()
 
 
@@ -131,14 +146,7 @@ class Server:
             return "killed after SIGTERM timeout"
 
     def rss_mb(self):
-        try:
-            with open(f"/proc/{self.proc.pid}/status") as f:
-                for line in f:
-                    if line.startswith("VmRSS:"):
-                        return int(line.split()[1]) / 1024.0
-        except OSError:
-            return None
-        return None
+        return rss_mb(self.proc.pid)
 
     def memory_metrics(self, timeout=10):
         """The memory series of /metrics ({"name{labels}": value}), or None if unreachable."""
@@ -194,10 +202,11 @@ class Soak:
         self.rng = random.Random(args.seed)
         self.counts = {k: 0 for k in ("submitted", "refused", "cancel", "pause", "resume",
                                        "priority", "delete", "kills", "unreachable")}
+        self.kills = {}  # target -> kills
         self.refusals = {}
         self.jobs = {}  # id -> {"budget": ("spp", n) | ("time", s), "integrator", ...}
         self.deleted = {}  # id -> final record (just before DELETE)
-        self.rss = []  # (t, mb, lifetime index)
+        self.rss = []  # (t, mb, lifetime: "server#K" or "workerI#K")
         self.mem = []  # (t, lifetime index, {series: value})
         self.kill_range = None
         if args.kill_every not in ("0", ""):
@@ -285,9 +294,20 @@ class Soak:
         os.makedirs(data_dir, exist_ok=True)
         log_path = os.path.join(data_dir, "..", os.path.basename(data_dir) + ".log")
         log_path = os.path.abspath(log_path)
-        server = Server(a.candela, data_dir, log_path, a.server_arg)
         t_start = time.time()
+        # The farm: PostgreSQL and the workers first; the server then serves the API only.
+        self.pg, self.workers = None, []
+        extra = list(a.server_arg)
+        if a.farm > 0:
+            self.pg = Postgres(log_path)
+            self.pg.start()
+            extra += ["--workers", "0", "--database", self.pg.url]
+            self.workers = [Worker(a.candela, i, data_dir, self.pg.url, log_path, a.lease,
+                                   a.worker_arg, REPO) for i in range(a.farm)]
+        server = Server(a.candela, data_dir, log_path, extra)
         server.start()
+        for w in self.workers:
+            w.start()
         st, ints = server.call("GET", "/api/integrators")
         self.integrators = [i["name"] for i in ints["integrators"]]
         st, scenes = server.call("GET", "/api/scenes")
@@ -303,9 +323,7 @@ class Soak:
         while time.time() - t_start < a.duration:
             now = time.time()
             if now >= next_rss:
-                mb = server.rss_mb()
-                if mb is not None:
-                    self.rss.append((now - t_start, mb, len(server.starts) - 1))
+                self.sample_rss(server, now - t_start)
                 next_rss = now + a.rss_every
             if a.metrics_every > 0 and now >= next_mem:
                 m = server.memory_metrics()
@@ -313,9 +331,7 @@ class Soak:
                     self.mem.append((round(now - t_start, 1), len(server.starts) - 1, m))
                 next_mem = now + a.metrics_every
             if next_kill is not None and now >= next_kill:
-                server.kill9()
-                self.counts["kills"] += 1
-                server.start()
+                self.kill_one(server)
                 next_kill = self.next_kill_time()
             self.act(server)
             if now >= next_report:
@@ -333,15 +349,19 @@ class Soak:
                     server.call("POST", f"/api/jobs/{j['id']}/resume")
             if all(j["state"] in TERMINAL for j in jobs):
                 break
-            mb = server.rss_mb()
-            if mb is not None:
-                self.rss.append((time.time() - t_start, mb, len(server.starts) - 1))
+            for w in self.workers:
+                if not w.alive():  # a worker that exited on its own is started again
+                    w.start()
+            self.sample_rss(server, time.time() - t_start)
             time.sleep(1)
         drain_s = time.time() - t_drain
         jobs = self.list_jobs(server) or []
 
-        # Step 3: the invariants, with the server stopped.
+        # Step 3: the invariants, with the server, the workers and PostgreSQL stopped.
         exit_status = server.terminate()
+        worker_exits = [w.terminate() for w in self.workers]
+        if self.pg:
+            self.pg.stop()
         result = self.check(jobs, data_dir)
         result.update({
             "duration_s": a.duration,
@@ -353,6 +373,11 @@ class Soak:
             "refusals": self.refusals,
             "server_starts": server.starts,
             "final_exit": exit_status,
+            "farm": a.farm,
+            "kills_by_target": self.kills,
+            "worker_starts": [w.starts for w in self.workers],
+            "worker_exits": worker_exits,
+            "postgres_starts": self.pg.starts if self.pg else None,
             "data_dir": data_dir,
             "log": log_path,
             "candela": a.candela,
@@ -366,10 +391,42 @@ class Soak:
         print(f"soak: wrote {a.json}")
         if result["ok"] and not a.data_dir:
             shutil.rmtree(data_dir, ignore_errors=True)
+        if result["ok"] and self.pg:
+            self.pg.remove()
         return 0 if result["ok"] else 1
 
+    def sample_rss(self, server, t):
+        """One RSS sample of the server and of each live worker, keyed by process lifetime."""
+        procs = [(f"server#{len(server.starts) - 1}", server.proc.pid)]
+        procs += [(f"worker{w.index}#{len(w.starts) - 1}", w.proc.pid)
+                  for w in self.workers if w.alive()]
+        for key, pid in procs:
+            mb = rss_mb(pid)
+            if mb is not None:
+                self.rss.append((t, mb, key))
+
+    def kill_one(self, server):
+        """kill -9 of the server, or in a farm of the server, one worker or PostgreSQL, each
+        equally likely; the victim is started again at once."""
+        targets = ["server"] + (["worker", "postgres"] if self.workers else [])
+        target = self.rng.choice(targets)
+        if target == "server":
+            server.kill9()
+            server.start()
+        elif target == "worker":
+            w = self.rng.choice(self.workers)
+            target = f"worker{w.index}"
+            w.kill9()
+            w.start()
+        else:
+            self.pg.kill9()
+            self.pg.start()
+        self.counts["kills"] += 1
+        self.kills[target] = self.kills.get(target, 0) + 1
+
     def memory_growth(self):
-        """Each memory series at the first and last sample of the longest server lifetime."""
+        """Each memory series (the server's /metrics) at the first and last sample of the
+        longest server lifetime."""
         lifetimes = {}
         for t, k, m in self.mem:
             lifetimes.setdefault(k, []).append((t, m))
@@ -433,7 +490,8 @@ class Soak:
                 orphans.append(str(jid))
         if orphans:
             problems.append(f"orphaned job folders: {orphans}")
-        # 4. Memory: slope per server lifetime after the warm-up; the longest one decides.
+        # 4. Memory: slope per process lifetime after the warm-up; the longest of each role
+        # (server, worker) decides.
         lifetimes = {}
         for t, mb, k in self.rss:
             lifetimes.setdefault(k, []).append((t, mb))
@@ -443,7 +501,7 @@ class Soak:
             warm = [(t, m) for t, m in s if t - t0 >= self.args.rss_warmup]
             half = [(t, m) for t, m in s if t - t0 >= (s[-1][0] - t0) / 2]
             segments.append({
-                "lifetime": k, "start_s": round(t0, 1), "length_s": round(s[-1][0] - t0, 1),
+                "lifetime": k, "role": k.split("#")[0].rstrip("0123456789"), "start_s": round(t0, 1), "length_s": round(s[-1][0] - t0, 1),
                 "slope_last_half_mb_per_h":
                     None if fit_slope(half) is None else round(fit_slope(half), 2),
                 "rss_first_mb": round(s[0][1], 1), "rss_last_mb": round(s[-1][1], 1),
@@ -451,13 +509,20 @@ class Soak:
                 "slope_mb_per_h": None if fit_slope(warm) is None else round(fit_slope(warm), 2),
             })
         fitted = [s for s in segments if s["slope_mb_per_h"] is not None]
-        longest = max(fitted, key=lambda s: s["length_s"]) if fitted else None
+        longest_by_role = {}
+        for seg in fitted:
+            if seg["length_s"] > longest_by_role.get(seg["role"], {"length_s": -1})["length_s"]:
+                longest_by_role[seg["role"]] = seg
+        longest = longest_by_role.get("server")
         rss_flat = None
-        if longest is not None and longest["length_s"] >= self.args.rss_min_lifetime:
-            rss_flat = longest["slope_mb_per_h"] <= self.args.rss_slope_limit
-            if not rss_flat:
-                problems.append(f"RSS grows {longest['slope_mb_per_h']} MB/h over the longest "
-                                f"server lifetime ({longest['length_s']} s)")
+        for role, seg in sorted(longest_by_role.items()):
+            if seg["length_s"] < self.args.rss_min_lifetime:
+                continue
+            flat = seg["slope_mb_per_h"] <= self.args.rss_slope_limit
+            rss_flat = flat if rss_flat is None else (rss_flat and flat)
+            if not flat:
+                problems.append(f"RSS grows {seg['slope_mb_per_h']} MB/h over the longest "
+                                f"{role} lifetime ({seg['lifetime']}, {seg['length_s']} s)")
         invariants = {
             "all_jobs_ended_with_reasons": not any(("still" in p or "without a reason" in p)
                                                    for p in problems),
@@ -480,6 +545,7 @@ class Soak:
             "stray_tmp_files": stray_tmp,
             "rss_segments": segments,
             "rss_longest": longest,
+            "rss_longest_by_role": longest_by_role,
         }
 
     def report(self, r):
@@ -499,13 +565,14 @@ class Soak:
         for name, ok in r["invariants"].items():
             print(f"  {'PASS' if ok else ('n/a ' if ok is None else 'FAIL')}  {name}")
         print(f"  done jobs with exact spp checked: {r['done_spp_checked']}")
-        lg = r["rss_longest"]
         seg = r["rss_segments"]
-        if seg:
-            print(f"RSS: first {seg[0]['rss_first_mb']} MB, last {seg[-1]['rss_last_mb']} MB, "
-                  f"max {max(s['rss_max_mb'] for s in seg)} MB")
-        if lg:
-            print(f"RSS slope over the longest lifetime ({lg['length_s']} s, after "
+        if r["kills_by_target"]:
+            print("kills: " + ", ".join(f"{k} {n}" for k, n in sorted(r["kills_by_target"].items())))
+        for role, lg in sorted(r["rss_longest_by_role"].items()):
+            of = [s for s in seg if s["role"] == role]
+            print(f"RSS of the {role}s: first {of[0]['rss_first_mb']} MB, last "
+                  f"{of[-1]['rss_last_mb']} MB, max {max(s['rss_max_mb'] for s in of)} MB; slope "
+                  f"over the longest lifetime ({lg['lifetime']}, {lg['length_s']} s, after "
                   f"{self.args.rss_warmup:.0f} s warm-up): {lg['slope_mb_per_h']} MB/h "
                   f"({lg['rss_first_mb']} -> {lg['rss_last_mb']} MB); over its second half: "
                   f"{lg['slope_last_half_mb_per_h']} MB/h")

@@ -39,8 +39,9 @@ export async function loadScenes() {
   describeScene();
 }
 
-/** The integrator list from GET /api/integrators (the server's registry): one option each, the
- * server's default selected, and the chosen one's options described under the options field. */
+/** The integrator list from GET /api/integrators (the server's registry): one option each, then
+ * `auto` (a choice among the unbiased ones by a pilot, when the server offers it), the server's
+ * default selected, and the chosen one's options described under the options field. */
 export async function loadIntegrators() {
   let res;
   try {
@@ -50,17 +51,24 @@ export async function loadIntegrators() {
     return;
   }
   state.integrators = (res && res.integrators) || [];
+  state.autoEntry = (res && res.auto) || null;
   const sel = $('integrator');
   const prev = sel.value || res.default;
+  const entries = [...state.integrators, ...(state.autoEntry ? [state.autoEntry] : [])];
   sel.replaceChildren(
-    ...state.integrators.map((i) => el('option', { value: i.name, text: `${i.name}: ${i.summary}` })),
+    ...entries.map((i) => el('option', { value: i.name, text: `${i.name}: ${i.summary}` })),
   );
-  if (state.integrators.some((i) => i.name === prev)) sel.value = prev;
+  if (entries.some((i) => i.name === prev)) sel.value = prev;
   describeIntegrator();
 }
 
 /** The chosen integrator's options, as a hint and as the options field's placeholder. */
 export function describeIntegrator() {
+  if (isAuto()) {
+    $('integrator-desc').textContent = `Chooses among ${state.autoEntry.candidates.join(', ')}; no options or max depth.`;
+    $('integrator-options').placeholder = 'no options';
+    return;
+  }
   const i = (state.integrators || []).find((x) => x.name === $('integrator').value);
   const fields = (i && i.options) || [];
   $('integrator-desc').textContent = fields.length
@@ -143,15 +151,27 @@ function readOptions(input) {
   return v;
 }
 
+/** Whether the form's integrator is `auto` (sent as the plain name: it takes no options). */
+function isAuto() {
+  return Boolean(state.autoEntry) && $('integrator').value === state.autoEntry.name;
+}
+
 /** The job settings from the form (everything but the scene). */
 export function readSettings() {
   const settings = {};
   const name = $('job-name').value.trim();
   if (name) settings.name = name;
-  const integrator = { ...readOptions($('integrator-options')), type: $('integrator').value };
+  const options = readOptions($('integrator-options'));
   const depth = readInt($('max-depth'), 'Max depth', { min: -1, optional: true });
-  if (depth !== undefined) integrator.max_depth = depth;
-  settings.integrator = integrator;
+  if (isAuto()) {
+    if (Object.keys(options).length) throw { field: $('integrator-options'), message: 'auto takes no integrator options.' };
+    if (depth !== undefined) throw { field: $('max-depth'), message: 'auto takes no max depth.' };
+    settings.integrator = state.autoEntry.name;
+  } else {
+    const integrator = { ...options, type: $('integrator').value };
+    if (depth !== undefined) integrator.max_depth = depth;
+    settings.integrator = integrator;
+  }
 
   const budgetInput = $('budget-value');
   const byTime = document.querySelector('input[name="budget"]:checked').value === 'time';

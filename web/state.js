@@ -12,9 +12,11 @@ export const state = {
   order: [], // ids, newest first
   scenes: [], // built-in example scenes
   integrators: [], // the server's integrator registry (GET /api/integrators)
+  autoEntry: null, // `auto` as GET /api/integrators describes it (name, summary, candidates)
   selected: null, // id of the job in the viewer
   stream: null, // EventStream of the selected job
   live: null, // latest progress of the selected job from SSE
+  auto: null, // the selected job's `auto` choice from SSE ({choice, pilots})
   snapshotUrl: null, // URL of the selected job's latest snapshot event
   tone: { exposure: 0, tonemap: 'clamp' },
   ab: { a: '', b: '', pos: 50 },
@@ -74,7 +76,9 @@ export function jobLinks(j) {
   };
 }
 
+/** The job's integrator; an `auto` job's is "auto", with its choice once made ("auto: nee"). */
 export function jobIntegrator(j) {
+  if (jobSettings(j).auto) return j.stats && j.stats.integrator ? `auto: ${j.stats.integrator}` : 'auto';
   const i = jobSettings(j).integrator;
   return typeof i === 'string' ? i : (i && i.type) || '';
 }

@@ -50,6 +50,7 @@ export function selectJob(id, { force = false } = {}) {
   state.stream = null;
   state.selected = id;
   state.live = null;
+  state.auto = null;
   state.snapshotUrl = null;
   const known = state.jobs.get(id);
   metricsChart.reset(known && jobHasReference(known));
@@ -139,6 +140,12 @@ export function openStream(job) {
       metricsChart.add(d);
       renderJobRow(id);
     },
+    // An `auto` job's choice, once its pilot has run (also in the final stats.auto).
+    auto: (d) => {
+      if (!mine()) return;
+      state.auto = d;
+      renderAuto(d);
+    },
     snapshot: (d) => {
       if (!mine()) return;
       state.snapshotUrl = d.url || null;
@@ -160,7 +167,8 @@ export function openStream(job) {
   }, (status) => {
     if (mine()) $('view-message').textContent = status;
     // With a reference, replay every stored event so the error chart has the whole curve.
-  }, { lastId: jobHasReference(job) ? '0' : null });
+    // An auto job replays them too, for its `auto` event.
+  }, { lastId: jobHasReference(job) || jobSettings(job).auto ? '0' : null });
   stream.finishSoon = finishSoon;
   state.stream = stream;
 }
@@ -212,6 +220,18 @@ export function renderStats(job, p) {
   if (frac == null) bar.removeAttribute('value');
   else bar.value = frac;
   $('stats').dataset.spp = String(p.spp ?? 0);
+  renderAuto(p.auto || state.auto);
+}
+
+/** An `auto` job's choice ({choice, pilots}: the `auto` event, stats.auto): the integrator
+ *  chosen and each pilot's cost (estimated relMSE × seconds); hidden for other jobs. */
+export function renderAuto(choice) {
+  const row = $('stat-auto-row');
+  row.hidden = !choice;
+  if (!choice) return;
+  const pilots = (choice.pilots || []).map((p) => `${p.integrator} ${p.cost == null ? '—' : p.cost.toExponential(1)}`);
+  $('stat-auto').textContent = `${choice.choice} (cost relMSE·s: ${pilots.join(', ')})`;
+  $('stat-auto').dataset.choice = choice.choice;
 }
 
 export function fitViewImage() {

@@ -18,6 +18,23 @@ use crate::prepare::PreparedScene;
 use crate::render::{render, Budget, RenderError, RenderSession, RenderStats};
 pub use crate::render::{AutoChoice, Pilot};
 
+/// The name a render or a job asks for `auto` by (not an integrator of the registry).
+pub const AUTO: &str = "auto";
+
+/// One line on `auto`, for lists of integrators (`GET /api/integrators`, the web form).
+pub const AUTO_SUMMARY: &str = "Chosen by a pilot: each unbiased integrator renders a few \
+    percent of the budget, the one with the least estimated error × time renders the rest.";
+
+/// The integrators `auto` may choose (the registry's unbiased ones; pt is left out on scenes
+/// with delta lights, when the pilot runs).
+pub fn candidates() -> Vec<&'static str> {
+    INTEGRATORS
+        .iter()
+        .filter(|i| i.unbiased)
+        .map(|i| i.name)
+        .collect()
+}
+
 /// The share of the budget all pilots take together.
 pub const PILOT_SHARE: f64 = 0.05;
 

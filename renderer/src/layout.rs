@@ -55,6 +55,11 @@ pub mod binding {
     /// bdpt: the odd-indexed samples' share of SPLAT (same format), so that both halves of the
     /// error estimate carry their light-tracing splats (renderer/src/render/halves.rs).
     pub const SPLAT_ODD: u32 = 55;
+    /// The error estimate on the GPU (shaders/estimate/estimate.comp,
+    /// renderer/src/render/estimate_gpu.rs): each workgroup's partial sum and count of the
+    /// per-pixel terms, and the reduced total (`GpuEstimateResult`).
+    pub const ESTIMATE_PARTIALS: u32 = 56;
+    pub const ESTIMATE_RESULT: u32 = 57;
 }
 
 /// Entries of the BVH traversal's short stack (`BVH_STACK` in the shaders): trees up to this
@@ -311,6 +316,30 @@ pub struct GpuStats {
     pub pad: u32,
 }
 
+/// Push constants of the GPU error estimate (shaders/estimate/estimate.comp mirrors them):
+/// the film size, the samples per pixel of the accumulation, the stage (0: per-pixel terms
+/// summed per workgroup, 1: the workgroups' partial sums summed) and the number of partials.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq, Default)]
+pub struct GpuEstimatePush {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub stage: u32,
+    pub partials: u32,
+    pub pad: [u32; 3],
+}
+
+/// What the GPU error estimate writes (binding ESTIMATE_RESULT): the sum of the per-pixel,
+/// per-channel terms and how many terms were summed (the estimate is `sum / count`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq, Default)]
+pub struct GpuEstimateResult {
+    pub sum: f32,
+    pub count: u32,
+    pub pad: [u32; 2],
+}
+
 /// The path under which [`glsl_constants`] is served to `#include`.
 pub const GLSL_CONSTANTS_PATH: &str = "common/constants.glsl";
 
@@ -345,6 +374,8 @@ pub fn glsl_constants() -> String {
         ("B_CWBVH_PRIMS", binding::CWBVH_PRIMS),
         ("CWBVH_STACK", CWBVH_STACK_DEPTH),
         ("B_SPLAT_ODD", binding::SPLAT_ODD),
+        ("B_ESTIMATE_PARTIALS", binding::ESTIMATE_PARTIALS),
+        ("B_ESTIMATE_RESULT", binding::ESTIMATE_RESULT),
     ];
     let flags = [
         ("NONE", NONE),

@@ -11,9 +11,9 @@
 // node of the current group, pushes the rest of the group, and intersects the node's eight
 // quantised child boxes at once; leaves' primitives are tested right away (no postponing).
 //
-// Child boxes are decoded as p + e·q (e a power of two, so e·q is exact and the sum rounds
-// once) and tested with the same slab test as the binary BVH (intersect_box, far distance
-// widened). The host quantises them so that this f32 decoding still contains every child
+// Child boxes are tested against the ray transformed into each node's quantised frame (one
+// multiply-add per plane; far distances widened as in intersect_box). The host quantises them
+// so that their f32 decoding p + e·q still contains every child
 // (renderer/src/compile/frame.rs, `place_cwbvh`), and keeps every tree within CWBVH_STACK
 // levels: a walk pushes at most one group per level, so the stack never overflows (the guard
 // on the push only keeps a corrupt tree from writing out of bounds).
@@ -21,11 +21,24 @@
 #ifndef COMMON_TRAVERSE_CWBVH_GLSL
 #define COMMON_TRAVERSE_CWBVH_GLSL
 
-layout(set = 0, binding = B_CWBVH_NODES, scalar) readonly buffer CwbvhNodes { GpuCwbvhNode cw_nodes[]; };
+// Nodes are read as five 16-byte words each, so every node is fetched with five wide loads (the
+// struct declared over a scalar-layout buffer may be read a word at a time).
+layout(set = 0, binding = B_CWBVH_NODES, std430) readonly buffer CwbvhNodes { uvec4 cw_words[]; };
 #ifdef CWBVH_INDIRECT
 // Leaf slot -> primitive, when the primitives are not stored in leaf order (a testing aid).
 layout(set = 0, binding = B_CWBVH_PRIMS, scalar) readonly buffer CwbvhPrims { uint cwbvh_prims[]; };
 #endif
+
+// Node i (the word layout of GpuCwbvhNode, renderer/src/layout.rs).
+GpuCwbvhNode cw_node(uint i) {
+    uvec4 w0 = cw_words[5u * i], w1 = cw_words[5u * i + 1u], w2 = cw_words[5u * i + 2u],
+          w3 = cw_words[5u * i + 3u], w4 = cw_words[5u * i + 4u];
+    GpuCwbvhNode n;
+    n.p = uintBitsToFloat(w0.xyz); n.e_imask = w0.w;
+    n.child_base = w1.x; n.prim_base = w1.y; n.meta = w1.zw;
+    n.q[0] = w2.xy; n.q[1] = w2.zw; n.q[2] = w3.xy; n.q[3] = w3.zw; n.q[4] = w4.xy; n.q[5] = w4.zw;
+    return n;
+}
 
 // Byte c (0..7) of eight packed in a uvec2.
 uint cw_byte(uvec2 v, uint c) {
@@ -34,17 +47,31 @@ uint cw_byte(uvec2 v, uint c) {
 
 // The hit mask of node n's children (see the top), for a ray with octant bits oct_inv.
 uint cw_intersect_node(GpuCwbvhNode n, Ray r, RayPre pre, uint oct_inv) {
+    // Step 1: the ray in the node's quantised frame (the paper's transformed ray): a child's
+    // plane q on an axis lies at p + e·q, so the ray meets it at q·(e·inv_d) + (p - o)·inv_d,
+    // one multiply-add per plane instead of decoding the box and then running the slab test.
     vec3 e = vec3(uintBitsToFloat((n.e_imask & 0xffu) << 23),
                   uintBitsToFloat(((n.e_imask >> 8) & 0xffu) << 23),
                   uintBitsToFloat(((n.e_imask >> 16) & 0xffu) << 23));
+    vec3 scale = e * pre.inv_d;
+    vec3 shift = (n.p - r.o) * pre.inv_d;
+    // Step 2: per axis, the planes the ray enters by (the low ones when it runs towards +).
+    bvec3 neg = lessThan(pre.inv_d, vec3(0.0));
+    uvec2 near_x = neg.x ? n.q[1] : n.q[0], far_x = neg.x ? n.q[0] : n.q[1];
+    uvec2 near_y = neg.y ? n.q[3] : n.q[2], far_y = neg.y ? n.q[2] : n.q[3];
+    uvec2 near_z = neg.z ? n.q[5] : n.q[4], far_z = neg.z ? n.q[4] : n.q[5];
+    // Step 3: each child's slab interval; the far distance is widened as in intersect_box so
+    // that rounding never loses a box the ray touches.
     uint hitmask = 0u;
     for (uint c = 0u; c < 8u; ++c) {
         uint meta = cw_byte(n.meta, c);
         if (meta == 0u) continue; // an empty slot
-        vec3 qlo = vec3(cw_byte(n.q[0], c), cw_byte(n.q[2], c), cw_byte(n.q[4], c));
-        vec3 qhi = vec3(cw_byte(n.q[1], c), cw_byte(n.q[3], c), cw_byte(n.q[5], c));
-        float t = intersect_box(r.o, pre, n.p + e * qlo, n.p + e * qhi, r.tmin, r.tmax);
-        if (isinf(t)) continue;
+        vec3 tn = vec3(cw_byte(near_x, c), cw_byte(near_y, c), cw_byte(near_z, c)) * scale + shift;
+        vec3 tf = (vec3(cw_byte(far_x, c), cw_byte(far_y, c), cw_byte(far_z, c)) * scale + shift)
+                  * GAMMA3_BOX;
+        float enter = max(max(tn.x, tn.y), max(tn.z, r.tmin));
+        float leave = min(min(tf.x, tf.y), min(tf.z, r.tmax));
+        if (enter > leave) continue;
         // Inner children's meta is 24..31 (bits 3 and 4 set), leaves' offsets are below 24.
         bool inner = ((meta & (meta << 1u)) & 0x10u) != 0u;
         uint bits = (meta >> 5u) & 7u;
@@ -74,7 +101,7 @@ bool traverse_cwbvh(Ray r, bool any_hit, out Hit hit) {
             if ((node_group.y & 0xff000000u) != 0u && sp < CWBVH_STACK) stack[sp++] = node_group;
             uint slot = (bit - 24u) ^ oct_inv;
             uint rel = bitCount(hits & ~(0xffffffffu << slot));
-            GpuCwbvhNode n = cw_nodes[node_group.x + rel];
+            GpuCwbvhNode n = cw_node(node_group.x + rel);
             // Step 2: its children's boxes.
             uint hitmask = cw_intersect_node(n, r, pre, oct_inv);
             node_group = uvec2(n.child_base, (hitmask & 0xff000000u) | (n.e_imask >> 24));

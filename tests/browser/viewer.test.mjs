@@ -516,7 +516,7 @@ await step('other scene sources: pasted JSON, a scene file with its assets, a .t
 
 await step('every integrator is offered, with options as JSON', async () => {
   const offered = await page.getByLabel('Integrator', { exact: true }).locator('option').evaluateAll((os) => os.map((o) => o.value));
-  for (const name of ['pt', 'nee', 'bdpt', 'whitted', 'deferred', 'vct']) {
+  for (const name of ['pt', 'nee', 'bdpt', 'whitted', 'deferred', 'vct', 'auto']) {
     check(offered.includes(name), `the integrator list lacks ${name} (has ${offered.join(', ')})`);
   }
   // Bad options are refused in the page, naming the field.
@@ -537,6 +537,16 @@ await step('every integrator is offered, with options as JSON', async () => {
   check(/"type":"vct"/.test(job) && /"resolution":64/.test(job) && /"cones":4/.test(job),
     `the vct job does not carry its options: ${job.slice(0, 400)}`);
   await page.getByLabel('Integrator options (JSON, optional)').fill('');
+  // auto: the pilot's choice shows in the job view (from the `auto` event or stats.auto).
+  const autoId = await submitExample({ name: 'browser-auto', integrator: 'auto', spp: 32, size: 16 });
+  await waitRowState(autoId, 'done', 120_000);
+  await page.waitForFunction(() => {
+    const dd = document.querySelector('#stat-auto');
+    return !document.querySelector('#stat-auto-row').hidden && ['pt', 'nee', 'bdpt'].includes(dd.dataset.choice);
+  }, null, { timeout: 15_000 }).catch(async () => {
+    const text = await page.locator('#stat-auto').textContent();
+    throw new Failure(`the auto job's choice is not shown (stat: ${text})`);
+  });
 });
 
 await step('the state filter lists only done jobs', async () => {

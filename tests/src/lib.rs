@@ -2,6 +2,7 @@
 //! repository's scenes, rendering through the library on one shared GPU context with the
 //! validation layer on, and Mitsuba 3 reference renders via tests/mitsuba/render_reference.py.
 
+pub mod accel;
 pub mod database;
 pub mod server;
 

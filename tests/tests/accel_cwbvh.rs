@@ -8,18 +8,13 @@
 //! reach them through their index buffer), so both structures number primitives and lights
 //! alike and, finding the same nearest hits, must give the same image with the same seed.
 
-use std::path::Path;
-
+use candela_tests::accel::{compiled, diff, load, translated};
 use candela_tests::*;
 use glam::DVec3;
 use renderer::accel::{AccelKind, AccelOptions, AccelRequest, CacheStatus};
-use renderer::compile::{compile_with, CompileOptions, CompiledScene};
-use renderer::film::Image;
-use renderer::integrators::IntegratorOptions;
 use renderer::layout::{GpuCwbvhNode, CWBVH_STACK_DEPTH};
 use renderer::metrics::rel_mse;
-use renderer::render::{render, Budget, RenderSession, RenderStats};
-use renderer::scene::{load_str, Light, Scene};
+use renderer::scene::{load_str, Scene};
 use serde_json::{json, Value};
 
 fn cwbvh(bvh_order: bool) -> AccelOptions {
@@ -30,51 +25,15 @@ fn cwbvh(bvh_order: bool) -> AccelOptions {
     }
 }
 
-fn compiled(scene: &Scene, w: u32, accel: AccelOptions, cache: Option<&Path>) -> CompiledScene {
-    let opts = CompileOptions { accel, cache };
-    compile_with(scene, w, w, &opts).expect("compile")
-}
-
-fn render_compiled(
-    scene: &Scene,
-    c: &CompiledScene,
-    integrator: &str,
-    spp: u32,
-    seed: u64,
-) -> (Image, RenderStats) {
-    let ctx = gpu();
-    let options = IntegratorOptions::from_name(integrator).expect("integrator");
-    let mut session =
-        RenderSession::new(&ctx, c, &options, scene.render.max_depth, seed).expect("session");
-    let out = render(&mut session, Budget::Spp(spp)).expect("render");
-    ctx.check_validation().expect("validation layer messages");
-    out
-}
-
-/// Pixels whose colour differs at all, and the relMSE of `a` against `b`.
-fn diff(a: &Image, b: &Image) -> (usize, f64) {
-    let n = a
-        .pixels
-        .iter()
-        .zip(&b.pixels)
-        .filter(|(x, y)| x != y)
-        .count();
-    (n, rel_mse(a, b).unwrap())
-}
-
-fn load(name: &str) -> Scene {
-    renderer::scene::load_file(&scene_path(name)).unwrap()
-}
-
 /// Renders `scene` with the binary BVH and the CWBVH (same seed); the images must agree.
 fn cwbvh_matches_bvh(label: &str, scene: &Scene, integrator: &str, w: u32, spp: u32) {
     let bvh = compiled(scene, w, AccelOptions::default(), None);
-    let (reference, stats) = render_compiled(scene, &bvh, integrator, spp, 7);
+    let (reference, stats) = render_compiled(scene, &bvh, integrator, spp, 7, None);
     assert_eq!(stats.accel, "bvh");
     let lit = reference.pixels.iter().filter(|p| p[0] > 0.0).count();
     assert!(lit > 0, "{label} {integrator}: black");
     let c = compiled(scene, w, cwbvh(true), None);
-    let (img, stats) = render_compiled(scene, &c, integrator, spp, 7);
+    let (img, stats) = render_compiled(scene, &c, integrator, spp, 7, None);
     assert_eq!(stats.accel, "cwbvh");
     let (n, e) = diff(&img, &reference);
     println!(
@@ -119,26 +78,6 @@ fn cwbvh_serves_every_integrator() {
     }
 }
 
-fn translated(scene: &Scene, t: DVec3) -> Scene {
-    let mut far = scene.clone();
-    far.camera.position += t;
-    far.camera.look_at += t;
-    for m in &mut far.meshes {
-        for p in &mut m.positions {
-            *p += t;
-        }
-    }
-    for s in &mut far.spheres {
-        s.center += t;
-    }
-    for l in &mut far.lights {
-        if let Light::Point { position, .. } | Light::Spot { position, .. } = l {
-            *position += t;
-        }
-    }
-    far
-}
-
 /// Far from the origin the requantised nodes still contain their primitives as uploaded
 /// (camera-relative), and a camera move keeps the cache key.
 #[test]
@@ -169,14 +108,14 @@ fn cwbvh_far_from_the_origin_and_with_the_camera_moved() {
 fn cwbvh_in_its_own_order_converges_to_the_bvh_image() {
     let scene = load("cornell.json");
     let bvh = compiled(&scene, 16, AccelOptions::default(), None);
-    let (a, _) = render_compiled(&scene, &bvh, "nee", 16, 1);
-    let (b, _) = render_compiled(&scene, &bvh, "nee", 16, 2);
+    let (a, _) = render_compiled(&scene, &bvh, "nee", 16, 1, None);
+    let (b, _) = render_compiled(&scene, &bvh, "nee", 16, 2, None);
     let c = compiled(&scene, 16, cwbvh(false), None);
     assert!(
         c.cwbvh.as_ref().unwrap().prims.is_empty(),
         "leaf order: no index buffer"
     );
-    let (g, _) = render_compiled(&scene, &c, "nee", 16, 1);
+    let (g, _) = render_compiled(&scene, &c, "nee", 16, 1, None);
     let seeds = rel_mse(&b, &a).unwrap();
     let accel = rel_mse(&g, &a).unwrap();
     println!("cornell nee 16 spp: cwbvh (own order) vs BVH {accel:.3e}, seeds {seeds:.3e}");
@@ -231,7 +170,7 @@ fn cwbvh_cache_and_memory_figures() {
         want + 16 + 16,
         "cwbvh buffers + the empty BVH nodes and parents"
     );
-    let (_, stats) = render_compiled(&scene, &second, "nee", 1, 1);
+    let (_, stats) = render_compiled(&scene, &second, "nee", 1, 1, None);
     assert_eq!(stats.accel_bytes, b.accel);
     let per_tri = (stats.geometry_bytes + b.accel) as f64 / second.triangle_count as f64;
     println!(
@@ -324,17 +263,24 @@ fn stack_need(nodes: &[GpuCwbvhNode]) -> usize {
 }
 
 fn cwbvh_renders_like(label: &str, deep: &Scene, twin: &Scene) {
-    let (reference, _) = render_compiled(twin, &compiled(twin, W, cwbvh(false), None), "nee", 4, 5);
+    let (reference, _) = render_compiled(
+        twin,
+        &compiled(twin, W, cwbvh(false), None),
+        "nee",
+        4,
+        5,
+        None,
+    );
     let lit = reference.pixels.iter().filter(|p| p[0] > 0.0).count();
     assert!(
         lit > reference.pixels.len() / 4,
         "{label}: the twin is mostly black"
     );
     let bvh = compiled(deep, W, AccelOptions::default(), None);
-    let (bvh_img, _) = render_compiled(deep, &bvh, "nee", 4, 5);
+    let (bvh_img, _) = render_compiled(deep, &bvh, "nee", 4, 5, None);
     let c = compiled(deep, W, cwbvh(false), None);
     let need = stack_need(&c.cwbvh.as_ref().unwrap().nodes);
-    let (img, _) = render_compiled(deep, &c, "nee", 4, 5);
+    let (img, _) = render_compiled(deep, &c, "nee", 4, 5, None);
     let (n, e) = diff(&img, &reference);
     let (nb, eb) = diff(&bvh_img, &reference);
     println!(

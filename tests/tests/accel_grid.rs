@@ -7,17 +7,13 @@
 //! are two estimates of the same picture (lights are enumerated differently), compared at noise
 //! level.
 
-use std::path::Path;
-
+use candela_tests::accel::{compiled, diff, load, translated};
 use candela_tests::*;
 use glam::DVec3;
 use renderer::accel::{AccelKind, AccelOptions, AccelRequest, CacheStatus};
 use renderer::compile::{compile_with, CompileOptions, CompiledScene};
-use renderer::film::Image;
-use renderer::integrators::IntegratorOptions;
 use renderer::metrics::rel_mse;
-use renderer::render::{render, Budget, RenderSession, RenderStats};
-use renderer::scene::{Light, Scene};
+use renderer::scene::Scene;
 
 fn grid(resolution: Option<u32>) -> AccelOptions {
     AccelOptions {
@@ -26,42 +22,6 @@ fn grid(resolution: Option<u32>) -> AccelOptions {
         grid_bvh_order: true,
         ..Default::default()
     }
-}
-
-fn compiled(scene: &Scene, w: u32, accel: AccelOptions, cache: Option<&Path>) -> CompiledScene {
-    let opts = CompileOptions { accel, cache };
-    compile_with(scene, w, w, &opts).expect("compile")
-}
-
-fn render_compiled(
-    scene: &Scene,
-    c: &CompiledScene,
-    integrator: &str,
-    spp: u32,
-    seed: u64,
-) -> (Image, RenderStats) {
-    let ctx = gpu();
-    let options = IntegratorOptions::from_name(integrator).expect("integrator");
-    let mut session =
-        RenderSession::new(&ctx, c, &options, scene.render.max_depth, seed).expect("session");
-    let out = render(&mut session, Budget::Spp(spp)).expect("render");
-    ctx.check_validation().expect("validation layer messages");
-    out
-}
-
-/// Pixels whose colour differs at all, and the relMSE of `a` against `b`.
-fn diff(a: &Image, b: &Image) -> (usize, f64) {
-    let n = a
-        .pixels
-        .iter()
-        .zip(&b.pixels)
-        .filter(|(x, y)| x != y)
-        .count();
-    (n, rel_mse(a, b).unwrap())
-}
-
-fn load(name: &str) -> Scene {
-    renderer::scene::load_file(&scene_path(name)).unwrap()
 }
 
 /// Renders `scene` with the BVH and with grids of several resolutions; all must agree.
@@ -85,11 +45,11 @@ fn grid_matches_bvh_at(
     resolutions: &[Option<u32>],
 ) {
     let bvh = compiled(scene, w, AccelOptions::default(), None);
-    let (reference, stats) = render_compiled(scene, &bvh, integrator, spp, 7);
+    let (reference, stats) = render_compiled(scene, &bvh, integrator, spp, 7, None);
     assert_eq!(stats.accel, "bvh");
     for &res in resolutions {
         let c = compiled(scene, w, grid(res), None);
-        let (img, stats) = render_compiled(scene, &c, integrator, spp, 7);
+        let (img, stats) = render_compiled(scene, &c, integrator, spp, 7, None);
         assert_eq!(stats.accel, "grid");
         let (n, e) = diff(&img, &reference);
         println!(
@@ -122,10 +82,10 @@ fn grid_serves_every_integrator() {
     // Every integrator users can pick (pt, nee, bdpt, whitted, deferred, ...).
     for integrator in renderer::integrators::names() {
         let bvh = compiled(&scene, 16, AccelOptions::default(), None);
-        let (reference, _) = render_compiled(&scene, &bvh, integrator, 2, 3);
-        let (again, _) = render_compiled(&scene, &bvh, integrator, 2, 3);
+        let (reference, _) = render_compiled(&scene, &bvh, integrator, 2, 3, None);
+        let (again, _) = render_compiled(&scene, &bvh, integrator, 2, 3, None);
         let c = compiled(&scene, 16, grid(None), None);
-        let (img, _) = render_compiled(&scene, &c, integrator, 2, 3);
+        let (img, _) = render_compiled(&scene, &c, integrator, 2, 3, None);
         let (n, e) = diff(&img, &reference);
         let (n0, e0) = diff(&again, &reference);
         println!(
@@ -136,26 +96,6 @@ fn grid_serves_every_integrator() {
     }
 }
 
-fn translated(scene: &Scene, t: DVec3) -> Scene {
-    let mut far = scene.clone();
-    far.camera.position += t;
-    far.camera.look_at += t;
-    for m in &mut far.meshes {
-        for p in &mut m.positions {
-            *p += t;
-        }
-    }
-    for s in &mut far.spheres {
-        s.center += t;
-    }
-    for l in &mut far.lights {
-        if let Light::Point { position, .. } | Light::Spot { position, .. } = l {
-            *position += t;
-        }
-    }
-    far
-}
-
 /// Far from the origin (camera-relative coordinates) the grid still finds the BVH's hits, and the
 /// picture is that of the scene at the origin.
 #[test]
@@ -163,9 +103,9 @@ fn grid_far_from_the_origin() {
     let scene = load("mirror_glass.json");
     let far = translated(&scene, DVec3::new(1e5, -1e5, 1e5));
     let bvh = compiled(&far, 24, AccelOptions::default(), None);
-    let (reference, _) = render_compiled(&far, &bvh, "nee", 4, 5);
+    let (reference, _) = render_compiled(&far, &bvh, "nee", 4, 5, None);
     let c = compiled(&far, 24, grid(None), None);
-    let (img, _) = render_compiled(&far, &c, "nee", 4, 5);
+    let (img, _) = render_compiled(&far, &c, "nee", 4, 5, None);
     let (n, e) = diff(&img, &reference);
     println!("mirror_glass translated by 1e5: grid: {n} pixels differ, relMSE {e:.3e} vs BVH");
     assert!(e < 1e-5, "relMSE {e}");
@@ -177,12 +117,12 @@ fn grid_far_from_the_origin() {
 fn grid_in_input_order_converges_to_the_bvh_image() {
     let scene = load("cornell.json");
     let bvh = compiled(&scene, 16, AccelOptions::default(), None);
-    let (a, _) = render_compiled(&scene, &bvh, "nee", 16, 1);
-    let (b, _) = render_compiled(&scene, &bvh, "nee", 16, 2);
+    let (a, _) = render_compiled(&scene, &bvh, "nee", 16, 1, None);
+    let (b, _) = render_compiled(&scene, &bvh, "nee", 16, 2, None);
     let mut opts = grid(None);
     opts.grid_bvh_order = false;
     let c = compiled(&scene, 16, opts, None);
-    let (g, _) = render_compiled(&scene, &c, "nee", 16, 1);
+    let (g, _) = render_compiled(&scene, &c, "nee", 16, 1, None);
     let seeds = rel_mse(&b, &a).unwrap();
     let accel = rel_mse(&g, &a).unwrap();
     let (ma, mg) = (mean(&a), mean(&g));

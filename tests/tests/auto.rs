@@ -118,6 +118,21 @@ fn job_with_auto_reports_its_choice() {
     assert_eq!(status, 422, "{body}");
     assert_eq!(body["error"]["path"], "until", "{body}");
 
+    // The registry endpoint (which the web form lists) offers `auto`, choosing among the
+    // unbiased integrators.
+    let (status, catalog) = s.get("/api/integrators");
+    assert_eq!(status, 200, "{catalog}");
+    assert_eq!(catalog["auto"]["name"], "auto", "{catalog}");
+    let unbiased: Vec<&str> = catalog["integrators"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|i| i["unbiased"] == true)
+        .filter_map(|i| i["name"].as_str())
+        .collect();
+    assert_eq!(catalog["auto"]["candidates"], json!(unbiased), "{catalog}");
+    assert!(unbiased.contains(&"nee"), "{catalog}");
+
     let job = s.submit(&json!({
         "scene_name": "cornell", "integrator": "auto", "spp": 64, "width": 16, "height": 16,
     }));

@@ -1,10 +1,15 @@
 //! Quality targets: `candela render --until-rel-mse X` and jobs with `"until": {"rel_mse": X}`
-//! stop once the estimated relMSE (no reference) reaches X, before their spp cap, and say so.
+//! stop once the estimated relMSE (no reference) reaches X, before their spp cap, and say so;
+//! the estimate they check is computed on the GPU (renderer/src/render/estimate_gpu.rs) and
+//! equals the CPU's definition; they stop at a check point (renderer/src/render/until.rs).
 
 use std::time::Duration;
 
 use candela_tests::server::Server;
-use candela_tests::{run_candela, run_json, scratch};
+use candela_tests::{gpu, run_candela, run_json, scene_path, scratch};
+use renderer::compile::compile;
+use renderer::integrators::IntegratorOptions;
+use renderer::render::{next_check, render_until, Budget, RenderSession, UNTIL_CHECK_GROWTH};
 use serde_json::json;
 
 /// An easy target for the Cornell box at 16×16 with nee (its estimate is about 0.1 at 8 spp
@@ -41,6 +46,14 @@ fn cli_render_stops_at_the_target_before_the_cap() {
     assert!((8..CAP as u64).contains(&spp), "{report}");
     let estimate = report["rel_mse_estimate"].as_f64().unwrap();
     assert!(estimate > 0.0 && estimate <= TARGET, "{report}");
+    // The checks (GPU estimates at the check points up to the stop) and what they took.
+    let checks = &report["estimate_checks"];
+    assert!(
+        checks["checks"].as_u64().is_some_and(|n| n >= 1),
+        "{report}"
+    );
+    assert!(checks["gpu_ms"].as_f64().is_some(), "{report}");
+    assert!(checks["wait_ms"].as_f64().is_some(), "{report}");
 
     // Without a target: the cap ends it, and the estimate is still reported.
     let report = run_json(&[
@@ -58,6 +71,7 @@ fn cli_render_stops_at_the_target_before_the_cap() {
         "--no-accel-cache",
     ]);
     assert_eq!(report["stopped_by"], "spp", "{report}");
+    assert!(report.get("estimate_checks").is_none(), "{report}");
     assert!(
         report["rel_mse_estimate"].as_f64().is_some_and(|e| e > 0.0),
         "{report}"
@@ -112,6 +126,12 @@ fn job_with_until_completes_at_its_target() {
         "{done}"
     );
     assert_eq!(done["settings"]["until_rel_mse"], TARGET, "{done}");
+    assert!(
+        stats["estimate_checks"]["checks"]
+            .as_u64()
+            .is_some_and(|n| n >= 1),
+        "{done}"
+    );
     // Its progress events carry the estimate, and the last one has reached the target.
     let events = s.events(id, Some(0)).collect_all();
     let estimates: Vec<f64> = events
@@ -125,4 +145,104 @@ fn job_with_until_completes_at_its_target() {
         "no progress event carried rel_mse_estimate"
     );
     assert!(*estimates.last().unwrap() <= TARGET, "{estimates:?}");
+}
+
+/// The GPU estimate (computed by a pass, estimate_gpu.rs) equals the CPU one
+/// (metrics/estimate.rs via render/halves.rs, read back after the same pass) within float
+/// rounding, for each resolver: the mean (pt, nee) and bdpt's splats as floats and as 64-bit
+/// fixed point. Cornell box, 40×20 (not square, 3×2 workgroups of 16×16 partly outside the film),
+/// max_depth 3, after 1, 8 and 11 spp (1 spp: the odd half is empty, so both say None).
+#[test]
+fn gpu_estimate_equals_the_cpu_estimate() {
+    let ctx = gpu();
+    let loaded = renderer::scene::load_file(&scene_path("cornell.json")).unwrap();
+    let compiled = compile(&loaded, 40, 20).unwrap();
+    for json in [
+        r#"{"type":"pt"}"#,
+        r#"{"type":"nee"}"#,
+        r#"{"type":"bdpt"}"#,
+        r#"{"type":"bdpt","fixed_point_splats":true}"#,
+    ] {
+        let options: IntegratorOptions = serde_json::from_str(json).unwrap();
+        let mut s = RenderSession::new(&ctx, &compiled, &options, Some(3), 5).unwrap();
+        for pass in [1u32, 7, 3] {
+            s.submit_pass_with(pass, false, true).unwrap();
+            let done = s.drain().unwrap();
+            let e = done[0].estimate.expect("the pass's estimate");
+            assert_eq!(e.spp, s.spp());
+            let cpu = s.rel_mse_estimate().unwrap();
+            println!("{json} {} spp: GPU {:?}, CPU {cpu:?}", s.spp(), e.rel_mse);
+            match (e.rel_mse, cpu) {
+                (None, None) => assert_eq!(s.spp(), 1),
+                (Some(g), Some(c)) => {
+                    assert!(c > 0.0, "{json}: {c}");
+                    assert!(
+                        (g - c).abs() <= 1e-4 * c,
+                        "{json} {} spp: {g} vs {c}",
+                        s.spp()
+                    );
+                }
+                other => panic!("{json}: {other:?}"),
+            }
+        }
+        ctx.check_validation().unwrap();
+    }
+}
+
+/// A render with a target stops at the first check point whose estimate reaches it, so at most
+/// `UNTIL_CHECK_GROWTH` (12.5%, rounded up) past the check point before, which had not; the
+/// same seed gives the same spp and image again.
+#[test]
+fn render_stops_at_a_check_point_with_bounded_overshoot() {
+    let ctx = gpu();
+    let loaded = renderer::scene::load_file(&scene_path("cornell.json")).unwrap();
+    let compiled = compile(&loaded, 16, 16).unwrap();
+    let options: IntegratorOptions = serde_json::from_str(r#"{"type":"nee"}"#).unwrap();
+    let run = || {
+        let mut s = RenderSession::new(&ctx, &compiled, &options, Some(3), 3).unwrap();
+        render_until(&mut s, Budget::Spp(100_000), Some(TARGET)).unwrap()
+    };
+    let (image, stats) = run();
+    let checks = stats.estimate_checks.expect("the checks' report");
+    println!(
+        "stopped by {:?} at {} spp after {} passes, {} checks ({:.1} ms GPU, {:?} ms waiting), \
+         estimate {:?}",
+        stats.stopped_by,
+        stats.spp,
+        stats.passes,
+        checks.checks,
+        checks.gpu_ms,
+        checks.wait_ms,
+        stats.rel_mse_estimate
+    );
+    assert_eq!(stats.stopped_by.map(|r| r.name()), Some("rel_mse"));
+    // Stopped at a check point: the one after the check before it.
+    let mut points = vec![next_check(0)];
+    while *points.last().unwrap() < stats.spp {
+        points.push(next_check(*points.last().unwrap()));
+    }
+    assert_eq!(*points.last().unwrap(), stats.spp, "{points:?}");
+    assert_eq!(checks.checks as usize, points.len(), "one check per point");
+    if let [.., before, stop] = points[..] {
+        assert!(
+            stop as f64 <= (before as f64 * (1.0 + UNTIL_CHECK_GROWTH)).ceil(),
+            "{before} → {stop}"
+        );
+    }
+    // The estimate the render reports (CPU, at the stop) reached the target.
+    assert!(stats.rel_mse_estimate.is_some_and(|e| e <= TARGET));
+    // The check before the stop had not reached it: a render capped there ends by spp with
+    // an estimate above the target.
+    if points.len() >= 2 {
+        let before = points[points.len() - 2];
+        let mut s = RenderSession::new(&ctx, &compiled, &options, Some(3), 3).unwrap();
+        let (_, capped) = render_until(&mut s, Budget::Spp(before), Some(TARGET)).unwrap();
+        assert_eq!(capped.stopped_by.map(|r| r.name()), Some("spp"));
+        assert!(capped.rel_mse_estimate.is_some_and(|e| e > TARGET));
+    }
+    // Deterministic: the same spp and image again.
+    let (again, stats2) = run();
+    assert_eq!(stats2.spp, stats.spp);
+    assert_eq!(again.pixels, image.pixels);
+    ctx.check_validation().unwrap();
 }

@@ -86,7 +86,8 @@ pub fn build(prims: &[PrimBounds]) -> Built {
     // Step 1: PLOC and reinsertion (obvhs's cwbvh builder, steps kept apart for the guards),
     // over distinct boxes: PLOC merges one pair per pass among identical boxes, quadratic in
     // their number, so copies of a box share one leaf, expanded afterwards.
-    let (reps, groups) = distinct_boxes(prims);
+    let copies = distinct_boxes(prims);
+    let reps = &copies.reps;
     let rep_bounds: Vec<PrimBounds> = reps.iter().map(|&i| prims[i as usize]).collect();
     let params = BvhBuildParams::medium_build();
     let mut bvh2 = PlocBuilder::with_capacity(reps.len()).build(
@@ -98,7 +99,7 @@ pub fn build(prims: &[PrimBounds]) -> Built {
     );
     ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
     if reps.len() < prims.len() {
-        bvh2 = expand_copies(&bvh2, prims, &groups);
+        bvh2 = expand_copies(&bvh2, prims, &copies);
     }
     // Step 2: binary chains bounded for the converter, then the conversion.
     if let Some(b) = bound_height(&bvh2, prims, BINARY_LIMIT) {
@@ -126,27 +127,75 @@ fn convert(bvh2: &Bvh2) -> Built {
     }
 }
 
-/// The first primitive of each distinct box (input order), and for each of them every primitive
-/// with that box. Without copies, `reps[i] == i`.
-fn distinct_boxes(prims: &[PrimBounds]) -> (Vec<u32>, Vec<Vec<u32>>) {
-    let mut first: std::collections::HashMap<[u32; 6], u32> = Default::default();
-    let (mut reps, mut groups) = (Vec::new(), Vec::<Vec<u32>>::new());
-    for (i, b) in prims.iter().enumerate() {
-        let (lo, hi) = (b.min.map(f32::to_bits), b.max.map(f32::to_bits));
-        let key = [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]];
-        let r = *first.entry(key).or_insert_with(|| {
-            reps.push(i as u32);
-            groups.push(Vec::new());
-            reps.len() as u32 - 1
-        });
-        groups[r as usize].push(i as u32);
+/// Primitives grouped by identical boxes: distinct box `r` (numbered by first appearance) has
+/// `reps[r]`, its first primitive in input order, and `members(r)`, every primitive with that
+/// box. Without copies `reps[i] == i` and nothing else is kept.
+struct Copies {
+    reps: Vec<u32>,
+    start: Vec<u32>,
+    members: Vec<u32>,
+}
+
+impl Copies {
+    fn members(&self, r: u32) -> &[u32] {
+        &self.members[self.start[r as usize] as usize..self.start[r as usize + 1] as usize]
     }
-    (reps, groups)
+}
+
+/// Groups `prims` by identical boxes with a parallel sort of (box bits, index) pairs (no hash
+/// map: one allocation, sequential memory; a hash map of 30M boxes cost seconds).
+fn distinct_boxes(prims: &[PrimBounds]) -> Copies {
+    use rayon::slice::ParallelSliceMut;
+    // Step 1: every primitive's box bits beside its index, sorted: equal boxes form runs, each
+    // in input order.
+    let mut keyed: Vec<([u32; 6], u32)> = prims
+        .iter()
+        .enumerate()
+        .map(|(i, b)| {
+            let (lo, hi) = (b.min.map(f32::to_bits), b.max.map(f32::to_bits));
+            ([lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]], i as u32)
+        })
+        .collect();
+    keyed.par_sort_unstable();
+    // Step 2: the runs, numbered by their first primitive.
+    let mut runs: Vec<(u32, u32)> = Vec::new(); // (first primitive, start in `keyed`)
+    for (k, w) in keyed.iter().enumerate() {
+        if k == 0 || keyed[k - 1].0 != w.0 {
+            runs.push((w.1, k as u32));
+        }
+    }
+    if runs.len() == prims.len() {
+        return Copies {
+            reps: (0..prims.len() as u32).collect(),
+            start: Vec::new(),
+            members: Vec::new(),
+        };
+    }
+    runs.par_sort_unstable();
+    // Step 3: members of each run, concatenated in that order.
+    let (mut start, mut members) = (Vec::with_capacity(runs.len() + 1), Vec::new());
+    members.reserve(prims.len());
+    for &(_, from) in &runs {
+        start.push(members.len() as u32);
+        let key = keyed[from as usize].0;
+        members.extend(
+            keyed[from as usize..]
+                .iter()
+                .take_while(|w| w.0 == key)
+                .map(|w| w.1),
+        );
+    }
+    start.push(members.len() as u32);
+    Copies {
+        reps: runs.iter().map(|r| r.0).collect(),
+        start,
+        members,
+    }
 }
 
 /// `bvh`, built over the distinct boxes, with each leaf (one distinct box) replaced by a
-/// balanced subtree over the primitives of that box (`groups`), one primitive per leaf.
-fn expand_copies(bvh: &Bvh2, prims: &[PrimBounds], groups: &[Vec<u32>]) -> Bvh2 {
+/// balanced subtree over the primitives of that box (`copies`), one primitive per leaf.
+fn expand_copies(bvh: &Bvh2, prims: &[PrimBounds], copies: &Copies) -> Bvh2 {
     enum Task {
         Copy(usize, usize),
         Split(Vec<u32>, usize),
@@ -162,7 +211,7 @@ fn expand_copies(bvh: &Bvh2, prims: &[PrimBounds], groups: &[Vec<u32>]) -> Bvh2 
                 if n.prim_count > 0 {
                     let set = bvh.primitive_indices[f..f + n.prim_count as usize]
                         .iter()
-                        .flat_map(|&r| groups[r as usize].iter().copied())
+                        .flat_map(|&r| copies.members(r).iter().copied())
                         .collect();
                     tasks.push(Task::Split(set, out));
                 } else {

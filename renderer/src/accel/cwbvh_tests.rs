@@ -1,7 +1,7 @@
 //! Host tests of the compressed wide BVH (renderer/src/accel/cwbvh.rs): every primitive in
 //! exactly one leaf whose decoded box contains it, chains far deeper than the stack bounded
 //! within it (and a bounded binary tree converted no deeper), `depth_of` rejecting what is not a
-//! tree, the empty scene.
+//! tree, the empty scene, copies of one box grouped (`distinct_boxes`).
 use super::*;
 
 fn unit_boxes(n: usize) -> Vec<PrimBounds> {
@@ -151,4 +151,21 @@ fn empty_scene_has_a_root_without_children() {
     assert_eq!(b.nodes.len(), 1);
     assert_eq!(b.nodes[0].meta, [0; 8]);
     assert_eq!(depth_of(&b.nodes), Some(1));
+}
+
+#[test]
+fn copies_are_grouped_in_order_of_first_appearance() {
+    let b = unit_boxes(3);
+    let prims = [b[0], b[1], b[0], b[2], b[1], b[0]];
+    let c = distinct_boxes(&prims);
+    assert_eq!(c.reps, [0, 1, 3]);
+    assert_eq!(c.members(0), [0, 2, 5]);
+    assert_eq!(c.members(1), [1, 4]);
+    assert_eq!(c.members(2), [3]);
+    // Without copies, the identity and nothing else.
+    let d = distinct_boxes(&b);
+    assert_eq!(d.reps, [0, 1, 2]);
+    assert!(d.members.is_empty());
+    // The tree over the copies still holds every primitive once.
+    check(&prims, &build(&prims));
 }

@@ -53,7 +53,9 @@
 
 use std::sync::Arc;
 
-use super::{BdptDesign, BdptOptions, ExtraBuffer, ExtraSum, Integrator, Resolver, ScratchBuffer};
+use super::{
+    BdptDesign, BdptOptions, ExtraBuffer, ExtraSum, GpuResolve, Integrator, Resolver, ScratchBuffer,
+};
 use crate::compile::CompiledScene;
 use crate::error::RenderError;
 use crate::gpu::{Binding, ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
@@ -286,6 +288,12 @@ impl Integrator for BdptIntegrator {
             splats(binding::SPLAT, "bdpt splats", None),
             splats(binding::SPLAT_ODD, "bdpt splats (odd)", Some(0)),
         ]
+    }
+    fn gpu_resolve(&self) -> GpuResolve {
+        GpuResolve::MeanPlusSplats {
+            fixed_point: !self.float_splats,
+            frac_bits: SPLAT_FRAC_BITS as u32,
+        }
     }
     fn resolver(&self) -> Resolver {
         let float_splats = self.float_splats;

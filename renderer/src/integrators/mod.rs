@@ -212,6 +212,18 @@ impl ExtraSum {
 /// Shareable, so snapshots can be resolved away from the thread that renders.
 pub type Resolver = Arc<dyn Fn(&[[f32; 4]], &[&[[f32; 4]]], u32) -> Vec<[f32; 3]> + Send + Sync>;
 
+/// How an integrator's image is formed from its raw buffers, for the GPU error estimate (the
+/// [`Resolver`] is the CPU's definition; each variant mirrors one).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GpuResolve {
+    /// [`mean_of_accumulation`].
+    Mean,
+    /// The mean plus the first extra buffer (light-tracing splats, split by parity in the
+    /// buffer whose `odd_share_of` is 0) over pixels · spp, the splats as floats or as 64-bit
+    /// fixed point with `frac_bits` fractional bits (bdpt).
+    MeanPlusSplats { fixed_point: bool, frac_bits: u32 },
+}
+
 /// A device buffer an integrator's kernels use as scratch (not carried in checkpoints, not part
 /// of the image): the session allocates it and binds it next to ACCUM and STATS.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -295,8 +307,15 @@ pub trait Integrator: Send {
         Vec::new()
     }
     /// How the image is formed from the raw buffers. Default: [`mean_of_accumulation`].
+    /// An integrator that changes it says how in [`Integrator::gpu_resolve`] too.
     fn resolver(&self) -> Resolver {
         Arc::new(|accum, _, _| mean_of_accumulation(accum))
+    }
+    /// [`Integrator::resolver`] as the GPU error estimate forms pixel values
+    /// (renderer/src/render/estimate_gpu.rs; tests/tests/until.rs checks it against the CPU
+    /// estimate). Default: [`GpuResolve::Mean`].
+    fn gpu_resolve(&self) -> GpuResolve {
+        GpuResolve::Mean
     }
     /// Whether the pass kernel reads `GpuPush::dispatch` (common/dispatch.glsl), so the
     /// session may give a pass several threads per pixel and split it into bands. Default:

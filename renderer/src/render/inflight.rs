@@ -32,10 +32,20 @@ pub struct PassStats {
     pub gpu: Duration,
 }
 
-/// A pass that has completed, with the snapshot it was asked to take.
+/// A pass that has completed, with the snapshot and the error estimate it was asked for.
 pub struct CompletedPass {
     pub stats: PassStats,
     pub snapshot: Option<AccumSnapshot>,
+    pub estimate: Option<PassEstimate>,
+}
+
+/// The error estimate a pass computed on the GPU after its samples (estimate_gpu.rs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PassEstimate {
+    /// Samples per pixel of the accumulation it measured.
+    pub spp: u32,
+    /// The estimated relMSE (None before both halves have samples).
+    pub rel_mse: Option<f64>,
 }
 
 /// The raw accumulation as it was after a pass (host-visible copy made by the pass itself),
@@ -160,6 +170,8 @@ pub(super) struct InFlight {
     pub spp: u32,
     pub submitted: Instant,
     pub snapshot: Option<AccumSnapshot>,
+    /// With an estimate: the spp it measures and the buffer it is copied to.
+    pub estimate: Option<(u32, Buffer)>,
 }
 
 /// The session's frames: those in flight, oldest first, and spare ones.

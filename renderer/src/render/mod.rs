@@ -6,16 +6,20 @@
 //! drives several sessions (devices) on disjoint sample indices and merges their sums.
 
 mod dispatch;
+mod estimate_gpu;
 mod halves;
 mod inflight;
 mod session;
 mod shards;
+mod until;
 
 pub use crate::error::RenderError;
 pub use dispatch::{DispatchShape, MAX_LANES};
-pub use inflight::{AccumSnapshot, CompletedPass, PassStats, PIPELINE_DEPTH};
+pub use estimate_gpu::{ESTIMATE_KERNEL, ESTIMATE_LABELS};
+pub use inflight::{AccumSnapshot, CompletedPass, PassEstimate, PassStats, PIPELINE_DEPTH};
 pub use session::{Progress, RenderSession, LLVMPIPE_MAX_DISPATCHES};
 pub use shards::{merge_accumulation, render_split, SampleDispenser, SplitRender};
+pub use until::{next_check, target_reached, UntilChecks, UNTIL_CHECK_GROWTH, UNTIL_MIN_SPP};
 
 use std::time::Duration;
 
@@ -123,6 +127,10 @@ pub struct RenderStats {
     /// even and odd halves of its samples ([`crate::metrics::rel_mse_estimate`]); set by
     /// [`render`] and the server (None before both halves have samples).
     pub rel_mse_estimate: Option<f64>,
+    /// The error estimates computed on the GPU for a quality target (until.rs): how many and
+    /// what they took (absent without any).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimate_checks: Option<EstimateChecks>,
     /// How light sampling picked lights: "power" or "bvh" (`render.light_sampler`, for the
     /// integrators whose registry entry takes the BVH, `IntegratorInfo::light_bvh`; bdpt's
     /// light subpaths start ∝ power whatever it says).
@@ -133,6 +141,21 @@ pub struct RenderStats {
     /// `auto` only: the integrator chosen and the pilots' figures (renderer::auto).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub auto: Option<AutoChoice>,
+}
+
+/// The cost of a quality target's checks (until.rs): each is an error estimate computed on the
+/// GPU at the end of the pass reaching a check point, and a wait for its result before the
+/// next pass is queued.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct EstimateChecks {
+    pub checks: u32,
+    /// GPU time of the estimates' dispatches (timestamps; 0 where the queue has none). Part of
+    /// the passes' time.
+    pub gpu_ms: f64,
+    /// Host time from a check's pass completing to the next pass being queued (the GPU has
+    /// no work meanwhile): measured by [`render_until`], absent elsewhere.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wait_ms: Option<f64>,
 }
 
 /// One integrator's pilot of `auto` (renderer::auto).
@@ -173,33 +196,6 @@ impl StopReason {
     }
 }
 
-/// Fewest samples per pixel before a quality target may stop a render: below it the estimate
-/// rests on too few samples per half to trust ([`crate::metrics::rel_mse_estimate`]).
-pub const UNTIL_MIN_SPP: u32 = 8;
-
-/// Whether a render with the estimate `estimate` at `spp` samples per pixel has reached the
-/// target `rel_mse` (one place for the rule: [`render_until`] and the server use it).
-pub fn target_reached(rel_mse: f64, spp: u32, estimate: Option<f64>) -> bool {
-    spp >= UNTIL_MIN_SPP && estimate.is_some_and(|e| e <= rel_mse)
-}
-
-/// The most samples per pixel the next pass of a render with a quality target should have, so
-/// it does not overshoot: the estimate falls as 1/spp, so the target is expected at
-/// `spp · estimate / rel_mse` in all; the pass takes what is left of that (counting `submitted`,
-/// the samples already queued), and at least an eighth of `submitted` (the estimate is noisy)
-/// and [`UNTIL_MIN_SPP`] in all. None before an estimate.
-pub fn until_pass_cap(
-    rel_mse: f64,
-    spp: u32,
-    estimate: Option<f64>,
-    submitted: u32,
-) -> Option<u32> {
-    let e = estimate.filter(|e| e.is_finite() && *e > 0.0)?;
-    let expected = (spp as f64 * e / rel_mse).ceil().min(u32::MAX as f64) as u32;
-    let left = expected.max(UNTIL_MIN_SPP).saturating_sub(submitted);
-    Some(left.max(submitted / 8).max(1))
-}
-
 /// Size and times of a session's first pass.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct FirstPass {
@@ -219,9 +215,10 @@ pub fn render(
 }
 
 /// [`render`], stopping early once the estimated relMSE ([`RenderStats::rel_mse_estimate`])
-/// reaches `until` ([`target_reached`]), the budget being the cap. With a target, each pass
-/// copies the accumulation out for the estimate; passes already queued when the target is seen
-/// still complete (the image only gets better).
+/// reaches `until` ([`target_reached`]), the budget being the cap. With a target the estimate
+/// is computed on the GPU by the pass ending at each check point ([`UntilChecks`], until.rs),
+/// and nothing past a check point is queued before its result: the render stops at the first
+/// check point that reaches the target (the same spp and image for the same seed and device).
 pub fn render_until(
     session: &mut RenderSession,
     budget: Budget,
@@ -229,57 +226,68 @@ pub fn render_until(
 ) -> Result<(Image, RenderStats), RenderError> {
     let target = Duration::from_millis(250);
     let mut sizer = PassSizer::default();
-    let mut reached = false;
-    // The latest estimate and the spp it was made at (with a target).
-    let mut last: (u32, Option<f64>) = (0, None);
-    // A completed pass: its cost, and with a target its snapshot's estimate.
+    let mut checks = until.map(UntilChecks::new);
+    // When the latest check's result came (the GPU has nothing of this render queued until
+    // the next pass), and the time so spent.
+    let mut check_seen: Option<std::time::Instant> = None;
+    let mut wait = Duration::ZERO;
+    // A completed pass: its cost, and a check's result.
     let observe = |p: CompletedPass,
                    sizer: &mut PassSizer,
-                   reached: &mut bool,
-                   last: &mut (u32, Option<f64>)| {
+                   checks: &mut Option<UntilChecks>,
+                   check_seen: &mut Option<std::time::Instant>| {
         sizer.observe(&p.stats);
-        if let (Some(goal), Some(snap)) = (until, p.snapshot) {
-            let (_, estimate) = snap.image_and_estimate()?;
-            *reached |= target_reached(goal, snap.spp(), estimate);
-            *last = (snap.spp(), estimate);
+        if let (Some(c), Some(e)) = (checks.as_mut(), p.estimate) {
+            c.observe(e.spp, e.rel_mse);
+            *check_seen = Some(std::time::Instant::now());
         }
-        Ok::<(), RenderError>(())
     };
+    let reached = |checks: &Option<UntilChecks>| checks.as_ref().is_some_and(|c| c.reached);
     loop {
         // Step 1: keep the queue full while the budget has room (one pass at a time until a
-        // pass has shown what a sample costs).
+        // pass has shown what a sample costs; none past a check point awaiting its result).
         while session.in_flight() < PIPELINE_DEPTH
             && (sizer.knows_cost() || session.in_flight() == 0)
-            && !reached
         {
+            let submitted = session.submitted_spp();
             let n = match budget {
                 Budget::Spp(total) => {
-                    let left = total.saturating_sub(session.submitted_spp());
+                    let left = total.saturating_sub(submitted);
                     if left == 0 {
                         break;
                     }
                     sizer.next(target).min(left)
                 }
                 Budget::Time(seconds) => {
-                    let committed = session.elapsed().as_secs_f64()
-                        + sizer.seconds(session.submitted_spp() - session.spp());
+                    let committed =
+                        session.elapsed().as_secs_f64() + sizer.seconds(submitted - session.spp());
                     let left = seconds.max(0.0) - committed;
-                    if left <= 0.0 && session.submitted_spp() > 0 {
+                    if left <= 0.0 && submitted > 0 {
                         break;
                     }
                     sizer.next(target.min(Duration::from_secs_f64(left.max(0.0))))
                 }
             };
-            let cap = until
-                .and_then(|goal| until_pass_cap(goal, last.0, last.1, session.submitted_spp()));
-            let n = cap.map_or(n, |c| n.min(c));
-            for p in session.submit_pass(n, until.is_some())? {
-                observe(p, &mut sizer, &mut reached, &mut last)?;
+            let n = checks
+                .as_ref()
+                .map_or(n, |c| n.min(c.pass_limit(submitted)));
+            if n == 0 {
+                break;
+            }
+            let check = checks.as_ref().is_some_and(|c| c.is_check(submitted, n));
+            if let Some(c) = checks.as_mut().filter(|_| check) {
+                c.queued(submitted + n);
+            }
+            if let Some(t) = check_seen.take() {
+                wait += t.elapsed();
+            }
+            for p in session.submit_pass_with(n, false, check)? {
+                observe(p, &mut sizer, &mut checks, &mut check_seen);
             }
         }
         // Step 2: the oldest pass; done when none is left.
         match session.complete_oldest()? {
-            Some(p) => observe(p, &mut sizer, &mut reached, &mut last)?,
+            Some(p) => observe(p, &mut sizer, &mut checks, &mut check_seen),
             None => break,
         }
     }
@@ -287,7 +295,10 @@ pub fn render_until(
     let (image, estimate) = session.image_and_estimate()?;
     let mut stats = session.stats();
     stats.rel_mse_estimate = estimate;
-    stats.stopped_by = Some(match (reached, budget) {
+    if let Some(e) = &mut stats.estimate_checks {
+        e.wait_ms = Some(wait.as_secs_f64() * 1e3);
+    }
+    stats.stopped_by = Some(match (reached(&checks), budget) {
         (true, _) => StopReason::RelMse,
         (false, Budget::Spp(_)) => StopReason::Spp,
         (false, Budget::Time(_)) => StopReason::Time,

@@ -7,14 +7,17 @@
 //! [`PIPELINE_DEPTH`] at once, inflight.rs) and cut into dispatches sized to the GPU
 //! (dispatch.rs); [`RenderSession::run_pass`] is the one-pass-and-wait form.
 
+mod stats;
+
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::dispatch::DispatchShape;
+use super::estimate_gpu::{Film, SessionEstimates};
 use super::inflight::{
     charge, snapshot_target, CompletedPass, InFlight, PassRing, PassStats, PIPELINE_DEPTH,
 };
-use super::{RenderError, RenderStats};
+use super::RenderError;
 use crate::compile::{CompiledScene, KernelMode};
 use crate::film::Image;
 use crate::gpu::{
@@ -87,6 +90,8 @@ pub struct RenderSession {
     kernel_build: KernelStats,
     /// The first pass this session ran (a GPU coming from idle runs it at low clocks).
     first_pass: Option<PassStats>,
+    /// The error estimates computed on the GPU by passes (estimate_gpu.rs).
+    estimates: SessionEstimates,
 }
 
 struct SceneInfo {
@@ -247,6 +252,7 @@ impl RenderSession {
             ring: PassRing::default(),
             kernel_build: kernel_stats().since(&kernels_before),
             first_pass: None,
+            estimates: SessionEstimates::default(),
             info: SceneInfo {
                 triangles: scene.triangle_count,
                 primitives: scene.prims.len(),
@@ -394,6 +400,7 @@ impl RenderSession {
         self.dropped = 0;
         self.elapsed = Duration::ZERO;
         self.gpu_time = Duration::ZERO;
+        self.estimates.reset_counts();
         Ok(())
     }
 
@@ -444,6 +451,17 @@ impl RenderSession {
         spp: u32,
         snapshot: bool,
     ) -> Result<Vec<CompletedPass>, RenderError> {
+        self.submit_pass_with(spp, snapshot, false)
+    }
+
+    /// [`Self::submit_pass`]; with `estimate`, the pass also computes the error estimate of
+    /// the accumulation after it on the GPU ([`CompletedPass::estimate`], estimate_gpu.rs).
+    pub fn submit_pass_with(
+        &mut self,
+        spp: u32,
+        snapshot: bool,
+        estimate: bool,
+    ) -> Result<Vec<CompletedPass>, RenderError> {
         if spp == 0 {
             return Err(RenderError::Invalid(
                 "a pass needs at least one sample".into(),
@@ -476,12 +494,29 @@ impl RenderSession {
         } else {
             None
         };
+        let estimate_target = match estimate {
+            true => {
+                let film = Film {
+                    resolve: self.integrator.gpu_resolve(),
+                    width: self.width,
+                    height: self.height,
+                    accum: &self.accum,
+                    accum_odd: &self.accum_odd,
+                    extra: &self.extra,
+                };
+                let spp = self.submitted_spp() + spp;
+                Some(self.estimates.prepare(&self.ctx, film, spp)?)
+            }
+            false => None,
+        };
         let mut slot = self.ring.take(&self.ctx)?;
         let (integrator, pipeline) = (&self.integrator, &self.pipeline);
         let most: u32 = dispatches
             .iter()
             .map(|(c, _)| integrator.dispatches_per_pass(c.spp))
-            .sum();
+            .sum::<u32>()
+            + 2 * estimate as u32;
+        let estimates = &self.estimates;
         let (stats_buf, accum, extra) = (&self.stats_buf, &self.accum, &self.extra);
         let accum_odd = &self.accum_odd;
         let counters = &slot.counters;
@@ -503,6 +538,9 @@ impl RenderSession {
                     at += b.size;
                 }
             }
+            if let Some(t) = &estimate_target {
+                estimates.record(rec, t)?;
+            }
             Ok(())
         });
         if let Err(e) = recorded {
@@ -515,6 +553,7 @@ impl RenderSession {
             spp,
             submitted: Instant::now(),
             snapshot: target,
+            estimate: estimate_target,
         });
         Ok(done)
     }
@@ -534,6 +573,18 @@ impl RenderSession {
             }
         };
         self.integrator.observe_timings(&timings);
+        let estimate = p
+            .estimate
+            .as_ref()
+            .map(|t| self.estimates.complete(t, &timings))
+            .transpose();
+        let estimate = match estimate {
+            Ok(e) => e,
+            Err(e) => {
+                self.ring.spare.push(p.slot);
+                return Err(e);
+            }
+        };
         let s = p.slot.read_counters();
         self.ring.spare.push(p.slot);
         let s = s?;
@@ -555,6 +606,7 @@ impl RenderSession {
         Ok(Some(CompletedPass {
             stats,
             snapshot: p.snapshot,
+            estimate,
         }))
     }
 
@@ -707,66 +759,6 @@ impl RenderSession {
             width: self.width,
             height: self.height,
             pixels,
-        }
-    }
-
-    pub fn stats(&self) -> RenderStats {
-        let t = self.elapsed.as_secs_f64();
-        let samples = self.spp as f64 * self.width as f64 * self.height as f64;
-        RenderStats {
-            device: self.ctx.info.clone(),
-            integrator: self.entry.name.to_string(),
-            width: self.width,
-            height: self.height,
-            spp: self.spp,
-            passes: self.passes,
-            max_depth: self.integrator.max_depth(),
-            seed: self.seed,
-            time_s: t,
-            gpu_time_s: self.gpu_time.as_secs_f64(),
-            msamples_per_s: if t > 0.0 { samples / t * 1e-6 } else { 0.0 },
-            rays_per_s: if t > 0.0 { self.rays as f64 / t } else { 0.0 },
-            rays: self.rays,
-            dropped_samples: self.dropped,
-            triangles: self.info.triangles,
-            primitives: self.info.primitives,
-            lights: self.info.lights,
-            bvh_nodes: self.info.bvh_nodes,
-            bvh_depth: self.info.bvh_depth,
-            bvh_build_s: self.info.bvh_build.as_secs_f64(),
-            setup_s: self.setup.as_secs_f64(),
-            kernel_s: self.kernel_time.as_secs_f64(),
-            kernel_stats: self.pipeline.statistics().into_iter().collect(),
-            features: self.info.features.names(),
-            kernels: self.info.kernels,
-            accel: self.info.accel.kind.name().to_string(),
-            accel_build_s: self.info.accel.build_time.as_secs_f64(),
-            accel_bytes: self.info.bytes.accel,
-            geometry_bytes: self.info.bytes.geometry,
-            scene_gpu_bytes: self.info.bytes.total(),
-            gpu_bytes_per_triangle: if self.info.triangles > 0 {
-                (self.info.bytes.geometry + self.info.bytes.accel) as f64
-                    / self.info.triangles as f64
-            } else {
-                0.0
-            },
-            peak_rss_bytes: crate::memory::peak_rss_bytes(),
-            load_s: self.info.load_time.as_secs_f64(),
-            compile_s: self.info.compile_time.as_secs_f64(),
-            accel_cache: self.info.accel.cache,
-            grid_resolution: self.info.accel.grid_resolution,
-            grid_refs: self.info.accel.grid_refs,
-            kernel_build: self.kernel_build,
-            first_pass: self.first_pass.map(|p| super::FirstPass {
-                spp: p.spp,
-                gpu_ms: p.gpu.as_secs_f64() * 1e3,
-                wall_ms: p.wall.as_secs_f64() * 1e3,
-            }),
-            details: self.integrator.details(),
-            rel_mse_estimate: None,
-            stopped_by: None,
-            light_sampler: self.info.light_sampler,
-            auto: None,
         }
     }
 }

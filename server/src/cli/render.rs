@@ -190,7 +190,7 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
         scene.render.light_sampler = Some(s.clone());
     }
     // `auto`: chosen by a pilot of every unbiased integrator (renderer::auto).
-    let auto = a.integrator.as_deref() == Some("auto");
+    let auto = a.integrator.as_deref() == Some(renderer::auto::AUTO);
     let mut options = if auto {
         IntegratorOptions::from_name(DEFAULT_INTEGRATOR).expect("the default integrator")
     } else {
@@ -396,6 +396,14 @@ fn print_report(stats: &RenderStats, output: &std::path::Path) {
         .map_or("-".to_string(), |e| format!("{e:.3e}"));
     let stopped = stats.stopped_by.map_or("-", |s| s.name());
     println!("error       estimated relMSE {estimate} (no reference), stopped by {stopped}");
+    if let Some(c) = &stats.estimate_checks {
+        println!(
+            "checks      {} estimates on the GPU: {:.3} ms GPU, {:.3} ms waiting for them",
+            c.checks,
+            c.gpu_ms,
+            c.wait_ms.unwrap_or(0.0)
+        );
+    }
     if let Some(auto) = &stats.auto {
         let pilots: Vec<String> = auto
             .pilots

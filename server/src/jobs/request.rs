@@ -290,7 +290,7 @@ pub fn prepare(
 
     // Step 2: integrator (`auto`: chosen by a pilot when the job starts; until then the
     // scene's or the default) and budget.
-    let auto = matches!(&req.integrator, Some(Value::String(n)) if n == "auto");
+    let auto = matches!(&req.integrator, Some(Value::String(n)) if n == renderer::auto::AUTO);
     let integrator = integrator_options(
         req.integrator.as_ref().filter(|_| !auto),
         scene.render.integrator.as_deref(),

@@ -7,8 +7,7 @@ use std::time::{Duration, Instant};
 use renderer::film::Image;
 use renderer::metrics::{tonemap_from_name, Display};
 use renderer::render::{
-    target_reached, until_pass_cap, Budget, PassSizer, PassStats, Progress, RenderError,
-    RenderSession, StopReason,
+    Budget, PassSizer, PassStats, Progress, RenderError, RenderSession, StopReason, UntilChecks,
 };
 use renderer::scene::Tonemap;
 use serde_json::{json, Value};
@@ -50,14 +49,13 @@ pub struct ActiveJob {
     reference: Option<Arc<Image>>,
     /// The thread reporting snapshots (started with the first snapshot).
     lane: Option<MetricsLane>,
-    /// The latest relMSE estimate (no reference) the worker computed, for `until` jobs, and
-    /// the spp it was made at.
+    /// The latest relMSE estimate (no reference): an `until` job's latest check, and the
+    /// final one.
     pub estimate: Option<f64>,
-    estimate_spp: u32,
-    /// Whether the quality target (`until`) has been reached: nothing more is queued.
-    pub target_reached: bool,
-    /// For each queued pass, oldest first: whether its snapshot is to be reported (`until`
-    /// jobs copy the accumulation with every pass, to check the target).
+    /// The quality target (`until`) and its checks (renderer::render::UntilChecks): passes
+    /// end at its check points, which compute the estimate on the GPU.
+    checks: Option<UntilChecks>,
+    /// For each queued pass, oldest first: whether its snapshot is to be reported.
     pub report_flags: std::collections::VecDeque<bool>,
     /// An `auto` job's choice (auto.rs), for its stats.
     pub auto: Option<super::auto::AutoRun>,
@@ -82,8 +80,7 @@ impl ActiveJob {
             reference,
             lane: None,
             estimate: None,
-            estimate_spp: 0,
-            target_reached: false,
+            checks: settings.until_rel_mse.map(UntilChecks::new),
             report_flags: Default::default(),
             auto: None,
             shard: None,
@@ -118,7 +115,7 @@ impl ActiveJob {
 
     /// Why the job stops, once it does: its quality target, else its spp or time cap.
     pub fn stop_reason(&self) -> Option<StopReason> {
-        if self.target_reached {
+        if self.checks.as_ref().is_some_and(|c| c.reached) {
             return Some(StopReason::RelMse);
         }
         match self.settings.budget() {
@@ -129,13 +126,29 @@ impl ActiveJob {
         }
     }
 
-    /// Notes the estimate of a snapshot of `spp` samples per pixel, and whether it reaches the
-    /// job's quality target ([`renderer::render::target_reached`]).
+    /// Notes the estimate a pass computed at `spp` samples per pixel (a check point), and
+    /// whether it reaches the job's quality target ([`renderer::render::target_reached`]).
     pub fn observe_estimate(&mut self, spp: u32, estimate: Option<f64>) {
         self.estimate = estimate;
-        self.estimate_spp = spp;
-        if let Some(goal) = self.settings.until_rel_mse {
-            self.target_reached |= target_reached(goal, spp, estimate);
+        if let Some(c) = &mut self.checks {
+            c.observe(spp, estimate);
+        }
+    }
+
+    /// Whether the next pass, of `spp` samples, ends at a check point of the quality target
+    /// (it is then queued with the estimate: [`Self::check_queued`]).
+    pub fn check_due(&self, spp: u32) -> bool {
+        let submitted = self.session.submitted_spp();
+        self.checks
+            .as_ref()
+            .is_some_and(|c| c.is_check(submitted, spp))
+    }
+
+    /// Notes that a pass computing the estimate at check point `spp` was queued: nothing more
+    /// is queued until its result.
+    pub fn check_queued(&mut self, spp: u32) {
+        if let Some(c) = &mut self.checks {
+            c.queued(spp);
         }
     }
 
@@ -150,19 +163,17 @@ impl ActiveJob {
 
     fn sized_pass_spp(&mut self, target: Duration) -> u32 {
         let submitted = self.session.submitted_spp();
-        if self.target_reached {
-            return 0;
-        }
         if !self.sizer.knows_cost() && self.session.in_flight() > 0 {
             return 0; // the first pass's cost first
         }
-        // A quality target: no pass past where the estimate expects it.
-        let cap = self
-            .settings
-            .until_rel_mse
-            .and_then(|goal| until_pass_cap(goal, self.estimate_spp, self.estimate, submitted));
+        // A quality target: no pass past its next check point, none while one is awaited, and
+        // none once it is reached.
+        let limit = self.checks.as_ref().map(|c| c.pass_limit(submitted));
+        if limit == Some(0) {
+            return 0;
+        }
         let n = self.budget_pass_spp(target, submitted);
-        cap.map_or(n, |c| n.min(c))
+        limit.map_or(n, |c| n.min(c))
     }
 
     /// [`Self::next_pass_spp`] from the budget alone.

@@ -667,22 +667,29 @@ impl Worker {
             }
             return;
         }
-        // Step 3: queue it, with a copy of the accumulation when a snapshot is due.
-        // (A job with a quality target copies it with every pass, to check the target.)
-        // (A shard has no live snapshots: its checkpoints write the merged image.)
+        // Step 3: queue it, with a copy of the accumulation when a snapshot is due, and the
+        // error estimate computed on the GPU when it ends at a check point of the job's quality
+        // target (renderer/src/render/until.rs). (A shard has no live snapshots: its
+        // checkpoints write the merged image.)
         let snapshot = job.shard.is_none() && job.snapshot_due(interval.saturating_sub(target / 2));
-        let copy = snapshot || job.settings.until_rel_mse.is_some();
+        let check = job.check_due(spp);
+        let end = job.session.submitted_spp() + spp;
         if let Some(sh) = &job.shard {
             // A shard's passes take the next indices of its range.
             let next = sh.range.first + job.session.submitted_spp();
             job.session.set_next_sample(next);
         }
-        let result = catch_unwind(AssertUnwindSafe(|| job.session.submit_pass(spp, copy)));
+        let result = catch_unwind(AssertUnwindSafe(|| {
+            job.session.submit_pass_with(spp, snapshot, check)
+        }));
         let done = match result {
             Ok(Ok(done)) => done,
             Ok(Err(e)) => return self.render_failed(id, e, "render pass"),
             Err(_) => return self.panicked(id, "render pass"),
         };
+        if check {
+            job.check_queued(end);
+        }
         if snapshot {
             job.last_snapshot = Some(Instant::now());
         }
@@ -747,19 +754,11 @@ impl Worker {
         let Some(job) = self.active.get_mut(&id) else {
             return;
         };
-        // A quality target: the snapshot's estimate, computed here to decide at once.
-        let mut snapshot = p.snapshot.map(SnapshotImage::Accum);
-        if job.settings.until_rel_mse.is_some() {
-            if let Some(SnapshotImage::Accum(snap)) = snapshot.take() {
-                match snap.image_and_estimate() {
-                    Ok((image, estimate)) => {
-                        job.observe_estimate(snap.spp(), estimate);
-                        snapshot = Some(SnapshotImage::Image(image, snap.spp()));
-                    }
-                    Err(e) => return self.render_failed(id, e, "estimating the error"),
-                }
-            }
+        // A quality target's check: the estimate the pass computed on the GPU.
+        if let Some(e) = p.estimate {
+            job.observe_estimate(e.spp, e.rel_mse);
         }
+        let snapshot = p.snapshot.map(SnapshotImage::Accum);
         // The last pass's image is the final one, which `finish` reports.
         if job.finished() {
             return self.finish(id);

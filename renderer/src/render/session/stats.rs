@@ -1,0 +1,69 @@
+//! A session's report ([`RenderStats`]): its counters, its scene's figures and its kernels'.
+
+use super::RenderSession;
+use crate::render::RenderStats;
+
+impl RenderSession {
+    /// What the session did so far (the render's report; [`crate::render::render_until`] and
+    /// the server add the estimate and why it stopped).
+    pub fn stats(&self) -> RenderStats {
+        let t = self.elapsed.as_secs_f64();
+        let samples = self.spp as f64 * self.width as f64 * self.height as f64;
+        RenderStats {
+            device: self.ctx.info.clone(),
+            integrator: self.entry.name.to_string(),
+            width: self.width,
+            height: self.height,
+            spp: self.spp,
+            passes: self.passes,
+            max_depth: self.integrator.max_depth(),
+            seed: self.seed,
+            time_s: t,
+            gpu_time_s: self.gpu_time.as_secs_f64(),
+            msamples_per_s: if t > 0.0 { samples / t * 1e-6 } else { 0.0 },
+            rays_per_s: if t > 0.0 { self.rays as f64 / t } else { 0.0 },
+            rays: self.rays,
+            dropped_samples: self.dropped,
+            triangles: self.info.triangles,
+            primitives: self.info.primitives,
+            lights: self.info.lights,
+            bvh_nodes: self.info.bvh_nodes,
+            bvh_depth: self.info.bvh_depth,
+            bvh_build_s: self.info.bvh_build.as_secs_f64(),
+            setup_s: self.setup.as_secs_f64(),
+            kernel_s: self.kernel_time.as_secs_f64(),
+            kernel_stats: self.pipeline.statistics().into_iter().collect(),
+            features: self.info.features.names(),
+            kernels: self.info.kernels,
+            accel: self.info.accel.kind.name().to_string(),
+            accel_build_s: self.info.accel.build_time.as_secs_f64(),
+            accel_bytes: self.info.bytes.accel,
+            geometry_bytes: self.info.bytes.geometry,
+            scene_gpu_bytes: self.info.bytes.total(),
+            gpu_bytes_per_triangle: if self.info.triangles > 0 {
+                (self.info.bytes.geometry + self.info.bytes.accel) as f64
+                    / self.info.triangles as f64
+            } else {
+                0.0
+            },
+            peak_rss_bytes: crate::memory::peak_rss_bytes(),
+            load_s: self.info.load_time.as_secs_f64(),
+            compile_s: self.info.compile_time.as_secs_f64(),
+            accel_cache: self.info.accel.cache,
+            grid_resolution: self.info.accel.grid_resolution,
+            grid_refs: self.info.accel.grid_refs,
+            kernel_build: self.kernel_build,
+            first_pass: self.first_pass.map(|p| crate::render::FirstPass {
+                spp: p.spp,
+                gpu_ms: p.gpu.as_secs_f64() * 1e3,
+                wall_ms: p.wall.as_secs_f64() * 1e3,
+            }),
+            details: self.integrator.details(),
+            rel_mse_estimate: None,
+            estimate_checks: self.estimates.report(),
+            stopped_by: None,
+            light_sampler: self.info.light_sampler,
+            auto: None,
+        }
+    }
+}
