@@ -4,7 +4,8 @@
 // jobs' images. Plain modern JavaScript modules, no dependencies, no build step:
 //   util.js (helpers) · api.js (API, SSE, server status) · state.js (state, job fields) ·
 //   images.js (image loading) · form.js (new render) · jobs.js (job list) ·
-//   viewer.js (selected job, tone) · chart.js (error chart) · ab.js (tabs, A/B compare)
+//   viewer.js (selected job, tone) · chart.js (error chart) · ab.js (tabs, A/B compare) ·
+//   farm.js (the workers table)
 
 import { $, STORE, debounce } from './util.js';
 import { checkHealth, getToken } from './api.js';
@@ -13,6 +14,7 @@ import { initForm, loadIntegrators, loadScenes } from './form.js';
 import { refreshJobs } from './jobs.js';
 import { download, fitViewImage, initTone, initViewer, selectJob } from './viewer.js';
 import { initAb, initTabs, layoutAb } from './ab.js';
+import { initFarm } from './farm.js';
 
 function renderTokenState() {
   $('token-state').textContent = getToken() ? '(set)' : '(none)';
@@ -79,6 +81,7 @@ function init() {
   loadScenes();
   loadIntegrators();
   refreshJobs();
+  initFarm();
   const m = /^#job=(.+)$/.exec(location.hash);
   if (m) selectJob(decodeURIComponent(m[1]));
   document.body.dataset.ready = 'true';

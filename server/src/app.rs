@@ -40,6 +40,7 @@ pub fn app(state: AppState) -> Router {
         .route("/api/jobs/{id}/image.png", get(routes::images::png))
         .route("/api/jobs/{id}/image.exr", get(routes::images::exr))
         .route("/api/me", get(routes::ops::me))
+        .route("/api/workers", get(routes::workers::list))
         .route("/api/integrators", get(routes::integrators::list))
         .route("/api/scenes", get(routes::scenes::list))
         .route("/api/scenes/{name}", get(routes::scenes::get_one))

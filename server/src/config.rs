@@ -145,6 +145,9 @@ pub struct ServerConfig {
     pub token: Option<String>,
     /// Vulkan device name filter.
     pub device: Option<String>,
+    /// The device's position in `candela devices` (`candela worker --devices`); takes
+    /// precedence over `device`.
+    pub device_index: Option<usize>,
     /// Enable the Vulkan validation layer (tests).
     pub validation: bool,
     /// How often a running job publishes a snapshot (and a progress event).
@@ -181,6 +184,9 @@ pub struct ServerConfig {
     pub lease: Duration,
     /// How often the worker renews its leases (a third of the lease).
     pub heartbeat: Duration,
+    /// Jobs this process claims first are split into shards of this many samples per pixel
+    /// (`--shard-spp`; 0: never, and always on SQLite; store/shards.rs).
+    pub shard_spp: u32,
 }
 
 /// Which kernels the server builds when its device opens (worker/warmup.rs).
@@ -240,6 +246,7 @@ impl ServerConfig {
             data_dir: data_dir.clone(),
             token: None,
             device: None,
+            device_index: None,
             validation: false,
             snapshot_interval: Duration::from_secs(1),
             checkpoint_interval: Duration::from_secs(10),
@@ -261,6 +268,7 @@ impl ServerConfig {
             worker_id: default_worker_id(),
             lease: Duration::from_secs(30),
             heartbeat: Duration::from_secs(10),
+            shard_spp: 0,
         }
     }
 

@@ -333,6 +333,19 @@ await step('the viewer shows the statistics and the job is done in the list', as
   await shot('viewer.png');
 });
 
+await step('the workers table shows the server rendering on its device', async () => {
+  // The server's render loop reports with its heartbeats (GET /api/workers; farm.js polls it).
+  await page.locator('#farm').waitFor({ state: 'visible', timeout: 15_000 });
+  await page.waitForFunction(() => {
+    const gpu = document.querySelector('#farm-rows tr td:nth-child(3)')?.textContent || '—';
+    return gpu !== '—';
+  }, null, { timeout: 15_000 });
+  const cells = await page.locator('#farm-rows tr').first().locator('td').allTextContents();
+  check(cells[1] === 'running', `the worker's state shows "${cells[1]}"`);
+  check(cells[2] && cells[2] !== '—', `the worker's GPU shows "${cells[2]}"`);
+  console.log(`     worker ${cells.join(' | ')}`);
+});
+
 await step('exposure and tonemap re-request the PNG', async () => {
   const sel = '#view-image';
   const b0 = await meanBrightness(sel);
@@ -389,7 +402,9 @@ await step('A/B view swipes between the two jobs', async () => {
   const clip = () => page.locator('#ab-img-b').evaluate((i) => i.style.clipPath);
   check((await value()) === 50, `the divider starts at ${await value()}, expected 50`);
 
-  // Drag with the mouse to a quarter of the width.
+  // Drag with the mouse to a quarter of the width (the frame scrolled into view first: the
+  // job list's buttons may have scrolled the page past it).
+  await page.locator('#ab-frame').scrollIntoViewIfNeeded();
   const frame = await page.locator('#ab-frame').boundingBox();
   check(frame && frame.width >= 4 * SIZE, 'the A/B frame is not scaled up');
   const y = frame.y + frame.height / 2;

@@ -2,9 +2,14 @@
 //! nothing (`candela serve --workers 0`) and `candela worker` processes sharing its database and
 //! data directory. Jobs submitted to the API are rendered by the workers, each by one worker
 //! (the `leases` table records every claim), to exactly their sample count; their events reach
-//! the API server's SSE clients live; and a worker killed mid-job (SIGKILL) has its job taken
+//! the API server's SSE clients live (LISTEN/NOTIFY); and a worker killed mid-job (SIGKILL) has its job taken
 //! over, once its lease expires, by the other worker, which resumes it from its checkpoint. A
-//! SQLite server cannot share the farm's data directory.
+//! SQLite server cannot share the farm's data directory. A job split into shards
+//! (`--shard-spp`) is rendered by three workers at once, one of them killed mid-shard, and
+//! comes out with exactly its samples and the image one worker renders of it whole; a worker
+//! with `--devices 0,0` claims shards on both its contexts, under two names, each reported by
+//! the API server (`/api/workers`, `/metrics`) until it is lost; a split job paused and resumed
+//! ends with exactly its samples.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -14,6 +19,8 @@ use std::time::{Duration, Instant};
 use candela_tests::database::{cluster, database_env, run_on, Backend};
 use candela_tests::server::Server;
 use candela_tests::{candela, repo_root, scratch};
+use renderer::film::read_exr;
+use renderer::metrics::rel_mse;
 use serde_json::{json, Value};
 
 const T: Duration = Duration::from_secs(180);
@@ -22,6 +29,19 @@ const T: Duration = Duration::from_secs(180);
 #[test]
 fn two_workers_share_the_jobs() {
     run_on(Backend::Postgres, two_workers_share_the_jobs_on_postgres)
+}
+
+#[test]
+fn three_workers_split_one_job() {
+    run_on(Backend::Postgres, three_workers_split_one_job_on_postgres)
+}
+
+#[test]
+fn one_worker_renders_on_two_devices() {
+    run_on(
+        Backend::Postgres,
+        one_worker_renders_on_two_devices_on_postgres,
+    )
 }
 
 #[test]
@@ -41,6 +61,11 @@ struct Worker {
 impl Worker {
     /// Starts worker `name` on `data`'s store and waits for its `rendering` line.
     fn start(data: &Path, name: &str, lease_s: &str) -> Worker {
+        Worker::start_with(data, name, lease_s, &[])
+    }
+
+    /// [`Worker::start`] with more arguments.
+    fn start_with(data: &Path, name: &str, lease_s: &str, extra: &[&str]) -> Worker {
         let log = data.parent().unwrap().join(format!("{name}.log"));
         let out = std::fs::File::create(&log).unwrap();
         let url = database_env(data).expect("a PostgreSQL database");
@@ -52,6 +77,7 @@ impl Worker {
             .args(["--pass-ms", "40", "--checkpoint-interval", "0.2"])
             .args(["--snapshot-interval", "0.2", "--max-active", "2"])
             .args(["--warm-kernels", "none"])
+            .args(extra)
             .current_dir(repo_root())
             .env("CANDELA_LOG", "info")
             .stdin(Stdio::null())
@@ -84,26 +110,29 @@ impl Drop for Worker {
     }
 }
 
-/// Every claim in the store's lease history: (job, worker, claimed_at), in claim order.
-fn claims(data: &Path) -> Vec<(i64, String, f64)> {
+/// The rows of `sql` on `data`'s store, each as its fields.
+fn psql(data: &Path, sql: &str) -> Vec<Vec<String>> {
     let url = database_env(data).unwrap();
     let o = Command::new(cluster().tool("psql"))
-        .args([&url, "-At", "-F", "|", "-c"])
-        .arg("SELECT job_id, worker, claimed_at FROM leases ORDER BY claimed_at, job_id")
+        .args([&url, "-At", "-F", "|", "-c", sql])
         .output()
         .expect("run psql");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     String::from_utf8_lossy(&o.stdout)
         .lines()
-        .map(|l| {
-            let f: Vec<&str> = l.split('|').collect();
-            (
-                f[0].parse().unwrap(),
-                f[1].to_string(),
-                f[2].parse().unwrap(),
-            )
-        })
+        .map(|l| l.split('|').map(str::to_string).collect())
         .collect()
+}
+
+/// Every claim in the store's lease history: (job, worker, claimed_at), in claim order.
+fn claims(data: &Path) -> Vec<(i64, String, f64)> {
+    psql(
+        data,
+        "SELECT job_id, worker, claimed_at FROM leases ORDER BY claimed_at, job_id",
+    )
+    .into_iter()
+    .map(|f| (f[0].parse().unwrap(), f[1].clone(), f[2].parse().unwrap()))
+    .collect()
 }
 
 fn spp(job: &Value) -> u64 {
@@ -113,7 +142,12 @@ fn spp(job: &Value) -> u64 {
 fn two_workers_share_the_jobs_on_postgres() {
     let dir = scratch("server_farm_two");
     let data = dir.join("data");
-    let api = Server::start(&data, &["--workers", "0"]);
+    // (The relay's fallback poll a minute: the events reach the stream by LISTEN/NOTIFY.)
+    let api = Server::start_with_env(
+        &data,
+        &["--workers", "0"],
+        &[("CANDELA_EVENT_POLL_S", "60")],
+    );
     let workers = [
         Worker::start(&data, "w1", "6"),
         Worker::start(&data, "w2", "6"),
@@ -182,8 +216,15 @@ fn two_workers_share_the_jobs_on_postgres() {
         assert_eq!(spp(&done), *want, "{done}");
         assert_eq!(done["stats"]["spp"], *want, "{done}");
     }
-    // Step 3: the API server streamed the worker's events: dense ids, through to `done`.
+    // Step 3: the API server streamed the worker's events: dense ids, through to `done`,
+    // notified at once (not at the minute's poll).
+    let t = Instant::now();
     let events = stream.collect_all();
+    assert!(
+        t.elapsed() < Duration::from_secs(10),
+        "{:?}: not notified",
+        t.elapsed()
+    );
     let seqs: Vec<i64> = events.iter().map(|e| e.id.unwrap()).collect();
     assert!(seqs.windows(2).all(|w| w[1] == w[0] + 1), "{seqs:?}");
     assert_eq!(events.last().unwrap().event, "done", "{events:?}");
@@ -231,4 +272,226 @@ fn a_killed_workers_job_is_taken_over_on_postgres() {
         c.iter().all(|(j, _, _)| *j == id),
         "only the one job: {c:?}"
     );
+}
+
+/// Job `id`'s shards: (index, done, lease owner, spp checkpointed).
+fn shards(data: &Path, id: i64) -> Vec<(u32, bool, String, u64)> {
+    let sql = format!(
+        "SELECT idx, done, COALESCE(lease_owner, ''), COALESCE(progress, '{{}}') FROM shards \
+         WHERE job_id = {id} ORDER BY idx"
+    );
+    psql(data, &sql)
+        .into_iter()
+        .map(|f| {
+            let p: Value = serde_json::from_str(&f[3]).unwrap();
+            (
+                f[0].parse().unwrap(),
+                f[1] == "1",
+                f[2].clone(),
+                spp(&json!({ "progress": p })),
+            )
+        })
+        .collect()
+}
+
+fn three_workers_split_one_job_on_postgres() {
+    let dir = scratch("server_farm_split");
+    let data = dir.join("data");
+    let api = Server::start(&data, &["--workers", "0"]);
+    let split = ["--shard-spp", "100"];
+    let mut workers: Vec<Worker> = ["w1", "w2", "w3"]
+        .iter()
+        .map(|n| Worker::start_with(&data, n, "2", &split))
+        .collect();
+    let logs = |ws: &[Worker]| ws.iter().map(|w| w.log()).collect::<Vec<_>>().join("\n");
+    // Step 1: a job of 6 shards; once the three workers have claimed shards, one holding a
+    // shard with a checkpoint dies (SIGKILL) before finishing it.
+    // (Shards of about a second each on lavapipe, five checkpoint intervals.)
+    let (total, seed) = (600u64, 11);
+    let body = json!({"scene_name": "cornell", "spp": total, "width": 24, "height": 24,
+                      "seed": seed});
+    let id = api.submit(&body)["id"].as_i64().unwrap();
+    let deadline = Instant::now() + T;
+    let victim = loop {
+        let rows = shards(&data, id);
+        assert!(Instant::now() < deadline, "{rows:?}\n{}", logs(&workers));
+        let claimers: BTreeSet<String> = claims(&data).into_iter().map(|c| c.1).collect();
+        // (Early in its shard, so that it cannot finish it before the kill lands.)
+        let started = rows
+            .iter()
+            .find(|r| !r.1 && r.3 > 0 && r.3 <= 50 && !r.2.is_empty());
+        if let (3, Some(r)) = (claimers.len(), started) {
+            break r.2.clone();
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let at = workers
+        .iter()
+        .position(|w| w.log.ends_with(format!("{victim}.log")))
+        .unwrap();
+    workers[at].kill9();
+    // Step 2: the others finish every shard (the victim's from its checkpoint) and merge them.
+    let done = api.wait_job(id, T, |j| {
+        matches!(j["state"].as_str(), Some("done" | "failed"))
+    });
+    assert_eq!(done["state"], "done", "{done}\n{}", logs(&workers));
+    assert_eq!(spp(&done), total, "{done}");
+    assert_eq!(done["stats"]["spp"], total, "{done}");
+    let rows = shards(&data, id);
+    assert_eq!(rows.len(), 6, "{rows:?}");
+    assert!(
+        rows.iter().all(|r| r.1 && r.3 == 100),
+        "every shard whole: {rows:?}"
+    );
+    let c = claims(&data);
+    let by: BTreeSet<&str> = c.iter().map(|(_, w, _)| w.as_str()).collect();
+    assert_eq!(by.len(), 3, "all three rendered: {c:?}");
+    assert!(
+        logs(&workers).contains("resumed from checkpoint"),
+        "{}",
+        logs(&workers)
+    );
+    assert!(
+        logs(&workers).contains("merged the shards"),
+        "{}",
+        logs(&workers)
+    );
+    // A worker's next shard of the job reuses its session (no scene loaded again).
+    let reused = "reusing the session of the job's last shard";
+    assert!(logs(&workers).contains(reused), "{}", logs(&workers));
+    let shard_files = std::fs::read_dir(data.join(format!("jobs/{id}")))
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .file_name()
+                .to_string_lossy()
+                .starts_with("shard-")
+        })
+        .count();
+    assert_eq!(
+        shard_files, 0,
+        "the shards' checkpoints are removed at the end"
+    );
+    // Step 3: one worker, splitting nothing, renders the same job whole: the same image.
+    drop(workers);
+    let _one = Worker::start_with(&data, "w4", "2", &["--shard-spp", "0"]);
+    let whole = api.submit(&body)["id"].as_i64().unwrap();
+    let done = api.wait_job(whole, T, |j| {
+        matches!(j["state"].as_str(), Some("done" | "failed"))
+    });
+    assert_eq!(done["state"], "done", "{done}");
+    assert!(shards(&data, whole).is_empty());
+    let image = |id: i64| read_exr(&data.join(format!("jobs/{id}/image.exr"))).unwrap();
+    let e = rel_mse(&image(id), &image(whole)).unwrap();
+    assert!(e < 1e-8, "split vs whole relMSE {e}");
+}
+
+fn one_worker_renders_on_two_devices_on_postgres() {
+    let dir = scratch("server_farm_devices");
+    let data = dir.join("data");
+    let api = Server::start(&data, &["--workers", "0"]);
+    // (Two contexts on lavapipe's one device, as `candela render --devices 0,0`.)
+    let mut w = Worker::start_with(&data, "w", "2", &["--devices", "0,0", "--shard-spp", "20"]);
+    let total = 160u64;
+    let id = api.submit(&json!({"scene_name": "furnace", "spp": total,
+                                "width": 16, "height": 16, "seed": 2}))["id"]
+        .as_i64()
+        .unwrap();
+    let done = api.wait_job(id, T, |j| {
+        matches!(j["state"].as_str(), Some("done" | "failed"))
+    });
+    assert_eq!(done["state"], "done", "{done}\n{}", w.log());
+    assert_eq!(spp(&done), total, "{done}");
+    // Both threads claimed shards, each under its own name.
+    let by: BTreeSet<String> = claims(&data).into_iter().map(|c| c.1).collect();
+    let want: BTreeSet<String> = ["w/gpu0", "w/gpu1"].map(String::from).into();
+    assert_eq!(by, want, "{}", w.log());
+    // Step 2: the API server reports both from their heartbeats: device, passes, samples (all
+    // of the job's, once each), no job held.
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let workers = loop {
+        let (_, v) = api.get("/api/workers");
+        let list = v["workers"].as_array().cloned().unwrap_or_default();
+        let samples = |w: &Value| w["samples"].as_u64().unwrap_or(0);
+        let idle = |w: &Value| w["jobs"].as_array().is_some_and(|j| j.is_empty());
+        if list.len() == 2
+            && list.iter().all(|w| samples(w) > 0 && idle(w))
+            && list.iter().map(samples).sum::<u64>() == total * 16 * 16
+        {
+            break list;
+        }
+        assert!(Instant::now() < deadline, "{v}");
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    for (x, name) in workers.iter().zip(["w/gpu0", "w/gpu1"]) {
+        assert_eq!(
+            (x["name"].as_str(), x["state"].as_str()),
+            (Some(name), Some("running"))
+        );
+        assert!(x["device"].as_str().unwrap().contains("llvmpipe"), "{x}");
+        assert!(x["passes"].as_u64().unwrap() >= 1, "{x}");
+    }
+    let metrics = api.metrics();
+    for name in ["w/gpu0", "w/gpu1"] {
+        let up = format!("candela_worker_up{{worker=\"{name}\",device=\"llvmpipe");
+        assert!(metrics.contains(&up), "{metrics}");
+    }
+    // Step 3: a split job paused mid-render keeps its shards' samples and, resumed, ends with
+    // exactly its spp.
+    let total = 400u64;
+    let id = api.submit(&json!({"scene_name": "cornell", "spp": total,
+                                "width": 16, "height": 16, "seed": 4}))["id"]
+        .as_i64()
+        .unwrap();
+    api.wait_job(id, T, |j| spp(j) >= 40);
+    let (code, _) = api.post(&format!("/api/jobs/{id}/pause"), &json!({}));
+    assert_eq!(code, 200);
+    let paused = api.wait_job(id, T, |j| j["state"] == "paused");
+    std::thread::sleep(Duration::from_millis(500));
+    let held = spp(&api.job(id));
+    assert!(held >= spp(&paused) && held < total, "{held} of {total}");
+    let (code, _) = api.post(&format!("/api/jobs/{id}/resume"), &json!({}));
+    assert_eq!(code, 200);
+    let done = api.wait_job(id, T, |j| {
+        matches!(j["state"].as_str(), Some("done" | "failed"))
+    });
+    assert_eq!(done["state"], "done", "{done}\n{}", w.log());
+    assert_eq!(
+        (spp(&done), done["stats"]["spp"].as_u64()),
+        (total, Some(total))
+    );
+    // (A shard in progress at the pause was checkpointed and resumed; every one whole.)
+    let rows = shards(&data, id);
+    assert_eq!(rows.len(), 20, "{rows:?}");
+    assert!(rows.iter().all(|r| r.1 && r.3 == 20), "{rows:?}");
+    // Step 4: killed, both are reported lost once their lease runs out.
+    w.kill9();
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let (_, v) = api.get("/api/workers");
+        let states: Vec<&str> = v["workers"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|w| w["state"].as_str().unwrap())
+            .collect();
+        if states == ["lost", "lost"] {
+            break;
+        }
+        assert!(Instant::now() < deadline, "{v}");
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    assert!(api
+        .metrics()
+        .contains("candela_worker_up{worker=\"w/gpu0\""));
+    // `serve` renders on one device.
+    let o = Command::new(candela())
+        .args(["serve", "--devices", "0", "--data-dir"])
+        .arg(dir.join("other"))
+        .output()
+        .expect("run candela");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("candela worker"), "{err}");
 }

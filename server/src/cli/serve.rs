@@ -41,6 +41,11 @@ pub struct ServeArgs {
     /// Use the first Vulkan device whose name contains this text.
     #[arg(long)]
     pub device: Option<String>,
+    /// `candela worker` only: render on these devices at once, one claiming thread each (named
+    /// NAME/gpu0, NAME/gpu1, … in leases): "all" (every GPU of the best kind) or indices from
+    /// `candela devices`, e.g. 0,1 (an index may repeat: two contexts on one device).
+    #[arg(long, value_name = "LIST", conflicts_with = "device")]
+    pub devices: Option<String>,
     /// Seconds between snapshots (image + progress event) of a running job.
     #[arg(long, default_value_t = 1.0)]
     pub snapshot_interval: f64,
@@ -140,6 +145,11 @@ pub struct ServeArgs {
     /// once; never give two live processes one name.
     #[arg(long, value_name = "NAME")]
     pub worker_id: Option<String>,
+    /// On PostgreSQL, cut a job with a sample budget above N samples per pixel into shards of
+    /// N sample indices that any worker may render, merged exactly at the end (0: never;
+    /// store/shards.rs). The process that first claims a job decides.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub shard_spp: u32,
     /// How often retention runs (10m, 1h).
     #[arg(long, value_name = "INTERVAL", default_value = "10m")]
     pub gc_interval: String,
@@ -249,6 +259,7 @@ pub(super) fn configure(a: &ServeArgs) -> Result<(ServerConfig, SocketAddr), Cli
     };
     c.lease = seconds("--lease", a.lease)?;
     c.heartbeat = c.lease / 3;
+    c.shard_spp = a.shard_spp;
     if let Some(id) = a.worker_id.as_ref().filter(|i| !i.trim().is_empty()) {
         c.worker_id = id.trim().to_string();
     }
@@ -350,8 +361,9 @@ pub(super) fn lock_data_dir(dir: &std::path::Path, farm: bool) -> Result<std::fs
     Ok(lock)
 }
 
-/// Broadcasts the events other processes of the farm wrote, every quarter second (events.rs).
-async fn relay_task(store: Arc<Store>) {
+/// Broadcasts the events other processes of the farm wrote (events.rs): when a notification
+/// says there are some (store/notify.rs), else every `poll`.
+async fn relay_task(store: Arc<Store>, notified: Arc<tokio::sync::Notify>, poll: Duration) {
     loop {
         let s = store.clone();
         match tokio::task::spawn_blocking(move || s.relay_new_events()).await {
@@ -359,8 +371,25 @@ async fn relay_task(store: Arc<Store>) {
             Err(e) => tracing::warn!(error = %e, "relaying events panicked"),
             Ok(Ok(())) => {}
         }
-        tokio::time::sleep(Duration::from_millis(250)).await;
+        tokio::select! {
+            _ = notified.notified() => {}
+            _ = tokio::time::sleep(poll) => {}
+        }
     }
+}
+
+/// The relay's poll with LISTEN/NOTIFY running: `$CANDELA_EVENT_POLL_S` seconds (default 1; a
+/// test sets it long to see that notifications alone carry the events); a quarter second
+/// without.
+fn event_poll(listening: bool) -> Duration {
+    if !listening {
+        return Duration::from_millis(250);
+    }
+    std::env::var("CANDELA_EVENT_POLL_S")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+        .filter(|s| s.is_finite() && *s > 0.0)
+        .map_or(Duration::from_secs(1), Duration::from_secs_f64)
 }
 
 /// Resolves on SIGTERM or Ctrl-C.
@@ -404,6 +433,11 @@ fn check_device(want: Option<&str>) -> Result<(), CliError> {
 
 pub fn run(a: ServeArgs) -> Result<(), CliError> {
     let (mut config, addr) = configure(&a)?;
+    if a.devices.is_some() {
+        return Err(CliError::input(
+            "--devices: for `candela worker` (a server renders on one device: --device)",
+        ));
+    }
     check_device(a.device.as_deref())?;
     // Step 1: the data directory (one server per directory), the store, the built-in assets.
     let data_dir = config.data_dir.clone();
@@ -412,6 +446,10 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
         .map_err(|e| CliError::failure(format!("--data-dir {}: {e}", dir.display())))?;
     let db = database(a.database.as_deref(), dir)?;
     let farm = matches!(db, Database::Postgres(_));
+    let pg_url = match &db {
+        Database::Postgres(url) => Some(url.clone()),
+        Database::Sqlite(_) => None,
+    };
     if !farm && a.workers == 0 {
         return Err(CliError::input(
             "--workers 0: only with a shared store (--database postgres://…); with SQLite nothing would render the jobs",
@@ -438,6 +476,8 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
         None
     };
     if !farm {
+        // Alone on the store: one worker, nothing to split jobs for.
+        config.shard_spp = 0;
         // Alone on the directory: nobody else's uploads are being unpacked.
         let _ = std::fs::remove_dir_all(config.tmp_dir());
     }
@@ -491,8 +531,18 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
                 .map_err(|e| CliError::failure(format!("starting the GPU worker: {e}")))?;
             (w, Some(t))
         };
-        if farm {
-            tokio::spawn(relay_task(store.clone()));
+        if let Some(url) = &pg_url {
+            // Notifications relay events at once and wake the worker on job changes.
+            let notified = Arc::new(tokio::sync::Notify::new());
+            let (n, w) = (notified.clone(), worker.clone());
+            let listening = crate::store::listen(url, move |note| {
+                n.notify_one();
+                if note.changes_jobs() {
+                    w.wake();
+                }
+            })
+            .is_ok();
+            tokio::spawn(relay_task(store.clone(), notified, event_poll(listening)));
         }
         let (stop_tx, stop_rx) = watch::channel(false);
         let stop_watch = stop_rx.clone();

@@ -6,6 +6,10 @@
 //! checkpoints its jobs and exits 0; another worker (or itself, restarted) resumes them once
 //! their leases expire.
 //!
+//! `--devices all|0,1` renders on several devices at once: one worker thread per device, each
+//! with its own context, claims and leases, named `NAME/gpu0`, `NAME/gpu1`, … (by position in
+//! the list).
+//!
 //! Prints `candela: worker NAME rendering` on stdout once the store is open.
 
 use std::sync::Arc;
@@ -37,17 +41,47 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
     crate::builtin_scenes::install(&config.builtin_dir())
         .map_err(|e| CliError::failure(format!("writing the built-in scenes: {e}")))?;
     renderer::gpu::set_cache_limits(config.caches);
-    let shared = Shared::default();
-    shared.set_storage(crate::storage::status(dir, config.min_free_space));
+    let store = Arc::new(store);
     let name = config.worker_id.clone();
-    // Step 2: the worker loop, until a signal.
-    let (worker, thread) =
-        crate::worker::spawn(Arc::new(store), Arc::new(shared), Arc::new(config))
-            .map_err(|e| CliError::failure(format!("starting the GPU worker: {e}")))?;
+    // Step 2: the worker loops (one per device), until a signal.
+    let devices = match &a.devices {
+        Some(spec) => super::multi_device::parse_devices(spec)?
+            .into_iter()
+            .map(Some)
+            .collect(),
+        None => vec![None],
+    };
+    let mut running = Vec::new();
+    for (k, index) in devices.iter().enumerate() {
+        let mut c = config.clone();
+        if let Some(i) = index {
+            c.device_index = Some(*i);
+            c.worker_id = format!("{name}/gpu{k}");
+        }
+        let shared = Shared::default();
+        shared.set_storage(crate::storage::status(dir, c.min_free_space));
+        let (worker, thread) =
+            crate::worker::spawn(store.clone(), Arc::new(shared), Arc::new(c))
+                .map_err(|e| CliError::failure(format!("starting the GPU worker: {e}")))?;
+        running.push((worker, thread));
+    }
+    // A job submitted, paused, resumed, canceled or reprioritised: every loop looks at once
+    // (store/notify.rs; else within a second).
+    if let Database::Postgres(url) = &db {
+        let handles: Vec<_> = running.iter().map(|(w, _)| w.clone()).collect();
+        let listened = crate::store::listen(url, move |note| {
+            if note.changes_jobs() {
+                handles.iter().for_each(|h| h.wake());
+            }
+        });
+        if let Err(e) = listened {
+            tracing::warn!(error = %e, "LISTEN: not started; polling only");
+        }
+    }
     println!("candela: worker {name} rendering");
     use std::io::Write;
     let _ = std::io::stdout().flush();
-    tracing::info!(worker = %name, "rendering");
+    tracing::info!(worker = %name, devices = running.len(), "rendering");
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -55,9 +89,13 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
     rt.block_on(shutdown_signal());
     tracing::info!("shutting down");
     // Step 3: checkpoint and leave.
-    worker.shutdown();
-    if thread.join().is_err() {
-        tracing::error!("the GPU worker did not stop cleanly");
+    for (worker, _) in &running {
+        worker.shutdown();
+    }
+    for (_, thread) in running {
+        if thread.join().is_err() {
+            tracing::error!("a GPU worker did not stop cleanly");
+        }
     }
     drop(lock);
     Ok(())

@@ -1,6 +1,6 @@
 //! HTTP handlers, one module per resource: jobs (submit, list, control), events (SSE), images
 //! (PNG/EXR snapshots), scenes (built-ins), integrators (the registry), ops (health, metrics),
-//! static_files (web viewer).
+//! workers (the farm's workers), static_files (web viewer).
 //! The router itself is assembled in `app.rs`.
 
 pub mod events;
@@ -11,3 +11,4 @@ pub mod jobs;
 pub mod ops;
 pub mod scenes;
 pub mod static_files;
+pub mod workers;

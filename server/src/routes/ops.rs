@@ -1,7 +1,8 @@
 //! Operations: `GET /api/health` (always open: status, version, device, kernel warm-up, jobs by
 //! state, storage), `GET /api/me` (the caller's name and role) and
 //! `GET /metrics` (Prometheus text: jobs by state, samples rendered, GPU busy seconds, passes,
-//! queue-wait histogram, open event streams, free space).
+//! queue-wait histogram, open event streams, free space; and every worker's figures, from the
+//! store: routes/workers.rs).
 
 use axum::extract::State;
 use axum::http::header;
@@ -42,12 +43,14 @@ pub async fn me(caller: crate::auth::Caller) -> Json<Value> {
 /// Prometheus exposition.
 pub async fn metrics(State(st): State<AppState>) -> Result<Response, ApiError> {
     let jobs = st.store.count_by_state()?;
+    let mut text = st.shared.prometheus(&jobs);
+    text.push_str(&super::workers::prometheus(&st.store)?);
     Ok((
         [(
             header::CONTENT_TYPE,
             "text/plain; version=0.0.4; charset=utf-8",
         )],
-        st.shared.prometheus(&jobs),
+        text,
     )
         .into_response())
 }

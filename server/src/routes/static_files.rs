@@ -24,6 +24,7 @@ const SCRIPTS: &[(&str, &str)] = &[
     ("/viewer.js", include_str!("../../../web/viewer.js")),
     ("/chart.js", include_str!("../../../web/chart.js")),
     ("/ab.js", include_str!("../../../web/ab.js")),
+    ("/farm.js", include_str!("../../../web/farm.js")),
 ];
 
 fn file(content_type: &'static str, body: &'static str) -> impl IntoResponse {

@@ -50,6 +50,7 @@ pub(super) fn append_in(
         "INSERT INTO events (job_id, seq, kind, data, at) VALUES (?1, ?2, ?3, ?4, ?5)",
         params![job_id, seq, kind, data.to_string(), now_s()],
     )?;
+    super::notify::notify_in(c, job_id, kind)?;
     Ok(StoredEvent {
         job_id,
         seq,

@@ -6,11 +6,14 @@
 //! expiry. It renews the expiry by heartbeats while it renders; a worker that dies stops
 //! renewing, the lease expires, and another worker claims the job and resumes it from its
 //! checkpoint. A worker whose renewal finds the lease gone (expired and taken) stops rendering
-//! that job. Every claim is recorded in `leases` (job, worker, time).
+//! that job. Every claim is recorded in `leases` (job, worker, time, shard). A job split into
+//! shards (shards.rs) is leased shard by shard, on the `shards` rows, and its final merge on the
+//! job's row; a worker holds at most one part of a job, so both are renewed by job id.
 
 use std::time::Duration;
 
 use super::db::params;
+use super::shards::{claim_part, Claim};
 use super::{Store, StoreError};
 use crate::jobs::model::{now_s, JobId, JobState};
 
@@ -26,22 +29,30 @@ fn id_list(ids: &[JobId]) -> String {
 }
 
 impl Store {
-    /// Claims the next runnable job for `worker` for `lease`: running before queued, then by
-    /// priority (highest first), then oldest first; a running job only when its lease expired
-    /// or is `worker`'s own. `exclude`: jobs the worker already holds. Returns the job's id,
-    /// state and priority.
+    /// Claims the next runnable job (or shard of one, store/shards.rs) for `worker` for
+    /// `lease`: running before queued, then by priority (highest first), then oldest first; a
+    /// job or shard only when its lease expired or is `worker`'s own. `exclude`: jobs the
+    /// worker already holds. `shard_spp`: how this worker splits a job it claims first (0:
+    /// never).
     pub fn claim_job(
         &self,
         worker: &str,
         lease: Duration,
         exclude: &[JobId],
-    ) -> Result<Option<(JobId, JobState, u32)>, StoreError> {
+        shard_spp: u32,
+    ) -> Result<Option<Claim>, StoreError> {
         let now = now_s();
         self.write(|c| {
+            let free = "(j.lease_owner IS NULL OR j.lease_owner = ?1 OR j.lease_until < ?2)";
             let pick = format!(
-                "SELECT id, state, priority FROM jobs WHERE state IN ('queued', 'running') \
-                 AND (lease_owner IS NULL OR lease_owner = ?1 OR lease_until < ?2) \
-                 AND id NOT IN ({}) \
+                "SELECT id, state, priority, shard_count, settings, started_at FROM jobs j \
+                 WHERE state IN ('queued', 'running') AND id NOT IN ({}) AND ( \
+                 (shard_count = 0 AND {free}) \
+                 OR (shard_count > 0 AND EXISTS (SELECT 1 FROM shards s WHERE s.job_id = j.id \
+                     AND s.done = 0 AND (s.lease_owner IS NULL OR s.lease_owner = ?1 \
+                     OR s.lease_until < ?2))) \
+                 OR (shard_count > 0 AND {free} AND NOT EXISTS (SELECT 1 FROM shards s \
+                     WHERE s.job_id = j.id AND s.done = 0))) \
                  ORDER BY state = 'running' DESC, priority DESC, id ASC LIMIT 1{}",
                 id_list(exclude),
                 c.dialect().skip_locked()
@@ -52,20 +63,20 @@ impl Store {
             let id = row.i64(0)?;
             let state = JobState::parse(&row.text(1)?).unwrap_or(JobState::Queued);
             let priority = u32::try_from(row.i64(2)?).unwrap_or(1);
-            c.exec(
-                "UPDATE jobs SET lease_owner = ?2, lease_until = ?3 WHERE id = ?1",
-                params![id, worker, now + lease.as_secs_f64()],
-            )?;
-            c.exec(
-                "INSERT INTO leases (job_id, worker, claimed_at) VALUES (?1, ?2, ?3)",
-                params![id, worker, now],
-            )?;
-            Ok((Some((id, state, priority)), Vec::new()))
+            let until = now + lease.as_secs_f64();
+            let part = claim_part(c, &row, worker, until, shard_spp)?;
+            let claim = part.map(|part| Claim {
+                id,
+                state,
+                priority,
+                part,
+            });
+            Ok((claim, Vec::new()))
         })
     }
 
-    /// The heartbeat: extends `worker`'s leases on `held` by `lease` and gives up its leases on
-    /// every other job; returns the jobs of `held` whose lease it still has (the others were
+    /// The heartbeat: extends `worker`'s leases on `held` (whole jobs, merges and shards) by
+    /// `lease` and gives up its leases on every other job; returns the jobs of `held` whose lease it still has (the others were
     /// taken over after expiring: stop rendering them).
     pub fn renew_leases(
         &self,
@@ -75,21 +86,29 @@ impl Store {
     ) -> Result<Vec<JobId>, StoreError> {
         let list = id_list(held);
         self.write(|c| {
-            c.exec(
-                &format!(
-                    "UPDATE jobs SET lease_owner = NULL, lease_until = NULL \
-                     WHERE lease_owner = ?1 AND id NOT IN ({list})"
-                ),
-                params![worker],
-            )?;
-            let rows = c.query(
-                &format!(
-                    "UPDATE jobs SET lease_until = ?2 WHERE lease_owner = ?1 AND id IN ({list}) \
-                     RETURNING id"
-                ),
-                params![worker, now_s() + lease.as_secs_f64()],
-            )?;
-            let kept = rows.iter().map(|r| r.i64(0)).collect::<Result<_, _>>()?;
+            let until = now_s() + lease.as_secs_f64();
+            let mut kept: Vec<JobId> = Vec::new();
+            // Whole jobs (and merges) on the job's row, shards on theirs.
+            for table in ["jobs", "shards"] {
+                let key = if table == "jobs" { "id" } else { "job_id" };
+                c.exec(
+                    &format!(
+                        "UPDATE {table} SET lease_owner = NULL, lease_until = NULL \
+                         WHERE lease_owner = ?1 AND {key} NOT IN ({list})"
+                    ),
+                    params![worker],
+                )?;
+                let rows = c.query(
+                    &format!(
+                        "UPDATE {table} SET lease_until = ?2 WHERE lease_owner = ?1 \
+                         AND {key} IN ({list}) RETURNING {key}"
+                    ),
+                    params![worker, until],
+                )?;
+                for r in rows {
+                    kept.push(r.i64(0)?);
+                }
+            }
             Ok((kept, Vec::new()))
         })
     }
@@ -97,10 +116,11 @@ impl Store {
     /// Drops every lease (a process that alone uses the store, at its start: a SQLite server).
     pub fn clear_leases(&self) -> Result<(), StoreError> {
         self.read(|c| {
-            c.exec(
+            c.batch(
                 "UPDATE jobs SET lease_owner = NULL, lease_until = NULL \
-                 WHERE lease_owner IS NOT NULL",
-                &[],
+                 WHERE lease_owner IS NOT NULL; \
+                 UPDATE shards SET lease_owner = NULL, lease_until = NULL \
+                 WHERE lease_owner IS NOT NULL;",
             )
         })?;
         Ok(())
@@ -136,19 +156,35 @@ mod tests {
         let (s, dir) = store("leases");
         let long = Duration::from_secs(60);
         // Step 1: the higher priority first; held jobs are not claimed twice.
-        assert_eq!(s.claim_job("a", long, &[]).unwrap().map(|c| c.0), Some(2));
-        assert_eq!(s.claim_job("b", long, &[]).unwrap().map(|c| c.0), Some(1));
-        assert_eq!(s.claim_job("c", long, &[]).unwrap(), None, "done or held");
+        assert_eq!(
+            s.claim_job("a", long, &[], 0).unwrap().map(|c| c.id),
+            Some(2)
+        );
+        assert_eq!(
+            s.claim_job("b", long, &[], 0).unwrap().map(|c| c.id),
+            Some(1)
+        );
+        assert_eq!(
+            s.claim_job("c", long, &[], 0).unwrap(),
+            None,
+            "done or held"
+        );
         // Step 2: a's lease on 2 expires (renewed with a zero lease); c takes it over.
         assert_eq!(s.renew_leases("a", &[2], Duration::ZERO).unwrap(), vec![2]);
         std::thread::sleep(Duration::from_millis(20));
-        assert_eq!(s.claim_job("c", long, &[]).unwrap().map(|c| c.0), Some(2));
+        assert_eq!(
+            s.claim_job("c", long, &[], 0).unwrap().map(|c| c.id),
+            Some(2)
+        );
         assert!(s.renew_leases("a", &[2], long).unwrap().is_empty(), "lost");
         assert_eq!(s.renew_leases("c", &[2], long).unwrap(), vec![2]);
         // Step 3: b gives up 1 (a heartbeat without it); a may claim it, and exclude it.
         assert!(s.renew_leases("b", &[], long).unwrap().is_empty());
-        assert_eq!(s.claim_job("a", long, &[1]).unwrap(), None);
-        assert_eq!(s.claim_job("a", long, &[]).unwrap().map(|c| c.0), Some(1));
+        assert_eq!(s.claim_job("a", long, &[1], 0).unwrap(), None);
+        assert_eq!(
+            s.claim_job("a", long, &[], 0).unwrap().map(|c| c.id),
+            Some(1)
+        );
         // Every claim is in the history.
         let n = s
             .read(|c| c.query_one("SELECT COUNT(*) FROM leases", &[]))

@@ -126,10 +126,65 @@ CREATE TABLE leases (
 );
 CREATE INDEX leases_by_job ON leases(job_id);",
     },
+    // 4: jobs split by sample index over several workers (store/shards.rs): how many shards a
+    // job has (0: rendered whole), and each shard's sample range, progress, completion and
+    // lease; which shard each claim in `leases` took (NULL: the whole job, or its merge).
+    Migration {
+        version: 4,
+        sqlite: "
+ALTER TABLE jobs ADD COLUMN shard_count INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE leases ADD COLUMN shard INTEGER;
+CREATE TABLE IF NOT EXISTS shards (
+    job_id       INTEGER NOT NULL,
+    idx          INTEGER NOT NULL,
+    first_sample INTEGER NOT NULL,
+    samples      INTEGER NOT NULL,
+    progress     TEXT,
+    done         INTEGER NOT NULL DEFAULT 0,
+    lease_owner  TEXT,
+    lease_until  REAL,
+    PRIMARY KEY (job_id, idx)
+);",
+        postgres: "
+ALTER TABLE jobs ADD COLUMN shard_count BIGINT NOT NULL DEFAULT 0;
+ALTER TABLE leases ADD COLUMN shard BIGINT;
+CREATE TABLE shards (
+    job_id       BIGINT NOT NULL,
+    idx          BIGINT NOT NULL,
+    first_sample BIGINT NOT NULL,
+    samples      BIGINT NOT NULL,
+    progress     TEXT,
+    done         BIGINT NOT NULL DEFAULT 0,
+    lease_owner  TEXT,
+    lease_until  DOUBLE PRECISION,
+    PRIMARY KEY (job_id, idx)
+);",
+    },
+    // 5: the workers of a farm as they last reported (store/workers.rs): heartbeat time, lease,
+    // whether they stopped, and their figures (device, passes, samples/s, jobs) as JSON.
+    Migration {
+        version: 5,
+        sqlite: "
+CREATE TABLE IF NOT EXISTS workers (
+    name    TEXT PRIMARY KEY,
+    seen_at REAL NOT NULL,
+    lease_s REAL NOT NULL,
+    stopped INTEGER NOT NULL DEFAULT 0,
+    report  TEXT NOT NULL
+);",
+        postgres: "
+CREATE TABLE workers (
+    name    TEXT PRIMARY KEY,
+    seen_at DOUBLE PRECISION NOT NULL,
+    lease_s DOUBLE PRECISION NOT NULL,
+    stopped BIGINT NOT NULL DEFAULT 0,
+    report  TEXT NOT NULL
+);",
+    },
 ];
 
 /// The schema version this build writes.
-pub const LATEST: i64 = 3;
+pub const LATEST: i64 = 5;
 
 /// Brings the database to [`LATEST`]; runs inside the caller's transaction, which must exclude
 /// other processes migrating at once (SQLite: `BEGIN IMMEDIATE`; PostgreSQL: this takes an

@@ -15,12 +15,18 @@ mod events;
 mod jobs;
 mod leases;
 mod migrate;
+mod notify;
 mod postgres;
 mod retention;
+mod shards;
 mod users;
+mod workers;
 
 pub use events::StoredEvent;
 pub use jobs::Transition;
+pub use notify::listen;
+pub use shards::{sum_progress, Claim, Part, ShardRange};
+pub use workers::WorkerRecord;
 
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -225,6 +231,10 @@ impl JobPaths {
     /// The accumulation checkpoint.
     pub fn checkpoint(&self) -> PathBuf {
         self.dir.join("checkpoint.bin")
+    }
+    /// The checkpoint of shard `idx` of a job split over workers (shards.rs).
+    pub fn shard_checkpoint(&self, idx: u32) -> PathBuf {
+        self.dir.join(format!("shard-{idx}.bin"))
     }
     /// The latest image written to disk (at checkpoints, pause, cancel and the end).
     pub fn image(&self) -> PathBuf {

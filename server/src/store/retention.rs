@@ -53,6 +53,7 @@ impl Store {
             }
             c.exec("DELETE FROM events WHERE job_id = ?1", params![id])?;
             c.exec("DELETE FROM leases WHERE job_id = ?1", params![id])?;
+            c.exec("DELETE FROM shards WHERE job_id = ?1", params![id])?;
             c.exec("DELETE FROM jobs WHERE id = ?1", params![id])?;
             Ok((rec, Vec::new()))
         })

@@ -14,6 +14,7 @@ use serde_json::{json, Value};
 
 use super::checkpoint;
 use super::metrics_lane::{LaneTargets, MetricsLane, SnapshotImage};
+use super::shard::ShardRun;
 use super::watchdog::PassWatch;
 use crate::jobs::model::{JobId, JobSettings};
 use crate::shared::Shared;
@@ -58,6 +59,11 @@ pub struct ActiveJob {
     pub report_flags: std::collections::VecDeque<bool>,
     /// An `auto` job's choice (auto.rs), for its stats.
     pub auto: Option<super::auto::AutoRun>,
+    /// The shard this session renders, for a job split over workers (its `settings.spp` is
+    /// then the shard's sample count; shard.rs).
+    pub shard: Option<ShardRun>,
+    /// A split job whose shards this session merged: how many (their files go at the end).
+    pub merged_shards: Option<u32>,
 }
 
 impl ActiveJob {
@@ -77,6 +83,8 @@ impl ActiveJob {
             checks: settings.until_rel_mse.map(UntilChecks::new),
             report_flags: Default::default(),
             auto: None,
+            shard: None,
+            merged_shards: None,
             session,
             settings,
             paths,
@@ -193,6 +201,16 @@ impl ActiveJob {
         self.sizer.observe(stats);
     }
 
+    /// The session, the job done with (its metrics flushed first).
+    pub fn into_session(self) -> RenderSession {
+        self.session
+    }
+
+    /// Seconds since the job was admitted (about since its lease was claimed).
+    pub fn held_s(&self) -> f64 {
+        self.admitted.elapsed().as_secs_f64()
+    }
+
     /// Whether a snapshot is due.
     pub fn snapshot_due(&self, interval: Duration) -> bool {
         self.last_snapshot.is_none_or(|t| t.elapsed() >= interval)
@@ -224,8 +242,17 @@ impl ActiveJob {
                 (None, eta, p.time_s / t.max(1e-9))
             }
         };
+        // A shard reports the job's figures: every shard's samples, of the job's.
+        let (spp, target_spp, fraction) = match &self.shard {
+            Some(sh) => {
+                let all = sh.others_spp + p.spp;
+                (all, Some(sh.job_spp), all as f64 / sh.job_spp.max(1) as f64)
+            }
+            None => (p.spp, target_spp, fraction),
+        };
         json!({
-            "spp": p.spp,
+            "spp": spp,
+            "shard": self.shard.as_ref().map(|sh| super::shard::shard_json(sh, p.spp)),
             "target_spp": target_spp,
             "time_s": self.settings.time_s,
             "elapsed_s": p.time_s,
@@ -284,18 +311,27 @@ impl ActiveJob {
         }
     }
 
-    /// Writes the checkpoint and the image it implies; returns the progress saved.
+    /// The checkpoint file: the job's, or its shard's.
+    pub fn checkpoint_path(&self) -> std::path::PathBuf {
+        match &self.shard {
+            Some(sh) => self.paths.shard_checkpoint(sh.range.idx),
+            None => self.paths.checkpoint(),
+        }
+    }
+
+    /// Writes the checkpoint and the image it implies (a shard's: merged with the other
+    /// shards' latest checkpoints); returns the progress saved.
     pub fn write_checkpoint(&mut self) -> Result<Progress, CheckpointError> {
         crate::storage::injected_fault().map_err(CheckpointError::Io)?;
         // (Waits for the job's queued passes.)
-        let acc = self
+        let mut acc = self
             .session
             .accumulation()
             .map_err(CheckpointError::Render)?;
         let progress = self.session.progress();
         let (w, h) = (self.settings.width, self.settings.height);
         checkpoint::write(
-            &self.paths.checkpoint(),
+            &self.checkpoint_path(),
             w,
             h,
             self.settings.seed,
@@ -303,7 +339,25 @@ impl ActiveJob {
             &acc,
         )
         .map_err(CheckpointError::Io)?;
-        let image = self.session.resolve(&acc);
+        let image = match &self.shard {
+            None => self.session.resolve(&acc),
+            Some(sh) => {
+                let others = super::shard::add_shards(
+                    &self.session,
+                    &self.settings,
+                    &self.paths,
+                    sh.count,
+                    Some(sh.range.idx),
+                    &mut acc,
+                );
+                let spp = progress.spp
+                    + others
+                        .iter()
+                        .filter_map(|(_, r)| r.as_ref().ok().map(|p| p.spp))
+                        .sum::<u32>();
+                self.session.resolve_spp(&acc, spp)
+            }
+        };
         self.write_image(&image)?;
         self.last_checkpoint = Instant::now();
         Ok(progress)

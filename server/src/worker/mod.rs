@@ -23,7 +23,9 @@ mod checkpoint;
 mod device_loss;
 mod metrics_lane;
 mod outcome;
+mod report;
 mod scheduler;
+mod shard;
 mod storage_hold;
 mod warmup;
 mod watchdog;
@@ -38,13 +40,13 @@ use std::time::{Duration, Instant};
 use renderer::accel::AccelRequest;
 use renderer::gpu::{GpuContext, GpuError, GpuOptions};
 use renderer::prepare::{prepare, PrepareOptions};
-use renderer::render::{CompletedPass, RenderError, PIPELINE_DEPTH};
+use renderer::render::{CompletedPass, RenderError, RenderSession, PIPELINE_DEPTH};
 use tracing::{error, info, warn};
 
 use crate::config::ServerConfig;
-use crate::jobs::model::{now_s, JobId, JobState, SceneSource};
+use crate::jobs::model::{now_s, JobId, JobRecord, JobState, SceneSource};
 use crate::shared::{GpuStatus, Shared};
-use crate::store::{JobPaths, Store, StoreError, Transition};
+use crate::store::{Claim, JobPaths, Part, Store, StoreError, Transition};
 use active::{ActiveJob, CheckpointError};
 use metrics_lane::SnapshotImage;
 use scheduler::Scheduler;
@@ -101,6 +103,8 @@ pub fn spawn(
                 queued: VecDeque::new(),
                 sched: Scheduler::default(),
                 dirty: true,
+                claim_now: false,
+                spare: None,
                 last_open: None,
                 open_failures: 0,
                 held: BTreeMap::new(),
@@ -110,6 +114,8 @@ pub fn spawn(
                 pipelines_seen: 0,
                 last_heartbeat: Instant::now(),
                 last_reconcile: Instant::now(),
+                started_at: now_s(),
+                last_report: None,
             };
             // A panic outside a pass (which is caught where it happens) restarts the loop with
             // a fresh device rather than ending the thread.
@@ -139,6 +145,10 @@ struct Worker {
     sched: Scheduler,
     /// The store may hold changes the worker has not looked at.
     dirty: bool,
+    /// Look at the store without waiting for a message (a shard just finished: claim more).
+    claim_now: bool,
+    /// The session of the shard this worker finished last, for the job's next part (shard.rs).
+    spare: Option<(JobId, RenderSession)>,
     /// The last attempt to create the device, and failures in a row.
     last_open: Option<Instant>,
     open_failures: u32,
@@ -155,6 +165,9 @@ struct Worker {
     last_heartbeat: Instant,
     /// When the worker last looked at the store (other processes change it unannounced).
     last_reconcile: Instant,
+    /// Unix seconds at the start, and the counters at the last report (report.rs).
+    started_at: f64,
+    last_report: Option<report::LastReport>,
 }
 
 /// How often a busy worker looks at the store for jobs other processes submitted, paused or
@@ -173,7 +186,7 @@ impl Worker {
     fn run(&mut self) {
         loop {
             // Step 1: messages; block only when there is nothing to render.
-            let first = if self.sched.len() == 0 {
+            let first = if self.sched.len() == 0 && !std::mem::take(&mut self.claim_now) {
                 match self.rx.recv_timeout(Duration::from_millis(500)) {
                     Ok(m) => Some(m),
                     Err(mpsc::RecvTimeoutError::Timeout) => {
@@ -230,7 +243,7 @@ impl Worker {
         self.last_open = Some(Instant::now());
         let opts = GpuOptions {
             device: self.config.device.clone(),
-            index: None,
+            index: self.config.device_index,
             validation: self.config.validation,
             kernel_cache: self.config.kernel_cache.clone(),
         };
@@ -246,6 +259,7 @@ impl Worker {
                 warmup::start(&ctx, &self.config, &self.shared);
                 self.ctx = Some(ctx);
                 self.publish_caches();
+                self.report(false);
                 self.dirty = true;
                 self.open_failures = 0;
                 true
@@ -279,6 +293,7 @@ impl Worker {
         self.queued.clear();
         self.active.clear();
         self.sched.clear();
+        self.spare = None;
         self.ctx = None;
         self.last_open = None;
         self.dirty = true;
@@ -328,12 +343,16 @@ impl Worker {
         let mut skip: Vec<JobId> = self.held.keys().copied().collect();
         while self.active.len() < self.config.max_active.max(1) && self.ctx.is_some() {
             let exclude: Vec<JobId> = self.active.keys().chain(&skip).copied().collect();
-            let claim = self
-                .store
-                .claim_job(&self.config.worker_id, self.config.lease, &exclude);
+            let claim = self.store.claim_job(
+                &self.config.worker_id,
+                self.config.lease,
+                &exclude,
+                self.config.shard_spp,
+            );
             match claim {
-                Ok(Some((id, state, priority))) => {
-                    self.admit(id, state, priority);
+                Ok(Some(claim)) => {
+                    let id = claim.id;
+                    self.admit(claim);
                     // Admitting may take long (kernels to build): renew at once, and let the
                     // job go if another worker took it meanwhile.
                     self.heartbeat();
@@ -349,12 +368,15 @@ impl Worker {
                 }
             }
         }
+        // A spare session no claim took: its device memory goes.
+        self.spare = None;
     }
 
     /// Renews the leases of the active jobs and gives up the others; drops, unsaved, every job
     /// whose lease was lost (it expired and another worker took the job over).
     fn heartbeat(&mut self) {
         self.last_heartbeat = Instant::now();
+        self.report(false);
         let held: Vec<JobId> = self.active.keys().copied().collect();
         let kept = match self
             .store
@@ -377,8 +399,15 @@ impl Worker {
         }
     }
 
-    /// Creates the session of a runnable job (restoring its checkpoint) and schedules it.
-    fn admit(&mut self, id: JobId, state: JobState, priority: u32) {
+    /// Creates the session of a runnable job (restoring its checkpoint) and schedules it; of
+    /// one shard of it, or of the merge of its shards, when the claim says so (shard.rs).
+    fn admit(&mut self, claim: Claim) {
+        let Claim {
+            id,
+            state,
+            priority,
+            part,
+        } = claim;
         let Some(ctx) = self.ctx.clone() else { return };
         let (rec, text) = match (self.store.get_job(id), self.store.get_scene(id)) {
             (Ok(r), Ok(t)) => (r, t),
@@ -386,58 +415,39 @@ impl Worker {
         };
         let paths = JobPaths::new(&self.config.data_dir, id);
         let s = rec.settings.clone();
-        // Step 1: scene, compiled for this film.
-        let base = match rec.source {
-            SceneSource::Inline => None,
-            SceneSource::Builtin => Some(self.config.builtin_dir()),
-            SceneSource::Upload => Some(paths.assets()),
-        };
-        let limits = self.config.limits.scene_limits();
-        let load_start = std::time::Instant::now();
-        let scene = match renderer::scene::load_str_with_limits(&text, base.as_deref(), &limits) {
-            Ok(s) => s,
-            Err(e) => return self.fail(id, format!("scene: {e}")),
-        };
-        // The request's film and accel (else the scene's); structures built once per scene in
-        // the data dir's cache.
-        let cache = self.config.data_dir.join("accel-cache");
-        let options = PrepareOptions {
-            width: Some(s.width),
-            height: Some(s.height),
-            limits: self.config.limits.film,
-            accel: AccelRequest {
-                kind: s.accel.as_ref().map(|a| a.kind.as_str()),
-                grid_resolution: s.accel.as_ref().and_then(|a| a.grid_resolution),
+        // Steps 1-2: the session (of the job's last shard this worker rendered, reset, when this
+        // is another part of that job: shard.rs).
+        let (mut session, auto_run) = match self.take_spare(id, part, s.seed) {
+            Some(session) => (session, None),
+            None => match self.make_session(id, &rec, &text, &paths, &ctx) {
+                Some(made) => made,
+                None => return,
             },
-            cache: Some(&cache),
-            kernels: s.kernels,
-            load_time: load_start.elapsed(),
         };
-        let prepared = match prepare(&scene, &options) {
-            Ok(p) => p,
-            Err(e) => return self.fail(id, e.to_string()),
+        let ckpt = match part {
+            Part::Shard { range, .. } => paths.shard_checkpoint(range.idx),
+            _ => paths.checkpoint(),
         };
-        drop(scene);
-        // Step 2: the session, restored from the checkpoint when there is one.
-        // (`auto`: the saved choice's integrator, else the pilot's winner; auto.rs.)
-        let made = catch_unwind(AssertUnwindSafe(|| {
-            if s.auto {
-                auto::session(&prepared, &ctx, &s, &paths)
-                    .map(|(x, run, fresh)| (x, Some((run, fresh))))
-            } else {
-                prepared
-                    .session(&ctx, &s.integrator, s.seed)
-                    .map(|x| (x, None))
+        if let Part::Merge { count } = part {
+            match shard::merged(&self.store, &session, &s, &paths, id) {
+                Ok(Some((acc, progress))) => {
+                    if let Err(e) = session.restore(&acc, progress) {
+                        return self.render_failed(id, e, "restoring the merged shards");
+                    }
+                    info!(
+                        job = id,
+                        shards = count,
+                        spp = progress.spp,
+                        "merged the shards"
+                    );
+                }
+                // A shard to render again: the merge's lease goes at the next heartbeat.
+                Ok(None) => return,
+                Err(e) => return error!(job = id, error = %e, "merging the shards"),
             }
-        }));
-        let (mut session, auto_run) = match made {
-            Ok(Ok(made)) => made,
-            Ok(Err(e)) => return self.render_failed(id, e, "creating the render session"),
-            Err(_) => return self.panicked(id, "creating the render session"),
-        };
-        if paths.checkpoint().exists() {
+        } else if ckpt.exists() {
             let entries = session.accumulation_len();
-            match checkpoint::read(&paths.checkpoint(), s.width, s.height, s.seed, entries) {
+            match checkpoint::read(&ckpt, s.width, s.height, s.seed, entries) {
                 Ok((progress, acc)) => {
                     if let Err(e) = session.restore(&acc, progress) {
                         return self.render_failed(id, e, "restoring the checkpoint");
@@ -459,6 +469,11 @@ impl Worker {
                         self.shared.observe_queue_wait(now_s() - rec.created_at);
                     }
                 }
+                // Another shard's worker started it first.
+                Err(StoreError::Conflict {
+                    state: JobState::Running,
+                    ..
+                }) if matches!(part, Part::Shard { .. }) => {}
                 Err(StoreError::Conflict { .. }) | Err(StoreError::NotFound(_)) => return,
                 Err(e) => return error!(job = id, error = %e, "starting job"),
             }
@@ -466,7 +481,28 @@ impl Worker {
         info!(job = id, name = %rec.name, "rendering");
         // New pipelines go to the kernel cache folder, off this thread.
         ctx.save_pipeline_cache_later();
+        let job_spp = s.spp.unwrap_or(1);
         let mut job = ActiveJob::new(session, s, paths);
+        match part {
+            Part::Shard { range, count } => {
+                info!(
+                    job = id,
+                    shard = range.idx,
+                    first = range.first,
+                    samples = range.samples,
+                    "rendering a shard"
+                );
+                job.settings.spp = Some(range.samples);
+                job.shard = Some(shard::ShardRun {
+                    range,
+                    count,
+                    job_spp,
+                    others_spp: 0,
+                });
+            }
+            Part::Merge { count } => job.merged_shards = Some(count),
+            Part::Whole => {}
+        }
         if let Some((run, fresh)) = auto_run {
             if fresh {
                 info!(job = id, choice = %run.report["choice"], "auto: pilot done");
@@ -479,6 +515,80 @@ impl Worker {
         self.publish_caches();
     }
 
+    /// A new session of job `rec` (scene `text`): the scene loaded and prepared for the job's
+    /// film, the session made (`auto`: by the pilot, auto.rs). None: the job failed.
+    fn make_session(
+        &mut self,
+        id: JobId,
+        rec: &JobRecord,
+        text: &str,
+        paths: &JobPaths,
+        ctx: &Arc<GpuContext>,
+    ) -> Option<(RenderSession, Option<(auto::AutoRun, bool)>)> {
+        let s = &rec.settings;
+        // Step 1: scene, compiled for this film.
+        let base = match rec.source {
+            SceneSource::Inline => None,
+            SceneSource::Builtin => Some(self.config.builtin_dir()),
+            SceneSource::Upload => Some(paths.assets()),
+        };
+        let limits = self.config.limits.scene_limits();
+        let load_start = std::time::Instant::now();
+        let scene = match renderer::scene::load_str_with_limits(text, base.as_deref(), &limits) {
+            Ok(s) => s,
+            Err(e) => {
+                self.fail(id, format!("scene: {e}"));
+                return None;
+            }
+        };
+        // The request's film and accel (else the scene's); structures built once per scene in
+        // the data dir's cache.
+        let cache = self.config.data_dir.join("accel-cache");
+        let options = PrepareOptions {
+            width: Some(s.width),
+            height: Some(s.height),
+            limits: self.config.limits.film,
+            accel: AccelRequest {
+                kind: s.accel.as_ref().map(|a| a.kind.as_str()),
+                grid_resolution: s.accel.as_ref().and_then(|a| a.grid_resolution),
+            },
+            cache: Some(&cache),
+            kernels: s.kernels,
+            load_time: load_start.elapsed(),
+        };
+        let prepared = match prepare(&scene, &options) {
+            Ok(p) => p,
+            Err(e) => {
+                self.fail(id, e.to_string());
+                return None;
+            }
+        };
+        drop(scene);
+        // Step 2: the session.
+        // (`auto`: the saved choice's integrator, else the pilot's winner; auto.rs.)
+        let made = catch_unwind(AssertUnwindSafe(|| {
+            if s.auto {
+                auto::session(&prepared, ctx, s, paths)
+                    .map(|(x, run, fresh)| (x, Some((run, fresh))))
+            } else {
+                prepared
+                    .session(ctx, &s.integrator, s.seed)
+                    .map(|x| (x, None))
+            }
+        }));
+        match made {
+            Ok(Ok(made)) => Some(made),
+            Ok(Err(e)) => {
+                self.render_failed(id, e, "creating the render session");
+                None
+            }
+            Err(_) => {
+                self.panicked(id, "creating the render session");
+                None
+            }
+        }
+    }
+
     /// Drops the session of a job that left the runnable states, saving what it rendered.
     fn retire(&mut self, id: JobId) {
         self.sched.remove(id);
@@ -489,7 +599,7 @@ impl Worker {
         match self.store.get_job(id).map(|r| r.state) {
             Ok(JobState::Paused) => match job.write_checkpoint() {
                 Ok(p) => {
-                    let _ = self.store.set_progress(id, &p);
+                    shard::record_progress(&self.store, &self.config.worker_id, id, &mut job, &p);
                     info!(job = id, spp = p.spp, "paused and checkpointed");
                 }
                 Err(e) => self.checkpoint_failed(id, e),
@@ -498,8 +608,10 @@ impl Worker {
                 if let Ok(img) = job.session.image() {
                     let _ = job.write_image(&img);
                 }
-                let _ = self.store.set_progress(id, &job.session.progress());
-                let _ = std::fs::remove_file(job.paths.checkpoint());
+                if job.shard.is_none() {
+                    let _ = self.store.set_progress(id, &job.session.progress());
+                }
+                let _ = std::fs::remove_file(job.checkpoint_path());
                 info!(job = id, "canceled");
             }
             _ => {}
@@ -557,10 +669,16 @@ impl Worker {
         }
         // Step 3: queue it, with a copy of the accumulation when a snapshot is due, and the
         // error estimate computed on the GPU when it ends at a check point of the job's quality
-        // target (renderer/src/render/until.rs).
-        let snapshot = job.snapshot_due(interval.saturating_sub(target / 2));
+        // target (renderer/src/render/until.rs). (A shard has no live snapshots: its
+        // checkpoints write the merged image.)
+        let snapshot = job.shard.is_none() && job.snapshot_due(interval.saturating_sub(target / 2));
         let check = job.check_due(spp);
         let end = job.session.submitted_spp() + spp;
+        if let Some(sh) = &job.shard {
+            // A shard's passes take the next indices of its range.
+            let next = sh.range.first + job.session.submitted_spp();
+            job.session.set_next_sample(next);
+        }
         let result = catch_unwind(AssertUnwindSafe(|| {
             job.session.submit_pass_with(spp, snapshot, check)
         }));
@@ -652,12 +770,7 @@ impl Worker {
             return;
         };
         if job.checkpoint_due(self.config.checkpoint_interval) {
-            match job.write_checkpoint() {
-                Ok(p) => {
-                    let _ = self.store.set_progress(id, &p);
-                }
-                Err(e) => self.checkpoint_failed(id, e),
-            }
+            self.save_checkpoint(id);
         }
     }
 
@@ -668,7 +781,7 @@ impl Worker {
             if let Some(job) = self.active.get_mut(&id) {
                 match job.write_checkpoint() {
                     Ok(p) => {
-                        let _ = self.store.set_progress(id, &p);
+                        shard::record_progress(&self.store, &self.config.worker_id, id, job, &p);
                         info!(job = id, spp = p.spp, "checkpointed for shutdown");
                     }
                     Err(CheckpointError::Io(e)) => error!(job = id, error = %e, "checkpoint"),
@@ -679,6 +792,8 @@ impl Worker {
         self.queued.clear();
         self.active.clear();
         self.sched.clear();
+        self.report(true);
+        self.spare = None;
         self.ctx = None;
         // Checkpointed: another worker (or this one, restarted) may take the jobs at once.
         if let Err(e) = self

@@ -37,6 +37,9 @@ impl Worker {
         let Some(mut job) = self.active.remove(&id) else {
             return;
         };
+        if job.shard.is_some() {
+            return self.finish_shard(id, job);
+        }
         let image = match job.session.image_and_estimate() {
             Ok((i, estimate)) => {
                 job.estimate = estimate;
@@ -87,6 +90,9 @@ impl Worker {
             Ok(_) => {
                 info!(job = id, spp, time_s = stats.time_s, "done");
                 let _ = std::fs::remove_file(job.paths.checkpoint());
+                for k in 0..job.merged_shards.unwrap_or(0) {
+                    let _ = std::fs::remove_file(job.paths.shard_checkpoint(k));
+                }
             }
             // Paused at the last moment (and perhaps resumed already: queued): keep the
             // checkpoint so the resume ends at once instead of rendering from an older one.
@@ -116,7 +122,7 @@ impl Worker {
         self.queued.retain(|j| *j != id);
         if let Some(job) = self.active.remove(&id) {
             job.flush_metrics();
-            let _ = std::fs::remove_file(job.paths.checkpoint());
+            let _ = std::fs::remove_file(job.checkpoint_path());
         }
         self.shared.forget(id);
         error!(job = id, error = %message, "job failed");
@@ -170,7 +176,7 @@ impl Worker {
 }
 
 /// The data of a `snapshot` event.
-fn snapshot_data(id: JobId, spp: u32) -> serde_json::Value {
+pub(super) fn snapshot_data(id: JobId, spp: u32) -> serde_json::Value {
     json!({
         "url": format!("/api/jobs/{id}/image.png?spp={spp}"),
         "exr_url": format!("/api/jobs/{id}/image.exr?spp={spp}"),

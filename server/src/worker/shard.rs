@@ -1,0 +1,218 @@
+//! The worker's side of jobs split over workers by sample index (store/shards.rs): a shard is
+//! rendered like a job of its own sample count whose passes start at the shard's first sample
+//! index; its checkpoint (`shard-<k>.bin`) holds its sums, and the job's image on disk, written
+//! with each shard checkpoint, is the merge of that shard's sums with every other shard's latest
+//! checkpoint. The claim that finds every shard done merges their checkpoints into one
+//! accumulation (renderer::render::merge_accumulation, exact up to float addition order),
+//! restores it into a session of the whole job, and finishes the job as a whole render. A worker
+//! keeps the session of the shard it finished last, and reuses it (reset) when its next claim
+//! is another part of the same job.
+
+use std::sync::Arc;
+
+use renderer::render::{merge_accumulation, Progress, RenderSession};
+use serde_json::json;
+use tracing::{info, warn};
+
+use super::active::{ActiveJob, CheckpointError};
+use super::checkpoint;
+use super::storage_hold::is_storage_fault;
+use super::Worker;
+use crate::jobs::model::{JobId, JobSettings};
+use crate::store::{sum_progress, JobPaths, Part, ShardRange, Store};
+
+/// The shard a job's session renders.
+#[derive(Debug, Clone, Copy)]
+pub struct ShardRun {
+    pub range: ShardRange,
+    /// The job's shards, and its whole sample count.
+    pub count: u32,
+    pub job_spp: u32,
+    /// The other shards' samples at the last look (for the job's progress).
+    pub others_spp: u32,
+}
+
+/// Adds to `into` (an accumulation of `session`'s layout) the checkpoints of the job's shards
+/// `0..count` other than `skip`; returns each one's progress, or why it is unusable.
+pub fn add_shards(
+    session: &RenderSession,
+    settings: &JobSettings,
+    paths: &JobPaths,
+    count: u32,
+    skip: Option<u32>,
+    into: &mut [[f32; 4]],
+) -> Vec<(u32, Result<Progress, String>)> {
+    let (w, h) = (settings.width, settings.height);
+    let (len, extra) = (session.accumulation_len(), session.extra_buffers());
+    (0..count)
+        .filter(|k| Some(*k) != skip)
+        .map(|k| {
+            let path = paths.shard_checkpoint(k);
+            let read = checkpoint::read(&path, w, h, settings.seed, len).and_then(|(p, acc)| {
+                merge_accumulation(into, &acc, (w * h) as usize, &extra)
+                    .map(|_| p)
+                    .map_err(|e| e.to_string())
+            });
+            (k, read)
+        })
+        .collect()
+}
+
+/// Shards' summed accumulation and progress.
+type Merged = (Vec<[f32; 4]>, Progress);
+
+/// The merge of every shard of job `id`: their summed accumulation and progress. None when a
+/// shard's checkpoint is missing, unusable or short of its samples: that shard is reopened
+/// (to be rendered again) and its file removed.
+pub fn merged(
+    store: &Store,
+    session: &RenderSession,
+    settings: &JobSettings,
+    paths: &JobPaths,
+    id: JobId,
+) -> Result<Option<Merged>, String> {
+    let rows = store.shards(id).map_err(|e| e.to_string())?;
+    let mut sums = vec![[0.0f32; 4]; session.accumulation_len()];
+    let results = add_shards(session, settings, paths, rows.len() as u32, None, &mut sums);
+    let mut parts = Vec::new();
+    for ((k, read), row) in results.into_iter().zip(&rows) {
+        if !row.done {
+            return Ok(None); // reopened since the claim
+        }
+        match read {
+            Ok(p) if p.spp == row.range.samples => parts.push(p),
+            bad => {
+                let why =
+                    bad.map_or_else(|e| e, |p| format!("{} of {} spp", p.spp, row.range.samples));
+                warn!(job = id, shard = k, %why, "a done shard's checkpoint is unusable; rendering it again");
+                let _ = std::fs::remove_file(paths.shard_checkpoint(k));
+                store.reopen_shard(id, k).map_err(|e| e.to_string())?;
+                return Ok(None);
+            }
+        }
+    }
+    Ok(Some((sums, sum_progress(&parts))))
+}
+
+/// Records a checkpoint's progress `p` of job `id`: the job's own, or its shard's (the job's
+/// progress then the shards' sum, announced in a `progress` event and a `snapshot` event of
+/// the merged image on disk).
+pub fn record_progress(
+    store: &Arc<Store>,
+    worker: &str,
+    id: JobId,
+    job: &mut ActiveJob,
+    p: &Progress,
+) {
+    let Some(sh) = job.shard else {
+        let _ = store.set_progress(id, p);
+        return;
+    };
+    match store.shard_checkpointed(id, sh.range.idx, worker, p) {
+        Ok(Some(total)) => {
+            if let Some(s) = &mut job.shard {
+                s.others_spp = total.spp.saturating_sub(p.spp);
+            }
+            let _ = store.append_event(id, "progress", job.progress_json());
+            let _ =
+                store.append_event(id, "snapshot", super::outcome::snapshot_data(id, total.spp));
+        }
+        // Lost: the next heartbeat drops the shard.
+        Ok(None) => {}
+        Err(e) => warn!(job = id, error = %e, "recording a shard's progress"),
+    }
+}
+
+impl Worker {
+    /// The spare session (of the shard this worker finished last), reset, when `part` is
+    /// another part of the same job `id`: no scene to load and prepare again.
+    pub(super) fn take_spare(&mut self, id: JobId, part: Part, seed: u64) -> Option<RenderSession> {
+        let (job, mut session) = self.spare.take()?;
+        if job != id || part == Part::Whole {
+            return None;
+        }
+        match session.reset(seed) {
+            Ok(()) => {
+                info!(job = id, "reusing the session of the job's last shard");
+                Some(session)
+            }
+            Err(e) => {
+                warn!(job = id, error = %e, "resetting the spare session; making a new one");
+                None
+            }
+        }
+    }
+
+    /// Writes job `id`'s checkpoint and records its progress; None (handled) on failure.
+    pub(super) fn save_checkpoint(&mut self, id: JobId) -> Option<Progress> {
+        let job = self.active.get_mut(&id)?;
+        match job.write_checkpoint() {
+            Ok(p) => {
+                record_progress(&self.store, &self.config.worker_id, id, job, &p);
+                Some(p)
+            }
+            Err(e) => {
+                self.checkpoint_failed(id, e);
+                None
+            }
+        }
+    }
+
+    /// A shard rendered all its samples: its final checkpoint, then it is marked done (if this
+    /// worker still holds it) and the worker looks for more work (the next shard, or the merge).
+    pub(super) fn finish_shard(&mut self, id: JobId, mut job: ActiveJob) {
+        let Some(sh) = job.shard else { return };
+        let p = match job.write_checkpoint() {
+            Ok(p) => p,
+            Err(CheckpointError::Io(e)) if is_storage_fault(&e) => {
+                self.active.insert(id, job);
+                return self.hold_for_storage(id, "writing a shard's checkpoint", e.to_string());
+            }
+            Err(e) => {
+                let msg = match e {
+                    CheckpointError::Io(e) => e.to_string(),
+                    CheckpointError::Render(e) => e.to_string(),
+                };
+                self.active.insert(id, job);
+                return self.fail(id, format!("writing a shard's checkpoint: {msg}"));
+            }
+        };
+        match self
+            .store
+            .shard_done(id, sh.range.idx, &self.config.worker_id, &p)
+        {
+            Ok(Some(total)) => {
+                info!(
+                    job = id,
+                    shard = sh.range.idx,
+                    spp = p.spp,
+                    job_spp = total.spp,
+                    "shard done"
+                );
+                if let Some(s) = &mut job.shard {
+                    s.others_spp = total.spp.saturating_sub(p.spp);
+                }
+                let _ = self.store.append_event(id, "progress", job.progress_json());
+            }
+            Ok(None) => warn!(
+                job = id,
+                shard = sh.range.idx,
+                "lost the shard's lease before recording it done"
+            ),
+            Err(e) => warn!(job = id, shard = sh.range.idx, error = %e, "recording a shard done"),
+        }
+        job.flush_metrics();
+        // Kept for the job's next shard (or merge), if this worker claims one next.
+        self.spare = Some((id, job.into_session()));
+        self.shared.forget(id);
+        self.dirty = true;
+        self.claim_now = true;
+        self.publish_caches();
+    }
+}
+
+/// The data of a `shard` object in a progress event.
+pub fn shard_json(sh: &ShardRun, spp: u32) -> serde_json::Value {
+    json!({"index": sh.range.idx, "count": sh.count, "first": sh.range.first,
+           "samples": sh.range.samples, "spp": spp})
+}
