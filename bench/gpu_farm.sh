@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Issue 15 on a multi-GPU NVIDIA machine (run's kind nvidia-h100-x2 or larger; carry .gl and
+# .carry with .carry/main/candela and .carry/pg15.tar.xz from bench/pg-pack.sh): one Cornell job
+# of SPP (default 1024) spp at 3840x2160 through the farm — PostgreSQL, `serve --workers 0`, one
+# `candela worker --devices LIST --shard-spp SHARD` (default 128) — for each list of CONFIGS
+# (default "0 0,1"; bench/farm_scaling.py), and, for comparison, the same film rendered in one
+# process with `render --devices` (bench/multi_gpu.sh, TIME seconds each). Writes OUT/farm.json,
+# OUT/multi_gpu.jsonl and the farm logs.
+set -u
+cd "$(dirname "$0")/.."
+for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
+export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+nvidia-smi --query-gpu=index,name,driver_version --format=csv,noheader
+tar xJf .carry/pg15.tar.xz -C / --no-overwrite-dir
+export LD_LIBRARY_PATH=/opt/pglibs  # PostgreSQL's; farm_scaling.py drops it for candela
+out=${OUT:-/tmp}
+python3 bench/farm_scaling.py --candela .carry/main/candela --configs ${CONFIGS:-0 0,1} \
+  --spp ${SPP:-1024} --shard-spp ${SHARD:-128} --out "$out"
+unset LD_LIBRARY_PATH
+CONFIGS="${CONFIGS:-0 0,1}" TIME=${TIME:-5} REPEATS=1 OUT="$out" bash bench/multi_gpu.sh | tail -6
