@@ -147,6 +147,76 @@ fn job_with_until_completes_at_its_target() {
     assert!(*estimates.last().unwrap() <= TARGET, "{estimates:?}");
 }
 
+/// Passes the session waits for itself (a checkpoint's read of the accumulation between passes)
+/// still come back from `complete_oldest`, in order, a check pass with its GPU estimate: a
+/// worker that lost a check pass's estimate this way would wait for it for ever.
+#[test]
+fn passes_waited_for_by_an_accumulation_read_are_still_handed_back() {
+    let ctx = gpu();
+    let loaded = renderer::scene::load_file(&scene_path("cornell.json")).unwrap();
+    let compiled = compile(&loaded, 16, 16).unwrap();
+    let options = IntegratorOptions::from_name("nee").unwrap();
+    let mut s = RenderSession::new(&ctx, &compiled, &options, Some(3), 5).unwrap();
+    assert!(s.submit_pass_with(2, false, false).unwrap().is_empty());
+    assert!(s.submit_pass_with(6, false, true).unwrap().is_empty());
+    let acc = s.accumulation().unwrap();
+    assert_eq!(acc.len(), s.accumulation_len());
+    assert_eq!(s.spp(), 8);
+    assert_eq!(
+        s.in_flight(),
+        2,
+        "passes not yet handed back count as in flight"
+    );
+    let first = s.complete_oldest().unwrap().expect("the first pass");
+    assert_eq!((first.stats.spp, first.estimate), (2, None));
+    let check = s.complete_oldest().unwrap().expect("the check pass");
+    assert_eq!(check.stats.spp, 6);
+    let e = check.estimate.expect("the check pass's estimate");
+    assert_eq!(e.spp, 8);
+    assert!(e.rel_mse.is_some_and(|x| x > 0.0), "{e:?}");
+    assert!(s.complete_oldest().unwrap().is_none());
+    assert_eq!(s.in_flight(), 0);
+    ctx.check_validation().unwrap();
+}
+
+/// A job whose checkpoints fall between its passes (one every pass here, with passes of about
+/// a millisecond, so that several are queued between check points) completes with its spp.
+#[test]
+fn until_job_with_checkpoints_between_passes_completes() {
+    let dir = scratch("until_checkpoints");
+    let s = Server::start(
+        &dir.join("data"),
+        &[
+            "--checkpoint-interval",
+            "0.001",
+            "--snapshot-interval",
+            "0.05",
+            // One-sample passes: several in flight between check points.
+            "--pass-ms",
+            "1",
+        ],
+    );
+    let job = s.submit(&json!({
+        "scene_name": "cornell", "integrator": "nee", "spp": 64, "width": 64, "height": 64,
+        "until": {"rel_mse": 1e-9},
+    }));
+    let id = job["id"].as_i64().unwrap();
+    let done = s.wait_job(id, Duration::from_secs(120), |j| j["state"] == "done");
+    let stats = &done["stats"];
+    println!(
+        "job: stopped by {} at {} spp after {} checks",
+        stats["stopped_by"], stats["spp"], stats["estimate_checks"]["checks"]
+    );
+    assert_eq!(stats["stopped_by"], "spp", "{done}");
+    assert_eq!(stats["spp"], 64, "{done}");
+    assert!(
+        stats["estimate_checks"]["checks"]
+            .as_u64()
+            .is_some_and(|n| n >= 8),
+        "{done}"
+    );
+}
+
 /// The GPU estimate (computed by a pass, estimate_gpu.rs) equals the CPU one
 /// (metrics/estimate.rs via render/halves.rs, read back after the same pass) within float
 /// rounding, for each resolver: the mean (pt, nee) and bdpt's splats as floats and as 64-bit

@@ -7,8 +7,10 @@
 //! [`PIPELINE_DEPTH`] at once, inflight.rs) and cut into dispatches sized to the GPU
 //! (dispatch.rs); [`RenderSession::run_pass`] is the one-pass-and-wait form.
 
+mod completion;
 mod stats;
 
+use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -86,6 +88,11 @@ pub struct RenderSession {
     shape: Option<DispatchShape>,
     /// Passes queued on the GPU and spare frames.
     ring: PassRing,
+    /// Passes waited for by the session itself (for an [`Self::accumulation`], an image) and not
+    /// yet handed to the caller: [`Self::complete_oldest`] returns them first, so a caller that
+    /// reads the accumulation between passes still receives every pass, its stats and its GPU
+    /// error estimate (an until-check lost here would stall the render at its check point).
+    completed: VecDeque<CompletedPass>,
     /// What building the kernels took (compiles, cache hits, pipelines).
     kernel_build: KernelStats,
     /// The first pass this session ran (a GPU coming from idle runs it at low clocks).
@@ -263,6 +270,7 @@ impl RenderSession {
             },
             shape: None,
             ring: PassRing::default(),
+            completed: VecDeque::new(),
             kernel_build: kernel_stats().since(&kernels_before),
             first_pass: None,
             estimates: SessionEstimates::default(),
@@ -440,9 +448,9 @@ impl RenderSession {
         self.spp + self.ring.spp()
     }
 
-    /// Passes queued and not yet completed.
+    /// Passes queued and not yet handed back by [`Self::complete_oldest`].
     pub fn in_flight(&self) -> usize {
-        self.ring.in_flight.len()
+        self.ring.in_flight.len() + self.completed.len()
     }
 
     /// Renders `spp` more samples per pixel and waits for them (after any queued passes).
@@ -480,10 +488,18 @@ impl RenderSession {
                 "a pass needs at least one sample".into(),
             ));
         }
-        let mut done = Vec::new();
+        let mut waited = false;
         while self.ring.in_flight.len() >= PIPELINE_DEPTH {
-            done.extend(self.complete_oldest()?);
+            let p = self.wait_oldest()?;
+            self.completed.extend(p);
+            waited = true;
         }
+        // Passes the session waited for earlier come back first, in order.
+        let done: Vec<CompletedPass> = if waited {
+            self.completed.drain(..).collect()
+        } else {
+            Vec::new()
+        };
         let push = GpuPush {
             seed_lo: self.seed as u32,
             seed_hi: (self.seed >> 32) as u32,
@@ -571,67 +587,6 @@ impl RenderSession {
         Ok(done)
     }
 
-    /// Waits for the oldest queued pass and adds it to the counters; None when none is queued.
-    pub fn complete_oldest(&mut self) -> Result<Option<CompletedPass>, RenderError> {
-        let Some(mut p) = self.ring.in_flight.pop_front() else {
-            return Ok(None);
-        };
-        let waited = p.slot.frame.wait();
-        let now = Instant::now();
-        let timings = match waited {
-            Ok(t) => t,
-            Err(e) => {
-                self.ring.spare.push(p.slot);
-                return Err(e.into());
-            }
-        };
-        self.integrator.observe_timings(&timings);
-        let estimate = p
-            .estimate
-            .as_ref()
-            .map(|t| self.estimates.complete(t, &timings))
-            .transpose();
-        let estimate = match estimate {
-            Ok(e) => e,
-            Err(e) => {
-                self.ring.spare.push(p.slot);
-                return Err(e);
-            }
-        };
-        let s = p.slot.read_counters();
-        self.ring.spare.push(p.slot);
-        let s = s?;
-        self.ctx.check_validation()?;
-        let gpu = Duration::from_secs_f64(timings.iter().map(|t| t.gpu_ms).sum::<f64>() * 1e-3);
-        let wall = charge(&self.ctx, p.submitted, now);
-        self.rays += ((s.rays_hi as u64) << 32) | s.rays_lo as u64;
-        self.dropped += s.dropped_samples as u64;
-        self.spp += p.spp;
-        self.passes += 1;
-        self.elapsed += wall;
-        self.gpu_time += gpu;
-        let stats = PassStats {
-            spp: p.spp,
-            wall,
-            gpu,
-        };
-        self.first_pass.get_or_insert(stats);
-        Ok(Some(CompletedPass {
-            stats,
-            snapshot: p.snapshot,
-            estimate,
-        }))
-    }
-
-    /// Waits for every queued pass; returns them, oldest first.
-    pub fn drain(&mut self) -> Result<Vec<CompletedPass>, RenderError> {
-        let mut done = Vec::new();
-        while let Some(p) = self.complete_oldest()? {
-            done.push(p);
-        }
-        Ok(done)
-    }
-
     /// The counters so far (to store with a checkpoint).
     pub fn progress(&self) -> Progress {
         Progress {
@@ -666,7 +621,7 @@ impl RenderSession {
     /// splats), then the odd half (the odd-indexed samples' share of the accumulation),
     /// [`Self::accumulation_len`] entries in all. Restore it as a whole.
     pub fn accumulation(&mut self) -> Result<Vec<[f32; 4]>, RenderError> {
-        self.drain()?;
+        self.settle()?;
         let n = (self.width * self.height) as usize;
         let mut out: Vec<[f32; 4]> = self.ctx.download_vec(&self.accum, n)?;
         for (e, b) in &self.extra {
