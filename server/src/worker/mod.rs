@@ -21,6 +21,7 @@ mod active;
 mod auto;
 mod checkpoint;
 mod device_loss;
+mod live_merge;
 mod metrics_lane;
 mod outcome;
 mod report;
@@ -498,6 +499,8 @@ impl Worker {
                     count,
                     job_spp,
                     others_spp: 0,
+                    merge_every: self.config.checkpoint_interval,
+                    image_written: false,
                 });
             }
             Part::Merge { count } => job.merged_shards = Some(count),
@@ -631,6 +634,7 @@ impl Worker {
         }
         job.flush_metrics();
         self.shared.forget(id);
+        live_merge::forget(&job.paths.dir);
         drop(job);
         self.publish_caches();
     }

@@ -111,6 +111,7 @@ impl Worker {
             }
             Err(e) => warn!(job = id, error = %e, "finishing job"),
         }
+        super::live_merge::forget(&job.paths.dir);
         drop(job);
         self.shared.forget(id);
         self.publish_caches();
@@ -123,6 +124,7 @@ impl Worker {
         if let Some(job) = self.active.remove(&id) {
             job.flush_metrics();
             let _ = std::fs::remove_file(job.checkpoint_path());
+            super::live_merge::forget(&job.paths.dir);
         }
         self.shared.forget(id);
         error!(job = id, error = %message, "job failed");
