@@ -294,6 +294,18 @@ impl Store {
         })
     }
 
+    /// Whether `worker` still holds shard `idx` of job `id` (not done, its lease not taken).
+    pub fn holds_shard(&self, id: JobId, idx: u32, worker: &str) -> Result<bool, StoreError> {
+        self.read(|c| {
+            let row = c.query_opt(
+                "SELECT 1 FROM shards WHERE job_id = ?1 AND idx = ?2 AND lease_owner = ?3 \
+                 AND done = 0",
+                params![id, idx, worker],
+            )?;
+            Ok(row.is_some())
+        })
+    }
+
     /// Makes a done shard whose checkpoint turned out unusable (at the merge) render again.
     pub fn reopen_shard(&self, id: JobId, idx: u32) -> Result<(), StoreError> {
         self.write(|c| {
@@ -442,6 +454,8 @@ mod tests {
         assert!(take(1, "f", now), "its own");
         assert!(take(1, "g", now + 120.0), "expired");
         assert!(!take(0, "g", now), "done");
+        assert!(s.holds_shard(1, 1, "g").unwrap() && !s.holds_shard(1, 1, "f").unwrap());
+        assert!(!s.holds_shard(1, 0, "a").unwrap(), "done: nobody's");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -188,8 +188,20 @@ impl Worker {
     /// worker still holds it) and the worker looks for more work (the next shard, or the merge).
     pub(super) fn finish_shard(&mut self, id: JobId, mut job: ActiveJob) {
         let Some(sh) = job.shard else { return };
+        let worker = self.config.worker_id.clone();
         let p = match job.write_checkpoint() {
-            Ok(p) => p,
+            Ok(p) => Some(p),
+            // Taken over meanwhile (its new owner renders it): lost, not a failure of the job.
+            Err(e)
+                if !self
+                    .store
+                    .holds_shard(id, sh.range.idx, &worker)
+                    .unwrap_or(true) =>
+            {
+                warn!(job = id, shard = sh.range.idx, error = ?e,
+                      "lost the shard's lease; its last checkpoint failed");
+                None
+            }
             Err(CheckpointError::Io(e)) if is_storage_fault(&e) => {
                 self.active.insert(id, job);
                 return self.hold_for_storage(id, "writing a shard's checkpoint", e.to_string());
@@ -203,11 +215,9 @@ impl Worker {
                 return self.fail(id, format!("writing a shard's checkpoint: {msg}"));
             }
         };
-        match self
-            .store
-            .shard_done(id, sh.range.idx, &self.config.worker_id, &p)
-        {
-            Ok(Some(total)) => {
+        let done = p.map(|p| (p, self.store.shard_done(id, sh.range.idx, &worker, &p)));
+        match done {
+            Some((p, Ok(Some(total)))) => {
                 info!(
                     job = id,
                     shard = sh.range.idx,
@@ -220,12 +230,15 @@ impl Worker {
                 }
                 let _ = self.store.append_event(id, "progress", job.progress_json());
             }
-            Ok(None) => warn!(
+            Some((_, Ok(None))) => warn!(
                 job = id,
                 shard = sh.range.idx,
                 "lost the shard's lease before recording it done"
             ),
-            Err(e) => warn!(job = id, shard = sh.range.idx, error = %e, "recording a shard done"),
+            Some((_, Err(e))) => {
+                warn!(job = id, shard = sh.range.idx, error = %e, "recording a shard done")
+            }
+            None => {}
         }
         job.flush_metrics();
         // Kept for the job's next shard (or merge), if this worker claims one next.
