@@ -311,6 +311,17 @@ impl ActiveJob {
         }
     }
 
+    /// The job's shards (of its split: the one rendered, or the ones merged), or 0.
+    pub fn shard_count(&self) -> u32 {
+        self.shard
+            .map_or(self.merged_shards.unwrap_or(0), |sh| sh.count)
+    }
+
+    /// Removes the job's checkpoint files: its own and every shard's (a job that ended).
+    pub fn remove_checkpoints(&self) {
+        self.paths.remove_checkpoints(self.shard_count());
+    }
+
     /// The checkpoint file: the job's, or its shard's.
     pub fn checkpoint_path(&self) -> std::path::PathBuf {
         match &self.shard {

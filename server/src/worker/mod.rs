@@ -614,9 +614,12 @@ impl Worker {
                 if job.shard.is_none() {
                     let _ = self.store.set_progress(id, &job.session.progress());
                 }
-                let _ = std::fs::remove_file(job.checkpoint_path());
+                // (Every shard's: the job ended, and the other shards' files are of no use.)
+                job.remove_checkpoints();
                 info!(job = id, "canceled");
             }
+            // Failed by another worker (a shard of it): its files are of no use.
+            Ok(JobState::Failed) => job.remove_checkpoints(),
             _ => {}
         }
         // Canceled and deleted before (or while) the worker let go of it: a checkpoint or image
