@@ -1,8 +1,8 @@
 //! Checkpoints of a render in progress: the raw accumulation buffer (per pixel Σr, Σg, Σb and
 //! the samples kept, f32, then any extra per-pixel buffers of the integrator: whatever
-//! `RenderSession::accumulation` returns) and the session's [`Progress`] counters, in one file written
-//! atomically (a uniquely named temporary sibling, fsync, rename). Restoring both gives an exact resume, because
-//! the renderer keys its random numbers by sample index.
+//! `RenderSession::accumulation` returns) and the session's [`Progress`] counters, in one file
+//! written atomically (a uniquely named temporary sibling, fsync, rename). Restoring both gives
+//! an exact resume, because the renderer keys its random numbers by sample index.
 //!
 //! Layout (little-endian): `CNDLCKP1`, width u32, height u32, JSON length u32, JSON
 //! (`{"seed", "entries", "progress"}`), entries·4 f32, FNV-1a 64 of everything before it.
