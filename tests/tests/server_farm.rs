@@ -9,7 +9,7 @@
 //! comes out with exactly its samples and the image one worker renders of it whole; a worker
 //! with `--devices 0,0` claims shards on both its contexts, under two names, each reported by
 //! the API server (`/api/workers`, `/metrics`) until it is lost; a split job paused and resumed
-//! ends with exactly its samples.
+//! ends with exactly its samples, and one canceled leaves no shard files.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -294,6 +294,20 @@ fn shards(data: &Path, id: i64) -> Vec<(u32, bool, String, u64)> {
         .collect()
 }
 
+/// How many files `shard-*` (a shard's checkpoint, or a temporary one) job `id`'s folder holds.
+fn shard_files(data: &Path, id: i64) -> usize {
+    std::fs::read_dir(data.join(format!("jobs/{id}")))
+        .map(|d| {
+            d.filter(|e| {
+                let name = e.as_ref().unwrap().file_name();
+                let name = name.to_string_lossy();
+                name.starts_with("shard-") || name.starts_with(".shard-")
+            })
+            .count()
+        })
+        .unwrap_or(0)
+}
+
 fn three_workers_split_one_job_on_postgres() {
     let dir = scratch("server_farm_split");
     let data = dir.join("data");
@@ -359,18 +373,9 @@ fn three_workers_split_one_job_on_postgres() {
     // A worker's next shard of the job reuses its session (no scene loaded again).
     let reused = "reusing the session of the job's last shard";
     assert!(logs(&workers).contains(reused), "{}", logs(&workers));
-    let shard_files = std::fs::read_dir(data.join(format!("jobs/{id}")))
-        .unwrap()
-        .filter(|e| {
-            e.as_ref()
-                .unwrap()
-                .file_name()
-                .to_string_lossy()
-                .starts_with("shard-")
-        })
-        .count();
     assert_eq!(
-        shard_files, 0,
+        shard_files(&data, id),
+        0,
         "the shards' checkpoints are removed at the end"
     );
     // Step 3: one worker, splitting nothing, renders the same job whole: the same image.
@@ -465,6 +470,21 @@ fn one_worker_renders_on_two_devices_on_postgres() {
     let rows = shards(&data, id);
     assert_eq!(rows.len(), 20, "{rows:?}");
     assert!(rows.iter().all(|r| r.1 && r.3 == 20), "{rows:?}");
+    // Step 3b: a split job canceled mid-render leaves no shard files (done shards' included).
+    let id = api.submit(&json!({"scene_name": "cornell", "spp": total,
+                                "width": 16, "height": 16, "seed": 5}))["id"]
+        .as_i64()
+        .unwrap();
+    api.wait_job(id, T, |j| spp(j) >= 60);
+    assert!(shard_files(&data, id) > 0, "checkpointed shards");
+    let (code, _) = api.post(&format!("/api/jobs/{id}/cancel"), &json!({}));
+    assert_eq!(code, 200);
+    api.wait_job(id, T, |j| j["state"] == "canceled");
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while shard_files(&data, id) > 0 {
+        assert!(Instant::now() < deadline, "shard files left\n{}", w.log());
+        std::thread::sleep(Duration::from_millis(100));
+    }
     // Step 4: killed, both are reported lost once their lease runs out.
     w.kill9();
     let deadline = Instant::now() + Duration::from_secs(30);

@@ -12,7 +12,7 @@ static NEXT_TEMP: AtomicU64 = AtomicU64::new(0);
 
 /// Writes `bytes` to `path` atomically (temporary sibling + rename). On failure the temporary
 /// file is removed and `path` is left as it was.
-pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     let temp = temp_path(path)?;
     let result = (|| {
         let mut file = File::create_new(&temp)?;

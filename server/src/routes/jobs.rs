@@ -392,8 +392,10 @@ async fn change_state(
     let rec = st.store.transition(id, to, t)?;
     tracing::info!(job = id, state = to.as_str(), "job {verb}");
     if to == JobState::Canceled {
-        // A paused job's checkpoint is of no more use (an active one's is removed by the worker).
-        let _ = std::fs::remove_file(JobPaths::new(&st.config.data_dir, id).checkpoint());
+        // A paused job's checkpoints (its own, or its shards') are of no more use (an active
+        // one's are removed by the worker).
+        let shards = st.store.shards(id).map_or(0, |s| s.len() as u32);
+        JobPaths::new(&st.config.data_dir, id).remove_checkpoints(shards);
     }
     st.worker.wake();
     Ok(Json(rec.to_json()))

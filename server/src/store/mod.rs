@@ -236,6 +236,13 @@ impl JobPaths {
     pub fn shard_checkpoint(&self, idx: u32) -> PathBuf {
         self.dir.join(format!("shard-{idx}.bin"))
     }
+    /// Removes the job's checkpoint and those of its shards `0..shards` (none there: no-op).
+    pub fn remove_checkpoints(&self, shards: u32) {
+        let _ = std::fs::remove_file(self.checkpoint());
+        for k in 0..shards {
+            let _ = std::fs::remove_file(self.shard_checkpoint(k));
+        }
+    }
     /// The latest image written to disk (at checkpoints, pause, cancel and the end).
     pub fn image(&self) -> PathBuf {
         self.dir.join("image.exr")

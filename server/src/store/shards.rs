@@ -11,7 +11,7 @@
 
 use renderer::render::{Budget, Progress};
 
-use super::db::{params, Conn, Row};
+use super::db::{params, Conn, Dialect, Row};
 use super::{Store, StoreError};
 use crate::jobs::model::{now_s, JobId, JobSettings, JobState};
 
@@ -113,6 +113,38 @@ fn record_total(c: &mut dyn Conn, id: JobId) -> Result<Progress, StoreError> {
     Ok(total)
 }
 
+/// Leases shard `idx` of job `id` to `worker` until `until` if it is still free at `now` (not
+/// done; never leased, given up, expired, or `worker`'s own); whether it was (exactly one row).
+fn take_shard(
+    c: &mut dyn Conn,
+    id: JobId,
+    idx: u32,
+    worker: &str,
+    until: f64,
+    now: f64,
+) -> Result<bool, StoreError> {
+    let taken = c.exec(
+        "UPDATE shards SET lease_owner = ?3, lease_until = ?4 WHERE job_id = ?1 AND idx = ?2 \
+         AND done = 0 AND (lease_owner IS NULL OR lease_owner = ?3 OR lease_until < ?5)",
+        params![id, idx, worker, until, now],
+    )?;
+    Ok(taken == 1)
+}
+
+/// Locks job `id`'s row (PostgreSQL; SQLite has one writer) before a `shards` row: the order a
+/// claim takes them in, so that a shard update and a claim never wait on each other in turn.
+fn lock_job(c: &mut dyn Conn, id: JobId) -> Result<(), StoreError> {
+    if c.dialect() == Dialect::Sqlite {
+        return Ok(());
+    }
+    let sql = format!(
+        "SELECT 1 FROM jobs WHERE id = ?1{}",
+        c.dialect().for_update()
+    );
+    c.query(&sql, params![id])?;
+    Ok(())
+}
+
 /// Inside a claim's transaction, with job `id`'s row locked: splits the job at its first claim
 /// (when [`plan`] says so and it never started: a job rendered whole so far stays whole, its
 /// checkpoint holds samples of every index), then takes a free shard (its own first: a worker
@@ -176,10 +208,9 @@ pub(super) fn claim_part(
             first: r.i64(1)? as u32,
             samples: r.i64(2)? as u32,
         };
-        c.exec(
-            "UPDATE shards SET lease_owner = ?3, lease_until = ?4 WHERE job_id = ?1 AND idx = ?2",
-            params![id, range.idx, worker, until],
-        )?;
+        if !take_shard(c, id, range.idx, worker, until, now)? {
+            return Ok(None);
+        }
         take_job(c, Some(range.idx.into()))?;
         return Ok(Some(Part::Shard {
             range,
@@ -247,6 +278,7 @@ impl Store {
     ) -> Result<Option<Progress>, StoreError> {
         let text = serde_json::to_string(progress).map_err(|e| StoreError::Db(e.to_string()))?;
         self.write(|c| {
+            lock_job(c, id)?;
             let sql = if done {
                 "UPDATE shards SET progress = ?4, done = 1, lease_owner = NULL, \
                  lease_until = NULL WHERE job_id = ?1 AND idx = ?2 AND lease_owner = ?3 \
@@ -262,9 +294,22 @@ impl Store {
         })
     }
 
+    /// Whether `worker` still holds shard `idx` of job `id` (not done, its lease not taken).
+    pub fn holds_shard(&self, id: JobId, idx: u32, worker: &str) -> Result<bool, StoreError> {
+        self.read(|c| {
+            let row = c.query_opt(
+                "SELECT 1 FROM shards WHERE job_id = ?1 AND idx = ?2 AND lease_owner = ?3 \
+                 AND done = 0",
+                params![id, idx, worker],
+            )?;
+            Ok(row.is_some())
+        })
+    }
+
     /// Makes a done shard whose checkpoint turned out unusable (at the merge) render again.
     pub fn reopen_shard(&self, id: JobId, idx: u32) -> Result<(), StoreError> {
         self.write(|c| {
+            lock_job(c, id)?;
             c.exec(
                 "UPDATE shards SET done = 0, progress = NULL, lease_owner = NULL, \
                  lease_until = NULL WHERE job_id = ?1 AND idx = ?2",
@@ -399,6 +444,18 @@ mod tests {
                 count: 3
             })
         );
+        // A shard is taken only while free: not another live worker's, not done.
+        let take = |idx, w: &str, now| {
+            s.read(|c| take_shard(c, 1, idx, w, now + 60.0, now))
+                .unwrap()
+        };
+        let now = now_s();
+        assert!(!take(1, "g", now), "f holds it");
+        assert!(take(1, "f", now), "its own");
+        assert!(take(1, "g", now + 120.0), "expired");
+        assert!(!take(0, "g", now), "done");
+        assert!(s.holds_shard(1, 1, "g").unwrap() && !s.holds_shard(1, 1, "f").unwrap());
+        assert!(!s.holds_shard(1, 0, "a").unwrap(), "done: nobody's");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

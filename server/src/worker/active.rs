@@ -311,6 +311,17 @@ impl ActiveJob {
         }
     }
 
+    /// The job's shards (of its split: the one rendered, or the ones merged), or 0.
+    pub fn shard_count(&self) -> u32 {
+        self.shard
+            .map_or(self.merged_shards.unwrap_or(0), |sh| sh.count)
+    }
+
+    /// Removes the job's checkpoint files: its own and every shard's (a job that ended).
+    pub fn remove_checkpoints(&self) {
+        self.paths.remove_checkpoints(self.shard_count());
+    }
+
     /// The checkpoint file: the job's, or its shard's.
     pub fn checkpoint_path(&self) -> std::path::PathBuf {
         match &self.shard {
@@ -320,7 +331,7 @@ impl ActiveJob {
     }
 
     /// Writes the checkpoint and the image it implies (a shard's: merged with the other
-    /// shards' latest checkpoints); returns the progress saved.
+    /// shards' latest checkpoints, at live_merge's cadence); returns the progress saved.
     pub fn write_checkpoint(&mut self) -> Result<Progress, CheckpointError> {
         crate::storage::injected_fault().map_err(CheckpointError::Io)?;
         // (Waits for the job's queued passes.)
@@ -339,26 +350,36 @@ impl ActiveJob {
             &acc,
         )
         .map_err(CheckpointError::Io)?;
-        let image = match &self.shard {
-            None => self.session.resolve(&acc),
-            Some(sh) => {
-                let others = super::shard::add_shards(
-                    &self.session,
-                    &self.settings,
-                    &self.paths,
-                    sh.count,
-                    Some(sh.range.idx),
-                    &mut acc,
-                );
-                let spp = progress.spp
-                    + others
-                        .iter()
-                        .filter_map(|(_, r)| r.as_ref().ok().map(|p| p.spp))
-                        .sum::<u32>();
-                self.session.resolve_spp(&acc, spp)
+        match self.shard {
+            None => {
+                let image = self.session.resolve(&acc);
+                self.write_image(&image)?;
             }
-        };
-        self.write_image(&image)?;
+            Some(sh) => {
+                // (Rebuilt only at live_merge's cadence: it reads every other shard's file.)
+                let ticket = super::live_merge::try_begin(&self.paths.dir, sh.merge_every);
+                if ticket.is_some() {
+                    let others = super::shard::add_shards(
+                        &self.session,
+                        &self.settings,
+                        &self.paths,
+                        sh.count,
+                        Some(sh.range.idx),
+                        &mut acc,
+                    );
+                    let spp = progress.spp
+                        + others
+                            .iter()
+                            .filter_map(|(_, r)| r.as_ref().ok().map(|p| p.spp))
+                            .sum::<u32>();
+                    let image = self.session.resolve_spp(&acc, spp);
+                    self.write_image(&image)?;
+                }
+                if let Some(s) = &mut self.shard {
+                    s.image_written = ticket.is_some();
+                }
+            }
+        }
         self.last_checkpoint = Instant::now();
         Ok(progress)
     }

@@ -1,13 +1,12 @@
 //! Checkpoints of a render in progress: the raw accumulation buffer (per pixel Σr, Σg, Σb and
 //! the samples kept, f32, then any extra per-pixel buffers of the integrator: whatever
-//! `RenderSession::accumulation` returns) and the session's [`Progress`] counters, in one file written
-//! atomically (temporary sibling, fsync, rename). Restoring both gives an exact resume, because
-//! the renderer keys its random numbers by sample index.
+//! `RenderSession::accumulation` returns) and the session's [`Progress`] counters, in one file
+//! written atomically (a uniquely named temporary sibling, fsync, rename). Restoring both gives
+//! an exact resume, because the renderer keys its random numbers by sample index.
 //!
 //! Layout (little-endian): `CNDLCKP1`, width u32, height u32, JSON length u32, JSON
 //! (`{"seed", "entries", "progress"}`), entries·4 f32, FNV-1a 64 of everything before it.
 
-use std::io::Write;
 use std::path::Path;
 
 use renderer::render::Progress;
@@ -63,18 +62,15 @@ pub fn write(
     write_atomic(path, &buf)
 }
 
-/// Writes `bytes` to a temporary sibling, syncs it, and renames it over `path`.
+/// Writes `bytes` to `path` atomically (renderer::film::write_atomic: a temporary sibling of a
+/// name of its own, `.NAME.PID.N.tmp`, so that two writers of one file — a worker whose lease
+/// was taken over and the new owner — never write into the same temporary file), creating its
+/// folder first.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     if let Some(parent) = path.parent() {
         std::fs::create_dir_all(parent)?;
     }
-    let tmp = path.with_extension("tmp");
-    {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-    }
-    std::fs::rename(&tmp, path)
+    renderer::film::write_atomic(path, bytes)
 }
 
 /// Reads a checkpoint written for a `width`×`height` film, `seed`, and `entries` accumulation

@@ -21,6 +21,7 @@ mod active;
 mod auto;
 mod checkpoint;
 mod device_loss;
+mod live_merge;
 mod metrics_lane;
 mod outcome;
 mod report;
@@ -498,6 +499,8 @@ impl Worker {
                     count,
                     job_spp,
                     others_spp: 0,
+                    merge_every: self.config.checkpoint_interval,
+                    image_written: false,
                 });
             }
             Part::Merge { count } => job.merged_shards = Some(count),
@@ -611,9 +614,12 @@ impl Worker {
                 if job.shard.is_none() {
                     let _ = self.store.set_progress(id, &job.session.progress());
                 }
-                let _ = std::fs::remove_file(job.checkpoint_path());
+                // (Every shard's: the job ended, and the other shards' files are of no use.)
+                job.remove_checkpoints();
                 info!(job = id, "canceled");
             }
+            // Failed by another worker (a shard of it): its files are of no use.
+            Ok(JobState::Failed) => job.remove_checkpoints(),
             _ => {}
         }
         // Canceled and deleted before (or while) the worker let go of it: a checkpoint or image
@@ -631,6 +637,7 @@ impl Worker {
         }
         job.flush_metrics();
         self.shared.forget(id);
+        live_merge::forget(&job.paths.dir);
         drop(job);
         self.publish_caches();
     }

@@ -15,7 +15,7 @@ use super::storage_hold::is_storage_fault;
 use super::{is_device_error, Worker};
 use crate::jobs::model::{JobId, JobState};
 use crate::storage::is_storage_message;
-use crate::store::{StoreError, Transition};
+use crate::store::{JobPaths, StoreError, Transition};
 
 impl Worker {
     /// Hands the accumulation a pass copied out (`snap`) to the job's report lane, which
@@ -89,10 +89,7 @@ impl Worker {
         match self.store.transition(id, JobState::Done, t) {
             Ok(_) => {
                 info!(job = id, spp, time_s = stats.time_s, "done");
-                let _ = std::fs::remove_file(job.paths.checkpoint());
-                for k in 0..job.merged_shards.unwrap_or(0) {
-                    let _ = std::fs::remove_file(job.paths.shard_checkpoint(k));
-                }
+                job.remove_checkpoints();
             }
             // Paused at the last moment (and perhaps resumed already: queued): keep the
             // checkpoint so the resume ends at once instead of rendering from an older one.
@@ -111,6 +108,7 @@ impl Worker {
             }
             Err(e) => warn!(job = id, error = %e, "finishing job"),
         }
+        super::live_merge::forget(&job.paths.dir);
         drop(job);
         self.shared.forget(id);
         self.publish_caches();
@@ -122,8 +120,11 @@ impl Worker {
         self.queued.retain(|j| *j != id);
         if let Some(job) = self.active.remove(&id) {
             job.flush_metrics();
-            let _ = std::fs::remove_file(job.checkpoint_path());
+            super::live_merge::forget(&job.paths.dir);
         }
+        // Its checkpoints: a split job's every shard's too (it failed as a whole).
+        let shards = self.store.shards(id).map_or(0, |s| s.len() as u32);
+        JobPaths::new(&self.config.data_dir, id).remove_checkpoints(shards);
         self.shared.forget(id);
         error!(job = id, error = %message, "job failed");
         let t = Transition {

@@ -1,10 +1,11 @@
 //! The worker's side of jobs split over workers by sample index (store/shards.rs): a shard is
 //! rendered like a job of its own sample count whose passes start at the shard's first sample
 //! index; its checkpoint (`shard-<k>.bin`) holds its sums, and the job's image on disk, written
-//! with each shard checkpoint, is the merge of that shard's sums with every other shard's latest
-//! checkpoint. The claim that finds every shard done merges their checkpoints into one
-//! accumulation (renderer::render::merge_accumulation, exact up to float addition order),
-//! restores it into a session of the whole job, and finishes the job as a whole render. A worker
+//! with a shard checkpoint at most once per checkpoint interval (live_merge.rs), is the merge of
+//! that shard's sums with every other shard's latest checkpoint. The claim that finds every
+//! shard done merges their checkpoints into one accumulation
+//! (renderer::render::merge_accumulation, exact up to float addition order), restores it into a
+//! session of the whole job, and finishes the job as a whole render. A worker
 //! keeps the session of the shard it finished last, and reuses it (reset) when its next claim
 //! is another part of the same job.
 
@@ -30,10 +31,18 @@ pub struct ShardRun {
     pub job_spp: u32,
     /// The other shards' samples at the last look (for the job's progress).
     pub others_spp: u32,
+    /// The least time between two rebuilds of the job's live image (live_merge.rs).
+    pub merge_every: std::time::Duration,
+    /// Whether the last checkpoint rebuilt the live image (then a `snapshot` event tells).
+    pub image_written: bool,
 }
 
+/// Shard files read at once by [`add_shards`] (each one film-size in memory until merged).
+const READ_AT_ONCE: usize = 4;
+
 /// Adds to `into` (an accumulation of `session`'s layout) the checkpoints of the job's shards
-/// `0..count` other than `skip`; returns each one's progress, or why it is unusable.
+/// `0..count` other than `skip`; returns each one's progress, or why it is unusable. The files
+/// are read (and checksummed) [`READ_AT_ONCE`] at a time on threads, and added in index order.
 pub fn add_shards(
     session: &RenderSession,
     settings: &JobSettings,
@@ -44,18 +53,34 @@ pub fn add_shards(
 ) -> Vec<(u32, Result<Progress, String>)> {
     let (w, h) = (settings.width, settings.height);
     let (len, extra) = (session.accumulation_len(), session.extra_buffers());
-    (0..count)
-        .filter(|k| Some(*k) != skip)
-        .map(|k| {
-            let path = paths.shard_checkpoint(k);
-            let read = checkpoint::read(&path, w, h, settings.seed, len).and_then(|(p, acc)| {
+    let wanted: Vec<u32> = (0..count).filter(|k| Some(*k) != skip).collect();
+    let mut out = Vec::with_capacity(wanted.len());
+    for group in wanted.chunks(READ_AT_ONCE) {
+        // Step 1: read the group's files at once.
+        let reads: Vec<_> = std::thread::scope(|s| {
+            let handles: Vec<_> = group
+                .iter()
+                .map(|k| {
+                    let path = paths.shard_checkpoint(*k);
+                    s.spawn(move || checkpoint::read(&path, w, h, settings.seed, len))
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|t| t.join().unwrap_or_else(|_| Err("reading panicked".into())))
+                .collect()
+        });
+        // Step 2: add them in index order.
+        for (k, read) in group.iter().zip(reads) {
+            let added = read.and_then(|(p, acc)| {
                 merge_accumulation(into, &acc, (w * h) as usize, &extra)
                     .map(|_| p)
                     .map_err(|e| e.to_string())
             });
-            (k, read)
-        })
-        .collect()
+            out.push((*k, added));
+        }
+    }
+    out
 }
 
 /// Shards' summed accumulation and progress.
@@ -114,8 +139,10 @@ pub fn record_progress(
                 s.others_spp = total.spp.saturating_sub(p.spp);
             }
             let _ = store.append_event(id, "progress", job.progress_json());
-            let _ =
-                store.append_event(id, "snapshot", super::outcome::snapshot_data(id, total.spp));
+            if sh.image_written {
+                let data = super::outcome::snapshot_data(id, total.spp);
+                let _ = store.append_event(id, "snapshot", data);
+            }
         }
         // Lost: the next heartbeat drops the shard.
         Ok(None) => {}
@@ -162,8 +189,20 @@ impl Worker {
     /// worker still holds it) and the worker looks for more work (the next shard, or the merge).
     pub(super) fn finish_shard(&mut self, id: JobId, mut job: ActiveJob) {
         let Some(sh) = job.shard else { return };
+        let worker = self.config.worker_id.clone();
         let p = match job.write_checkpoint() {
-            Ok(p) => p,
+            Ok(p) => Some(p),
+            // Taken over meanwhile (its new owner renders it): lost, not a failure of the job.
+            Err(e)
+                if !self
+                    .store
+                    .holds_shard(id, sh.range.idx, &worker)
+                    .unwrap_or(true) =>
+            {
+                warn!(job = id, shard = sh.range.idx, error = ?e,
+                      "lost the shard's lease; its last checkpoint failed");
+                None
+            }
             Err(CheckpointError::Io(e)) if is_storage_fault(&e) => {
                 self.active.insert(id, job);
                 return self.hold_for_storage(id, "writing a shard's checkpoint", e.to_string());
@@ -177,11 +216,9 @@ impl Worker {
                 return self.fail(id, format!("writing a shard's checkpoint: {msg}"));
             }
         };
-        match self
-            .store
-            .shard_done(id, sh.range.idx, &self.config.worker_id, &p)
-        {
-            Ok(Some(total)) => {
+        let done = p.map(|p| (p, self.store.shard_done(id, sh.range.idx, &worker, &p)));
+        match done {
+            Some((p, Ok(Some(total)))) => {
                 info!(
                     job = id,
                     shard = sh.range.idx,
@@ -194,12 +231,15 @@ impl Worker {
                 }
                 let _ = self.store.append_event(id, "progress", job.progress_json());
             }
-            Ok(None) => warn!(
+            Some((_, Ok(None))) => warn!(
                 job = id,
                 shard = sh.range.idx,
                 "lost the shard's lease before recording it done"
             ),
-            Err(e) => warn!(job = id, shard = sh.range.idx, error = %e, "recording a shard done"),
+            Some((_, Err(e))) => {
+                warn!(job = id, shard = sh.range.idx, error = %e, "recording a shard done")
+            }
+            None => {}
         }
         job.flush_metrics();
         // Kept for the job's next shard (or merge), if this worker claims one next.
