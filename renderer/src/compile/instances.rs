@@ -22,6 +22,7 @@ use super::frame::outward;
 use super::prims::{self, Frames, Prims};
 use crate::accel::{self, AccelOptions, CacheStatus, PrimBounds};
 use crate::layout::*;
+use crate::scene::transform::{affine_rows_f32 as rows, box_corners};
 use crate::scene::Scene;
 
 /// The instanced part of a compiled scene, to append to the scene's own arrays.
@@ -57,14 +58,6 @@ pub(super) struct Bases {
     pub tri_shading: usize,
 }
 
-/// The rows of the 3×4 affine part of `m`, rounded to f32.
-fn rows(m: DMat4) -> [[f32; 4]; 3] {
-    std::array::from_fn(|r| {
-        let row = m.row(r);
-        [row.x as f32, row.y as f32, row.z as f32, row.w as f32]
-    })
-}
-
 /// The box of BLAS `nodes` (its root's two children).
 fn root_box(root: &GpuBvhNode) -> (DVec3, DVec3) {
     let f = |a: [f32; 3]| DVec3::from(a.map(f64::from));
@@ -78,12 +71,7 @@ fn root_box(root: &GpuBvhNode) -> (DVec3, DVec3) {
 /// with slack for the f32 rounding of the ray's move into the object frame.
 fn world_box(m: DMat4, lo: DVec3, hi: DVec3) -> PrimBounds {
     let (mut wlo, mut whi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-    for k in 0..8 {
-        let c = DVec3::new(
-            if k & 1 == 0 { lo.x } else { hi.x },
-            if k & 2 == 0 { lo.y } else { hi.y },
-            if k & 4 == 0 { lo.z } else { hi.z },
-        );
+    for c in box_corners(lo, hi) {
         let w = m.transform_point3(c);
         wlo = wlo.min(w);
         whi = whi.max(w);
@@ -178,6 +166,20 @@ pub(super) fn build(
         };
         let o2w = to_camera * inst.to_world;
         let w2o = o2w.inverse();
+        let (world_to_object, object_to_world) = (rows(w2o), rows(o2w));
+        // Loading refuses transforms whose inverse leaves f32; this guards the camera-relative
+        // translation (a far camera) so that no ray becomes NaN.
+        if ![world_to_object, object_to_world]
+            .iter()
+            .flatten()
+            .flatten()
+            .all(|x| x.is_finite())
+        {
+            tracing::warn!(
+                "an instance's matrices overflow 32-bit floats from this camera; skipped"
+            );
+            continue;
+        }
         let mut flags = 0;
         if glam::DMat3::from_mat4(inst.to_world).determinant() < 0.0 {
             flags |= INST_MIRROR;
@@ -188,8 +190,8 @@ pub(super) fn build(
             }
         }
         instances.push(GpuInstance {
-            world_to_object: rows(w2o),
-            object_to_world: rows(o2w),
+            world_to_object,
+            object_to_world,
             root,
             material: inst.material.unwrap_or(NONE),
             flags,
