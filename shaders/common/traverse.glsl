@@ -213,14 +213,14 @@ bool intersect_instance(inout Ray r, uint k, bool any_hit, inout Hit hit) {
 }
 
 // Walks the top-level BVH over the instances (leaves index instances), continuing from the
-// nearest hit so far (r.tmax, hit). Returns true when any_hit found an intersection. A tree
-// deeper than the stack (thousands of instances with the same box) finishes by testing every
-// instance: slow, but exact.
+// nearest hit so far (r.tmax, hit). Returns true when any_hit found an intersection. The host
+// builds the top-level BVH within BVH_STACK levels whatever the boxes (renderer/src/accel/
+// flatten.rs rebuilds too-deep subtrees balanced, and compile/instances.rs asserts it), so its
+// full stack cannot overflow and needs no fallback; it is not shortened by TEST_BVH_STACK.
 bool traverse_instances(Ray r, bool any_hit, inout Hit hit) {
-    uint n_inst = g.instances.x;
-    if (n_inst == 0u) return false;
+    if (g.instances.x == 0u) return false;
     RayPre pre = ray_precompute(r.d);
-    uint stack[STACK_ENTRIES];
+    uint stack[BVH_STACK];
     int sp = 0;
     uint node = 0u;
     while (true) {
@@ -241,11 +241,7 @@ bool traverse_instances(Ray r, bool any_hit, inout Hit hit) {
             hr = false;
         }
         if (hl && hr) {
-            if (sp == STACK_ENTRIES) {
-                for (uint i = 0u; i < n_inst; ++i)
-                    if (intersect_instance(r, i, any_hit, hit) && any_hit) return true;
-                return false;
-            }
+            if (sp == BVH_STACK) return false; // unreachable: the host bounds the depth
             bool left_first = tl <= tr;
             stack[sp++] = left_first ? n.right : n.left;
             node = left_first ? n.left : n.right;

@@ -201,7 +201,14 @@ pub(super) fn build(
         out.instanced_triangles += scene.prototypes[inst.prototype as usize].indices.len() as u64;
     }
     // Step 3: the TLAS, its leaves indexing the instances in its own order.
+    // Its depth is bounded whatever the boxes (thousands of coincident instances included):
+    // the shader's walk of it has no fallback for a deeper tree.
     let tlas = accel::build(&out.bounds, false);
+    debug_assert!(
+        tlas.depth <= accel::STACK_DEPTH,
+        "TLAS depth {}",
+        tlas.depth
+    );
     out.instances = tlas.order.iter().map(|&i| instances[i as usize]).collect();
     out.tlas = tlas.nodes;
     out.build_time = start.elapsed();
@@ -318,6 +325,67 @@ mod tests {
                 let w = inst.to_world.transform_point3(*p) - origin;
                 for a in 0..3 {
                     assert!(b.min[a] as f64 <= w[a] && w[a] <= b.max[a] as f64);
+                }
+            }
+        }
+    }
+
+    /// Five thousand instances with the same world box: the TLAS stays within the shader's
+    /// stack (it has no fallback for a deeper one) and holds every instance once.
+    #[test]
+    fn coincident_instances_keep_the_tlas_within_the_stack() {
+        let n = 5000;
+        let objects: Vec<String> = (0..n)
+            .map(|_| r#"{"type": "instance", "definition": "tri"}"#.to_string())
+            .collect();
+        let json = format!(
+            r#"{{"version": 1, "camera": {{"position": [0, 0, 5], "look_at": [0, 0, 0]}},
+            "film": {{"width": 8, "height": 8}}, "materials": {{"a": {{"type": "diffuse"}}}},
+            "definitions": {{"tri": {{"type": "triangles", "positions": [0,0,0, 1,0,0, 0,1,0],
+                "indices": [0,1,2], "material": "a"}}}},
+            "objects": [{}]}}"#,
+            objects.join(",")
+        );
+        let scene = crate::scene::load_str(&json, None).unwrap();
+        let bases = Bases {
+            nodes: 1,
+            prims: 0,
+            tri_shading: 0,
+        };
+        let out = build(
+            &scene,
+            scene.camera.position,
+            bases,
+            &AccelOptions::default(),
+            None,
+        );
+        // Depth (inner levels) and leaf coverage, walking from the root.
+        let (mut depth, mut seen) = (0, vec![0u32; n]);
+        let mut stack = vec![(0usize, 1usize)];
+        while let Some((i, d)) = stack.pop() {
+            depth = depth.max(d);
+            let n = out.tlas[i];
+            for (c, k) in [(n.left, n.l_count), (n.right, n.r_count)] {
+                if k == 0 {
+                    assert!(
+                        c as usize > i && (c as usize) < out.tlas.len(),
+                        "node {i} child {c}"
+                    );
+                    stack.push((c as usize, d + 1));
+                } else {
+                    (c..c + k).for_each(|j| seen[j as usize] += 1);
+                }
+            }
+        }
+        assert!(depth <= accel::STACK_DEPTH, "{depth}");
+        assert!(seen.iter().all(|&s| s == 1));
+        for n in &out.tlas {
+            for (lo, hi) in [(n.l_min, n.l_max), (n.r_min, n.r_max)] {
+                for a in 0..3 {
+                    assert!(
+                        lo[a] <= out.bounds[0].min[a] && hi[a] >= out.bounds[0].max[a],
+                        "{n:?}"
+                    );
                 }
             }
         }
