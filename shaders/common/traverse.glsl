@@ -136,48 +136,58 @@ bool traverse_stackless(inout Ray r, RayPre pre, uint root, uint inst, bool any_
     return false;
 }
 
+// The nearest-first walk of a binary BVH (GpuBvhNode array NODES, from node ROOT, a stack of
+// STACK entries), shared by the scene's and prototypes' trees and the top-level one (GLSL has
+// no recursion, and a prototype's walk runs inside the top-level one, hence a macro). LEAF(i)
+// tests leaf entry i, shortening r.tmax (true: any_hit may stop); OVERFLOW runs when a push
+// would overflow the stack. Leaves are intersected at once; inner children are visited
+// nearest first.
+#define BVH_WALK(NODES, ROOT, STACK, LEAF, OVERFLOW)                                      \
+    uint stack[STACK];                                                                  \
+    int sp = 0;                                                                         \
+    uint node = ROOT;                                                                   \
+    while (true) {                                                                      \
+        GpuBvhNode n = NODES[node];                                                     \
+        float tl = intersect_box(r.o, pre, n.l_min, n.l_max, r.tmin, r.tmax);           \
+        float tr = intersect_box(r.o, pre, n.r_min, n.r_max, r.tmin, r.tmax);           \
+        bool hl = !isinf(tl), hr = !isinf(tr);                                          \
+        if (hl && n.l_count > 0u) {                                                     \
+            for (uint i = n.left; i < n.left + n.l_count; ++i)                          \
+                if (LEAF(i) && any_hit) return true;                                    \
+            hl = false;                                                                 \
+            tr = intersect_box(r.o, pre, n.r_min, n.r_max, r.tmin, r.tmax);             \
+            hr = !isinf(tr);                                                            \
+        }                                                                               \
+        if (hr && n.r_count > 0u) {                                                     \
+            for (uint i = n.right; i < n.right + n.r_count; ++i)                        \
+                if (LEAF(i) && any_hit) return true;                                    \
+            hr = false;                                                                 \
+        }                                                                               \
+        if (hl && hr) {                                                                 \
+            if (sp == STACK) { OVERFLOW; }                                              \
+            bool left_first = tl <= tr;                                                 \
+            stack[sp++] = left_first ? n.right : n.left;                                \
+            node = left_first ? n.left : n.right;                                       \
+        } else if (hl) {                                                                \
+            node = n.left;                                                              \
+        } else if (hr) {                                                                \
+            node = n.right;                                                             \
+        } else {                                                                        \
+            if (sp == 0) break;                                                         \
+            node = stack[--sp];                                                         \
+        }                                                                               \
+    }
+
 // Walks the BVH rooted at `root` (the scene's at 0, or an instance's prototype's, the ray then
 // in the instance's frame), shortening r.tmax and updating hit at each nearer hit. Returns true
 // when any_hit found an intersection.
 bool traverse_tree(inout Ray r, RayPre pre, uint root, uint inst, bool any_hit, inout Hit hit) {
-    uint stack[STACK_ENTRIES];
-    int sp = 0;
-    uint node = root;
-    while (true) {
-        GpuBvhNode n = nodes[node];
-        float tl = intersect_box(r.o, pre, n.l_min, n.l_max, r.tmin, r.tmax);
-        float tr = intersect_box(r.o, pre, n.r_min, n.r_max, r.tmin, r.tmax);
-        bool hl = !isinf(tl), hr = !isinf(tr);
-        // Leaves are intersected at once; inner children are visited nearest first.
-        if (hl && n.l_count > 0u) {
-            for (uint i = n.left; i < n.left + n.l_count; ++i)
-                if (intersect_prim(r, pre, i, inst, hit) && any_hit) return true;
-            hl = false;
-            tr = intersect_box(r.o, pre, n.r_min, n.r_max, r.tmin, r.tmax);
-            hr = !isinf(tr);
-        }
-        if (hr && n.r_count > 0u) {
-            for (uint i = n.right; i < n.right + n.r_count; ++i)
-                if (intersect_prim(r, pre, i, inst, hit) && any_hit) return true;
-            hr = false;
-        }
-        if (hl && hr) {
-            if (sp == STACK_ENTRIES) {
-                // The tree is deeper than the stack: finish without one (see the top).
-                return traverse_stackless(r, pre, root, inst, any_hit, hit);
-            }
-            bool left_first = tl <= tr;
-            stack[sp++] = left_first ? n.right : n.left;
-            node = left_first ? n.left : n.right;
-        } else if (hl) {
-            node = n.left;
-        } else if (hr) {
-            node = n.right;
-        } else {
-            if (sp == 0) break;
-            node = stack[--sp];
-        }
-    }
+#define TREE_LEAF(i) intersect_prim(r, pre, i, inst, hit)
+    // The tree is deeper than the stack: finish without one (see the top).
+#define TREE_OVERFLOW return traverse_stackless(r, pre, root, inst, any_hit, hit)
+    BVH_WALK(nodes, root, STACK_ENTRIES, TREE_LEAF, TREE_OVERFLOW)
+#undef TREE_LEAF
+#undef TREE_OVERFLOW
     return false;
 }
 
@@ -213,51 +223,18 @@ bool intersect_instance(inout Ray r, uint k, bool any_hit, inout Hit hit) {
 }
 
 // Walks the top-level BVH over the instances (leaves index instances), continuing from the
-// nearest hit so far (r.tmax, hit). Returns true when any_hit found an intersection. A tree
-// deeper than the stack (thousands of instances with the same box) finishes by testing every
-// instance: slow, but exact.
+// nearest hit so far (r.tmax, hit). Returns true when any_hit found an intersection. The host
+// builds the top-level BVH within BVH_STACK levels whatever the boxes (renderer/src/accel/
+// flatten.rs rebuilds too-deep subtrees balanced, and compile/instances.rs asserts it), so its
+// full stack cannot overflow and needs no fallback; it is not shortened by TEST_BVH_STACK.
 bool traverse_instances(Ray r, bool any_hit, inout Hit hit) {
-    uint n_inst = g.instances.x;
-    if (n_inst == 0u) return false;
+    if (g.instances.x == 0u) return false;
     RayPre pre = ray_precompute(r.d);
-    uint stack[STACK_ENTRIES];
-    int sp = 0;
-    uint node = 0u;
-    while (true) {
-        GpuBvhNode n = tlas_nodes[node];
-        float tl = intersect_box(r.o, pre, n.l_min, n.l_max, r.tmin, r.tmax);
-        float tr = intersect_box(r.o, pre, n.r_min, n.r_max, r.tmin, r.tmax);
-        bool hl = !isinf(tl), hr = !isinf(tr);
-        if (hl && n.l_count > 0u) {
-            for (uint i = n.left; i < n.left + n.l_count; ++i)
-                if (intersect_instance(r, i, any_hit, hit) && any_hit) return true;
-            hl = false;
-            tr = intersect_box(r.o, pre, n.r_min, n.r_max, r.tmin, r.tmax);
-            hr = !isinf(tr);
-        }
-        if (hr && n.r_count > 0u) {
-            for (uint i = n.right; i < n.right + n.r_count; ++i)
-                if (intersect_instance(r, i, any_hit, hit) && any_hit) return true;
-            hr = false;
-        }
-        if (hl && hr) {
-            if (sp == STACK_ENTRIES) {
-                for (uint i = 0u; i < n_inst; ++i)
-                    if (intersect_instance(r, i, any_hit, hit) && any_hit) return true;
-                return false;
-            }
-            bool left_first = tl <= tr;
-            stack[sp++] = left_first ? n.right : n.left;
-            node = left_first ? n.left : n.right;
-        } else if (hl) {
-            node = n.left;
-        } else if (hr) {
-            node = n.right;
-        } else {
-            if (sp == 0) break;
-            node = stack[--sp];
-        }
-    }
+#define TLAS_LEAF(i) intersect_instance(r, i, any_hit, hit)
+#define TLAS_OVERFLOW return false /* unreachable: the host bounds the depth */
+    BVH_WALK(tlas_nodes, 0u, BVH_STACK, TLAS_LEAF, TLAS_OVERFLOW)
+#undef TLAS_LEAF
+#undef TLAS_OVERFLOW
     return false;
 }
 #endif

@@ -22,6 +22,7 @@ use super::frame::outward;
 use super::prims::{self, Frames, Prims};
 use crate::accel::{self, AccelOptions, CacheStatus, PrimBounds};
 use crate::layout::*;
+use crate::scene::transform::{affine_rows_f32 as rows, box_corners};
 use crate::scene::Scene;
 
 /// The instanced part of a compiled scene, to append to the scene's own arrays.
@@ -57,14 +58,6 @@ pub(super) struct Bases {
     pub tri_shading: usize,
 }
 
-/// The rows of the 3×4 affine part of `m`, rounded to f32.
-fn rows(m: DMat4) -> [[f32; 4]; 3] {
-    std::array::from_fn(|r| {
-        let row = m.row(r);
-        [row.x as f32, row.y as f32, row.z as f32, row.w as f32]
-    })
-}
-
 /// The box of BLAS `nodes` (its root's two children).
 fn root_box(root: &GpuBvhNode) -> (DVec3, DVec3) {
     let f = |a: [f32; 3]| DVec3::from(a.map(f64::from));
@@ -78,12 +71,7 @@ fn root_box(root: &GpuBvhNode) -> (DVec3, DVec3) {
 /// with slack for the f32 rounding of the ray's move into the object frame.
 fn world_box(m: DMat4, lo: DVec3, hi: DVec3) -> PrimBounds {
     let (mut wlo, mut whi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-    for k in 0..8 {
-        let c = DVec3::new(
-            if k & 1 == 0 { lo.x } else { hi.x },
-            if k & 2 == 0 { lo.y } else { hi.y },
-            if k & 4 == 0 { lo.z } else { hi.z },
-        );
+    for c in box_corners(lo, hi) {
         let w = m.transform_point3(c);
         wlo = wlo.min(w);
         whi = whi.max(w);
@@ -178,6 +166,20 @@ pub(super) fn build(
         };
         let o2w = to_camera * inst.to_world;
         let w2o = o2w.inverse();
+        let (world_to_object, object_to_world) = (rows(w2o), rows(o2w));
+        // Loading refuses transforms whose inverse leaves f32; this guards the camera-relative
+        // translation (a far camera) so that no ray becomes NaN.
+        if ![world_to_object, object_to_world]
+            .iter()
+            .flatten()
+            .flatten()
+            .all(|x| x.is_finite())
+        {
+            tracing::warn!(
+                "an instance's matrices overflow 32-bit floats from this camera; skipped"
+            );
+            continue;
+        }
         let mut flags = 0;
         if glam::DMat3::from_mat4(inst.to_world).determinant() < 0.0 {
             flags |= INST_MIRROR;
@@ -188,8 +190,8 @@ pub(super) fn build(
             }
         }
         instances.push(GpuInstance {
-            world_to_object: rows(w2o),
-            object_to_world: rows(o2w),
+            world_to_object,
+            object_to_world,
             root,
             material: inst.material.unwrap_or(NONE),
             flags,
@@ -199,7 +201,14 @@ pub(super) fn build(
         out.instanced_triangles += scene.prototypes[inst.prototype as usize].indices.len() as u64;
     }
     // Step 3: the TLAS, its leaves indexing the instances in its own order.
+    // Its depth is bounded whatever the boxes (thousands of coincident instances included):
+    // the shader's walk of it has no fallback for a deeper tree.
     let tlas = accel::build(&out.bounds, false);
+    debug_assert!(
+        tlas.depth <= accel::STACK_DEPTH,
+        "TLAS depth {}",
+        tlas.depth
+    );
     out.instances = tlas.order.iter().map(|&i| instances[i as usize]).collect();
     out.tlas = tlas.nodes;
     out.build_time = start.elapsed();
@@ -316,6 +325,67 @@ mod tests {
                 let w = inst.to_world.transform_point3(*p) - origin;
                 for a in 0..3 {
                     assert!(b.min[a] as f64 <= w[a] && w[a] <= b.max[a] as f64);
+                }
+            }
+        }
+    }
+
+    /// Five thousand instances with the same world box: the TLAS stays within the shader's
+    /// stack (it has no fallback for a deeper one) and holds every instance once.
+    #[test]
+    fn coincident_instances_keep_the_tlas_within_the_stack() {
+        let n = 5000;
+        let objects: Vec<String> = (0..n)
+            .map(|_| r#"{"type": "instance", "definition": "tri"}"#.to_string())
+            .collect();
+        let json = format!(
+            r#"{{"version": 1, "camera": {{"position": [0, 0, 5], "look_at": [0, 0, 0]}},
+            "film": {{"width": 8, "height": 8}}, "materials": {{"a": {{"type": "diffuse"}}}},
+            "definitions": {{"tri": {{"type": "triangles", "positions": [0,0,0, 1,0,0, 0,1,0],
+                "indices": [0,1,2], "material": "a"}}}},
+            "objects": [{}]}}"#,
+            objects.join(",")
+        );
+        let scene = crate::scene::load_str(&json, None).unwrap();
+        let bases = Bases {
+            nodes: 1,
+            prims: 0,
+            tri_shading: 0,
+        };
+        let out = build(
+            &scene,
+            scene.camera.position,
+            bases,
+            &AccelOptions::default(),
+            None,
+        );
+        // Depth (inner levels) and leaf coverage, walking from the root.
+        let (mut depth, mut seen) = (0, vec![0u32; n]);
+        let mut stack = vec![(0usize, 1usize)];
+        while let Some((i, d)) = stack.pop() {
+            depth = depth.max(d);
+            let n = out.tlas[i];
+            for (c, k) in [(n.left, n.l_count), (n.right, n.r_count)] {
+                if k == 0 {
+                    assert!(
+                        c as usize > i && (c as usize) < out.tlas.len(),
+                        "node {i} child {c}"
+                    );
+                    stack.push((c as usize, d + 1));
+                } else {
+                    (c..c + k).for_each(|j| seen[j as usize] += 1);
+                }
+            }
+        }
+        assert!(depth <= accel::STACK_DEPTH, "{depth}");
+        assert!(seen.iter().all(|&s| s == 1));
+        for n in &out.tlas {
+            for (lo, hi) in [(n.l_min, n.l_max), (n.r_min, n.r_max)] {
+                for a in 0..3 {
+                    assert!(
+                        lo[a] <= out.bounds[0].min[a] && hi[a] >= out.bounds[0].max[a],
+                        "{n:?}"
+                    );
                 }
             }
         }

@@ -96,18 +96,27 @@ impl CompiledScene {
     }
 }
 
-/// [`CompiledScene::geometry_hash`] of a scene.
+/// Hashes a mesh's positions (bits), indices and per-triangle materials.
+fn hash_mesh(m: &crate::scene::TriangleMesh, h: &mut impl std::hash::Hasher) {
+    use std::hash::Hash;
+    let bits: Vec<[u64; 3]> = m
+        .positions
+        .iter()
+        .map(|p| p.to_array().map(f64::to_bits))
+        .collect();
+    (bits, &m.indices, &m.materials).hash(h);
+}
+
+/// [`CompiledScene::geometry_hash`] of a scene. Each list is preceded by its length, so that
+/// moving an item from one list to the next changes the hash.
 fn world_geometry_hash(scene: &Scene) -> u64 {
     use std::hash::{Hash, Hasher};
     let mut h = std::collections::hash_map::DefaultHasher::new();
+    scene.meshes.len().hash(&mut h);
     for m in &scene.meshes {
-        let bits: Vec<[u64; 3]> = m
-            .positions
-            .iter()
-            .map(|p| p.to_array().map(f64::to_bits))
-            .collect();
-        (bits, &m.indices, &m.materials).hash(&mut h);
+        hash_mesh(m, &mut h);
     }
+    scene.spheres.len().hash(&mut h);
     for s in &scene.spheres {
         (
             s.center.to_array().map(f64::to_bits),
@@ -117,14 +126,11 @@ fn world_geometry_hash(scene: &Scene) -> u64 {
         )
             .hash(&mut h);
     }
+    scene.prototypes.len().hash(&mut h);
     for m in &scene.prototypes {
-        let bits: Vec<[u64; 3]> = m
-            .positions
-            .iter()
-            .map(|p| p.to_array().map(f64::to_bits))
-            .collect();
-        (bits, &m.indices, &m.materials).hash(&mut h);
+        hash_mesh(m, &mut h);
     }
+    scene.instances.len().hash(&mut h);
     for i in &scene.instances {
         (
             i.prototype,
@@ -314,4 +320,34 @@ pub fn compile_with(
         camera_position: origin.to_array(),
         geometry_hash: world_geometry_hash(scene),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    /// The same quad as a scene mesh or as an (unused) definition's prototype hashes
+    /// differently: each list is preceded by its length.
+    #[test]
+    fn geometry_hash_separates_meshes_from_prototypes() {
+        let quad = r#"{"type": "quad", "origin": [0, 0, 0], "edge_u": [1, 0, 0], "edge_v": [0, 1, 0], "material": "a"}"#;
+        let scene = |objects: &str, definitions: &str| {
+            let json = format!(
+                r#"{{"version": 1, "camera": {{"position": [0, 0, 5], "look_at": [0, 0, 0]}},
+                "film": {{"width": 8, "height": 8}}, "materials": {{"a": {{"type": "diffuse"}}}},
+                "definitions": {{{definitions}}}, "objects": [{objects}]}}"#
+            );
+            crate::scene::load_str(&json, None).unwrap()
+        };
+        let as_mesh = scene(quad, "");
+        let as_prototype = scene("", &format!(r#""q": {quad}"#));
+        assert_eq!(as_mesh.meshes.len(), 1);
+        assert_eq!(as_prototype.prototypes.len(), 1);
+        assert_eq!(
+            as_mesh.meshes[0].positions,
+            as_prototype.prototypes[0].positions
+        );
+        assert_ne!(
+            super::world_geometry_hash(&as_mesh),
+            super::world_geometry_hash(&as_prototype)
+        );
+    }
 }

@@ -11,7 +11,7 @@ use super::error::{from_json_error, index_path, join_path, key_path, SceneError}
 use super::mesh::{to_world, FileError, Materials, RawMesh, Shading};
 use super::paths::AssetRoot;
 use super::texture::TextureCache;
-use super::transform::Transform;
+use super::transform::{box_corners, Transform};
 use super::validate::{f32_of, non_negative, non_negative3, positive};
 use super::{materials, obj, paths, ply, shapes, validate};
 use super::{Environment, Instance, Limits, Scene, Sphere, TriangleMesh};
@@ -71,7 +71,7 @@ pub(crate) fn load(json: &str, root: AssetRoot<'_>, limits: &Limits) -> Result<S
         meshes: Vec::new(),
         spheres: Vec::new(),
         prototypes: Vec::new(),
-        prototype_boxes: Vec::new(),
+        prototype_facts: Vec::new(),
         definitions: HashMap::new(),
         instances: Vec::new(),
         defining: false,
@@ -134,6 +134,14 @@ pub(crate) fn load(json: &str, root: AssetRoot<'_>, limits: &Limits) -> Result<S
     })
 }
 
+/// What an instance needs to know about its prototype, computed once per definition.
+struct PrototypeFacts {
+    lo: DVec3,
+    hi: DVec3,
+    /// A material of the prototype's triangles that emits, if any.
+    emitter: Option<u32>,
+}
+
 /// Objects being converted, with what they need.
 struct Objects<'a> {
     root: AssetRoot<'a>,
@@ -147,8 +155,9 @@ struct Objects<'a> {
     /// The definitions' meshes, and each definition's index among them (None: it has no
     /// triangles, so its instances are skipped).
     prototypes: Vec<TriangleMesh>,
-    /// Each prototype's bounding box (its own frame).
-    prototype_boxes: Vec<(DVec3, DVec3)>,
+    /// Each prototype's bounding box (its own frame) and an emissive material it uses, if
+    /// any: computed once per definition so that an instance costs O(1), not O(triangles).
+    prototype_facts: Vec<PrototypeFacts>,
     definitions: HashMap<String, Option<u32>>,
     instances: Vec<Instance>,
     /// Converting a definition: meshes go to `prototypes`; spheres and instances are refused.
@@ -220,14 +229,10 @@ impl Objects<'_> {
             return Ok(());
         };
         // Emissive instances would need a light per instanced triangle: refused for now.
-        let mesh = &self.prototypes[prototype as usize];
+        let facts = &self.prototype_facts[prototype as usize];
         let emitter = match material {
             Some(m) => self.emissive[m as usize].then_some((m, "material")),
-            None => mesh
-                .materials
-                .iter()
-                .find(|&&m| self.emissive.get(m as usize).copied().unwrap_or(false))
-                .map(|&m| (m, "definition")),
+            None => facts.emitter.map(|m| (m, "definition")),
         };
         if let Some((m, field)) = emitter {
             return Err(SceneError::invalid(
@@ -240,13 +245,7 @@ impl Objects<'_> {
         }
         // The placed box must stay within f32 (the GPU's frame), checked on the prototype's
         // box corners: O(1) per instance.
-        let (lo, hi) = self.prototype_boxes[prototype as usize];
-        let inside = (0..8).all(|k| {
-            let c = DVec3::new(
-                if k & 1 == 0 { lo.x } else { hi.x },
-                if k & 2 == 0 { lo.y } else { hi.y },
-                if k & 4 == 0 { lo.z } else { hi.z },
-            );
+        let inside = box_corners(facts.lo, facts.hi).all(|c| {
             let w = transform.point(c);
             w.is_finite() && w.abs().max_element() < f32::MAX as f64 / 4.0
         });
@@ -254,6 +253,14 @@ impl Objects<'_> {
             return Err(SceneError::invalid(
                 join_path(path, "transform"),
                 "places the definition beyond the range of 32-bit floats",
+            ));
+        }
+        // The shader moves rays into the object frame with the inverse, in f32: a tiny scale
+        // (accepted by the relative invertibility check) would overflow it to inf (NaN rays).
+        if !transform.inverse_fits_f32() {
+            return Err(SceneError::invalid(
+                join_path(path, "transform"),
+                "its inverse (world to object) exceeds the range of 32-bit floats (is a scale too small?)",
             ));
         }
         self.instances.push(Instance {
@@ -445,7 +452,13 @@ impl Objects<'_> {
                 .positions
                 .iter()
                 .fold(DVec3::NEG_INFINITY, |a, &p| a.max(p));
-            self.prototype_boxes.push((lo, hi));
+            let emitter = mesh
+                .materials
+                .iter()
+                .copied()
+                .find(|&m| self.emissive.get(m as usize).copied().unwrap_or(false));
+            self.prototype_facts
+                .push(PrototypeFacts { lo, hi, emitter });
             self.prototypes.push(mesh);
         } else {
             self.meshes.push(mesh);

@@ -118,6 +118,18 @@ impl Transform {
         (len > 0.0 && len.is_finite()).then(|| m / len)
     }
 
+    /// Whether the inverse (world → object, which the shader applies to rays in f32) stays
+    /// well within f32: a tiny scale passes the relative invertibility check yet overflows it.
+    /// A quarter of f32's range leaves room for the camera-relative translation.
+    pub fn inverse_fits_f32(&self) -> bool {
+        let inverse = self.matrix.inverse();
+        inverse.is_finite()
+            && affine_rows_f32(inverse)
+                .iter()
+                .flatten()
+                .all(|x| x.abs() < f32::MAX / 4.0)
+    }
+
     /// Whether the transform mirrors (winding must be swapped to keep normals facing the same).
     pub fn flips(&self) -> bool {
         self.det < 0.0
@@ -207,4 +219,23 @@ mod tests {
         assert!(m.flips());
         assert!((m.uniform_scale().unwrap() - 2.0).abs() < 1e-12);
     }
+}
+
+/// The rows of the 3×4 affine part of `m`, rounded to f32 (the GPU's instance matrices).
+pub(crate) fn affine_rows_f32(m: DMat4) -> [[f32; 4]; 3] {
+    std::array::from_fn(|r| {
+        let row = m.row(r);
+        [row.x as f32, row.y as f32, row.z as f32, row.w as f32]
+    })
+}
+
+/// The eight corners of the box `lo`..`hi`.
+pub(crate) fn box_corners(lo: DVec3, hi: DVec3) -> impl Iterator<Item = DVec3> {
+    (0..8).map(move |k| {
+        DVec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        )
+    })
 }
