@@ -12,7 +12,7 @@
 // quantised child boxes at once; leaves' primitives are tested right away (no postponing).
 //
 // Child boxes are tested against the ray transformed into each node's quantised frame (one
-// multiply-add per plane; far distances widened as in intersect_box). The host quantises them
+// multiply-add per plane; intervals widened by a bound on its rounding). The host quantises them
 // so that their f32 decoding p + e·q still contains every child
 // (renderer/src/compile/frame.rs, `place_cwbvh`), and keeps every tree within CWBVH_STACK
 // levels: a walk pushes at most one group per level, so the stack never overflows (the guard
@@ -40,6 +40,10 @@ GpuCwbvhNode cw_node(uint i) {
     return n;
 }
 
+// Relative slack of the transformed-ray test (cw_intersect_node): 8 ulps of 2^-24, twice the
+// rounding bound.
+const float CW_SLACK = 8.0 * 5.96046448e-8;
+
 // Byte c (0..7) of eight packed in a uvec2.
 uint cw_byte(uvec2 v, uint c) {
     return ((c < 4u ? v.x : v.y) >> ((c & 3u) * 8u)) & 0xffu;
@@ -55,20 +59,25 @@ uint cw_intersect_node(GpuCwbvhNode n, Ray r, RayPre pre, uint oct_inv) {
                   uintBitsToFloat(((n.e_imask >> 16) & 0xffu) << 23));
     vec3 scale = e * pre.inv_d;
     vec3 shift = (n.p - r.o) * pre.inv_d;
+    // Rounding: shift carries two roundings, the multiply-add one more, so a plane's distance
+    // is off by at most a few ulps of |shift| + 255·|scale| (which bounds |t| within the node)
+    // in absolute terms, also where the two terms cancel (a ray starting near a child's plane).
+    // Entering earlier and leaving later by that much keeps every box the ray touches; folded
+    // into the shifts, it costs nothing per child.
+    vec3 slack = CW_SLACK * (abs(shift) + 255.0 * abs(scale));
+    vec3 shift_near = shift - slack, shift_far = shift + slack;
     // Step 2: per axis, the planes the ray enters by (the low ones when it runs towards +).
     bvec3 neg = lessThan(pre.inv_d, vec3(0.0));
     uvec2 near_x = neg.x ? n.q[1] : n.q[0], far_x = neg.x ? n.q[0] : n.q[1];
     uvec2 near_y = neg.y ? n.q[3] : n.q[2], far_y = neg.y ? n.q[2] : n.q[3];
     uvec2 near_z = neg.z ? n.q[5] : n.q[4], far_z = neg.z ? n.q[4] : n.q[5];
-    // Step 3: each child's slab interval; the far distance is widened as in intersect_box so
-    // that rounding never loses a box the ray touches.
+    // Step 3: each child's slab interval, widened by the slack.
     uint hitmask = 0u;
     for (uint c = 0u; c < 8u; ++c) {
         uint meta = cw_byte(n.meta, c);
         if (meta == 0u) continue; // an empty slot
-        vec3 tn = vec3(cw_byte(near_x, c), cw_byte(near_y, c), cw_byte(near_z, c)) * scale + shift;
-        vec3 tf = (vec3(cw_byte(far_x, c), cw_byte(far_y, c), cw_byte(far_z, c)) * scale + shift)
-                  * GAMMA3_BOX;
+        vec3 tn = vec3(cw_byte(near_x, c), cw_byte(near_y, c), cw_byte(near_z, c)) * scale + shift_near;
+        vec3 tf = vec3(cw_byte(far_x, c), cw_byte(far_y, c), cw_byte(far_z, c)) * scale + shift_far;
         float enter = max(max(tn.x, tn.y), max(tn.z, r.tmin));
         float leave = min(min(tf.x, tf.y), min(tf.z, r.tmax));
         if (enter > leave) continue;
