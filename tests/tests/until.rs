@@ -300,7 +300,10 @@ fn render_stops_at_a_check_point_with_bounded_overshoot() {
         );
     }
     // The estimate the render reports (CPU, at the stop) reached the target.
-    assert!(stats.rel_mse_estimate.is_some_and(|e| e <= TARGET));
+    // (The stop was decided by the GPU's f32 estimate: the CPU's may differ in the last digits.)
+    assert!(stats
+        .rel_mse_estimate
+        .is_some_and(|e| e <= TARGET * (1.0 + 1e-3)));
     // The check before the stop had not reached it: a render capped there ends by spp with
     // an estimate above the target.
     if points.len() >= 2 {
@@ -308,7 +311,9 @@ fn render_stops_at_a_check_point_with_bounded_overshoot() {
         let mut s = RenderSession::new(&ctx, &compiled, &options, Some(3), 3).unwrap();
         let (_, capped) = render_until(&mut s, Budget::Spp(before), Some(TARGET)).unwrap();
         assert_eq!(capped.stopped_by.map(|r| r.name()), Some("spp"));
-        assert!(capped.rel_mse_estimate.is_some_and(|e| e > TARGET));
+        assert!(capped
+            .rel_mse_estimate
+            .is_some_and(|e| e > TARGET * (1.0 - 1e-3)));
     }
     // Deterministic: the same spp and image again.
     let (again, stats2) = run();

@@ -10,7 +10,8 @@
 //! its result is known. So:
 //!
 //! - the render stops at the first check point whose estimate is at most the target: the same
-//!   spp and image for the same seed, target and device, whatever the passes' timing;
+//!   spp for the same seed, target and device, whatever the passes' timing (the image too, up to
+//!   the float summation order of passes split differently: dispatch shapes follow pass sizes);
 //! - overshoot is bounded: the check point before the stop had an estimate above the target,
 //!   and the stop is at most ⌈(1 + growth) ×⌉ (12.5%, at least 1 spp) past it;
 //! - the cost is one estimate (two small dispatches, 16 bytes read back) and one wait for the
