@@ -24,6 +24,7 @@ mod device_loss;
 mod live_merge;
 mod metrics_lane;
 mod outcome;
+mod reconcile;
 mod report;
 mod scheduler;
 mod shard;
@@ -312,92 +313,6 @@ impl Worker {
         }
         self.pipelines_seen = stats.pipelines_live;
         self.shared.set_caches(stats);
-    }
-
-    /// Brings the active set in line with the store: retires sessions of jobs that are no
-    /// longer runnable, updates weights, and admits jobs while there are free slots.
-    fn reconcile(&mut self) {
-        let runnable = match self.store.runnable_jobs() {
-            Ok(v) => v,
-            Err(e) => {
-                error!(error = %e, "reading runnable jobs");
-                self.dirty = true;
-                return;
-            }
-        };
-        let gone: Vec<JobId> = self
-            .active
-            .keys()
-            .filter(|id| !runnable.iter().any(|(r, _, _)| r == *id))
-            .copied()
-            .collect();
-        for id in gone {
-            self.retire(id);
-        }
-        for (id, _, priority) in runnable {
-            if self.active.contains_key(&id) {
-                self.sched.set_weight(id, priority);
-            }
-        }
-        // Free slots: claim runnable jobs (store/leases.rs) — none another worker holds, none
-        // held for a storage fault (storage_hold.rs).
-        let mut skip: Vec<JobId> = self.held.keys().copied().collect();
-        while self.active.len() < self.config.max_active.max(1) && self.ctx.is_some() {
-            let exclude: Vec<JobId> = self.active.keys().chain(&skip).copied().collect();
-            let claim = self.store.claim_job(
-                &self.config.worker_id,
-                self.config.lease,
-                &exclude,
-                self.config.shard_spp,
-            );
-            match claim {
-                Ok(Some(claim)) => {
-                    let id = claim.id;
-                    self.admit(claim);
-                    // Admitting may take long (kernels to build): renew at once, and let the
-                    // job go if another worker took it meanwhile.
-                    self.heartbeat();
-                    // Not admitted (failed, or paused meanwhile): its lease goes at the next
-                    // heartbeat; not again in this round.
-                    skip.push(id);
-                }
-                Ok(None) => break,
-                Err(e) => {
-                    error!(error = %e, "claiming a job");
-                    self.dirty = true;
-                    break;
-                }
-            }
-        }
-        // A spare session no claim took: its device memory goes.
-        self.spare = None;
-    }
-
-    /// Renews the leases of the active jobs and gives up the others; drops, unsaved, every job
-    /// whose lease was lost (it expired and another worker took the job over).
-    fn heartbeat(&mut self) {
-        self.last_heartbeat = Instant::now();
-        self.report(false);
-        let held: Vec<JobId> = self.active.keys().copied().collect();
-        let kept = match self
-            .store
-            .renew_leases(&self.config.worker_id, &held, self.config.lease)
-        {
-            Ok(k) => k,
-            Err(e) => return error!(error = %e, "renewing the render leases"),
-        };
-        for id in held.into_iter().filter(|id| !kept.contains(id)) {
-            warn!(
-                job = id,
-                "lost the job's lease to another worker; stopping it"
-            );
-            self.sched.remove(id);
-            self.queued.retain(|j| *j != id);
-            if let Some(job) = self.active.remove(&id) {
-                job.flush_metrics();
-            }
-            self.shared.forget(id);
-        }
     }
 
     /// Creates the session of a runnable job (restoring its checkpoint) and schedules it; of
