@@ -32,8 +32,8 @@ pub fn load(name: &str) -> Scene {
     renderer::scene::load_file(&crate::scene_path(name)).unwrap()
 }
 
-/// `scene` with everything that has a position (camera, mesh vertices, spheres, point and spot
-/// lights) moved by `t`: the same picture, far from the origin.
+/// `scene` with everything that has a position (camera, mesh vertices, spheres, instances,
+/// point and spot lights) moved by `t`: the same picture, far from the origin.
 pub fn translated(scene: &Scene, t: DVec3) -> Scene {
     let mut far = scene.clone();
     far.camera.position += t;
@@ -45,6 +45,9 @@ pub fn translated(scene: &Scene, t: DVec3) -> Scene {
     }
     for s in &mut far.spheres {
         s.center += t;
+    }
+    for i in &mut far.instances {
+        i.to_world = glam::DMat4::from_translation(t) * i.to_world;
     }
     for l in &mut far.lights {
         if let Light::Point { position, .. } | Light::Spot { position, .. } = l {

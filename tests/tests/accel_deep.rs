@@ -12,12 +12,12 @@
 //! primitive order and the twins' images may be compared sample for sample; shadow rays
 //! (any-hit queries) cross the deep trees too. Also rendered with the uniform grid.
 
+use candela_tests::accel::diff;
 use candela_tests::*;
 use renderer::accel::{AccelKind, AccelOptions, STACK_DEPTH};
 use renderer::compile::{compile_with, CompileOptions, CompiledScene};
 use renderer::film::Image;
 use renderer::integrators::IntegratorOptions;
-use renderer::metrics::rel_mse;
 use renderer::render::{render, Budget, RenderSession};
 use renderer::scene::{load_str, Scene};
 use serde_json::{json, Value};
@@ -82,17 +82,6 @@ fn render_compiled(scene: &Scene, c: CompiledScene) -> (Image, CompiledScene) {
     let (img, _) = render(&mut session, Budget::Spp(4)).expect("render");
     ctx.check_validation().expect("validation layer messages");
     (img, c)
-}
-
-/// Pixels whose colour differs at all, and the relMSE of `a` against `b`.
-fn diff(a: &Image, b: &Image) -> (usize, f64) {
-    let n = a
-        .pixels
-        .iter()
-        .zip(&b.pixels)
-        .filter(|(x, y)| x != y)
-        .count();
-    (n, rel_mse(a, b).unwrap())
 }
 
 /// Renders `deep` as built (deeper than the stack; also with a stack of 1 entry, so the

@@ -2,6 +2,7 @@
 //! tracers agreeing, determinism whatever the pass split, and invariance under translating the
 //! whole scene far from the origin.
 
+use candela_tests::accel::translated;
 use candela_tests::{gpu, render_loaded, render_scene, scene_path};
 use renderer::compile::compile;
 use renderer::integrators::IntegratorOptions;
@@ -112,18 +113,7 @@ fn image_does_not_depend_on_the_pass_split() {
 fn scene_far_from_origin_renders_the_same() {
     let path = scene_path("mirror_glass.json");
     let scene = renderer::scene::load_file(&path).unwrap();
-    let mut far = scene.clone();
-    let t = glam::DVec3::new(1e5, -1e5, 1e5);
-    far.camera.position += t;
-    far.camera.look_at += t;
-    for m in &mut far.meshes {
-        for p in &mut m.positions {
-            *p += t;
-        }
-    }
-    for s in &mut far.spheres {
-        s.center += t;
-    }
+    let far = translated(&scene, glam::DVec3::new(1e5, -1e5, 1e5));
     let (a, _) = render_loaded(&scene, "nee", 16, 32, 32, 5, None);
     let (b, _) = render_loaded(&far, "nee", 16, 32, 32, 5, None);
     let e = rel_mse(&b, &a).unwrap();
