@@ -289,6 +289,23 @@ class Soak:
                     self.deleted[j["id"]] = rec
 
     def run(self):
+        """The soak; on an exception or Ctrl-C, every process it started is stopped first."""
+        self.server, self.pg, self.workers = None, None, []
+        try:
+            return self._run()
+        except BaseException:
+            self._abort()
+            raise
+
+    def _abort(self):
+        for p in ([self.server.proc] if self.server and self.server.proc else []) + \
+                [w.proc for w in self.workers if w.proc]:
+            if p.poll() is None:
+                p.kill()
+        if self.pg:
+            self.pg.stop()
+
+    def _run(self):
         a = self.args
         data_dir = a.data_dir or tempfile.mkdtemp(prefix="candela-soak-")
         os.makedirs(data_dir, exist_ok=True)
@@ -304,7 +321,7 @@ class Soak:
             extra += ["--workers", "0", "--database", self.pg.url]
             self.workers = [Worker(a.candela, i, data_dir, self.pg.url, log_path, a.lease,
                                    a.worker_arg, REPO) for i in range(a.farm)]
-        server = Server(a.candela, data_dir, log_path, extra)
+        server = self.server = Server(a.candela, data_dir, log_path, extra)
         server.start()
         for w in self.workers:
             w.start()
