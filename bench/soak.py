@@ -44,7 +44,7 @@ import time
 import urllib.error
 import urllib.request
 
-from soak_farm import Postgres, Worker, rss_mb
+from soak_farm import Postgres, Worker, rss_mb, terminate
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TERMINAL = ("done", "canceled", "failed")
@@ -138,12 +138,7 @@ class Server:
         self.proc.wait()
 
     def terminate(self, timeout=60):
-        self.proc.send_signal(signal.SIGTERM)
-        try:
-            return self.proc.wait(timeout)
-        except subprocess.TimeoutExpired:
-            self.kill9()
-            return "killed after SIGTERM timeout"
+        return terminate(self.proc, timeout)
 
     def rss_mb(self):
         return rss_mb(self.proc.pid)

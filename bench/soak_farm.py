@@ -38,6 +38,18 @@ def _pg_bin():
     raise RuntimeError("PostgreSQL is not installed (no initdb): run scripts/setup.sh")
 
 
+def terminate(proc, timeout=60):
+    """SIGTERM, then SIGKILL if `proc` has not exited within `timeout` seconds: its exit status,
+    or what happened."""
+    proc.send_signal(signal.SIGTERM)
+    try:
+        return proc.wait(timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+        return "killed after SIGTERM timeout"
+
+
 def rss_mb(pid):
     """Resident memory of process `pid` in MB, or None when it is gone."""
     try:
@@ -177,9 +189,4 @@ class Worker:
     def terminate(self, timeout=60):
         if not self.alive():
             return f"exited with {self.proc.returncode}"
-        self.proc.send_signal(signal.SIGTERM)
-        try:
-            return self.proc.wait(timeout)
-        except subprocess.TimeoutExpired:
-            self.kill9()
-            return "killed after SIGTERM timeout"
+        return terminate(self.proc, timeout)
