@@ -25,6 +25,7 @@
 #define B_VCT_LEAF 25
 #define B_VCT_BOUNCE 26
 #define B_VCT_PROBE 27
+#define B_VCT_TILES 28
 
 #define VCT_LEVELS_MAX 16
 #define NODE_FLAG 0x80000000u

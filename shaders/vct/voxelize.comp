@@ -4,13 +4,14 @@
 // normals, the triangle normal, and the nine edge cross products) against every voxel of the
 // triangle's bounding box; spheres: the voxel box straddles the sphere surface (nearest box point
 // inside, farthest outside). Thin geometry is never lost: a voxel is kept when any part of the
-// primitive touches it. Thread (x: primitive, y: slice): each thread covers one slice of the
-// primitive's bounding box along its longest axis, and VOX_ROWS rows of it along the second
-// longest (z: row block), so a wall spanning the grid is split over many threads, each testing a
-// few rows (renderer/src/integrators/vct/build.rs sizes the grid). Counting pass (capacity 0)
-// and emitting pass share the kernel: each thread counts its voxels, the workgroup sums its
-// threads' counts in shared memory and reserves one block with one global atomic (millions of
-// threads on one counter serialise), and each thread writes its share of the block.
+// primitive touches it. Work is cut into tiles of a primitive's voxel box (one per thread): one
+// slice along its longest axis, VOX_ROWS rows of the second longest and VOX_DEPTH voxels of the
+// shortest, numbered primitive after primitive (renderer/src/integrators/vct/build.rs,
+// `voxel_tiles`), so a warp's threads share a primitive and a wall spanning the grid is spread
+// over many threads. Counting pass (capacity 0) and emitting pass share the kernel: each thread
+// counts its voxels, the workgroup sums its threads' counts in shared memory and reserves one
+// block with one global atomic (millions of threads on one counter serialise), and each thread
+// writes its share of the block.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "vct/common.glsl"
@@ -18,6 +19,10 @@
 layout(local_size_x = 64, local_size_y = 1, local_size_z = 1) in;
 
 #define VOX_ROWS 4
+#define VOX_DEPTH 8
+
+// Per primitive: its first tile, and its tile grid (row blocks | depth blocks << 16).
+layout(set = 0, binding = B_VCT_TILES, scalar) readonly buffer VctTiles { uvec2 tiles[]; };
 
 shared uint s_count;
 shared uint s_base;
@@ -65,18 +70,24 @@ bool touches(GpuPrim pr, bool sphere, vec3 v) {
 }
 
 void main() {
-    uint prim = gl_GlobalInvocationID.x;
-    uint slice = gl_GlobalInvocationID.y;
-    uint rows = gl_GlobalInvocationID.z * VOX_ROWS;
+    uint tile = LINEAR_GID;
     // Threads without work stay to the end: the workgroup meets at barriers.
-    bool work = prim < g.counts.x;
+    bool work = tile < VP_COUNT;
+    uint prim = 0u;
     GpuPrim pr;
     bool sphere = false;
     ivec3 slo = ivec3(0), shi = ivec3(-1);
     if (work) {
+        // Step 1: the tile's primitive, the last whose first tile is at or before it.
+        uint lo_i = 0u, hi_i = g.counts.x - 1u;
+        while (lo_i < hi_i) {
+            uint mid = (lo_i + hi_i + 1u) >> 1;
+            if (tiles[mid].x <= tile) lo_i = mid; else hi_i = mid - 1u;
+        }
+        prim = lo_i;
         pr = prims[prim];
         sphere = (floatBitsToUint(pr.a.w) & PRIM_SPHERE) != 0u;
-        // Step 1: the primitive's voxel range.
+        // Step 2: the primitive's voxel range.
         vec3 lo, hi;
         if (sphere) {
             vec3 sc = to_grid(pr.a.xyz);
@@ -89,26 +100,35 @@ void main() {
         float rmax = float(vct_res() - 1u);
         ivec3 vlo = ivec3(clamp(floor(lo - 1e-3), vec3(0.0), vec3(rmax)));
         ivec3 vhi = ivec3(clamp(floor(hi + 1e-3), vec3(0.0), vec3(rmax)));
-        // Step 2: this thread's slice along the longest axis and rows along the second longest.
+        // Step 3: this tile's slice along the longest axis, rows along the second longest and
+        // depth along the shortest (the tile grid is the CPU's, at least as large as this box).
         ivec3 ext = vhi - vlo;
         int axis = ext.x >= ext.y ? (ext.x >= ext.z ? 0 : 2) : (ext.y >= ext.z ? 1 : 2);
         int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
         int row_axis = ext[a1] >= ext[a2] ? a1 : a2;
-        work = int(slice) <= ext[axis] && int(rows) <= ext[row_axis];
+        int depth_axis = 3 - axis - row_axis;
+        uint rows = tiles[prim].y & 0xffffu, depth = tiles[prim].y >> 16;
+        uint local = tile - tiles[prim].x;
+        int slice = int(local / (rows * depth));
+        int row = int((local / depth) % rows) * VOX_ROWS;
+        int deep = int(local % depth) * VOX_DEPTH;
+        work = slice <= ext[axis] && row <= ext[row_axis] && deep <= ext[depth_axis];
         slo = vlo; shi = vhi;
-        slo[axis] = vlo[axis] + int(slice);
+        slo[axis] = vlo[axis] + slice;
         shi[axis] = slo[axis];
-        slo[row_axis] = vlo[row_axis] + int(rows);
+        slo[row_axis] = vlo[row_axis] + row;
         shi[row_axis] = min(slo[row_axis] + VOX_ROWS - 1, vhi[row_axis]);
+        slo[depth_axis] = vlo[depth_axis] + deep;
+        shi[depth_axis] = min(slo[depth_axis] + VOX_DEPTH - 1, vhi[depth_axis]);
     }
-    // Step 3: count the voxels touched.
+    // Step 4: count the voxels touched.
     uint n = 0u;
     if (work)
         for (int z = slo.z; z <= shi.z; ++z)
             for (int y = slo.y; y <= shi.y; ++y)
                 for (int x = slo.x; x <= shi.x; ++x)
                     if (touches(pr, sphere, vec3(x, y, z))) n += 1u;
-    // Step 4: one block for the workgroup, this thread's share of it.
+    // Step 5: one block for the workgroup, this thread's share of it.
     if (gl_LocalInvocationIndex == 0u) s_count = 0u;
     barrier();
     uint mine = n > 0u ? atomicAdd(s_count, n) : 0u;
@@ -118,7 +138,7 @@ void main() {
     if (n == 0u) return;
     uint base = s_base + mine;
     if (base + n > P.caps.x) return; // counting pass (capacity 0) or overflow
-    // Step 5: write them.
+    // Step 6: write them.
     for (int z = slo.z; z <= shi.z; ++z)
         for (int y = slo.y; y <= shi.y; ++y)
             for (int x = slo.x; x <= shi.x; ++x)

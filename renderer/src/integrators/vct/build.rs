@@ -20,6 +20,8 @@ use crate::gpu::{Binding, Buffer, BufferUsage, GpuContext, ShaderDefines};
 /// Rows of the primitive's second-longest axis one voxelization thread covers (mirrors
 /// VOX_ROWS in shaders/vct/voxelize.comp).
 const VOX_ROWS: u32 = 4;
+/// Voxels of the primitive's shortest axis one voxelization thread covers (VOX_DEPTH).
+const VOX_DEPTH: u32 = 8;
 
 fn storage_buffer(ctx: &Arc<GpuContext>, name: &str, bytes: u64) -> Result<Buffer, RenderError> {
     Ok(Buffer::new(ctx, name, bytes, BufferUsage::Storage)?)
@@ -192,24 +194,25 @@ impl<'a> Builder<'a> {
         pipeline(self.ctx, kernel, self.defines, &b)
     }
 
-    /// Conservative voxelization, counting then emitting (thread = primitive × slice of its
-    /// box along the longest axis × VOX_ROWS rows of the second longest). Returns the fragment
-    /// list and its length.
+    /// Conservative voxelization, counting then emitting (thread = one tile of a primitive's
+    /// voxel box: a slice along its longest axis × VOX_ROWS rows of the second × VOX_DEPTH
+    /// voxels of the shortest; [`voxel_tiles`]). Returns the fragment list and its length.
     fn voxelize(&mut self) -> Result<(Buffer, u32), RenderError> {
-        let nprims = self.scene.prims.len() as u64;
-        let (slices, rows) = box_extents(self.scene, &self.params);
-        let groups = [
-            (nprims.div_ceil(64).max(1)) as u32,
-            slices,
-            rows.div_ceil(VOX_ROWS),
-        ];
+        let (tiles, total) = voxel_tiles(&self.scene.prims, &self.params)?;
+        let tiles = Buffer::from_slice(self.ctx, "vct voxelization tiles", &tiles)?;
+        let groups = groups_1d(total as u64);
+        let push = push(0, total, 0);
         let mut frag_count = 0u32;
-        if nprims > 0 {
-            let count = self.pipeline("vct/voxelize.comp", &Set::default())?;
+        if total > 0 {
+            let set = Set {
+                tiles: Some(&tiles),
+                ..Default::default()
+            };
+            let count = self.pipeline("vct/voxelize.comp", &set)?;
             let t = self.ctx.record(1, |rec| {
                 rec.dispatch(
                     &count,
-                    bytemuck::bytes_of(&push(0, 0, 0)),
+                    bytemuck::bytes_of(&push),
                     groups,
                     "vct voxelize count",
                 )
@@ -224,16 +227,12 @@ impl<'a> Builder<'a> {
             self.upload_params()?;
             let set = Set {
                 frags: Some(&frags),
+                tiles: Some(&tiles),
                 ..Default::default()
             };
             let emit = self.pipeline("vct/voxelize.comp", &set)?;
             let t = self.ctx.record(1, |rec| {
-                rec.dispatch(
-                    &emit,
-                    bytemuck::bytes_of(&push(0, 0, 0)),
-                    groups,
-                    "vct voxelize",
-                )
+                rec.dispatch(&emit, bytemuck::bytes_of(&push), groups, "vct voxelize")
             })?;
             self.times.voxelize_ms += sum_ms(&t);
         }
@@ -401,16 +400,26 @@ impl<'a> Builder<'a> {
     }
 }
 
-/// The voxelization's thread grid: the most voxels any primitive's box spans along its longest
-/// axis (slices), and along its second longest (rows).
-fn box_extents(scene: &CompiledScene, params: &VctParams) -> (u32, u32) {
+/// The voxelization's work list: each primitive's voxel box cut into tiles (one per thread) of
+/// one slice along its longest axis, VOX_ROWS rows of the second longest and VOX_DEPTH voxels
+/// of the shortest, numbered consecutively primitive after primitive, so that the threads of a
+/// warp work on one primitive and a large primitive is spread over many threads (a launch over
+/// primitive × the largest box instead made every warp as slow as its largest primitive).
+/// Per primitive: its first tile and its tile grid (row blocks | depth blocks << 16), from box
+/// extents padded so that they cover the kernel's (which adds a slack of 1e-3 voxel each side);
+/// tiles past the kernel's own extents do nothing. Also the number of tiles.
+fn voxel_tiles(
+    prims: &[crate::layout::GpuPrim],
+    params: &VctParams,
+) -> Result<(Vec<[u32; 2]>, u32), RenderError> {
     let (min, voxel, r) = (
         [params.grid[0], params.grid[1], params.grid[2]],
         params.grid[3],
         params.dims[0],
     );
-    let (mut slices, mut rows) = (1u32, 1u32);
-    for p in &scene.prims {
+    let mut out = Vec::with_capacity(prims.len());
+    let mut total = 0u64;
+    for p in prims {
         let sphere = p.a[3].to_bits() & crate::layout::PRIM_SPHERE != 0;
         let (lo, hi) = if sphere {
             (
@@ -423,14 +432,94 @@ fn box_extents(scene: &CompiledScene, params: &VctParams) -> (u32, u32) {
                 [0, 1, 2].map(|i| p.a[i].max(p.b[i]).max(p.c[i])),
             )
         };
+        // Voxels along each axis, with a voxel to spare each side, longest first.
         let mut ext = [0u32; 3];
         for i in 0..3 {
             let cell = |x: f32| ((x - min[i]) / voxel).floor().clamp(0.0, (r - 1) as f32);
-            ext[i] = (cell(hi[i]) - cell(lo[i])) as u32 + 2;
+            ext[i] = ((cell(hi[i]) - cell(lo[i])) as u32 + 3).min(r);
         }
-        ext.sort_unstable();
-        slices = slices.max(ext[2]);
-        rows = rows.max(ext[1]);
+        ext.sort_unstable_by(|a, b| b.cmp(a));
+        let (rows, depth) = (ext[1].div_ceil(VOX_ROWS), ext[2].div_ceil(VOX_DEPTH));
+        out.push([total as u32, rows | depth << 16]);
+        total += ext[0] as u64 * rows as u64 * depth as u64;
+        if total > u32::MAX as u64 {
+            return Err(RenderError::Invalid(format!(
+                "vct: voxelizing the scene at resolution {r} needs more than {} threads; lower \
+                 integrator.resolution",
+                u32::MAX
+            )));
+        }
     }
-    (slices.min(r + 1), rows.min(r + 1))
+    Ok((out, total as u32))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::layout::GpuPrim;
+    use bytemuck::Zeroable;
+
+    /// The voxel box voxelize.comp computes for a triangle (Step 2), as voxel counts per axis.
+    fn kernel_box(p: &GpuPrim, params: &VctParams) -> [i32; 3] {
+        let (r, v) = (params.dims[0] as f32, params.grid[3]);
+        [0, 1, 2].map(|i| {
+            let g = |x: f32| (x - params.grid[i]) / v;
+            let (a, b, c) = (g(p.a[i]), g(p.b[i]), g(p.c[i]));
+            let lo = (a.min(b).min(c) - 1e-3).floor().clamp(0.0, r - 1.0);
+            let hi = (a.max(b).max(c) + 1e-3).floor().clamp(0.0, r - 1.0);
+            (hi - lo) as i32 + 1
+        })
+    }
+
+    /// Every voxel of the kernel's box of every primitive falls in one of its tiles: the tile
+    /// grid (slices × row blocks × depth blocks) covers the box's extents sorted longest first,
+    /// for triangles of every size and orientation, on and off the grid's edges; and the tiles
+    /// are numbered consecutively.
+    #[test]
+    fn tiles_cover_every_voxel_the_kernel_tests() {
+        let r = 64u32;
+        let mut params = VctParams::zeroed();
+        params.grid = [-1.5, 0.25, -3.0, 0.0625]; // 64 voxels of 1/16
+        params.dims[0] = r;
+        let mut seed = 0x9e3779b97f4a7c15u64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut prims = Vec::new();
+        for k in 0..2000 {
+            // Sizes from a hair to past the grid, anywhere (partly outside too).
+            let size = [0.001f32, 0.05, 0.5, 6.0][k % 4];
+            let centre = [0, 1, 2].map(|i| params.grid[i] - 0.5 + 5.0 * rnd());
+            let vertex = |rnd: &mut dyn FnMut() -> f32| {
+                let mut v = [0f32; 4];
+                for i in 0..3 {
+                    v[i] = centre[i] + size * (rnd() - 0.5);
+                }
+                v
+            };
+            prims.push(GpuPrim {
+                a: vertex(&mut rnd),
+                b: vertex(&mut rnd),
+                c: vertex(&mut rnd),
+            });
+        }
+        let (tiles, total) = voxel_tiles(&prims, &params).unwrap();
+        for (i, p) in prims.iter().enumerate() {
+            let mut ext = kernel_box(p, &params);
+            ext.sort_unstable_by(|a, b| b.cmp(a));
+            let (rows, depth) = (tiles[i][1] & 0xffff, tiles[i][1] >> 16);
+            let end = tiles.get(i + 1).map_or(total, |t| t[0]);
+            let slices = (end - tiles[i][0]) / (rows * depth);
+            assert_eq!(slices * rows * depth, end - tiles[i][0], "prim {i}");
+            assert!(
+                ext[0] <= slices as i32
+                    && ext[1] <= (rows * VOX_ROWS) as i32
+                    && ext[2] <= (depth * VOX_DEPTH) as i32,
+                "prim {i}: box {ext:?}, tiles {slices} x {rows} x {depth}"
+            );
+        }
+    }
 }

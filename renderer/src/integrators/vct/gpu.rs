@@ -23,6 +23,7 @@ pub mod binding {
     pub const LEAF: u32 = 25;
     pub const BOUNCE: u32 = 26;
     pub const PROBE: u32 = 27;
+    pub const TILES: u32 = 28;
 }
 
 /// Most levels (VCT_LEVELS_MAX).
@@ -108,6 +109,7 @@ pub struct Set<'a> {
     pub leaf: Option<&'a Buffer>,
     pub bounce: Option<&'a Buffer>,
     pub probe: Option<&'a Buffer>,
+    pub tiles: Option<&'a Buffer>,
 }
 
 /// The session's bindings plus vct's: params, info and the buffers of `set`.
@@ -143,6 +145,7 @@ pub fn bindings<'a>(
     add(binding::LEAF, set.leaf);
     add(binding::BOUNCE, set.bounce);
     add(binding::PROBE, set.probe);
+    add(binding::TILES, set.tiles);
     out
 }
 
