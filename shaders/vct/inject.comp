@@ -5,7 +5,11 @@
 // environment, in the same units), each tested with a shadow ray through the BVH. Each voxel
 // keeps its front (the side of its normal) and back radiance apart; one-sided surfaces have no
 // back. Emission is not injected: direct light is computed exactly at shaded points, so the
-// cones gather only reflected light. Samples are keyed by voxel and sample index (deterministic).
+// cones gather only reflected light. The K samples of a voxel are the points of the 3D R2
+// low-discrepancy sequence (Roberts 2018: i·(1/φ, 1/φ², 1/φ³) mod 1, φ the root of x⁴ = x + 1)
+// under one random shift per voxel (Cranley-Patterson rotation): each sample stays uniform, so
+// the estimate stays unbiased, and the K samples spread over the lights and their surfaces
+// instead of clumping. The shift is keyed by the voxel (deterministic).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "vct/common.glsl"
@@ -28,10 +32,12 @@ void main() {
     vec3 E = vec3(0.0), E_back = vec3(0.0);
     bool degenerate = dot(vx.n, vx.n) == 0.0;
     float eps = 0.05 * P.grid.w;
+    Rng rng = rng_init(cell_key, 0u, 0x76637421u, 0x1a2b3c4du);
+    vec3 shift = rng_next3(rng);
+    const vec3 R2 = vec3(0.8191725133961645, 0.6710436067037893, 0.5497004779019703);
     for (uint i = 0u; i < K; ++i) {
-        Rng rng = rng_init(cell_key, i, 0x76637421u, 0x1a2b3c4du);
         LightSample ls;
-        if (!sample_light(vx.p, rng_next3(rng), ls)) continue;
+        if (!sample_light(vx.p, fract(shift + float(i) * R2), ls)) continue;
         float c = dot(vx.n, ls.wi);
         float cosw = vx.two_sided ? abs(c) : max(c, 0.0);
         if (degenerate) cosw = 0.5; // normals cancel: the average over both sides

@@ -60,7 +60,9 @@ pub struct VctOptions {
     pub ao: Option<bool>,
     /// Reach of the occlusion cones in scene units (default: an eighth of the grid's side).
     pub ao_distance: Option<f32>,
-    /// Light samples per voxel for the injection (1..=1024, default 16).
+    /// Light samples per voxel for the injection (1..=1024, default 8: with the samples spread
+    /// by a low-discrepancy sequence (inject.comp), 8 leave the injected radiance as noisy as 16
+    /// independent ones did, at half the shadow rays; bench/RESULTS.md).
     pub inject_samples: Option<u32>,
     /// Coarsest level the cones read (0 = the voxels; default log2(resolution) − 4, i.e. cells
     /// of 1/16 of the grid). Past the diameter of that level's cells a cone keeps its footprint
@@ -129,7 +131,7 @@ impl OptionsInfo for VctOptions {
         OptionField {
             name: "inject_samples",
             kind: "integer",
-            help: "light samples per voxel for the injection, 1..=1024 (default 16)",
+            help: "light samples per voxel for the injection, 1..=1024 (default 8)",
         },
         OptionField {
             name: "max_level",
@@ -223,7 +225,7 @@ impl VctOptions {
                 return Err(bad("ao_distance", format!("must be positive, got {d}")));
             }
         }
-        let inject_samples = self.inject_samples.unwrap_or(16);
+        let inject_samples = self.inject_samples.unwrap_or(8);
         if !(1..=1024).contains(&inject_samples) {
             return Err(bad(
                 "inject_samples",
