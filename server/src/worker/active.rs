@@ -29,6 +29,17 @@ pub enum CheckpointError {
     Io(std::io::Error),
 }
 
+/// Where the last checkpoint's time went (for the shard timing log, shard.rs).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct CheckpointTimes {
+    /// Waiting for the queued passes and reading the accumulation back.
+    pub readback: Duration,
+    /// Encoding and writing the checkpoint file (durably).
+    pub file: Duration,
+    /// The job's image (a shard's: the live merge, when due).
+    pub image: Duration,
+}
+
 /// A job with a live render session.
 pub struct ActiveJob {
     pub session: RenderSession,
@@ -64,6 +75,8 @@ pub struct ActiveJob {
     pub shard: Option<ShardRun>,
     /// A split job whose shards this session merged: how many (their files go at the end).
     pub merged_shards: Option<u32>,
+    /// Where the last checkpoint's time went.
+    pub checkpoint_times: CheckpointTimes,
 }
 
 impl ActiveJob {
@@ -85,6 +98,7 @@ impl ActiveJob {
             auto: None,
             shard: None,
             merged_shards: None,
+            checkpoint_times: CheckpointTimes::default(),
             session,
             settings,
             paths,
@@ -334,6 +348,7 @@ impl ActiveJob {
     /// shards' latest checkpoints, at live_merge's cadence); returns the progress saved.
     pub fn write_checkpoint(&mut self) -> Result<Progress, CheckpointError> {
         crate::storage::injected_fault().map_err(CheckpointError::Io)?;
+        let t0 = Instant::now();
         // (Waits for the job's queued passes.)
         let mut acc = self
             .session
@@ -341,6 +356,7 @@ impl ActiveJob {
             .map_err(CheckpointError::Render)?;
         let progress = self.session.progress();
         let (w, h) = (self.settings.width, self.settings.height);
+        let t_readback = t0.elapsed();
         checkpoint::write(
             &self.checkpoint_path(),
             w,
@@ -350,6 +366,7 @@ impl ActiveJob {
             &acc,
         )
         .map_err(CheckpointError::Io)?;
+        let t_file = t0.elapsed();
         match self.shard {
             None => {
                 let image = self.session.resolve(&acc);
@@ -381,7 +398,17 @@ impl ActiveJob {
             }
         }
         self.last_checkpoint = Instant::now();
+        self.checkpoint_times = CheckpointTimes {
+            readback: t_readback,
+            file: t_file - t_readback,
+            image: t0.elapsed() - t_file,
+        };
         Ok(progress)
+    }
+
+    /// Time since this session was admitted (created or reused for this part of the job).
+    pub fn since_admit(&self) -> Duration {
+        self.admitted.elapsed()
     }
 
     /// Writes `image` as the job's on-disk image (EXR, atomically).

@@ -41,6 +41,7 @@ pub fn write(
     progress: &Progress,
     accumulation: &[[f32; 4]],
 ) -> std::io::Result<()> {
+    let t0 = std::time::Instant::now();
     let json = serde_json::to_vec(&Header {
         seed,
         entries: accumulation.len(),
@@ -59,7 +60,16 @@ pub fn write(
     }
     let sum = fnv1a(&buf);
     buf.extend_from_slice(&sum.to_le_bytes());
-    write_atomic(path, &buf)
+    let encoded = t0.elapsed();
+    write_atomic(path, &buf)?;
+    tracing::debug!(
+        path = %path.display(),
+        bytes = buf.len(),
+        encode_ms = encoded.as_millis() as u64,
+        write_ms = (t0.elapsed() - encoded).as_millis() as u64,
+        "checkpoint written"
+    );
+    Ok(())
 }
 
 /// Writes `bytes` to `path` atomically (renderer::film::write_atomic: a temporary sibling of a
@@ -82,7 +92,9 @@ pub fn read(
     seed: u64,
     entries: usize,
 ) -> Result<(Progress, Vec<[f32; 4]>), String> {
+    let t0 = std::time::Instant::now();
     let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    let read_at = t0.elapsed();
     let bad = |what: &str| format!("{}: {what}", path.display());
     if bytes.len() < 28 || &bytes[..8] != MAGIC {
         return Err(bad("not a checkpoint"));
@@ -117,6 +129,12 @@ pub fn read(
             [f(0), f(4), f(8), f(12)]
         })
         .collect();
+    tracing::debug!(
+        path = %path.display(),
+        read_ms = read_at.as_millis() as u64,
+        decode_ms = (t0.elapsed() - read_at).as_millis() as u64,
+        "checkpoint read"
+    );
     Ok((header.progress, acc))
 }
 

@@ -345,8 +345,10 @@ impl Worker {
             _ => paths.checkpoint(),
         };
         if let Part::Merge { count } = part {
+            let t0 = std::time::Instant::now();
             match shard::merged(&self.store, &session, &s, &paths, id) {
                 Ok(Some((acc, progress))) => {
+                    let t_read = t0.elapsed();
                     if let Err(e) = session.restore(&acc, progress) {
                         return self.render_failed(id, e, "restoring the merged shards");
                     }
@@ -354,6 +356,8 @@ impl Worker {
                         job = id,
                         shards = count,
                         spp = progress.spp,
+                        read_add_ms = shard::ms(t_read),
+                        restore_ms = shard::ms(t0.elapsed() - t_read),
                         "merged the shards"
                     );
                 }

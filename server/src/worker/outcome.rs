@@ -40,6 +40,7 @@ impl Worker {
         if job.shard.is_some() {
             return self.finish_shard(id, job);
         }
+        let t0 = std::time::Instant::now();
         let image = match job.session.image_and_estimate() {
             Ok((i, estimate)) => {
                 job.estimate = estimate;
@@ -59,6 +60,7 @@ impl Worker {
             };
             return self.fail(id, format!("writing the final image: {msg}"));
         }
+        let t_image = t0.elapsed();
         let mut stats = job.session.stats();
         stats.rel_mse_estimate = job.estimate;
         stats.stopped_by = job.stop_reason();
@@ -75,6 +77,7 @@ impl Worker {
         );
         // The final progress and snapshot events come before `done`.
         job.flush_metrics();
+        let t_report = t0.elapsed();
         let mut stats_json = serde_json::to_value(&stats).unwrap_or_default();
         if let Some(run) = &job.auto {
             stats_json["auto"] = run.report.clone();
@@ -88,8 +91,18 @@ impl Worker {
         };
         match self.store.transition(id, JobState::Done, t) {
             Ok(_) => {
-                info!(job = id, spp, time_s = stats.time_s, "done");
+                let t_state = t0.elapsed();
                 job.remove_checkpoints();
+                info!(
+                    job = id,
+                    spp,
+                    time_s = stats.time_s,
+                    image_ms = super::shard::ms(t_image),
+                    report_ms = super::shard::ms(t_report - t_image),
+                    state_ms = super::shard::ms(t_state - t_report),
+                    cleanup_ms = super::shard::ms(t0.elapsed() - t_state),
+                    "done"
+                );
             }
             // Paused at the last moment (and perhaps resumed already: queued): keep the
             // checkpoint so the resume ends at once instead of rendering from an older one.

@@ -190,6 +190,8 @@ impl Worker {
     pub(super) fn finish_shard(&mut self, id: JobId, mut job: ActiveJob) {
         let Some(sh) = job.shard else { return };
         let worker = self.config.worker_id.clone();
+        let t0 = std::time::Instant::now();
+        let rendering = job.since_admit();
         let p = match job.write_checkpoint() {
             Ok(p) => Some(p),
             // Taken over meanwhile (its new owner renders it): lost, not a failure of the job.
@@ -216,14 +218,23 @@ impl Worker {
                 return self.fail(id, format!("writing a shard's checkpoint: {msg}"));
             }
         };
+        let t_ckpt = t0.elapsed();
         let done = p.map(|p| (p, self.store.shard_done(id, sh.range.idx, &worker, &p)));
+        let t_done = t0.elapsed() - t_ckpt;
         match done {
             Some((p, Ok(Some(total)))) => {
+                let ct = job.checkpoint_times;
                 info!(
                     job = id,
                     shard = sh.range.idx,
                     spp = p.spp,
                     job_spp = total.spp,
+                    admit_to_done_ms = ms(rendering),
+                    gpu_ms = (p.gpu_time_s * 1e3) as u64,
+                    readback_ms = ms(ct.readback),
+                    file_ms = ms(ct.file),
+                    image_ms = ms(ct.image),
+                    status_ms = ms(t_done),
                     "shard done"
                 );
                 if let Some(s) = &mut job.shard {
@@ -249,6 +260,11 @@ impl Worker {
         self.claim_now = true;
         self.publish_caches();
     }
+}
+
+/// Whole milliseconds of `d` (for timing logs).
+pub fn ms(d: std::time::Duration) -> u64 {
+    d.as_millis() as u64
 }
 
 /// The data of a `shard` object in a progress event.
