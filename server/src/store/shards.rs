@@ -294,6 +294,43 @@ impl Store {
         })
     }
 
+    /// Hands shard `idx` of job `id`, finished by `from`, to `to` (the name its final
+    /// checkpoint's writer holds it under, worker/shard_write.rs) for `lease`, so that `from`'s
+    /// next claims and heartbeats pass it by; whether `from` held it (not done). A writer that
+    /// dies leaves the lease to expire, and the shard to be rendered again from its last
+    /// checkpoint.
+    pub fn hand_shard(
+        &self,
+        id: JobId,
+        idx: u32,
+        from: &str,
+        to: &str,
+        lease: std::time::Duration,
+    ) -> Result<bool, StoreError> {
+        self.write(|c| {
+            lock_job(c, id)?;
+            let n = c.exec(
+                "UPDATE shards SET lease_owner = ?4, lease_until = ?5 WHERE job_id = ?1 \
+                 AND idx = ?2 AND lease_owner = ?3 AND done = 0",
+                params![id, idx, from, to, now_s() + lease.as_secs_f64()],
+            )?;
+            Ok((n == 1, Vec::new()))
+        })
+    }
+
+    /// Gives up `owner`'s lease on shard `idx` of job `id` (not done): free to claim again.
+    pub fn release_shard(&self, id: JobId, idx: u32, owner: &str) -> Result<(), StoreError> {
+        self.write(|c| {
+            lock_job(c, id)?;
+            c.exec(
+                "UPDATE shards SET lease_owner = NULL, lease_until = NULL WHERE job_id = ?1 \
+                 AND idx = ?2 AND lease_owner = ?3 AND done = 0",
+                params![id, idx, owner],
+            )?;
+            Ok(((), Vec::new()))
+        })
+    }
+
     /// Whether `worker` still holds shard `idx` of job `id` (not done, its lease not taken).
     pub fn holds_shard(&self, id: JobId, idx: u32, worker: &str) -> Result<bool, StoreError> {
         self.read(|c| {

@@ -29,17 +29,6 @@ pub enum CheckpointError {
     Io(std::io::Error),
 }
 
-/// Where the last checkpoint's time went (for the shard timing log, shard.rs).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct CheckpointTimes {
-    /// Waiting for the queued passes and reading the accumulation back.
-    pub readback: Duration,
-    /// Encoding and writing the checkpoint file (durably).
-    pub file: Duration,
-    /// The job's image (a shard's: the live merge, when due).
-    pub image: Duration,
-}
-
 /// A job with a live render session.
 pub struct ActiveJob {
     pub session: RenderSession,
@@ -75,8 +64,6 @@ pub struct ActiveJob {
     pub shard: Option<ShardRun>,
     /// A split job whose shards this session merged: how many (their files go at the end).
     pub merged_shards: Option<u32>,
-    /// Where the last checkpoint's time went.
-    pub checkpoint_times: CheckpointTimes,
 }
 
 impl ActiveJob {
@@ -98,7 +85,6 @@ impl ActiveJob {
             auto: None,
             shard: None,
             merged_shards: None,
-            checkpoint_times: CheckpointTimes::default(),
             session,
             settings,
             paths,
@@ -398,11 +384,12 @@ impl ActiveJob {
             }
         }
         self.last_checkpoint = Instant::now();
-        self.checkpoint_times = CheckpointTimes {
-            readback: t_readback,
-            file: t_file - t_readback,
-            image: t0.elapsed() - t_file,
-        };
+        tracing::debug!(
+            readback_ms = t_readback.as_millis() as u64,
+            file_ms = (t_file - t_readback).as_millis() as u64,
+            image_ms = (t0.elapsed() - t_file).as_millis() as u64,
+            "checkpoint"
+        );
         Ok(progress)
     }
 

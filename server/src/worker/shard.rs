@@ -15,9 +15,8 @@ use renderer::render::{merge_accumulation, Progress, RenderSession};
 use serde_json::json;
 use tracing::{info, warn};
 
-use super::active::{ActiveJob, CheckpointError};
+use super::active::ActiveJob;
 use super::checkpoint;
-use super::storage_hold::is_storage_fault;
 use super::Worker;
 use crate::jobs::model::{JobId, JobSettings};
 use crate::store::{sum_progress, JobPaths, Part, ShardRange, Store};
@@ -185,15 +184,17 @@ impl Worker {
         }
     }
 
-    /// A shard rendered all its samples: its final checkpoint, then it is marked done (if this
-    /// worker still holds it) and the worker looks for more work (the next shard, or the merge).
+    /// A shard rendered all its samples: its sums are read back, and its final checkpoint is
+    /// written and the shard marked done off this thread (shard_write.rs), if this worker still
+    /// holds it, while the worker looks for more work (the next shard, or the merge).
     pub(super) fn finish_shard(&mut self, id: JobId, mut job: ActiveJob) {
         let Some(sh) = job.shard else { return };
         let worker = self.config.worker_id.clone();
         let t0 = std::time::Instant::now();
         let rendering = job.since_admit();
-        let p = match job.write_checkpoint() {
-            Ok(p) => Some(p),
+        // Step 1: the sums read back (after the job's queued passes).
+        let accumulation = match job.session.accumulation() {
+            Ok(acc) => acc,
             // Taken over meanwhile (its new owner renders it): lost, not a failure of the job.
             Err(e)
                 if !self
@@ -201,59 +202,61 @@ impl Worker {
                     .holds_shard(id, sh.range.idx, &worker)
                     .unwrap_or(true) =>
             {
-                warn!(job = id, shard = sh.range.idx, error = ?e,
-                      "lost the shard's lease; its last checkpoint failed");
-                None
-            }
-            Err(CheckpointError::Io(e)) if is_storage_fault(&e) => {
-                self.active.insert(id, job);
-                return self.hold_for_storage(id, "writing a shard's checkpoint", e.to_string());
+                warn!(job = id, shard = sh.range.idx, error = %e,
+                      "lost the shard's lease; reading its sums back failed");
+                return self.keep_spare(id, job);
             }
             Err(e) => {
-                let msg = match e {
-                    CheckpointError::Io(e) => e.to_string(),
-                    CheckpointError::Render(e) => e.to_string(),
-                };
                 self.active.insert(id, job);
-                return self.fail(id, format!("writing a shard's checkpoint: {msg}"));
+                return self.fail(id, format!("reading a shard's sums back: {e}"));
             }
         };
-        let t_ckpt = t0.elapsed();
-        let done = p.map(|p| (p, self.store.shard_done(id, sh.range.idx, &worker, &p)));
-        let t_done = t0.elapsed() - t_ckpt;
-        match done {
-            Some((p, Ok(Some(total)))) => {
-                let ct = job.checkpoint_times;
-                info!(
-                    job = id,
-                    shard = sh.range.idx,
-                    spp = p.spp,
-                    job_spp = total.spp,
-                    admit_to_done_ms = ms(rendering),
-                    gpu_ms = (p.gpu_time_s * 1e3) as u64,
-                    readback_ms = ms(ct.readback),
-                    file_ms = ms(ct.file),
-                    image_ms = ms(ct.image),
-                    status_ms = ms(t_done),
-                    "shard done"
-                );
-                if let Some(s) = &mut job.shard {
-                    s.others_spp = total.spp.saturating_sub(p.spp);
+        let readback = t0.elapsed();
+        // Step 2: the lease to the writer's name, then the write on its thread.
+        let owner = super::shard_write::writer_name(&worker);
+        match self
+            .store
+            .hand_shard(id, sh.range.idx, &worker, &owner, self.config.lease)
+        {
+            Ok(true) => {
+                let finished = super::shard_write::Finished {
+                    id,
+                    idx: sh.range.idx,
+                    settings: job.settings.clone(),
+                    path: job.paths.shard_checkpoint(sh.range.idx),
+                    progress: job.session.progress(),
+                    accumulation,
+                    job_spp: sh.job_spp,
+                    progress_json: job.progress_json(),
+                    rendering,
+                    readback,
+                };
+                match super::shard_write::start(self.store.clone(), owner.clone(), finished) {
+                    Ok(w) => self.writes.push(w),
+                    Err(e) => {
+                        // (No thread: the shard goes back to be rendered again.)
+                        let _ = self.store.release_shard(id, sh.range.idx, &owner);
+                        warn!(job = id, shard = sh.range.idx, error = %e,
+                              "starting a shard's write");
+                    }
                 }
-                let _ = self.store.append_event(id, "progress", job.progress_json());
             }
-            Some((_, Ok(None))) => warn!(
+            Ok(false) => warn!(
                 job = id,
                 shard = sh.range.idx,
                 "lost the shard's lease before recording it done"
             ),
-            Some((_, Err(e))) => {
-                warn!(job = id, shard = sh.range.idx, error = %e, "recording a shard done")
+            Err(e) => {
+                warn!(job = id, shard = sh.range.idx, error = %e, "handing a shard to its writer")
             }
-            None => {}
         }
+        self.keep_spare(id, job);
+    }
+
+    /// Keeps the session of the shard `job` ended for the job's next shard (or merge), if this
+    /// worker claims one next, and looks for more work.
+    fn keep_spare(&mut self, id: JobId, job: ActiveJob) {
         job.flush_metrics();
-        // Kept for the job's next shard (or merge), if this worker claims one next.
         self.spare = Some((id, job.into_session()));
         self.shared.forget(id);
         self.dirty = true;
