@@ -48,6 +48,7 @@ impl Worker {
             }
             Err(e) => return self.render_failed(id, e, "reading the final image"),
         };
+        let t_resolve = t0.elapsed();
         if let Err(e) = job.write_image(&image) {
             let msg = match e {
                 CheckpointError::Io(e) if is_storage_fault(&e) => {
@@ -97,7 +98,8 @@ impl Worker {
                     job = id,
                     spp,
                     time_s = stats.time_s,
-                    image_ms = super::shard::ms(t_image),
+                    resolve_ms = super::shard::ms(t_resolve),
+                    exr_ms = super::shard::ms(t_image - t_resolve),
                     report_ms = super::shard::ms(t_report - t_image),
                     state_ms = super::shard::ms(t_state - t_report),
                     cleanup_ms = super::shard::ms(t0.elapsed() - t_state),
