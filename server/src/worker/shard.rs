@@ -2,11 +2,12 @@
 //! rendered like a job of its own sample count whose passes start at the shard's first sample
 //! index; its checkpoint (`shard-<k>.bin`) holds its sums, and the job's image on disk, written
 //! with a shard checkpoint at most once per checkpoint interval (live_merge.rs), is the merge of
-//! that shard's sums with every other shard's latest checkpoint. The claim that finds every
-//! shard done merges their checkpoints into one accumulation
+//! that shard's sums with every other shard's latest checkpoint. A finished shard's final
+//! checkpoint is written, and the shard marked done, off the render thread (shard_write.rs).
+//! The claim that finds every shard done merges their checkpoints into one accumulation
 //! (renderer::render::merge_accumulation, exact up to float addition order), restores it into a
-//! session of the whole job, and finishes the job as a whole render. A worker
-//! keeps the session of the shard it finished last, and reuses it (reset) when its next claim
+//! session of the whole job, and finishes the job as a whole render. A worker keeps the
+//! session of the shard it finished last, and reuses it (reset) when its next claim
 //! is another part of the same job.
 
 use std::sync::Arc;

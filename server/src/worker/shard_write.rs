@@ -23,8 +23,8 @@ use super::checkpoint;
 use super::shard::ms;
 use super::storage_hold::is_storage_fault;
 use super::Worker;
-use crate::jobs::model::{JobId, JobSettings};
-use crate::store::{Store, StoreError};
+use crate::jobs::model::{JobId, JobSettings, JobState};
+use crate::store::{JobPaths, Store, StoreError};
 
 /// Why a shard's background write failed.
 #[derive(Debug)]
@@ -178,6 +178,22 @@ impl Worker {
                     }
                 }
             }
+            self.discard_if_ended(id, idx);
+        }
+    }
+
+    /// Removes shard `idx`'s file when job `id` ended (canceled or failed) or was deleted while
+    /// it was written: the cleanups at the cancel passed it by.
+    fn discard_if_ended(&mut self, id: JobId, idx: u32) {
+        let paths = JobPaths::new(&self.config.data_dir, id);
+        match self.store.job_state(id) {
+            Ok(Some(JobState::Canceled | JobState::Failed)) => {
+                let _ = std::fs::remove_file(paths.shard_checkpoint(idx));
+            }
+            Ok(None) => {
+                let _ = std::fs::remove_dir_all(&paths.dir);
+            }
+            _ => {}
         }
     }
 }
