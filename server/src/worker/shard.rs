@@ -232,6 +232,10 @@ impl Worker {
                     rendering,
                     readback,
                 };
+                // (A film-size buffer each: writes slower than the renders wait here.)
+                if self.writes.len() >= super::shard_write::MAX_PENDING {
+                    self.collect_writes(true);
+                }
                 match super::shard_write::start(self.store.clone(), owner.clone(), finished) {
                     Ok(w) => self.writes.push(w),
                     Err(e) => {

@@ -57,6 +57,10 @@ pub struct ShardWrite {
     handle: JoinHandle<Written>,
 }
 
+/// Writes a device thread lets run at once (each holds a copy of a film-size accumulation);
+/// a shard that ends with this many under way waits for them.
+pub const MAX_PENDING: usize = 2;
+
 /// The name a worker's shard writes hold their leases under.
 pub fn writer_name(worker: &str) -> String {
     format!("{worker}#write")
