@@ -97,6 +97,9 @@ pub fn start(
                 .and_then(|_| checkpoint::write(&path, w, h, seed, &p, &acc));
             drop(acc);
             let file = t0.elapsed();
+            if wrote.is_ok() {
+                hold_for_test(id, idx);
+            }
             let result = match wrote {
                 Err(e) => Err(WriteError::Io(e)),
                 // Done only now that the file is whole on disk.
@@ -121,6 +124,25 @@ pub fn start(
         gpu_s: p.gpu_time_s,
         handle,
     })
+}
+
+/// Test hook: while the file `CANDELA_TEST_SHARD_WRITE_HOLD_FILE` names exists, a shard
+/// whose file is written waits before it is marked done (a worker killed then must lose
+/// nothing and count nothing twice: tests/tests/server_farm.rs).
+fn hold_for_test(id: JobId, idx: u32) {
+    let Some(f) = std::env::var_os("CANDELA_TEST_SHARD_WRITE_HOLD_FILE") else {
+        return;
+    };
+    if std::path::Path::new(&f).exists() {
+        info!(
+            job = id,
+            shard = idx,
+            "shard written; held before done (test hook)"
+        );
+    }
+    while std::path::Path::new(&f).exists() {
+        std::thread::sleep(Duration::from_millis(20));
+    }
 }
 
 impl Worker {
