@@ -37,12 +37,13 @@ pub struct ShardRun {
     pub image_written: bool,
 }
 
-/// Shard files read at once by [`add_shards`] (each one film-size in memory until merged).
+/// Shard files read ahead by [`add_shards`] (each one film-size in memory until merged).
 const READ_AT_ONCE: usize = 4;
 
 /// Adds to `into` (an accumulation of `session`'s layout) the checkpoints of the job's shards
 /// `0..count` other than `skip`; returns each one's progress, or why it is unusable. The files
-/// are read (and checksummed) [`READ_AT_ONCE`] at a time on threads, and added in index order.
+/// are read (and checksummed) on threads, up to [`READ_AT_ONCE`] ahead of the one being
+/// added, and added in index order (the sum does not depend on which read ends first).
 pub fn add_shards(
     session: &RenderSession,
     settings: &JobSettings,
@@ -55,31 +56,35 @@ pub fn add_shards(
     let (len, extra) = (session.accumulation_len(), session.extra_buffers());
     let wanted: Vec<u32> = (0..count).filter(|k| Some(*k) != skip).collect();
     let mut out = Vec::with_capacity(wanted.len());
-    for group in wanted.chunks(READ_AT_ONCE) {
-        // Step 1: read the group's files at once.
-        let reads: Vec<_> = std::thread::scope(|s| {
-            let handles: Vec<_> = group
-                .iter()
-                .map(|k| {
-                    let path = paths.shard_checkpoint(*k);
-                    s.spawn(move || checkpoint::read(&path, w, h, settings.seed, len))
-                })
-                .collect();
-            handles
-                .into_iter()
-                .map(|t| t.join().unwrap_or_else(|_| Err("reading panicked".into())))
-                .collect()
-        });
-        // Step 2: add them in index order.
-        for (k, read) in group.iter().zip(reads) {
-            let added = read.and_then(|(p, acc)| {
-                merge_accumulation(into, &acc, (w * h) as usize, &extra)
-                    .map(|_| p)
-                    .map_err(|e| e.to_string())
-            });
-            out.push((*k, added));
+    std::thread::scope(|s| {
+        let read = |k: u32| {
+            let path = paths.shard_checkpoint(k);
+            s.spawn(move || checkpoint::read(&path, w, h, settings.seed, len))
+        };
+        // Step 1: the first reads start.
+        let mut ahead: std::collections::VecDeque<_> = wanted
+            .iter()
+            .take(READ_AT_ONCE)
+            .map(|k| (*k, read(*k)))
+            .collect();
+        let mut next = ahead.len();
+        // Step 2: each file, in index order, added as the next one's read starts.
+        while let Some((k, handle)) = ahead.pop_front() {
+            if let Some(k) = wanted.get(next) {
+                ahead.push_back((*k, read(*k)));
+                next += 1;
+            }
+            let added = handle
+                .join()
+                .unwrap_or_else(|_| Err("reading panicked".into()))
+                .and_then(|(p, acc)| {
+                    merge_accumulation(into, &acc, (w * h) as usize, &extra)
+                        .map(|_| p)
+                        .map_err(|e| e.to_string())
+                });
+            out.push((k, added));
         }
-    }
+    });
     out
 }
 
