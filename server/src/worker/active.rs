@@ -64,6 +64,9 @@ pub struct ActiveJob {
     pub shard: Option<ShardRun>,
     /// A split job whose shards this session merged: how many (their files go at the end).
     pub merged_shards: Option<u32>,
+    /// The merged shards' sums as restored, and their spp: the final image is resolved from
+    /// them (no read-back) while the session still holds exactly them.
+    pub merged_sums: Option<(u32, Vec<[f32; 4]>)>,
 }
 
 impl ActiveJob {
@@ -85,6 +88,7 @@ impl ActiveJob {
             auto: None,
             shard: None,
             merged_shards: None,
+            merged_sums: None,
             session,
             settings,
             paths,

@@ -352,6 +352,7 @@ impl Worker {
             Part::Shard { range, .. } => paths.shard_checkpoint(range.idx),
             _ => paths.checkpoint(),
         };
+        let mut merged_sums = None;
         if let Part::Merge { count } = part {
             let t0 = std::time::Instant::now();
             match shard::merged(&self.store, &session, &s, &paths, id) {
@@ -368,6 +369,7 @@ impl Worker {
                         restore_ms = shard::ms(t0.elapsed() - t_read),
                         "merged the shards"
                     );
+                    merged_sums = Some((progress.spp, acc));
                 }
                 // A shard to render again: the merge's lease goes at the next heartbeat.
                 Ok(None) => return,
@@ -430,7 +432,10 @@ impl Worker {
                     image_written: false,
                 });
             }
-            Part::Merge { count } => job.merged_shards = Some(count),
+            Part::Merge { count } => {
+                job.merged_shards = Some(count);
+                job.merged_sums = merged_sums;
+            }
             Part::Whole => {}
         }
         if let Some((run, fresh)) = auto_run {

@@ -41,7 +41,17 @@ impl Worker {
             return self.finish_shard(id, job);
         }
         let t0 = std::time::Instant::now();
-        let image = match job.session.image_and_estimate() {
+        // (Merged shards: resolved from the sums the session was given, if it holds just them.)
+        let spp_now = job.session.progress().spp;
+        let resolved = match job.merged_sums.take().filter(|(spp, _)| *spp == spp_now) {
+            Some((spp, sums)) => {
+                let image = job.session.resolve(&sums);
+                let estimate = job.session.estimate_spp(&sums, spp, &image);
+                Ok((image, estimate))
+            }
+            None => job.session.image_and_estimate(),
+        };
+        let image = match resolved {
             Ok((i, estimate)) => {
                 job.estimate = estimate;
                 i
