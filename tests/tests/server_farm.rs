@@ -7,6 +7,8 @@
 //! SQLite server cannot share the farm's data directory. A job split into shards
 //! (`--shard-spp`) is rendered by three workers at once, one of them killed mid-shard, and
 //! comes out with exactly its samples and the image one worker renders of it whole; a worker
+//! killed after a shard's final checkpoint was written but before the shard was marked done
+//! (held there by a test hook) has it counted once, by the worker that takes it over; a worker
 //! with `--devices 0,0` claims shards on both its contexts, under two names, each reported by
 //! the API server (`/api/workers`, `/metrics`) until it is lost; a split job paused and resumed
 //! ends with exactly its samples, and one canceled leaves no shard files.
@@ -34,6 +36,14 @@ fn two_workers_share_the_jobs() {
 #[test]
 fn three_workers_split_one_job() {
     run_on(Backend::Postgres, three_workers_split_one_job_on_postgres)
+}
+
+#[test]
+fn a_worker_killed_while_writing_a_shard_counts_it_once() {
+    run_on(
+        Backend::Postgres,
+        a_worker_killed_while_writing_a_shard_counts_it_once_on_postgres,
+    )
 }
 
 #[test]
@@ -66,6 +76,17 @@ impl Worker {
 
     /// [`Worker::start`] with more arguments.
     fn start_with(data: &Path, name: &str, lease_s: &str, extra: &[&str]) -> Worker {
+        Worker::start_env(data, name, lease_s, extra, &[])
+    }
+
+    /// [`Worker::start_with`] with more environment variables.
+    fn start_env(
+        data: &Path,
+        name: &str,
+        lease_s: &str,
+        extra: &[&str],
+        env: &[(&str, &Path)],
+    ) -> Worker {
         let log = data.parent().unwrap().join(format!("{name}.log"));
         let out = std::fs::File::create(&log).unwrap();
         let url = database_env(data).expect("a PostgreSQL database");
@@ -80,6 +101,7 @@ impl Worker {
             .args(extra)
             .current_dir(repo_root())
             .env("CANDELA_LOG", "info")
+            .envs(env.iter().copied())
             .stdin(Stdio::null())
             .stdout(out.try_clone().unwrap())
             .stderr(out)
@@ -390,6 +412,52 @@ fn three_workers_split_one_job_on_postgres() {
     let image = |id: i64| read_exr(&data.join(format!("jobs/{id}/image.exr"))).unwrap();
     let e = rel_mse(&image(id), &image(whole)).unwrap();
     assert!(e < 1e-8, "split vs whole relMSE {e}");
+}
+
+/// A shard's final checkpoint is written off the render thread, and the shard marked done only
+/// after (worker/shard_write.rs): a worker killed between the two (held there by the test
+/// hook) leaves the shard to another worker once the writer's lease expires, and the job ends
+/// with exactly its samples.
+fn a_worker_killed_while_writing_a_shard_counts_it_once_on_postgres() {
+    let dir = scratch("server_farm_write_kill");
+    let data = dir.join("data");
+    let api = Server::start(&data, &["--workers", "0"]);
+    let hold = dir.join("hold");
+    std::fs::write(&hold, b"").unwrap();
+    let split = ["--shard-spp", "20"];
+    let env = [("CANDELA_TEST_SHARD_WRITE_HOLD_FILE", hold.as_path())];
+    let mut w1 = Worker::start_env(&data, "w1", "2", &split, &env);
+    let total = 60u64;
+    let body = json!({"scene_name": "cornell", "spp": total, "width": 16, "height": 16,
+                      "seed": 5});
+    let id = api.submit(&body)["id"].as_i64().unwrap();
+    // Step 1: w1's first shard is on disk, held by its writer, not done: w1 dies.
+    let deadline = Instant::now() + T;
+    while !shards(&data, id).iter().any(|r| r.2 == "w1#write") {
+        assert!(Instant::now() < deadline, "{}", w1.log());
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(
+        w1.log().contains("held before done (test hook)"),
+        "{}",
+        w1.log()
+    );
+    w1.kill9();
+    let rows = shards(&data, id);
+    assert!(rows.iter().all(|r| !r.1), "none done yet: {rows:?}");
+    // Step 2: w2 takes every shard over once the leases expire and finishes the job.
+    let w2 = Worker::start_with(&data, "w2", "2", &split);
+    let done = api.wait_job(id, T, |j| {
+        matches!(j["state"].as_str(), Some("done" | "failed"))
+    });
+    assert_eq!(done["state"], "done", "{done}\n{}", w2.log());
+    assert_eq!(spp(&done), total, "{done}");
+    assert_eq!(done["stats"]["spp"], total, "{done}");
+    let rows = shards(&data, id);
+    assert!(rows.iter().all(|r| r.1 && r.3 == 20), "{rows:?}");
+    // (The held shard's file was whole: w2 resumed it rather than rendering it again.)
+    assert!(w2.log().contains("resumed from checkpoint"), "{}", w2.log());
+    assert_eq!(shard_files(&data, id), 0, "{}", w2.log());
 }
 
 fn one_worker_renders_on_two_devices_on_postgres() {

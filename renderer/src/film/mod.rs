@@ -17,7 +17,7 @@ use std::path::Path;
 
 use crate::scene::Tonemap;
 
-pub use atomic::write_atomic;
+pub use atomic::{write_atomic, write_atomic_parts};
 pub use error::FilmError;
 pub use exr_io::{decode_exr, encode_exr, read_exr, write_exr};
 pub use png_io::{encode_png, write_png};

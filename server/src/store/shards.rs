@@ -294,6 +294,43 @@ impl Store {
         })
     }
 
+    /// Hands shard `idx` of job `id`, finished by `from`, to `to` (the name its final
+    /// checkpoint's writer holds it under, worker/shard_write.rs) for `lease`, so that `from`'s
+    /// next claims and heartbeats pass it by; whether `from` held it (not done). A writer that
+    /// dies leaves the lease to expire, and the shard to be rendered again from its last
+    /// checkpoint.
+    pub fn hand_shard(
+        &self,
+        id: JobId,
+        idx: u32,
+        from: &str,
+        to: &str,
+        lease: std::time::Duration,
+    ) -> Result<bool, StoreError> {
+        self.write(|c| {
+            lock_job(c, id)?;
+            let n = c.exec(
+                "UPDATE shards SET lease_owner = ?4, lease_until = ?5 WHERE job_id = ?1 \
+                 AND idx = ?2 AND lease_owner = ?3 AND done = 0",
+                params![id, idx, from, to, now_s() + lease.as_secs_f64()],
+            )?;
+            Ok((n == 1, Vec::new()))
+        })
+    }
+
+    /// Gives up `owner`'s lease on shard `idx` of job `id` (not done): free to claim again.
+    pub fn release_shard(&self, id: JobId, idx: u32, owner: &str) -> Result<(), StoreError> {
+        self.write(|c| {
+            lock_job(c, id)?;
+            c.exec(
+                "UPDATE shards SET lease_owner = NULL, lease_until = NULL WHERE job_id = ?1 \
+                 AND idx = ?2 AND lease_owner = ?3 AND done = 0",
+                params![id, idx, owner],
+            )?;
+            Ok(((), Vec::new()))
+        })
+    }
+
     /// Whether `worker` still holds shard `idx` of job `id` (not done, its lease not taken).
     pub fn holds_shard(&self, id: JobId, idx: u32, worker: &str) -> Result<bool, StoreError> {
         self.read(|c| {
@@ -456,6 +493,67 @@ mod tests {
         assert!(!take(0, "g", now), "done");
         assert!(s.holds_shard(1, 1, "g").unwrap() && !s.holds_shard(1, 1, "f").unwrap());
         assert!(!s.holds_shard(1, 0, "a").unwrap(), "done: nobody's");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A finished shard handed to its writer's name (worker/shard_write.rs) is not the
+    /// worker's to claim again nor another's while the write's lease lasts; a writer that dies
+    /// leaves it, once the lease expires, to another worker, and its late report counts
+    /// nothing; a failed write frees it at once.
+    #[test]
+    fn a_shard_being_written_is_claimed_again_only_when_its_writer_is_gone() {
+        let dir = std::env::temp_dir().join(format!("candela-shardw-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let s = Store::open(&dir.join("candela.db")).unwrap();
+        let json = format!("{{{BASE}, \"spp\": 8}}");
+        s.read(|c| {
+            c.exec(
+                "INSERT INTO jobs (name, state, priority, settings, scene, source, created_at, \
+                 updated_at) VALUES ('j', 'queued', 10, ?1, '{}', 'inline', 1, 1)",
+                params![json],
+            )
+        })
+        .unwrap();
+        let long = std::time::Duration::from_secs(60);
+        let part = |w: &str| s.claim_job(w, long, &[], 4).unwrap().map(|c| c.part);
+        let idx = |p: Option<Part>| match p {
+            Some(Part::Shard { range, .. }) => Some(range.idx),
+            _ => None,
+        };
+        let p = Progress {
+            spp: 4,
+            passes: 1,
+            ..Default::default()
+        };
+        // Step 1: a renders shard 0 and hands it to its writer; its next claim is shard 1,
+        // and b gets nothing.
+        assert_eq!(idx(part("a")), Some(0));
+        assert!(s.hand_shard(1, 0, "a", "a#write", long).unwrap());
+        assert!(
+            !s.hand_shard(1, 0, "a", "a#write", long).unwrap(),
+            "not a's now"
+        );
+        assert_eq!(idx(part("a")), Some(1), "not shard 0 again");
+        assert_eq!(part("b"), None);
+        // a's heartbeat (of shard 1) neither renews nor drops the writer's lease.
+        assert_eq!(s.renew_leases("a", &[1], long).unwrap(), vec![1]);
+        assert_eq!(part("b"), None, "shard 0 still being written");
+        // Step 2: the writer dies (its lease expires): b renders shard 0 again; the dead
+        // writer's late report is refused, b's counts once.
+        assert!(s
+            .hand_shard(1, 0, "a#write", "a#write", std::time::Duration::ZERO)
+            .unwrap());
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        assert_eq!(idx(part("b")), Some(0));
+        assert!(s.shard_done(1, 0, "a#write", &p).unwrap().is_none());
+        assert_eq!(s.shard_done(1, 0, "b", &p).unwrap().unwrap().spp, 4);
+        // Step 3: shard 1's write fails: freed for anyone at once.
+        assert!(s.hand_shard(1, 1, "a", "a#write", long).unwrap());
+        s.release_shard(1, 1, "a#write").unwrap();
+        assert_eq!(idx(part("c")), Some(1));
+        assert_eq!(s.shard_done(1, 1, "c", &p).unwrap().unwrap().spp, 8);
+        assert_eq!(part("d"), Some(Part::Merge { count: 2 }));
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -64,6 +64,9 @@ pub struct ActiveJob {
     pub shard: Option<ShardRun>,
     /// A split job whose shards this session merged: how many (their files go at the end).
     pub merged_shards: Option<u32>,
+    /// The merged shards' sums as restored, and their spp: the final image is resolved from
+    /// them (no read-back) while the session still holds exactly them.
+    pub merged_sums: Option<(u32, Vec<[f32; 4]>)>,
 }
 
 impl ActiveJob {
@@ -85,6 +88,7 @@ impl ActiveJob {
             auto: None,
             shard: None,
             merged_shards: None,
+            merged_sums: None,
             session,
             settings,
             paths,
@@ -334,6 +338,7 @@ impl ActiveJob {
     /// shards' latest checkpoints, at live_merge's cadence); returns the progress saved.
     pub fn write_checkpoint(&mut self) -> Result<Progress, CheckpointError> {
         crate::storage::injected_fault().map_err(CheckpointError::Io)?;
+        let t0 = Instant::now();
         // (Waits for the job's queued passes.)
         let mut acc = self
             .session
@@ -341,6 +346,7 @@ impl ActiveJob {
             .map_err(CheckpointError::Render)?;
         let progress = self.session.progress();
         let (w, h) = (self.settings.width, self.settings.height);
+        let t_readback = t0.elapsed();
         checkpoint::write(
             &self.checkpoint_path(),
             w,
@@ -350,6 +356,7 @@ impl ActiveJob {
             &acc,
         )
         .map_err(CheckpointError::Io)?;
+        let t_file = t0.elapsed();
         match self.shard {
             None => {
                 let image = self.session.resolve(&acc);
@@ -381,7 +388,18 @@ impl ActiveJob {
             }
         }
         self.last_checkpoint = Instant::now();
+        tracing::debug!(
+            readback_ms = t_readback.as_millis() as u64,
+            file_ms = (t_file - t_readback).as_millis() as u64,
+            image_ms = (t0.elapsed() - t_file).as_millis() as u64,
+            "checkpoint"
+        );
         Ok(progress)
+    }
+
+    /// Time since this session was admitted (created or reused for this part of the job).
+    pub fn since_admit(&self) -> Duration {
+        self.admitted.elapsed()
     }
 
     /// Writes `image` as the job's on-disk image (EXR, atomically).

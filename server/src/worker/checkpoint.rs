@@ -4,15 +4,22 @@
 //! written atomically (a uniquely named temporary sibling, fsync, rename). Restoring both gives
 //! an exact resume, because the renderer keys its random numbers by sample index.
 //!
-//! Layout (little-endian): `CNDLCKP1`, width u32, height u32, JSON length u32, JSON
-//! (`{"seed", "entries", "progress"}`), entries·4 f32, FNV-1a 64 of everything before it.
+//! Layout (little-endian): `CNDLCKP2`, width u32, height u32, JSON length u32, JSON
+//! (`{"seed", "entries", "progress"}`), entries·4 f32, CRC-32 (IEEE) u32 of everything before
+//! it. The floats go to and come from the file as they lie in memory (no per-value encoding)
+//! and the checksum runs at memory speed, so a film-size checkpoint costs about its write:
+//! a split job writes one per shard (shard.rs). Files of the first layout (`CNDLCKP1`, the same
+//! but an FNV-1a 64 checksum) are still read.
 
+use std::io::Read;
 use std::path::Path;
 
 use renderer::render::Progress;
 use serde::{Deserialize, Serialize};
 
-const MAGIC: &[u8; 8] = b"CNDLCKP1";
+const MAGIC: &[u8; 8] = b"CNDLCKP2";
+/// The first layout (FNV-1a 64 checksum), read only.
+const MAGIC_V1: &[u8; 8] = b"CNDLCKP1";
 
 /// What a checkpoint holds besides the pixels.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -32,6 +39,17 @@ fn fnv1a(bytes: &[u8]) -> u64 {
     h
 }
 
+/// The accumulation's bytes as the file holds them (little-endian f32): the memory itself on
+/// little-endian machines.
+fn le_bytes(accumulation: &[[f32; 4]]) -> std::borrow::Cow<'_, [u8]> {
+    if cfg!(target_endian = "little") {
+        std::borrow::Cow::Borrowed(bytemuck::cast_slice(accumulation))
+    } else {
+        let flat = accumulation.iter().flatten();
+        std::borrow::Cow::Owned(flat.flat_map(|v| v.to_le_bytes()).collect())
+    }
+}
+
 /// Writes a checkpoint to `path` atomically.
 pub fn write(
     path: &Path,
@@ -41,36 +59,38 @@ pub fn write(
     progress: &Progress,
     accumulation: &[[f32; 4]],
 ) -> std::io::Result<()> {
+    let t0 = std::time::Instant::now();
     let json = serde_json::to_vec(&Header {
         seed,
         entries: accumulation.len(),
         progress: *progress,
     })?;
-    let mut buf = Vec::with_capacity(24 + json.len() + accumulation.len() * 16 + 8);
-    buf.extend_from_slice(MAGIC);
-    buf.extend_from_slice(&width.to_le_bytes());
-    buf.extend_from_slice(&height.to_le_bytes());
-    buf.extend_from_slice(&(json.len() as u32).to_le_bytes());
-    buf.extend_from_slice(&json);
-    for px in accumulation {
-        for c in px {
-            buf.extend_from_slice(&c.to_le_bytes());
-        }
-    }
-    let sum = fnv1a(&buf);
-    buf.extend_from_slice(&sum.to_le_bytes());
-    write_atomic(path, &buf)
-}
-
-/// Writes `bytes` to `path` atomically (renderer::film::write_atomic: a temporary sibling of a
-/// name of its own, `.NAME.PID.N.tmp`, so that two writers of one file — a worker whose lease
-/// was taken over and the new owner — never write into the same temporary file), creating its
-/// folder first.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut head = Vec::with_capacity(20 + json.len());
+    head.extend_from_slice(MAGIC);
+    head.extend_from_slice(&width.to_le_bytes());
+    head.extend_from_slice(&height.to_le_bytes());
+    head.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    head.extend_from_slice(&json);
+    let body = le_bytes(accumulation);
+    let mut crc = crc32fast::Hasher::new();
+    crc.update(&head);
+    crc.update(&body);
+    let sum = crc.finalize().to_le_bytes();
+    let encoded = t0.elapsed();
+    // (A temporary sibling of a name of its own, `.NAME.PID.N.tmp`, so that two writers of one
+    // file — a worker whose lease was taken over and the new owner — never share one.)
     if let Some(parent) = path.parent() {
         std::fs::create_dir_all(parent)?;
     }
-    renderer::film::write_atomic(path, bytes)
+    renderer::film::write_atomic_parts(path, &[&head, &body, &sum])?;
+    tracing::debug!(
+        path = %path.display(),
+        bytes = head.len() + body.len() + sum.len(),
+        encode_ms = encoded.as_millis() as u64,
+        write_ms = (t0.elapsed() - encoded).as_millis() as u64,
+        "checkpoint written"
+    );
+    Ok(())
 }
 
 /// Reads a checkpoint written for a `width`×`height` film, `seed`, and `entries` accumulation
@@ -82,9 +102,84 @@ pub fn read(
     seed: u64,
     entries: usize,
 ) -> Result<(Progress, Vec<[f32; 4]>), String> {
+    let t0 = std::time::Instant::now();
+    let bad = |what: &str| format!("{}: {what}", path.display());
+    let mut file = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    let len = file.metadata().map_err(|e| e.to_string())?.len();
+    // Step 1: the fixed head, then the JSON header; checked against the expected film.
+    let mut head = vec![0u8; 20];
+    if len < 28 || file.read_exact(&mut head).is_err() {
+        return Err(bad("not a checkpoint"));
+    }
+    if &head[..8] == MAGIC_V1 {
+        return read_v1(path, width, height, seed, entries);
+    }
+    if &head[..8] != MAGIC {
+        return Err(bad("not a checkpoint"));
+    }
+    let u32_at = |b: &[u8], i: usize| u32::from_le_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
+    let (w, h, json_len) = (
+        u32_at(&head, 8),
+        u32_at(&head, 12),
+        u32_at(&head, 16) as usize,
+    );
+    if (w, h) != (width, height) {
+        return Err(bad(&format!("made for {w}x{h}, not {width}x{height}")));
+    }
+    if len < (20 + json_len + 4) as u64 {
+        return Err(bad("truncated"));
+    }
+    head.resize(20 + json_len, 0);
+    file.read_exact(&mut head[20..])
+        .map_err(|e| bad(&e.to_string()))?;
+    let header: Header = serde_json::from_slice(&head[20..]).map_err(|e| bad(&e.to_string()))?;
+    if header.seed != seed {
+        return Err(bad("made with another seed"));
+    }
+    if header.entries != entries || len != (20 + json_len + entries * 16 + 4) as u64 {
+        return Err(bad(&format!(
+            "holds {} accumulation entries, the session {entries}",
+            header.entries
+        )));
+    }
+    // Step 2: the floats straight into the accumulation's memory, then the checksum.
+    let mut acc = vec![[0.0f32; 4]; entries];
+    let body: &mut [u8] = bytemuck::cast_slice_mut(&mut acc);
+    file.read_exact(body).map_err(|e| bad(&e.to_string()))?;
+    let read_at = t0.elapsed();
+    let mut sum = [0u8; 4];
+    file.read_exact(&mut sum).map_err(|e| bad(&e.to_string()))?;
+    let mut crc = crc32fast::Hasher::new();
+    crc.update(&head);
+    crc.update(body);
+    if crc.finalize().to_le_bytes() != sum {
+        return Err(bad("checksum mismatch"));
+    }
+    if cfg!(target_endian = "big") {
+        for v in acc.iter_mut().flatten() {
+            *v = f32::from_bits(u32::from_le(v.to_bits()));
+        }
+    }
+    tracing::debug!(
+        path = %path.display(),
+        read_ms = read_at.as_millis() as u64,
+        check_ms = (t0.elapsed() - read_at).as_millis() as u64,
+        "checkpoint read"
+    );
+    Ok((header.progress, acc))
+}
+
+/// [`read`] of a file of the first layout (`CNDLCKP1`: FNV-1a 64 checksum).
+fn read_v1(
+    path: &Path,
+    width: u32,
+    height: u32,
+    seed: u64,
+    entries: usize,
+) -> Result<(Progress, Vec<[f32; 4]>), String> {
     let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
     let bad = |what: &str| format!("{}: {what}", path.display());
-    if bytes.len() < 28 || &bytes[..8] != MAGIC {
+    if bytes.len() < 28 || &bytes[..8] != MAGIC_V1 {
         return Err(bad("not a checkpoint"));
     }
     let (body, sum) = bytes.split_at(bytes.len() - 8);
@@ -138,7 +233,7 @@ mod tests {
         };
         let acc = vec![[1.0, 2.0, 3.0, 4.0], [0.5, 0.25, 0.0, 12.0]];
         write(&path, 2, 1, 7, &progress, &acc).unwrap();
-        assert_eq!(read(&path, 2, 1, 7, 2).unwrap(), (progress, acc));
+        assert_eq!(read(&path, 2, 1, 7, 2).unwrap(), (progress, acc.clone()));
         assert!(read(&path, 1, 2, 7, 2).is_err());
         assert!(read(&path, 2, 1, 8, 2).is_err());
         assert!(read(&path, 2, 1, 7, 3).is_err());
@@ -147,6 +242,25 @@ mod tests {
         bytes[n - 12] ^= 1;
         std::fs::write(&path, &bytes).unwrap();
         assert!(read(&path, 2, 1, 7, 2).unwrap_err().contains("checksum"));
+        std::fs::write(&path, &bytes[..n - 1]).unwrap();
+        assert!(read(&path, 2, 1, 7, 2).is_err(), "truncated");
+        // A file of the first layout (FNV-1a 64) still reads.
+        let json = serde_json::to_vec(&Header {
+            seed: 7,
+            entries: 2,
+            progress,
+        })
+        .unwrap();
+        let mut v1 = MAGIC_V1.to_vec();
+        for x in [2u32, 1, json.len() as u32] {
+            v1.extend_from_slice(&x.to_le_bytes());
+        }
+        v1.extend_from_slice(&json);
+        v1.extend(acc.iter().flatten().flat_map(|v| v.to_le_bytes()));
+        let sum = fnv1a(&v1);
+        v1.extend_from_slice(&sum.to_le_bytes());
+        std::fs::write(&path, &v1).unwrap();
+        assert_eq!(read(&path, 2, 1, 7, 2).unwrap(), (progress, acc));
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

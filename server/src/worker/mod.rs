@@ -28,6 +28,7 @@ mod reconcile;
 mod report;
 mod scheduler;
 mod shard;
+mod shard_write;
 mod storage_hold;
 mod warmup;
 mod watchdog;
@@ -107,6 +108,7 @@ pub fn spawn(
                 dirty: true,
                 claim_now: false,
                 spare: None,
+                writes: Vec::new(),
                 last_open: None,
                 open_failures: 0,
                 held: BTreeMap::new(),
@@ -151,6 +153,8 @@ struct Worker {
     claim_now: bool,
     /// The session of the shard this worker finished last, for the job's next part (shard.rs).
     spare: Option<(JobId, RenderSession)>,
+    /// Finished shards' final checkpoints being written (shard_write.rs).
+    writes: Vec<shard_write::ShardWrite>,
     /// The last attempt to create the device, and failures in a row.
     last_open: Option<Instant>,
     open_failures: u32,
@@ -188,11 +192,13 @@ impl Worker {
     fn run(&mut self) {
         loop {
             // Step 1: messages; block only when there is nothing to render.
+            // (Shard writes under way: look at them often, to claim as soon as one ends.)
+            let idle_wait = if self.writes.is_empty() { 500 } else { 10 };
             let first = if self.sched.len() == 0 && !std::mem::take(&mut self.claim_now) {
-                match self.rx.recv_timeout(Duration::from_millis(500)) {
+                match self.rx.recv_timeout(Duration::from_millis(idle_wait)) {
                     Ok(m) => Some(m),
                     Err(mpsc::RecvTimeoutError::Timeout) => {
-                        self.dirty = true;
+                        self.dirty |= self.writes.is_empty();
                         None
                     }
                     Err(mpsc::RecvTimeoutError::Disconnected) => Some(Msg::Shutdown),
@@ -210,6 +216,8 @@ impl Worker {
                     }
                 }
             }
+            // Shards whose final checkpoint is now on disk: done (shard_write.rs).
+            self.collect_writes(false);
             // Step 2: the leases renewed; jobs taken over by another worker dropped.
             if self.last_heartbeat.elapsed() >= self.config.heartbeat {
                 self.heartbeat();
@@ -344,9 +352,12 @@ impl Worker {
             Part::Shard { range, .. } => paths.shard_checkpoint(range.idx),
             _ => paths.checkpoint(),
         };
+        let mut merged_sums = None;
         if let Part::Merge { count } = part {
+            let t0 = std::time::Instant::now();
             match shard::merged(&self.store, &session, &s, &paths, id) {
                 Ok(Some((acc, progress))) => {
+                    let t_read = t0.elapsed();
                     if let Err(e) = session.restore(&acc, progress) {
                         return self.render_failed(id, e, "restoring the merged shards");
                     }
@@ -354,8 +365,11 @@ impl Worker {
                         job = id,
                         shards = count,
                         spp = progress.spp,
+                        read_add_ms = shard::ms(t_read),
+                        restore_ms = shard::ms(t0.elapsed() - t_read),
                         "merged the shards"
                     );
+                    merged_sums = Some((progress.spp, acc));
                 }
                 // A shard to render again: the merge's lease goes at the next heartbeat.
                 Ok(None) => return,
@@ -418,7 +432,10 @@ impl Worker {
                     image_written: false,
                 });
             }
-            Part::Merge { count } => job.merged_shards = Some(count),
+            Part::Merge { count } => {
+                job.merged_shards = Some(count);
+                job.merged_sums = merged_sums;
+            }
             Part::Whole => {}
         }
         if let Some((run, fresh)) = auto_run {
@@ -698,6 +715,8 @@ impl Worker {
 
     /// Checkpoints every active job (they stay `running` and resume at the next start).
     fn shutdown(&mut self) {
+        // Finished shards are recorded done before the leases go.
+        self.collect_writes(true);
         let ids: Vec<JobId> = self.active.keys().copied().collect();
         for id in ids {
             if let Some(job) = self.active.get_mut(&id) {

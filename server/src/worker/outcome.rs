@@ -40,13 +40,25 @@ impl Worker {
         if job.shard.is_some() {
             return self.finish_shard(id, job);
         }
-        let image = match job.session.image_and_estimate() {
+        let t0 = std::time::Instant::now();
+        // (Merged shards: resolved from the sums the session was given, if it holds just them.)
+        let spp_now = job.session.progress().spp;
+        let resolved = match job.merged_sums.take().filter(|(spp, _)| *spp == spp_now) {
+            Some((spp, sums)) => {
+                let image = job.session.resolve(&sums);
+                let estimate = job.session.estimate_spp(&sums, spp, &image);
+                Ok((image, estimate))
+            }
+            None => job.session.image_and_estimate(),
+        };
+        let image = match resolved {
             Ok((i, estimate)) => {
                 job.estimate = estimate;
                 i
             }
             Err(e) => return self.render_failed(id, e, "reading the final image"),
         };
+        let t_resolve = t0.elapsed();
         if let Err(e) = job.write_image(&image) {
             let msg = match e {
                 CheckpointError::Io(e) if is_storage_fault(&e) => {
@@ -59,6 +71,7 @@ impl Worker {
             };
             return self.fail(id, format!("writing the final image: {msg}"));
         }
+        let t_image = t0.elapsed();
         let mut stats = job.session.stats();
         stats.rel_mse_estimate = job.estimate;
         stats.stopped_by = job.stop_reason();
@@ -75,6 +88,7 @@ impl Worker {
         );
         // The final progress and snapshot events come before `done`.
         job.flush_metrics();
+        let t_report = t0.elapsed();
         let mut stats_json = serde_json::to_value(&stats).unwrap_or_default();
         if let Some(run) = &job.auto {
             stats_json["auto"] = run.report.clone();
@@ -88,8 +102,19 @@ impl Worker {
         };
         match self.store.transition(id, JobState::Done, t) {
             Ok(_) => {
-                info!(job = id, spp, time_s = stats.time_s, "done");
+                let t_state = t0.elapsed();
                 job.remove_checkpoints();
+                info!(
+                    job = id,
+                    spp,
+                    time_s = stats.time_s,
+                    resolve_ms = super::shard::ms(t_resolve),
+                    exr_ms = super::shard::ms(t_image - t_resolve),
+                    report_ms = super::shard::ms(t_report - t_image),
+                    state_ms = super::shard::ms(t_state - t_report),
+                    cleanup_ms = super::shard::ms(t0.elapsed() - t_state),
+                    "done"
+                );
             }
             // Paused at the last moment (and perhaps resumed already: queued): keep the
             // checkpoint so the resume ends at once instead of rendering from an older one.

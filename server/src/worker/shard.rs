@@ -2,11 +2,12 @@
 //! rendered like a job of its own sample count whose passes start at the shard's first sample
 //! index; its checkpoint (`shard-<k>.bin`) holds its sums, and the job's image on disk, written
 //! with a shard checkpoint at most once per checkpoint interval (live_merge.rs), is the merge of
-//! that shard's sums with every other shard's latest checkpoint. The claim that finds every
-//! shard done merges their checkpoints into one accumulation
+//! that shard's sums with every other shard's latest checkpoint. A finished shard's final
+//! checkpoint is written, and the shard marked done, off the render thread (shard_write.rs).
+//! The claim that finds every shard done merges their checkpoints into one accumulation
 //! (renderer::render::merge_accumulation, exact up to float addition order), restores it into a
-//! session of the whole job, and finishes the job as a whole render. A worker
-//! keeps the session of the shard it finished last, and reuses it (reset) when its next claim
+//! session of the whole job, and finishes the job as a whole render. A worker keeps the
+//! session of the shard it finished last, and reuses it (reset) when its next claim
 //! is another part of the same job.
 
 use std::sync::Arc;
@@ -15,9 +16,8 @@ use renderer::render::{merge_accumulation, Progress, RenderSession};
 use serde_json::json;
 use tracing::{info, warn};
 
-use super::active::{ActiveJob, CheckpointError};
+use super::active::ActiveJob;
 use super::checkpoint;
-use super::storage_hold::is_storage_fault;
 use super::Worker;
 use crate::jobs::model::{JobId, JobSettings};
 use crate::store::{sum_progress, JobPaths, Part, ShardRange, Store};
@@ -37,12 +37,13 @@ pub struct ShardRun {
     pub image_written: bool,
 }
 
-/// Shard files read at once by [`add_shards`] (each one film-size in memory until merged).
+/// Shard files read ahead by [`add_shards`] (each one film-size in memory until merged).
 const READ_AT_ONCE: usize = 4;
 
 /// Adds to `into` (an accumulation of `session`'s layout) the checkpoints of the job's shards
 /// `0..count` other than `skip`; returns each one's progress, or why it is unusable. The files
-/// are read (and checksummed) [`READ_AT_ONCE`] at a time on threads, and added in index order.
+/// are read (and checksummed) on threads, up to [`READ_AT_ONCE`] ahead of the one being
+/// added, and added in index order (the sum does not depend on which read ends first).
 pub fn add_shards(
     session: &RenderSession,
     settings: &JobSettings,
@@ -55,31 +56,35 @@ pub fn add_shards(
     let (len, extra) = (session.accumulation_len(), session.extra_buffers());
     let wanted: Vec<u32> = (0..count).filter(|k| Some(*k) != skip).collect();
     let mut out = Vec::with_capacity(wanted.len());
-    for group in wanted.chunks(READ_AT_ONCE) {
-        // Step 1: read the group's files at once.
-        let reads: Vec<_> = std::thread::scope(|s| {
-            let handles: Vec<_> = group
-                .iter()
-                .map(|k| {
-                    let path = paths.shard_checkpoint(*k);
-                    s.spawn(move || checkpoint::read(&path, w, h, settings.seed, len))
-                })
-                .collect();
-            handles
-                .into_iter()
-                .map(|t| t.join().unwrap_or_else(|_| Err("reading panicked".into())))
-                .collect()
-        });
-        // Step 2: add them in index order.
-        for (k, read) in group.iter().zip(reads) {
-            let added = read.and_then(|(p, acc)| {
-                merge_accumulation(into, &acc, (w * h) as usize, &extra)
-                    .map(|_| p)
-                    .map_err(|e| e.to_string())
-            });
-            out.push((*k, added));
+    std::thread::scope(|s| {
+        let read = |k: u32| {
+            let path = paths.shard_checkpoint(k);
+            s.spawn(move || checkpoint::read(&path, w, h, settings.seed, len))
+        };
+        // Step 1: the first reads start.
+        let mut ahead: std::collections::VecDeque<_> = wanted
+            .iter()
+            .take(READ_AT_ONCE)
+            .map(|k| (*k, read(*k)))
+            .collect();
+        let mut next = ahead.len();
+        // Step 2: each file, in index order, added as the next one's read starts.
+        while let Some((k, handle)) = ahead.pop_front() {
+            if let Some(k) = wanted.get(next) {
+                ahead.push_back((*k, read(*k)));
+                next += 1;
+            }
+            let added = handle
+                .join()
+                .unwrap_or_else(|_| Err("reading panicked".into()))
+                .and_then(|(p, acc)| {
+                    merge_accumulation(into, &acc, (w * h) as usize, &extra)
+                        .map(|_| p)
+                        .map_err(|e| e.to_string())
+                });
+            out.push((k, added));
         }
-    }
+    });
     out
 }
 
@@ -185,13 +190,17 @@ impl Worker {
         }
     }
 
-    /// A shard rendered all its samples: its final checkpoint, then it is marked done (if this
-    /// worker still holds it) and the worker looks for more work (the next shard, or the merge).
+    /// A shard rendered all its samples: its sums are read back, and its final checkpoint is
+    /// written and the shard marked done off this thread (shard_write.rs), if this worker still
+    /// holds it, while the worker looks for more work (the next shard, or the merge).
     pub(super) fn finish_shard(&mut self, id: JobId, mut job: ActiveJob) {
         let Some(sh) = job.shard else { return };
         let worker = self.config.worker_id.clone();
-        let p = match job.write_checkpoint() {
-            Ok(p) => Some(p),
+        let t0 = std::time::Instant::now();
+        let rendering = job.since_admit();
+        // Step 1: the sums read back (after the job's queued passes).
+        let accumulation = match job.session.accumulation() {
+            Ok(acc) => acc,
             // Taken over meanwhile (its new owner renders it): lost, not a failure of the job.
             Err(e)
                 if !self
@@ -199,56 +208,76 @@ impl Worker {
                     .holds_shard(id, sh.range.idx, &worker)
                     .unwrap_or(true) =>
             {
-                warn!(job = id, shard = sh.range.idx, error = ?e,
-                      "lost the shard's lease; its last checkpoint failed");
-                None
-            }
-            Err(CheckpointError::Io(e)) if is_storage_fault(&e) => {
-                self.active.insert(id, job);
-                return self.hold_for_storage(id, "writing a shard's checkpoint", e.to_string());
+                warn!(job = id, shard = sh.range.idx, error = %e,
+                      "lost the shard's lease; reading its sums back failed");
+                return self.keep_spare(id, job);
             }
             Err(e) => {
-                let msg = match e {
-                    CheckpointError::Io(e) => e.to_string(),
-                    CheckpointError::Render(e) => e.to_string(),
-                };
                 self.active.insert(id, job);
-                return self.fail(id, format!("writing a shard's checkpoint: {msg}"));
+                return self.fail(id, format!("reading a shard's sums back: {e}"));
             }
         };
-        let done = p.map(|p| (p, self.store.shard_done(id, sh.range.idx, &worker, &p)));
-        match done {
-            Some((p, Ok(Some(total)))) => {
-                info!(
-                    job = id,
-                    shard = sh.range.idx,
-                    spp = p.spp,
-                    job_spp = total.spp,
-                    "shard done"
-                );
-                if let Some(s) = &mut job.shard {
-                    s.others_spp = total.spp.saturating_sub(p.spp);
+        let readback = t0.elapsed();
+        // Step 2: the lease to the writer's name, then the write on its thread.
+        let owner = super::shard_write::writer_name(&worker);
+        match self
+            .store
+            .hand_shard(id, sh.range.idx, &worker, &owner, self.config.lease)
+        {
+            Ok(true) => {
+                let finished = super::shard_write::Finished {
+                    id,
+                    idx: sh.range.idx,
+                    settings: job.settings.clone(),
+                    path: job.paths.shard_checkpoint(sh.range.idx),
+                    progress: job.session.progress(),
+                    accumulation,
+                    job_spp: sh.job_spp,
+                    progress_json: job.progress_json(),
+                    rendering,
+                    readback,
+                };
+                // (A film-size buffer each: writes slower than the renders wait here.)
+                if self.writes.len() >= super::shard_write::MAX_PENDING {
+                    self.collect_writes(true);
                 }
-                let _ = self.store.append_event(id, "progress", job.progress_json());
+                match super::shard_write::start(self.store.clone(), owner.clone(), finished) {
+                    Ok(w) => self.writes.push(w),
+                    Err(e) => {
+                        // (No thread: the shard goes back to be rendered again.)
+                        let _ = self.store.release_shard(id, sh.range.idx, &owner);
+                        warn!(job = id, shard = sh.range.idx, error = %e,
+                              "starting a shard's write");
+                    }
+                }
             }
-            Some((_, Ok(None))) => warn!(
+            Ok(false) => warn!(
                 job = id,
                 shard = sh.range.idx,
                 "lost the shard's lease before recording it done"
             ),
-            Some((_, Err(e))) => {
-                warn!(job = id, shard = sh.range.idx, error = %e, "recording a shard done")
+            Err(e) => {
+                warn!(job = id, shard = sh.range.idx, error = %e, "handing a shard to its writer")
             }
-            None => {}
         }
+        self.keep_spare(id, job);
+    }
+
+    /// Keeps the session of the shard `job` ended for the job's next shard (or merge), if this
+    /// worker claims one next, and looks for more work.
+    fn keep_spare(&mut self, id: JobId, job: ActiveJob) {
         job.flush_metrics();
-        // Kept for the job's next shard (or merge), if this worker claims one next.
         self.spare = Some((id, job.into_session()));
         self.shared.forget(id);
         self.dirty = true;
         self.claim_now = true;
         self.publish_caches();
     }
+}
+
+/// Whole milliseconds of `d` (for timing logs).
+pub fn ms(d: std::time::Duration) -> u64 {
+    d.as_millis() as u64
 }
 
 /// The data of a `shard` object in a progress event.

@@ -1,0 +1,225 @@
+//! A finished shard's final checkpoint, written off the render thread: the shard's sums are
+//! read back from the device (the only part that needs it), the shard's lease is handed to a
+//! name of the worker's own for writers (`NAME#write`, store/shards.rs `hand_shard`) and a
+//! thread writes `shard-<k>.bin` (durably: fsync, rename) and only then marks the shard done,
+//! while the device renders the worker's next shard. The worker loop collects finished writes
+//! ([`Worker::collect_writes`]), announces them (`progress` event) and claims again (the merge,
+//! once every shard is done).
+//!
+//! Crash safety: the shard is done only once its file is whole on disk; a worker killed while
+//! the file is written leaves the writer's lease to expire (`--lease`), and the shard to be
+//! rendered again from its last checkpoint by whichever worker claims it; a writer that finds
+//! its lease taken over meanwhile records nothing (the new owner finishes the shard), so no
+//! samples are counted twice.
+
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use renderer::render::Progress;
+use serde_json::Value;
+use tracing::{info, warn};
+
+use super::checkpoint;
+use super::shard::ms;
+use super::storage_hold::is_storage_fault;
+use super::Worker;
+use crate::jobs::model::{JobId, JobSettings, JobState};
+use crate::store::{JobPaths, Store, StoreError};
+
+/// Why a shard's background write failed.
+#[derive(Debug)]
+enum WriteError {
+    Io(std::io::Error),
+    Store(StoreError),
+}
+
+/// What a writer thread reports: how long the file and the status update took, and the job's
+/// total (None: the lease was lost).
+struct Written {
+    file: Duration,
+    status: Duration,
+    result: Result<Option<Progress>, WriteError>,
+}
+
+/// A shard's final checkpoint being written.
+pub struct ShardWrite {
+    id: JobId,
+    idx: u32,
+    /// The name the shard is leased to while it is written.
+    owner: String,
+    /// The job's sample budget; the shard's progress event before the job's total is known.
+    job_spp: u32,
+    progress_json: Value,
+    /// Time from the shard's admission to its end, and of the read-back.
+    rendering: Duration,
+    readback: Duration,
+    gpu_s: f64,
+    handle: JoinHandle<Written>,
+}
+
+/// Writes a device thread lets run at once (each holds a copy of a film-size accumulation);
+/// a shard that ends with this many under way waits for them.
+pub const MAX_PENDING: usize = 2;
+
+/// The name a worker's shard writes hold their leases under.
+pub fn writer_name(worker: &str) -> String {
+    format!("{worker}#write")
+}
+
+/// What [`start`] needs of a finished shard.
+pub struct Finished {
+    pub id: JobId,
+    pub idx: u32,
+    pub settings: JobSettings,
+    pub path: std::path::PathBuf,
+    pub progress: Progress,
+    pub accumulation: Vec<[f32; 4]>,
+    pub job_spp: u32,
+    pub progress_json: Value,
+    pub rendering: Duration,
+    pub readback: Duration,
+}
+
+/// Starts the write of a finished shard whose lease was handed to `owner`.
+pub fn start(
+    store: std::sync::Arc<Store>,
+    owner: String,
+    f: Finished,
+) -> std::io::Result<ShardWrite> {
+    let (id, idx, p) = (f.id, f.idx, f.progress);
+    let (w, h, seed) = (f.settings.width, f.settings.height, f.settings.seed);
+    let (path, acc, thread_owner) = (f.path, f.accumulation, owner.clone());
+    let handle = std::thread::Builder::new()
+        .name(format!("shard-write-{id}-{idx}"))
+        .spawn(move || {
+            let t0 = Instant::now();
+            let wrote = crate::storage::injected_fault()
+                .and_then(|_| checkpoint::write(&path, w, h, seed, &p, &acc));
+            drop(acc);
+            let file = t0.elapsed();
+            if wrote.is_ok() {
+                hold_for_test(id, idx);
+            }
+            let result = match wrote {
+                Err(e) => Err(WriteError::Io(e)),
+                // Done only now that the file is whole on disk.
+                Ok(()) => store
+                    .shard_done(id, idx, &thread_owner, &p)
+                    .map_err(WriteError::Store),
+            };
+            Written {
+                file,
+                status: t0.elapsed() - file,
+                result,
+            }
+        })?;
+    Ok(ShardWrite {
+        id,
+        idx,
+        owner,
+        job_spp: f.job_spp,
+        progress_json: f.progress_json,
+        rendering: f.rendering,
+        readback: f.readback,
+        gpu_s: p.gpu_time_s,
+        handle,
+    })
+}
+
+/// Test hook: while the file `CANDELA_TEST_SHARD_WRITE_HOLD_FILE` names exists, a shard
+/// whose file is written waits before it is marked done (a worker killed then must lose
+/// nothing and count nothing twice: tests/tests/server_farm.rs).
+fn hold_for_test(id: JobId, idx: u32) {
+    let Some(f) = std::env::var_os("CANDELA_TEST_SHARD_WRITE_HOLD_FILE") else {
+        return;
+    };
+    if std::path::Path::new(&f).exists() {
+        info!(
+            job = id,
+            shard = idx,
+            "shard written; held before done (test hook)"
+        );
+    }
+    while std::path::Path::new(&f).exists() {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+impl Worker {
+    /// Handles the shard writes that ended (every one, waiting, when `wait`): a shard done is
+    /// announced and the worker claims again; a failed write frees the shard (rendered again)
+    /// and, unless the disk is full, fails the job as a failed checkpoint does.
+    pub(super) fn collect_writes(&mut self, wait: bool) {
+        let mut i = 0;
+        while i < self.writes.len() {
+            if !wait && !self.writes[i].handle.is_finished() {
+                i += 1;
+                continue;
+            }
+            let w = self.writes.swap_remove(i);
+            let (id, idx) = (w.id, w.idx);
+            let written = w.handle.join().unwrap_or_else(|_| Written {
+                file: Duration::ZERO,
+                status: Duration::ZERO,
+                result: Err(WriteError::Io(std::io::Error::other("the writer panicked"))),
+            });
+            match written.result {
+                Ok(Some(total)) => {
+                    info!(
+                        job = id,
+                        shard = idx,
+                        job_spp = total.spp,
+                        admit_to_done_ms = ms(w.rendering),
+                        gpu_ms = (w.gpu_s * 1e3) as u64,
+                        readback_ms = ms(w.readback),
+                        file_ms = ms(written.file),
+                        status_ms = ms(written.status),
+                        "shard done"
+                    );
+                    let mut data = w.progress_json;
+                    data["spp"] = total.spp.into();
+                    data["fraction"] = (total.spp as f64 / w.job_spp.max(1) as f64).min(1.0).into();
+                    let _ = self.store.append_event(id, "progress", data);
+                    self.claim_now = true;
+                    self.dirty = true;
+                }
+                Ok(None) => warn!(
+                    job = id,
+                    shard = idx,
+                    "lost the shard's lease before recording it done"
+                ),
+                Err(WriteError::Store(e)) => {
+                    warn!(job = id, shard = idx, error = %e, "recording a shard done")
+                }
+                Err(WriteError::Io(e)) => {
+                    let held = self.store.holds_shard(id, idx, &w.owner).unwrap_or(true);
+                    let _ = self.store.release_shard(id, idx, &w.owner);
+                    if !held {
+                        warn!(job = id, shard = idx, error = %e,
+                              "lost the shard's lease; its last checkpoint failed");
+                    } else if is_storage_fault(&e) {
+                        self.hold_for_storage(id, "writing a shard's checkpoint", e.to_string());
+                    } else {
+                        self.fail(id, format!("writing a shard's checkpoint: {e}"));
+                    }
+                }
+            }
+            self.discard_if_ended(id, idx);
+        }
+    }
+
+    /// Removes shard `idx`'s file when job `id` ended (canceled or failed) or was deleted while
+    /// it was written: the cleanups at the cancel passed it by.
+    fn discard_if_ended(&mut self, id: JobId, idx: u32) {
+        let paths = JobPaths::new(&self.config.data_dir, id);
+        match self.store.job_state(id) {
+            Ok(Some(JobState::Canceled | JobState::Failed)) => {
+                let _ = std::fs::remove_file(paths.shard_checkpoint(idx));
+            }
+            Ok(None) => {
+                let _ = std::fs::remove_dir_all(&paths.dir);
+            }
+            _ => {}
+        }
+    }
+}
