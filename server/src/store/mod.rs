@@ -26,7 +26,7 @@ pub use events::StoredEvent;
 pub use jobs::Transition;
 pub use notify::listen;
 pub use shards::{sum_progress, Claim, Part, ShardRange};
-pub use workers::WorkerRecord;
+pub use workers::{WorkerMemory, WorkerRecord};
 
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
