@@ -23,8 +23,9 @@ checks the invariants:
      `kernel_variants_seen`, from `GET /api/workers`, at its final value) and --rss-warmup
      seconds after its start, whichever is later: its caches fill as new scene/integrator
      variants appear, so growth before that is the fill, not a leak. Before the traffic, a
-     warm-up renders every scene with every integrator --warmup-rounds times (no kills), so
-     that the first lifetimes see every variant early.
+     warm-up renders every scene with every integrator on each render process (with --farm,
+     one worker at a time, the others stopped with SIGSTOP; no kills), so that the first
+     lifetimes have seen every variant when the traffic starts.
      The memory series of /metrics (in-memory cache entries and bytes, glibc malloc's
      allocated and free bytes) are sampled beside it, to say where the memory went.
 
@@ -79,10 +80,11 @@ def parse_args():
     p.add_argument("--rss-warmup", type=float, default=20.0,
                    help="seconds of each process lifetime always left out of the RSS fit (the "
                    "window starts later if the process compiles new kernel variants later)")
-    p.add_argument("--warmup-rounds", type=int, default=None, metavar="K",
+    p.add_argument("--warmup-rounds", type=int, default=1, metavar="K",
                    help="before the traffic, render every scene with every integrator K times "
-                   "(8x8, 1 spp), so that every render process sees every kernel variant "
-                   "(default: 1, or N with --farm N; 0: none)")
+                   "(8x8, 1 spp) on each render process (with --farm, on one worker at a time, "
+                   "the others stopped), so that each sees every kernel variant (default 1; 0: "
+                   "none)")
     p.add_argument("--rss-slope-limit", type=float, default=50.0,
                    help="largest RSS slope, MB/hour, that counts as flat (default 50)")
     p.add_argument("--rss-min-window", "--rss-min-lifetime", dest="rss_min_window", type=float,
@@ -444,24 +446,53 @@ class Soak:
                 self.variants.append((round(t, 1), key, w["kernel_variants_seen"]))
 
     def warm_up(self, server, t_start):
-        """Every scene with every integrator, --warmup-rounds times (8x8, 1 spp), submitted and
-        waited for before the traffic (no kills meanwhile), so that each render process
-        compiles the kernel variants the traffic will use; then deleted (done ones checked for
-        their spp like the traffic's)."""
+        """Every scene with every integrator, --warmup-rounds times (8x8, 1 spp), on each render
+        process in turn before the traffic (no kills meanwhile): with --farm, one worker at a
+        time, the others stopped (SIGSTOP, holding no job) so that it renders every job itself.
+        Each render process thus compiles every kernel variant the traffic will use. The jobs
+        are then deleted (done ones checked for their spp like the traffic's)."""
         a = self.args
-        rounds = a.warmup_rounds if a.warmup_rounds is not None else max(1, a.farm)
-        if rounds <= 0:
+        if a.warmup_rounds <= 0:
             return None
         t0 = time.time()
-        todo = [(r, sc, i) for r in range(rounds) for sc in self.scenes for i in self.integrators]
+        ids, ended, not_submitted = [], {}, 0
+        for w in self.workers or [None]:
+            others = [o for o in self.workers if o is not w]
+            for o in others:
+                os.kill(o.proc.pid, signal.SIGSTOP)
+            try:
+                mine, left = self.warm_up_round(server, t_start)
+            finally:
+                for o in others:
+                    os.kill(o.proc.pid, signal.SIGCONT)
+            ids += mine
+            not_submitted += left
+        for jid in ids:
+            st, rec = server.call("GET", f"/api/jobs/{jid}")
+            if st == 200 and rec["state"] in TERMINAL:
+                ended[rec["state"]] = ended.get(rec["state"], 0) + 1
+                if server.call("DELETE", f"/api/jobs/{jid}")[0] == 204:
+                    self.deleted[jid] = rec
+        w = {"rounds": a.warmup_rounds, "processes": max(1, len(self.workers)), "jobs": len(ids),
+             "not_submitted": not_submitted, "ended": ended,
+             "seconds": round(time.time() - t0, 1)}
+        print(f"soak: warm-up: {w}", flush=True)
+        return w
+
+    def warm_up_round(self, server, t_start):
+        """Submits every scene x integrator --warmup-rounds times (as many at once as the
+        server's queue takes) and waits for them to end: (job ids, jobs not submitted)."""
+        a = self.args
+        todo = [(r, sc, i) for r in range(a.warmup_rounds) for sc in self.scenes
+                for i in self.integrators]
         ids, waiting = [], []
-        deadline = t0 + a.drain_timeout * 6
+        deadline = time.time() + a.drain_timeout * 6
         next_rss = 0.0
         while time.time() < deadline:
             if time.time() >= next_rss:
                 self.sample_rss(server, time.time() - t_start)
                 next_rss = time.time() + a.rss_every
-            while todo:  # as many as the server's queue takes
+            while todo:
                 r, sc, i = todo[0]
                 st, job = server.call("POST", "/api/jobs", {
                     "scene_name": sc, "integrator": i, "width": 8, "height": 8, "spp": 1,
@@ -476,17 +507,7 @@ class Soak:
             if not todo and not waiting:
                 break
             time.sleep(1)
-        ended = {}
-        for jid in ids:
-            st, rec = server.call("GET", f"/api/jobs/{jid}")
-            if st == 200 and rec["state"] in TERMINAL:
-                ended[rec["state"]] = ended.get(rec["state"], 0) + 1
-                if server.call("DELETE", f"/api/jobs/{jid}")[0] == 204:
-                    self.deleted[jid] = rec
-        w = {"rounds": rounds, "jobs": len(ids), "not_submitted": len(todo), "ended": ended,
-             "seconds": round(time.time() - t0, 1)}
-        print(f"soak: warm-up: {w}", flush=True)
-        return w
+        return ids, len(todo)
 
     def kill_one(self, server):
         """kill -9 of the server, or in a farm of the server, one worker or PostgreSQL, each
@@ -669,8 +690,8 @@ class Soak:
             print("kills: " + ", ".join(f"{k} {n}" for k, n in sorted(r["kills_by_target"].items())))
         if r.get("warmup"):
             w = r["warmup"]
-            print(f"warm-up: every scene x integrator {w['rounds']}x, {w['jobs']} jobs, "
-                  f"{w['seconds']} s")
+            print(f"warm-up: every scene x integrator {w['rounds']}x on each of "
+                  f"{w['processes']} render processes, {w['jobs']} jobs, {w['seconds']} s")
         for role, lg in sorted(r["rss_longest_by_role"].items()):
             of = [s for s in seg if s["role"] == role]
             v = ("kernel variants unknown" if lg["kernel_variants"] is None else
@@ -680,7 +701,9 @@ class Soak:
                   f"{of[-1]['rss_last_mb']} MB, max {max(s['rss_max_mb'] for s in of)} MB; "
                   f"longest window: {lg['lifetime']} ({lg['length_s']} s; {v}), "
                   f"{lg['window_s']} s from {lg['window_from_s']} s: slope "
-                  f"{lg['slope_mb_per_h']} MB/h, {lg['window_rss_min_mb']}-"
+                  f"{lg['slope_mb_per_h']} MB/h"
+                  f"{'' if lg['window_s'] >= self.args.rss_min_window else ' (not judged: shorter than --rss-min-window)'}, "
+                  f"{lg['window_rss_min_mb']}-"
                   f"{lg['window_rss_max_mb']} MB; over the lifetime's second half: "
                   f"{lg['slope_last_half_mb_per_h']} MB/h")
         g = r.get("memory_growth")

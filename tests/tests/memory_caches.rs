@@ -80,7 +80,14 @@ fn server_flags_bound_the_caches_and_metrics_show_them() {
     // (A short lease: the render loop reports itself every half second.)
     let s = Server::start(
         &dir.join("data"),
-        &["--cache-pipelines", "1", "--cache-kernels", "2", "--lease", "1.5"],
+        &[
+            "--cache-pipelines",
+            "1",
+            "--cache-kernels",
+            "2",
+            "--lease",
+            "1.5",
+        ],
     );
     // Two integrators: more pipelines and kernels than the limits.
     for integrator in ["nee", "whitted"] {

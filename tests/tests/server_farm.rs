@@ -330,7 +330,11 @@ fn three_workers_split_one_job_on_postgres() {
     let (mut victims, mut dead): (Vec<(String, u32, u64)>, Vec<Worker>) = (vec![], vec![]);
     while victims.len() < kills {
         let rows = shards(&data, id);
-        assert!(Instant::now() < deadline, "{victims:?} {rows:?}\n{}", logs(&workers));
+        assert!(
+            Instant::now() < deadline,
+            "{victims:?} {rows:?}\n{}",
+            logs(&workers)
+        );
         let claimers: BTreeSet<String> = claims(&data).into_iter().map(|c| c.1).collect();
         // (Early in its shard, so that it cannot finish it before the kill lands; held by a
         // live worker, not by one killed before whose lease has not run out yet.)
@@ -349,6 +353,7 @@ fn three_workers_split_one_job_on_postgres() {
         }
         std::thread::sleep(Duration::from_millis(20));
     }
+    eprintln!("killed (worker, shard, spp checkpointed): {victims:?}");
     // Step 2: the others finish every shard (the victims' from their checkpoints) and merge
     // them: exactly the job's samples, no shard counted twice or lost.
     let done = api.wait_job(id, T, |j| {
