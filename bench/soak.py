@@ -16,9 +16,11 @@ checks the invariants:
      before deleting them);
   3. no orphaned files: every folder under <data>/jobs belongs to a job the server lists, and
      no deleted job's folder is left;
-  4. memory is flat: the RSS of the server and of each worker, sampled every few seconds, has a
-     least-squares slope under --rss-slope-limit MB/hour over the measurement window of the
-     longest-measured lifetime of each role (server, worker). A render process's window starts
+  4. memory is flat: the RSS of the server and of each worker, sampled every few seconds, has
+     its high-water mark rise by less than --rss-slope-limit MB/hour over the measurement
+     window of the longest-measured lifetime of each role (server, worker): the peak of the
+     window's second half less the peak of its first half, per hour of half (the least-squares
+     slope is reported beside it). A render process's window starts
      once it has compiled every kernel variant it will use in its lifetime (its
      `kernel_variants_seen`, from `GET /api/workers`, at its final value) and --rss-warmup
      seconds after its start, whichever is later: its caches fill as new scene/integrator
@@ -86,7 +88,8 @@ def parse_args():
                    "the others stopped), so that each sees every kernel variant (default 1; 0: "
                    "none)")
     p.add_argument("--rss-slope-limit", type=float, default=50.0,
-                   help="largest RSS slope, MB/hour, that counts as flat (default 50)")
+                   help="largest rise of the RSS's peak, MB/hour, that counts as flat "
+                   "(default 50)")
     p.add_argument("--rss-min-window", "--rss-min-lifetime", dest="rss_min_window", type=float,
                    default=300.0,
                    help="shortest measurement window, seconds, whose RSS slope is judged "
@@ -190,6 +193,24 @@ class Server:
                 return e.code, None
         except (urllib.error.URLError, ConnectionError, TimeoutError, OSError):
             return 0, None
+
+
+def peak_growth(samples):
+    """How fast the RSS's high-water mark rose over `samples` (t, mb): the peak of their second
+    half less the peak of their first half, per hour of half; None with fewer than 4. A bounded
+    process, its caches and allocator arenas full, steps up and down within a band whose top it
+    has reached: its second half peaks no higher. A leak of L MB/h raises the peak by about L
+    per hour. (A least-squares slope over minutes mostly measures where in the band the window
+    starts and ends.)"""
+    if len(samples) < 4:
+        return None
+    mid = (samples[0][0] + samples[-1][0]) / 2
+    first = [m for t, m in samples if t < mid]
+    second = [m for t, m in samples if t >= mid]
+    half_h = (samples[-1][0] - samples[0][0]) / 2 / 3600.0
+    if not first or not second or half_h <= 0:
+        return None
+    return (max(second) - max(first)) / half_h
 
 
 def fit_slope(samples):
@@ -626,8 +647,10 @@ class Soak:
                 "window_rss_min_mb": round(min(m for _, m in warm), 1) if warm else None,
                 "window_rss_max_mb": round(max(m for _, m in warm), 1) if warm else None,
                 "slope_mb_per_h": None if slope is None else round(slope, 2),
+                "peak_growth_mb_per_h":
+                    None if peak_growth(warm) is None else round(peak_growth(warm), 2),
             })
-        fitted = [s for s in segments if s["slope_mb_per_h"] is not None]
+        fitted = [s for s in segments if s["peak_growth_mb_per_h"] is not None]
         longest_by_role = {}
         for seg in fitted:
             if seg["window_s"] > longest_by_role.get(seg["role"], {"window_s": -1})["window_s"]:
@@ -637,10 +660,10 @@ class Soak:
         for role, seg in sorted(longest_by_role.items()):
             if seg["window_s"] < self.args.rss_min_window:
                 continue
-            flat = seg["slope_mb_per_h"] <= self.args.rss_slope_limit
+            flat = seg["peak_growth_mb_per_h"] <= self.args.rss_slope_limit
             rss_flat = flat if rss_flat is None else (rss_flat and flat)
             if not flat:
-                problems.append(f"RSS grows {seg['slope_mb_per_h']} MB/h over the longest "
+                problems.append(f"RSS peak grows {seg['peak_growth_mb_per_h']} MB/h over the longest "
                                 f"{role} window ({seg['lifetime']}, {seg['window_s']} s from "
                                 f"{seg['window_from_s']} s)")
         invariants = {
@@ -700,8 +723,9 @@ class Soak:
             print(f"RSS of the {role}s: first {of[0]['rss_first_mb']} MB, last "
                   f"{of[-1]['rss_last_mb']} MB, max {max(s['rss_max_mb'] for s in of)} MB; "
                   f"longest window: {lg['lifetime']} ({lg['length_s']} s; {v}), "
-                  f"{lg['window_s']} s from {lg['window_from_s']} s: slope "
-                  f"{lg['slope_mb_per_h']} MB/h"
+                  f"{lg['window_s']} s from {lg['window_from_s']} s: peak growth "
+                  f"{lg['peak_growth_mb_per_h']} MB/h (least-squares slope "
+                  f"{lg['slope_mb_per_h']} MB/h)"
                   f"{'' if lg['window_s'] >= self.args.rss_min_window else ' (not judged: shorter than --rss-min-window)'}, "
                   f"{lg['window_rss_min_mb']}-"
                   f"{lg['window_rss_max_mb']} MB; over the lifetime's second half: "
