@@ -16,9 +16,18 @@ checks the invariants:
      before deleting them);
   3. no orphaned files: every folder under <data>/jobs belongs to a job the server lists, and
      no deleted job's folder is left;
-  4. memory is flat: the server's RSS (and each worker's), sampled every few seconds, fitted with
-     a line per process lifetime (after a warm-up), has a slope under --rss-slope-limit MB/hour
-     on the longest lifetime of each role (server, worker).
+  4. memory is flat: the RSS of the server and of each worker, sampled every few seconds, has
+     its high-water mark rise by less than --rss-slope-limit MB/hour over the measurement
+     window of the longest-measured lifetime of each role (server, worker): the peak of the
+     window's second half less the peak of its first half, per hour of half (the least-squares
+     slope is reported beside it). A render process's window starts
+     once it has compiled every kernel variant it will use in its lifetime (its
+     `kernel_variants_seen`, from `GET /api/workers`, at its final value) and --rss-warmup
+     seconds after its start, whichever is later: its caches fill as new scene/integrator
+     variants appear, so growth before that is the fill, not a leak. Before the traffic, a
+     warm-up renders every scene with every integrator on each render process (with --farm,
+     one worker at a time, the others stopped with SIGSTOP; no kills), so that the first
+     lifetimes have seen every variant when the traffic starts.
      The memory series of /metrics (in-memory cache entries and bytes, glibc malloc's
      allocated and free bytes) are sampled beside it, to say where the memory went.
 
@@ -26,7 +35,7 @@ It prints a summary and writes everything to --json. Python 3 standard library o
 
     python3 bench/soak.py --duration 600 --json bench/results/soak-lavapipe-600s.json
     python3 bench/soak.py --duration 20 --kill-every 6:10 --max-spp 64   # smoke run
-    python3 bench/soak.py --farm 2 --duration 3600 --rss-warmup 300 --json soak-farm.json
+    python3 bench/soak.py --farm 2 --duration 3600 --json soak-farm.json
 """
 
 import argparse
@@ -71,12 +80,20 @@ def parse_args():
                    help="seconds between samples of the server's memory metrics (cache sizes, "
                    "malloc; 0: none)")
     p.add_argument("--rss-warmup", type=float, default=20.0,
-                   help="seconds of each server lifetime left out of the RSS fit")
+                   help="seconds of each process lifetime always left out of the RSS fit (the "
+                   "window starts later if the process compiles new kernel variants later)")
+    p.add_argument("--warmup-rounds", type=int, default=1, metavar="K",
+                   help="before the traffic, render every scene with every integrator K times "
+                   "(8x8, 1 spp) on each render process (with --farm, on one worker at a time, "
+                   "the others stopped), so that each sees every kernel variant (default 1; 0: "
+                   "none)")
     p.add_argument("--rss-slope-limit", type=float, default=50.0,
-                   help="largest RSS slope, MB/hour, that counts as flat (default 50)")
-    p.add_argument("--rss-min-lifetime", type=float, default=300.0,
-                   help="shortest server lifetime, seconds, whose RSS slope is judged (default "
-                   "300; shorter runs report the slope as n/a)")
+                   help="largest rise of the RSS's peak, MB/hour, that counts as flat "
+                   "(default 50)")
+    p.add_argument("--rss-min-window", "--rss-min-lifetime", dest="rss_min_window", type=float,
+                   default=300.0,
+                   help="shortest measurement window, seconds, whose RSS slope is judged "
+                   "(default 300; shorter ones report the slope as n/a)")
     p.add_argument("--max-spp", type=int, default=256,
                    help="largest spp budget submitted (default 256)")
     p.add_argument("--drain-timeout", type=float, default=300.0,
@@ -178,6 +195,24 @@ class Server:
             return 0, None
 
 
+def peak_growth(samples):
+    """How fast the RSS's high-water mark rose over `samples` (t, mb): the peak of their second
+    half less the peak of their first half, per hour of half; None with fewer than 4. A bounded
+    process, its caches and allocator arenas full, steps up and down within a band whose top it
+    has reached: its second half peaks no higher. A leak of L MB/h raises the peak by about L
+    per hour. (A least-squares slope over minutes mostly measures where in the band the window
+    starts and ends.)"""
+    if len(samples) < 4:
+        return None
+    mid = (samples[0][0] + samples[-1][0]) / 2
+    first = [m for t, m in samples if t < mid]
+    second = [m for t, m in samples if t >= mid]
+    half_h = (samples[-1][0] - samples[0][0]) / 2 / 3600.0
+    if not first or not second or half_h <= 0:
+        return None
+    return (max(second) - max(first)) / half_h
+
+
 def fit_slope(samples):
     """Least-squares slope of (t, mb) samples, MB per hour; None with fewer than 3."""
     if len(samples) < 3:
@@ -202,6 +237,8 @@ class Soak:
         self.jobs = {}  # id -> {"budget": ("spp", n) | ("time", s), "integrator", ...}
         self.deleted = {}  # id -> final record (just before DELETE)
         self.rss = []  # (t, mb, lifetime: "server#K" or "workerI#K")
+        self.variants = []  # (t, lifetime, kernel variants the process has compiled so far)
+        self.warmup = None
         self.mem = []  # (t, lifetime index, {series: value})
         self.kill_range = None
         if args.kill_every not in ("0", ""):
@@ -327,12 +364,15 @@ class Soak:
         print(f"soak: {a.duration:.0f} s on {data_dir} (log {log_path}); integrators "
               f"{', '.join(self.integrators)}; scenes {', '.join(self.scenes)}", flush=True)
 
-        # Step 1: traffic, RSS samples and kills until the duration is over.
+        # Step 1: the warm-up (every kernel variant the traffic uses), then traffic, RSS
+        # samples and kills until the duration is over.
+        self.warmup = self.warm_up(server, t_start)
+        t_traffic = time.time()
         next_kill = self.next_kill_time()
         next_rss = time.time()
         next_mem = time.time()
         next_report = time.time() + 60
-        while time.time() - t_start < a.duration:
+        while time.time() - t_traffic < a.duration:
             now = time.time()
             if now >= next_rss:
                 self.sample_rss(server, now - t_start)
@@ -393,7 +433,9 @@ class Soak:
             "data_dir": data_dir,
             "log": log_path,
             "candela": a.candela,
+            "warmup": self.warmup,
             "rss_samples": [(round(t, 1), round(m, 2), k) for t, m, k in self.rss],
+            "variant_samples": self.variants,
             "memory_samples": self.mem,
             "memory_growth": self.memory_growth(),
         })
@@ -408,7 +450,8 @@ class Soak:
         return 0 if result["ok"] else 1
 
     def sample_rss(self, server, t):
-        """One RSS sample of the server and of each live worker, keyed by process lifetime."""
+        """One RSS sample of the server and of each live worker, keyed by process lifetime,
+        and the kernel variants each render process reported with its last heartbeat."""
         procs = [(f"server#{len(server.starts) - 1}", server.proc.pid)]
         procs += [(f"worker{w.index}#{len(w.starts) - 1}", w.proc.pid)
                   for w in self.workers if w.alive()]
@@ -416,6 +459,76 @@ class Soak:
             mb = rss_mb(pid)
             if mb is not None:
                 self.rss.append((t, mb, key))
+        st, body = server.call("GET", "/api/workers", timeout=5)
+        by_pid = {pid: key for key, pid in procs}
+        for w in (body or {}).get("workers", []) if st == 200 else []:
+            key = by_pid.get(w.get("pid"))
+            if key and w.get("kernel_variants_seen") is not None and w["state"] == "running":
+                self.variants.append((round(t, 1), key, w["kernel_variants_seen"]))
+
+    def warm_up(self, server, t_start):
+        """Every scene with every integrator, --warmup-rounds times (8x8, 1 spp), on each render
+        process in turn before the traffic (no kills meanwhile): with --farm, one worker at a
+        time, the others stopped (SIGSTOP, holding no job) so that it renders every job itself.
+        Each render process thus compiles every kernel variant the traffic will use. The jobs
+        are then deleted (done ones checked for their spp like the traffic's)."""
+        a = self.args
+        if a.warmup_rounds <= 0:
+            return None
+        t0 = time.time()
+        ids, ended, not_submitted = [], {}, 0
+        for w in self.workers or [None]:
+            others = [o for o in self.workers if o is not w]
+            for o in others:
+                os.kill(o.proc.pid, signal.SIGSTOP)
+            try:
+                mine, left = self.warm_up_round(server, t_start)
+            finally:
+                for o in others:
+                    os.kill(o.proc.pid, signal.SIGCONT)
+            ids += mine
+            not_submitted += left
+        for jid in ids:
+            st, rec = server.call("GET", f"/api/jobs/{jid}")
+            if st == 200 and rec["state"] in TERMINAL:
+                ended[rec["state"]] = ended.get(rec["state"], 0) + 1
+                if server.call("DELETE", f"/api/jobs/{jid}")[0] == 204:
+                    self.deleted[jid] = rec
+        w = {"rounds": a.warmup_rounds, "processes": max(1, len(self.workers)), "jobs": len(ids),
+             "not_submitted": not_submitted, "ended": ended,
+             "seconds": round(time.time() - t0, 1)}
+        print(f"soak: warm-up: {w}", flush=True)
+        return w
+
+    def warm_up_round(self, server, t_start):
+        """Submits every scene x integrator --warmup-rounds times (as many at once as the
+        server's queue takes) and waits for them to end: (job ids, jobs not submitted)."""
+        a = self.args
+        todo = [(r, sc, i) for r in range(a.warmup_rounds) for sc in self.scenes
+                for i in self.integrators]
+        ids, waiting = [], []
+        deadline = time.time() + a.drain_timeout * 6
+        next_rss = 0.0
+        while time.time() < deadline:
+            if time.time() >= next_rss:
+                self.sample_rss(server, time.time() - t_start)
+                next_rss = time.time() + a.rss_every
+            while todo:
+                r, sc, i = todo[0]
+                st, job = server.call("POST", "/api/jobs", {
+                    "scene_name": sc, "integrator": i, "width": 8, "height": 8, "spp": 1,
+                    "seed": r, "priority": 10, "name": f"soak warm-up {i} {sc}"})
+                if st != 201:
+                    break
+                todo.pop(0)
+                ids.append(job["id"])
+                waiting.append(job["id"])
+            states = {j["id"]: j["state"] for j in self.list_jobs(server) or []}
+            waiting = [j for j in waiting if states.get(j) not in TERMINAL]
+            if not todo and not waiting:
+                break
+            time.sleep(1)
+        return ids, len(todo)
 
     def kill_one(self, server):
         """kill -9 of the server, or in a farm of the server, one worker or PostgreSQL, each
@@ -502,39 +615,57 @@ class Soak:
                 orphans.append(str(jid))
         if orphans:
             problems.append(f"orphaned job folders: {orphans}")
-        # 4. Memory: slope per process lifetime after the warm-up; the longest of each role
-        # (server, worker) decides.
-        lifetimes = {}
+        # 4. Memory: per process lifetime, the slope over its measurement window: from when it
+        # had compiled every kernel variant of its lifetime (and --rss-warmup after its start)
+        # to its end; the longest window of each role (server, worker) decides.
+        lifetimes, variants = {}, {}
         for t, mb, k in self.rss:
             lifetimes.setdefault(k, []).append((t, mb))
+        for t, k, n in self.variants:
+            variants.setdefault(k, []).append((t, n))
         segments = []
         for k, s in sorted(lifetimes.items()):
-            t0 = s[0][0]
-            warm = [(t, m) for t, m in s if t - t0 >= self.args.rss_warmup]
-            half = [(t, m) for t, m in s if t - t0 >= (s[-1][0] - t0) / 2]
+            t0, t_end = s[0][0], s[-1][0]
+            vs = variants.get(k, [])
+            final = max((n for _, n in vs), default=None)
+            complete = next((t for t, n in vs if n == final), None)
+            start = max(t0 + self.args.rss_warmup, complete if complete is not None else t0)
+            warm = [(t, m) for t, m in s if t >= start]
+            half = [(t, m) for t, m in s if t - t0 >= (t_end - t0) / 2]
+            slope = fit_slope(warm)
             segments.append({
-                "lifetime": k, "role": k.split("#")[0].rstrip("0123456789"), "start_s": round(t0, 1), "length_s": round(s[-1][0] - t0, 1),
+                "lifetime": k, "role": k.split("#")[0].rstrip("0123456789"),
+                "start_s": round(t0, 1), "length_s": round(t_end - t0, 1),
+                "kernel_variants": final,
+                "variants_complete_s": None if complete is None else round(complete - t0, 1),
+                "window_from_s": round(start - t0, 1),
+                "window_s": round(max(0.0, t_end - start), 1),
                 "slope_last_half_mb_per_h":
                     None if fit_slope(half) is None else round(fit_slope(half), 2),
                 "rss_first_mb": round(s[0][1], 1), "rss_last_mb": round(s[-1][1], 1),
                 "rss_max_mb": round(max(m for _, m in s), 1),
-                "slope_mb_per_h": None if fit_slope(warm) is None else round(fit_slope(warm), 2),
+                "window_rss_min_mb": round(min(m for _, m in warm), 1) if warm else None,
+                "window_rss_max_mb": round(max(m for _, m in warm), 1) if warm else None,
+                "slope_mb_per_h": None if slope is None else round(slope, 2),
+                "peak_growth_mb_per_h":
+                    None if peak_growth(warm) is None else round(peak_growth(warm), 2),
             })
-        fitted = [s for s in segments if s["slope_mb_per_h"] is not None]
+        fitted = [s for s in segments if s["peak_growth_mb_per_h"] is not None]
         longest_by_role = {}
         for seg in fitted:
-            if seg["length_s"] > longest_by_role.get(seg["role"], {"length_s": -1})["length_s"]:
+            if seg["window_s"] > longest_by_role.get(seg["role"], {"window_s": -1})["window_s"]:
                 longest_by_role[seg["role"]] = seg
         longest = longest_by_role.get("server")
         rss_flat = None
         for role, seg in sorted(longest_by_role.items()):
-            if seg["length_s"] < self.args.rss_min_lifetime:
+            if seg["window_s"] < self.args.rss_min_window:
                 continue
-            flat = seg["slope_mb_per_h"] <= self.args.rss_slope_limit
+            flat = seg["peak_growth_mb_per_h"] <= self.args.rss_slope_limit
             rss_flat = flat if rss_flat is None else (rss_flat and flat)
             if not flat:
-                problems.append(f"RSS grows {seg['slope_mb_per_h']} MB/h over the longest "
-                                f"{role} lifetime ({seg['lifetime']}, {seg['length_s']} s)")
+                problems.append(f"RSS peak grows {seg['peak_growth_mb_per_h']} MB/h over the longest "
+                                f"{role} window ({seg['lifetime']}, {seg['window_s']} s from "
+                                f"{seg['window_from_s']} s)")
         invariants = {
             "all_jobs_ended_with_reasons": not any(("still" in p or "without a reason" in p)
                                                    for p in problems),
@@ -580,13 +711,24 @@ class Soak:
         seg = r["rss_segments"]
         if r["kills_by_target"]:
             print("kills: " + ", ".join(f"{k} {n}" for k, n in sorted(r["kills_by_target"].items())))
+        if r.get("warmup"):
+            w = r["warmup"]
+            print(f"warm-up: every scene x integrator {w['rounds']}x on each of "
+                  f"{w['processes']} render processes, {w['jobs']} jobs, {w['seconds']} s")
         for role, lg in sorted(r["rss_longest_by_role"].items()):
             of = [s for s in seg if s["role"] == role]
+            v = ("kernel variants unknown" if lg["kernel_variants"] is None else
+                 f"its {lg['kernel_variants']} kernel variants all seen at "
+                 f"{lg['variants_complete_s']} s")
             print(f"RSS of the {role}s: first {of[0]['rss_first_mb']} MB, last "
-                  f"{of[-1]['rss_last_mb']} MB, max {max(s['rss_max_mb'] for s in of)} MB; slope "
-                  f"over the longest lifetime ({lg['lifetime']}, {lg['length_s']} s, after "
-                  f"{self.args.rss_warmup:.0f} s warm-up): {lg['slope_mb_per_h']} MB/h "
-                  f"({lg['rss_first_mb']} -> {lg['rss_last_mb']} MB); over its second half: "
+                  f"{of[-1]['rss_last_mb']} MB, max {max(s['rss_max_mb'] for s in of)} MB; "
+                  f"longest window: {lg['lifetime']} ({lg['length_s']} s; {v}), "
+                  f"{lg['window_s']} s from {lg['window_from_s']} s: peak growth "
+                  f"{lg['peak_growth_mb_per_h']} MB/h (least-squares slope "
+                  f"{lg['slope_mb_per_h']} MB/h)"
+                  f"{'' if lg['window_s'] >= self.args.rss_min_window else ' (not judged: shorter than --rss-min-window)'}, "
+                  f"{lg['window_rss_min_mb']}-"
+                  f"{lg['window_rss_max_mb']} MB; over the lifetime's second half: "
                   f"{lg['slope_last_half_mb_per_h']} MB/h")
         g = r.get("memory_growth")
         if g:

@@ -173,7 +173,11 @@ class Worker:
                   f"{' '.join(args)}\n")
         log.flush()
         env = dict(os.environ, CANDELA_LOG=os.environ.get("CANDELA_LOG", "info"))
-        self.proc = subprocess.Popen(args, stdout=log, stderr=log, cwd=self.cwd, env=env)
+        # (A session of its own: the soak's warm-up stops workers with SIGSTOP, and a stopped
+        # process in the soak's own process group would have the kernel send the whole group
+        # SIGHUP if that group were orphaned, e.g. when the shell that started the soak exits.)
+        self.proc = subprocess.Popen(args, stdout=log, stderr=log, cwd=self.cwd, env=env,
+                                     start_new_session=True)
         self.starts.append({"t": time.time(), "pid": self.proc.pid})
 
     def alive(self):

@@ -50,6 +50,14 @@ export function fmtSi(x) {
   return x.toPrecision(3);
 }
 
+/** Bytes as "612 MiB" / "1.25 GiB" (binary units), or — when unknown. */
+export function fmtBytes(b) {
+  if (b == null || !Number.isFinite(b) || b < 0) return '—';
+  const units = [[2 ** 30, 'GiB'], [2 ** 20, 'MiB'], [2 ** 10, 'KiB']];
+  for (const [f, u] of units) if (b >= f) return `${fmtNum(b / f)} ${u}`;
+  return `${b} B`;
+}
+
 export function fmtNum(x, digits = 3) {
   if (x == null || !Number.isFinite(x)) return '—';
   return x >= 100 ? x.toFixed(0) : x.toPrecision(digits);

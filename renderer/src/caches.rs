@@ -8,7 +8,9 @@
 
 use serde::Serialize;
 
-use crate::gpu::{cache_limits, live_pipelines, spirv_memory, CacheLimits, GpuContext};
+use crate::gpu::{
+    cache_limits, kernel_variants_seen, live_pipelines, spirv_memory, CacheLimits, GpuContext,
+};
 
 /// Sizes of the in-memory caches.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
@@ -22,6 +24,8 @@ pub struct CacheStats {
     pub pipeline_evictions: u64,
     /// Pipeline objects alive in the process (cached, or held by live sessions).
     pub pipelines_live: u64,
+    /// Distinct kernel variants made into pipelines since the process started (kept or not).
+    pub kernel_variants: u64,
     /// The driver's pipeline cache data, bytes, as last saved (None without a cache folder).
     pub pipeline_cache_bytes: Option<u64>,
     /// vct volumes kept and their GPU bytes.
@@ -43,6 +47,7 @@ pub fn stats(ctx: Option<&GpuContext>) -> CacheStats {
         pipelines,
         pipeline_evictions,
         pipelines_live: live_pipelines(),
+        kernel_variants: kernel_variants_seen(),
         pipeline_cache_bytes: ctx.and_then(|c| c.pipeline_cache_bytes()),
         volumes,
         volume_bytes,

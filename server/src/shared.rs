@@ -424,6 +424,12 @@ impl Shared {
             "Pipeline objects alive (cached, or held by rendering jobs).",
             &[("", Some(c.pipelines_live))],
         );
+        family(
+            "candela_kernel_variants_seen",
+            "gauge",
+            "Distinct kernel variants made into pipelines since the process started (kept in a cache or not).",
+            &[("", Some(c.kernel_variants))],
+        );
         let (snapshots, snapshot_bytes) = self.snapshot_usage();
         family(
             "candela_snapshots",

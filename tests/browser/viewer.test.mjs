@@ -336,13 +336,17 @@ await step('the viewer shows the statistics and the job is done in the list', as
 await step('the workers table shows the server rendering on its device', async () => {
   // The server's render loop reports with its heartbeats (GET /api/workers; farm.js polls it).
   await page.locator('#farm').waitFor({ state: 'visible', timeout: 15_000 });
+  // (Until a heartbeat after the render above: the kernel variants it compiled show.)
   await page.waitForFunction(() => {
     const gpu = document.querySelector('#farm-rows tr td:nth-child(3)')?.textContent || '—';
-    return gpu !== '—';
-  }, null, { timeout: 15_000 });
+    const kernels = document.querySelector('#farm-rows tr td:nth-child(7)')?.textContent || '';
+    return gpu !== '—' && /\/ [1-9]/.test(kernels);
+  }, null, { timeout: 30_000 });
   const cells = await page.locator('#farm-rows tr').first().locator('td').allTextContents();
   check(cells[1] === 'running', `the worker's state shows "${cells[1]}"`);
   check(cells[2] && cells[2] !== '—', `the worker's GPU shows "${cells[2]}"`);
+  check(/^[0-9.]+ (MiB|GiB)$/.test(cells[5] || ''), `the worker's memory shows "${cells[5]}"`);
+  check(/^[0-9]+ \/ [1-9][0-9]*$/.test(cells[6] || ''), `the worker's kernels (cached / seen) show "${cells[6]}"`);
   console.log(`     worker ${cells.join(' | ')}`);
 });
 

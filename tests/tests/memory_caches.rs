@@ -3,8 +3,10 @@
 //! (the least recently used evicted), a session whose pipelines were evicted meanwhile still
 //! renders (its pipelines live until it is dropped; the validation layer would report a
 //! destroyed pipeline in use), and a variant rendered again after its eviction gives the same
-//! image as before (one library test in this file: the limits are process-wide). And the
-//! server's `--cache-*` flags set the bounds its `/metrics` reports, with the sizes.
+//! image as before, and is not counted as a new kernel variant (one library test in this file:
+//! the limits are process-wide). And the server's `--cache-*` flags set the bounds its
+//! `/metrics` reports, with the sizes, and its render loop reports its memory with its
+//! heartbeat (`GET /api/workers`, the `candela_worker_*` series).
 
 use candela_tests::server::Server;
 use candela_tests::{gpu, render_loaded, scene_path, scratch};
@@ -46,6 +48,10 @@ fn more_variants_than_the_limits_keep_the_caches_at_their_limits() {
     let s = stats(Some(&ctx));
     assert!(s.kernel_evictions > 0 && s.pipeline_evictions > 0, "{s:?}");
     assert_eq!(s.limits, limits);
+    // Every kernel variant made into a pipeline is counted once, kept or not: nee's and the
+    // three others' (at least one kernel each), beyond what the pipeline cache keeps.
+    let seen = s.kernel_variants;
+    assert!(seen >= 4 && seen > s.pipelines as u64, "{s:?}");
 
     // Step 3: the kept session's pipelines were evicted from the cache, not destroyed.
     let (more, _) = render(&mut kept, Budget::Spp(2)).expect("the kept session renders on");
@@ -60,6 +66,8 @@ fn more_variants_than_the_limits_keep_the_caches_at_their_limits() {
     let (again, _) = render_loaded(&scene, "nee", 2, W, H, 7, None);
     assert_eq!(again.pixels, first.pixels, "nee after eviction differs");
     let s = stats(Some(&ctx));
+    // (A variant made again after its eviction is not a new one.)
+    assert_eq!(s.kernel_variants, seen, "{s:?}");
     assert!(
         s.kernels <= limits.kernels && s.pipelines <= limits.pipelines,
         "{s:?}"
@@ -69,9 +77,17 @@ fn more_variants_than_the_limits_keep_the_caches_at_their_limits() {
 #[test]
 fn server_flags_bound_the_caches_and_metrics_show_them() {
     let dir = scratch("memory_caches_server");
+    // (A short lease: the render loop reports itself every half second.)
     let s = Server::start(
         &dir.join("data"),
-        &["--cache-pipelines", "1", "--cache-kernels", "2"],
+        &[
+            "--cache-pipelines",
+            "1",
+            "--cache-kernels",
+            "2",
+            "--lease",
+            "1.5",
+        ],
     );
     // Two integrators: more pipelines and kernels than the limits.
     for integrator in ["nee", "whitted"] {
@@ -97,4 +113,33 @@ fn server_flags_bound_the_caches_and_metrics_show_them() {
     assert!(s.metric("candela_pipelines_live") >= 1.0);
     assert!(s.metric("process_resident_memory_bytes") > 1e6);
     assert!(s.metric(r#"candela_heap_bytes{kind="allocated"}"#) > 1e6);
+    let seen = s.metric("candela_kernel_variants_seen");
+    assert!(seen >= 2.0, "nee and whitted: {seen}");
+    // The render loop reports the same with its heartbeat (the workers table): its process's
+    // resident size, the one pipeline kept, the variants seen; in /api/workers and /metrics.
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(30);
+    let w = loop {
+        let (_, v) = s.get("/api/workers");
+        let w = v["workers"][0].clone();
+        if w["kernel_variants_seen"].as_f64() == Some(seen) {
+            break w;
+        }
+        assert!(std::time::Instant::now() < deadline, "{v}");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    };
+    assert!(w["rss_bytes"].as_f64().unwrap() > 1e6, "{w}");
+    assert_eq!(w["pipelines_cached"], 1, "{w}");
+    let name = w["name"].as_str().unwrap();
+    let metrics = s.metrics();
+    let line = |series: &str| {
+        let head = format!("{series}{{worker=\"{name}\",");
+        metrics
+            .lines()
+            .find(|l| l.starts_with(&head))
+            .and_then(|l| l.rsplit(' ').next()?.parse::<f64>().ok())
+            .unwrap_or_else(|| panic!("no {series} for {name}:\n{metrics}"))
+    };
+    assert!(line("candela_worker_rss_bytes") > 1e6);
+    assert_eq!(line("candela_worker_pipelines_cached"), 1.0);
+    assert!(line("candela_worker_kernel_variants_seen") >= seen);
 }

@@ -5,12 +5,13 @@
 //! the API server's SSE clients live (LISTEN/NOTIFY); and a worker killed mid-job (SIGKILL) has its job taken
 //! over, once its lease expires, by the other worker, which resumes it from its checkpoint. A
 //! SQLite server cannot share the farm's data directory. A job split into shards
-//! (`--shard-spp`) is rendered by three workers at once, one of them killed mid-shard, and
-//! comes out with exactly its samples and the image one worker renders of it whole; a worker
-//! killed after a shard's final checkpoint was written but before the shard was marked done
-//! (held there by a test hook) has it counted once, by the worker that takes it over; a worker
+//! (`--shard-spp`) is rendered by three workers at once, three times one of them killed
+//! mid-shard and replaced by a new one, and comes out with exactly its samples and the image
+//! one worker renders of it whole; a worker killed after a shard's final checkpoint was written
+//! but before the shard was marked done (held there by a test hook) has it counted once, by the
+//! worker that takes it over; a worker
 //! with `--devices 0,0` claims shards on both its contexts, under two names, each reported by
-//! the API server (`/api/workers`, `/metrics`) until it is lost; a split job paused and resumed
+//! the API server (`/api/workers`, `/metrics`, with its process's memory) until it is lost; a split job paused and resumed
 //! ends with exactly its samples, and one canceled leaves no shard files.
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -335,63 +336,79 @@ fn three_workers_split_one_job_on_postgres() {
     let data = dir.join("data");
     let api = Server::start(&data, &["--workers", "0"]);
     let split = ["--shard-spp", "100"];
-    let mut workers: Vec<Worker> = ["w1", "w2", "w3"]
-        .iter()
-        .map(|n| Worker::start_with(&data, n, "2", &split))
-        .collect();
+    let start = |n: &str| Worker::start_with(&data, n, "2", &split);
+    let mut workers: Vec<Worker> = ["w1", "w2", "w3"].map(start).into();
     let logs = |ws: &[Worker]| ws.iter().map(|w| w.log()).collect::<Vec<_>>().join("\n");
-    // Step 1: a job of 6 shards; once the three workers have claimed shards, one holding a
-    // shard with a checkpoint dies (SIGKILL) before finishing it.
+    // Step 1: a job of 12 shards. Three times, a worker holding a checkpointed shard dies
+    // (SIGKILL) before finishing it, and a new worker takes its place.
     // (Shards of about a second each on lavapipe, five checkpoint intervals.)
-    let (total, seed) = (600u64, 11);
+    let (total, seed, kills) = (1200u64, 11, 3);
     let body = json!({"scene_name": "cornell", "spp": total, "width": 24, "height": 24,
                       "seed": seed});
     let id = api.submit(&body)["id"].as_i64().unwrap();
     let deadline = Instant::now() + T;
-    let victim = loop {
+    let name = |w: &Worker| w.log.file_stem().unwrap().to_string_lossy().into_owned();
+    // (Who was killed, holding which shard, at what spp; their processes, for their logs.)
+    let (mut victims, mut dead): (Vec<(String, u32, u64)>, Vec<Worker>) = (vec![], vec![]);
+    while victims.len() < kills {
         let rows = shards(&data, id);
-        assert!(Instant::now() < deadline, "{rows:?}\n{}", logs(&workers));
+        assert!(
+            Instant::now() < deadline,
+            "{victims:?} {rows:?}\n{}",
+            logs(&workers)
+        );
         let claimers: BTreeSet<String> = claims(&data).into_iter().map(|c| c.1).collect();
-        // (Early in its shard, so that it cannot finish it before the kill lands.)
+        // (Early in its shard, so that it cannot finish it before the kill lands; held by a
+        // live worker, not by one killed before whose lease has not run out yet.)
+        let alive = |owner: &str| workers.iter().any(|w| name(w) == owner);
         let started = rows
             .iter()
-            .find(|r| !r.1 && r.3 > 0 && r.3 <= 50 && !r.2.is_empty());
-        if let (3, Some(r)) = (claimers.len(), started) {
-            break r.2.clone();
+            .find(|r| !r.1 && r.3 > 0 && r.3 <= 50 && alive(&r.2));
+        if let (true, Some(r)) = (claimers.len() >= 3, started) {
+            let at = workers.iter().position(|w| name(w) == r.2).unwrap();
+            let mut victim = workers.remove(at);
+            victim.kill9();
+            victims.push((r.2.clone(), r.0, r.3));
+            dead.push(victim);
+            workers.push(start(&format!("w{}", 3 + victims.len())));
+            continue;
         }
         std::thread::sleep(Duration::from_millis(20));
-    };
-    let at = workers
-        .iter()
-        .position(|w| w.log.ends_with(format!("{victim}.log")))
-        .unwrap();
-    workers[at].kill9();
-    // Step 2: the others finish every shard (the victim's from its checkpoint) and merge them.
+    }
+    eprintln!("killed (worker, shard, spp checkpointed): {victims:?}");
+    // Step 2: the others finish every shard (the victims' from their checkpoints) and merge
+    // them: exactly the job's samples, no shard counted twice or lost.
     let done = api.wait_job(id, T, |j| {
         matches!(j["state"].as_str(), Some("done" | "failed"))
     });
+    // (Every worker's log, the victims' too.)
+    let logs = |ws: &[Worker]| logs(ws) + "\n" + &logs(&dead);
     assert_eq!(done["state"], "done", "{done}\n{}", logs(&workers));
     assert_eq!(spp(&done), total, "{done}");
     assert_eq!(done["stats"]["spp"], total, "{done}");
     let rows = shards(&data, id);
-    assert_eq!(rows.len(), 6, "{rows:?}");
+    assert_eq!(rows.len(), 12, "{rows:?}");
     assert!(
         rows.iter().all(|r| r.1 && r.3 == 100),
         "every shard whole: {rows:?}"
     );
     let c = claims(&data);
     let by: BTreeSet<&str> = c.iter().map(|(_, w, _)| w.as_str()).collect();
-    assert_eq!(by.len(), 3, "all three rendered: {c:?}");
-    assert!(
-        logs(&workers).contains("resumed from checkpoint"),
-        "{}",
-        logs(&workers)
-    );
-    assert!(
-        logs(&workers).contains("merged the shards"),
-        "{}",
-        logs(&workers)
-    );
+    assert!(by.len() >= 4, "the three and a replacement rendered: {c:?}");
+    // Each victim's shard was claimed again after the kill and resumed from its checkpoint.
+    for (victim, shard, at) in &victims {
+        let sql = format!(
+            "SELECT worker FROM leases WHERE job_id = {id} AND shard = {shard} ORDER BY claimed_at"
+        );
+        let by = psql(&data, &sql);
+        let by: Vec<&str> = by.iter().map(|f| f[0].as_str()).collect();
+        assert!(
+            by.contains(&victim.as_str()) && by.last() != Some(&victim.as_str()),
+            "shard {shard} ({victim} killed at {at} spp): {by:?}"
+        );
+    }
+    let resumed = logs(&workers).matches("resumed from checkpoint").count();
+    assert!(resumed >= kills, "{resumed} resumes\n{}", logs(&workers));
     // A worker's next shard of the job reuses its session (no scene loaded again).
     let reused = "reusing the session of the job's last shard";
     assert!(logs(&workers).contains(reused), "{}", logs(&workers));
@@ -402,7 +419,7 @@ fn three_workers_split_one_job_on_postgres() {
     );
     // Step 3: one worker, splitting nothing, renders the same job whole: the same image.
     drop(workers);
-    let _one = Worker::start_with(&data, "w4", "2", &["--shard-spp", "0"]);
+    let _one = Worker::start_with(&data, "whole", "2", &["--shard-spp", "0"]);
     let whole = api.submit(&body)["id"].as_i64().unwrap();
     let done = api.wait_job(whole, T, |j| {
         matches!(j["state"].as_str(), Some("done" | "failed"))
@@ -504,11 +521,18 @@ fn one_worker_renders_on_two_devices_on_postgres() {
         );
         assert!(x["device"].as_str().unwrap().contains("llvmpipe"), "{x}");
         assert!(x["passes"].as_u64().unwrap() >= 1, "{x}");
+        // Its memory: the worker process's resident size, the pipelines its context keeps and
+        // the kernel variants the process compiled (cornell's nee, at least one kernel).
+        assert!(x["rss_bytes"].as_u64().unwrap() > 1 << 20, "{x}");
+        assert!(x["pipelines_cached"].as_u64().unwrap() >= 1, "{x}");
+        assert!(x["kernel_variants_seen"].as_u64().unwrap() >= 1, "{x}");
     }
     let metrics = api.metrics();
     for name in ["w/gpu0", "w/gpu1"] {
-        let up = format!("candela_worker_up{{worker=\"{name}\",device=\"llvmpipe");
-        assert!(metrics.contains(&up), "{metrics}");
+        for series in ["candela_worker_up", "candela_worker_rss_bytes"] {
+            let line = format!("{series}{{worker=\"{name}\",device=\"llvmpipe");
+            assert!(metrics.contains(&line), "{metrics}");
+        }
     }
     // Step 3: a split job paused mid-render keeps its shards' samples and, resumed, ends with
     // exactly its spp.

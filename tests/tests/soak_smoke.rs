@@ -17,7 +17,14 @@ fn soak_smoke_run_keeps_every_invariant() {
     let o = Command::new("python3")
         .arg(repo_root().join("bench/soak.py"))
         .args(["--duration", "20", "--kill-every", "6:10", "--seed", "7"])
-        .args(["--max-spp", "64", "--max-unfinished", "6"])
+        .args([
+            "--max-spp",
+            "64",
+            "--max-unfinished",
+            "6",
+            "--warmup-rounds",
+            "0",
+        ])
         .arg("--candela")
         .arg(&bin)
         .arg("--data-dir")

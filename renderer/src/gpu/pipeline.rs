@@ -10,6 +10,7 @@
 //! through the device's pipeline cache (kernel_cache.rs), so even the first one after a restart
 //! is quick where the driver cached it.
 
+use std::collections::BTreeSet;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 
@@ -40,6 +41,24 @@ static LIVE: AtomicU64 = AtomicU64::new(0);
 /// Pipeline objects alive in this process, on every device.
 pub fn live_pipelines() -> u64 {
     LIVE.load(Ordering::Relaxed)
+}
+
+/// The SPIR-V hashes of every kernel variant a pipeline was made of in this process (16 bytes
+/// each, never dropped: they count what was seen, not what is kept).
+static VARIANTS: Mutex<BTreeSet<[u64; 2]>> = Mutex::new(BTreeSet::new());
+
+/// Distinct kernel variants (SPIR-V) this process has made pipelines of since it started, on
+/// any device, whether or not a cache still keeps them: it stops rising once every feature set
+/// and integrator a workload uses has been rendered once.
+pub fn kernel_variants_seen() -> u64 {
+    VARIANTS.lock().unwrap_or_else(|e| e.into_inner()).len() as u64
+}
+
+fn note_variant(hash: [u64; 2]) {
+    VARIANTS
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .insert(hash);
 }
 
 impl Drop for PipelineObject {
@@ -211,7 +230,8 @@ impl ComputePipeline {
         let indices: Vec<u32> = bindings.iter().map(|b| b.index).collect();
         let mut h = Hasher128::default();
         h.update(bytemuck::cast_slice(spirv));
-        let key = (h.finish(), indices.clone(), push_size);
+        let key_hash = h.finish();
+        let key = (key_hash, indices.clone(), push_size);
         let slot = ctx
             .pipeline_objects
             .lock()
@@ -223,6 +243,7 @@ impl ComputePipeline {
             Err(e) => return Err(GpuError::Other(format!("{name}: {e}"))),
         };
         if fresh {
+            note_variant(key_hash);
             ctx.pipeline_objects.trim();
         }
         let mut p = ComputePipeline {

@@ -83,6 +83,13 @@ impl Row {
             _ => Err(Self::bad(i, "an integer")),
         }
     }
+    pub fn opt_i64(&self, i: usize) -> Result<Option<i64>, StoreError> {
+        match self.at(i)? {
+            Value::Int(v) => Ok(Some(*v)),
+            Value::Null => Ok(None),
+            _ => Err(Self::bad(i, "an integer")),
+        }
+    }
     pub fn f64(&self, i: usize) -> Result<f64, StoreError> {
         self.opt_f64(i)?.ok_or_else(|| Self::bad(i, "a number"))
     }

@@ -181,10 +181,24 @@ CREATE TABLE workers (
     report  TEXT NOT NULL
 );",
     },
+    // 6: each worker's memory with its report (store/workers.rs): its process's resident
+    // bytes, the compiled kernel variants (pipelines) its device keeps, and the distinct
+    // variants it has compiled since it started; NULL where unknown (an older worker).
+    Migration {
+        version: 6,
+        sqlite: "
+ALTER TABLE workers ADD COLUMN rss_bytes INTEGER;
+ALTER TABLE workers ADD COLUMN pipelines_cached INTEGER;
+ALTER TABLE workers ADD COLUMN kernel_variants_seen INTEGER;",
+        postgres: "
+ALTER TABLE workers ADD COLUMN rss_bytes BIGINT;
+ALTER TABLE workers ADD COLUMN pipelines_cached BIGINT;
+ALTER TABLE workers ADD COLUMN kernel_variants_seen BIGINT;",
+    },
 ];
 
 /// The schema version this build writes.
-pub const LATEST: i64 = 5;
+pub const LATEST: i64 = 6;
 
 /// Brings the database to [`LATEST`]; runs inside the caller's transaction, which must exclude
 /// other processes migrating at once (SQLite: `BEGIN IMMEDIATE`; PostgreSQL: this takes an

@@ -26,7 +26,7 @@ pub use events::StoredEvent;
 pub use jobs::Transition;
 pub use notify::listen;
 pub use shards::{sum_progress, Claim, Part, ShardRange};
-pub use workers::WorkerRecord;
+pub use workers::{WorkerMemory, WorkerRecord};
 
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -154,6 +154,35 @@ impl Store {
 mod tests {
     use super::*;
 
+    /// A job's checkpoints go at its end, with the temporary ones a killed writer left; its
+    /// image and other files stay.
+    #[test]
+    fn removing_checkpoints_removes_temporary_ones_left_by_killed_writers() {
+        let data = std::env::temp_dir().join(format!("candela-ckpt-rm-{}", std::process::id()));
+        let paths = JobPaths::new(&data, 7);
+        std::fs::create_dir_all(&paths.dir).unwrap();
+        let files = [
+            "checkpoint.bin",
+            "shard-0.bin",
+            "shard-1.bin",
+            ".shard-1.bin.4242.8.tmp",
+            ".checkpoint.bin.4242.2.tmp",
+            "image.exr",
+            "scene.json",
+        ];
+        for f in files {
+            std::fs::write(paths.dir.join(f), b"x").unwrap();
+        }
+        paths.remove_checkpoints(2);
+        let mut left: Vec<String> = std::fs::read_dir(&paths.dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        assert_eq!(left, ["image.exr", "scene.json"]);
+        std::fs::remove_dir_all(&data).unwrap();
+    }
+
     /// A version 1 database (before owners, holds and users) opens, migrated, with its jobs.
     #[test]
     fn migrates_a_version_1_store() {
@@ -236,11 +265,25 @@ impl JobPaths {
     pub fn shard_checkpoint(&self, idx: u32) -> PathBuf {
         self.dir.join(format!("shard-{idx}.bin"))
     }
-    /// Removes the job's checkpoint and those of its shards `0..shards` (none there: no-op).
+    /// Removes the job's checkpoint and those of its shards `0..shards` (none there: no-op), and
+    /// the temporary files of checkpoints being written (`.checkpoint.bin.PID.N.tmp`,
+    /// `.shard-K.bin.PID.N.tmp`: renderer::film::write_atomic) that a process killed mid-write
+    /// left behind; the job has ended, so no writer of them is still owed the file.
     pub fn remove_checkpoints(&self, shards: u32) {
         let _ = std::fs::remove_file(self.checkpoint());
         for k in 0..shards {
             let _ = std::fs::remove_file(self.shard_checkpoint(k));
+        }
+        let Ok(entries) = std::fs::read_dir(&self.dir) else {
+            return;
+        };
+        for e in entries.flatten() {
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            let of_checkpoint = name.starts_with(".checkpoint.bin.") || name.starts_with(".shard-");
+            if of_checkpoint && name.ends_with(".tmp") {
+                let _ = std::fs::remove_file(e.path());
+            }
         }
     }
     /// The latest image written to disk (at checkpoints, pause, cancel and the end).

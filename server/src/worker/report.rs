@@ -1,7 +1,9 @@
 //! What a worker reports of itself with each heartbeat (store/workers.rs): its name, host,
 //! device, passes and pixel samples rendered since it started, samples per second since its
 //! last report, and each job it holds — the shard, the samples so far, and the seconds since it
-//! claimed it (the age of the lease).
+//! claimed it (the age of the lease) — and its memory (store/workers.rs's `WorkerMemory`): the
+//! process's resident size, the pipelines its device keeps and the kernel variants it has
+//! compiled since it started.
 
 use std::sync::atomic::Ordering::Relaxed;
 use std::time::Instant;
@@ -10,6 +12,7 @@ use serde_json::{json, Value};
 use tracing::warn;
 
 use super::Worker;
+use crate::store::WorkerMemory;
 
 /// The counters at the last report, for the rate.
 #[derive(Debug, Clone, Copy)]
@@ -61,13 +64,24 @@ impl Worker {
         })
     }
 
+    /// The process's memory now.
+    fn memory(&self) -> WorkerMemory {
+        let (pipelines, _) = self.ctx.as_ref().map_or((0, 0), |c| c.pipeline_usage());
+        WorkerMemory {
+            rss_bytes: crate::process_memory::resident_bytes(),
+            pipelines_cached: Some(pipelines as u64),
+            kernel_variants_seen: Some(renderer::gpu::kernel_variants_seen()),
+        }
+    }
+
     /// Writes the report to the store (`stopped`: the last one, at shutdown).
     pub(super) fn report(&mut self, stopped: bool) {
         let report = self.report_json();
+        let memory = self.memory();
         let lease = self.config.lease.as_secs_f64();
-        if let Err(e) = self
-            .store
-            .report_worker(&self.config.worker_id, lease, stopped, &report)
+        if let Err(e) =
+            self.store
+                .report_worker(&self.config.worker_id, lease, stopped, &report, &memory)
         {
             warn!(error = %e, "recording the worker's report");
         }
