@@ -36,7 +36,7 @@ use obvhs::ploc::PlocBuilder;
 use obvhs::BvhBuildParams;
 
 use super::flatten::heights;
-use super::PrimBounds;
+use super::{Phases, PrimBounds};
 use crate::layout::GpuCwbvhNode;
 
 /// Levels the wide tree may have: the shaders' `CWBVH_STACK` (declared in layout.rs).
@@ -54,6 +54,8 @@ pub struct Built {
     pub nodes: Vec<GpuCwbvhNode>,
     pub order: Vec<u32>,
     pub depth: usize,
+    /// Seconds of each step of the build.
+    pub phases: Phases,
 }
 
 /// The CWBVH as uploaded: nodes (binding CWBVH_NODES) and, per leaf slot, the index of its
@@ -81,49 +83,62 @@ pub fn build(prims: &[PrimBounds]) -> Built {
             nodes: vec![bytemuck::Zeroable::zeroed()],
             order: Vec::new(),
             depth: 1,
+            phases: Phases::default(),
         };
     }
+    let mut ph = Phases::default();
     // Step 1: PLOC and reinsertion (obvhs's cwbvh builder, steps kept apart for the guards),
     // over distinct boxes: PLOC merges one pair per pass among identical boxes, quadratic in
     // their number, so copies of a box share one leaf, expanded afterwards.
-    let copies = distinct_boxes(prims);
+    let copies = ph.time("distinct", || distinct_boxes(prims));
     let reps = &copies.reps;
-    let rep_bounds: Vec<PrimBounds> = reps.iter().map(|&i| prims[i as usize]).collect();
+    let rep_bounds: Vec<PrimBounds> = ph.time("rep_bounds", || {
+        reps.iter().map(|&i| prims[i as usize]).collect()
+    });
     let params = BvhBuildParams::medium_build();
-    let mut bvh2 = PlocBuilder::with_capacity(reps.len()).build(
-        params.ploc_search_distance,
-        &rep_bounds,
-        (0..reps.len() as u32).collect(),
-        params.sort_precision,
-        params.search_depth_threshold,
-    );
-    ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+    let mut bvh2 = ph.time("ploc", || {
+        PlocBuilder::with_capacity(reps.len()).build(
+            params.ploc_search_distance,
+            &rep_bounds,
+            (0..reps.len() as u32).collect(),
+            params.sort_precision,
+            params.search_depth_threshold,
+        )
+    });
+    ph.time("reinsert", || {
+        ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None)
+    });
     if reps.len() < prims.len() {
-        bvh2 = expand_copies(&bvh2, prims, &copies);
+        bvh2 = ph.time("expand", || expand_copies(&bvh2, prims, &copies));
     }
     // Step 2: binary chains bounded for the converter, then the conversion.
-    if let Some(b) = bound_height(&bvh2, prims, BINARY_LIMIT) {
+    if let Some(b) = ph.time("bound", || bound_height(&bvh2, prims, BINARY_LIMIT)) {
         bvh2 = b;
     }
-    let mut built = convert(&bvh2);
+    let mut built = convert(&bvh2, &mut ph);
     // Step 3: a wide tree deeper than the stack: convert a binary tree of at most that height.
     if built.depth > STACK_DEPTH {
         if let Some(b) = bound_height(&bvh2, prims, STACK_DEPTH) {
-            built = convert(&b);
+            built = convert(&b, &mut ph);
         }
     }
     debug_assert!(built.depth <= STACK_DEPTH, "{}", built.depth);
+    built.phases = ph;
     built
 }
 
-fn convert(bvh2: &Bvh2) -> Built {
-    let cw = bvh2_to_cwbvh(bvh2, MAX_LEAF, true, false);
-    let nodes: Vec<GpuCwbvhNode> = cw.nodes.iter().map(|n| bytemuck::cast(*n)).collect();
-    let depth = depth_of(&nodes).expect("obvhs builds a tree");
+fn convert(bvh2: &Bvh2, ph: &mut Phases) -> Built {
+    let cw = ph.time("convert", || bvh2_to_cwbvh(bvh2, MAX_LEAF, true, false));
+    let (nodes, depth) = ph.time("nodes", || {
+        let nodes: Vec<GpuCwbvhNode> = cw.nodes.iter().map(|n| bytemuck::cast(*n)).collect();
+        let depth = depth_of(&nodes).expect("obvhs builds a tree");
+        (nodes, depth)
+    });
     Built {
         nodes,
         order: cw.primitive_indices,
         depth,
+        phases: Phases::default(),
     }
 }
 

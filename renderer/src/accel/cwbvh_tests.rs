@@ -120,7 +120,7 @@ fn deep_chains_are_bounded() {
                 let (h, count) = heights(&bounded);
                 assert!(h[0] as usize <= limit, "{} > {limit}", h[0]);
                 assert_eq!(count[0], prims.len() as u64);
-                let cw = convert(&bounded);
+                let cw = convert(&bounded, &mut Phases::default());
                 assert!(cw.depth <= limit, "{} > {limit}", cw.depth);
                 check(&prims, &cw);
             } else {
