@@ -35,7 +35,6 @@ use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
 use obvhs::ploc::PlocBuilder;
 use obvhs::BvhBuildParams;
 
-use super::cwbvh_split::convert_split;
 use super::flatten::heights;
 use super::{Phases, PrimBounds};
 use crate::layout::GpuCwbvhNode;
@@ -79,12 +78,6 @@ impl Cwbvh {
 
 /// Builds the CWBVH over `prims`. An empty scene yields one node without children.
 pub fn build(prims: &[PrimBounds]) -> Built {
-    build_with(prims, max_sub(prims.len()))
-}
-
-/// [`build`], converting binary subtrees of at most `max_sub` primitives in parallel
-/// (`u64::MAX`: the whole tree by obvhs's converter).
-pub(super) fn build_with(prims: &[PrimBounds], max_sub: u64) -> Built {
     if prims.is_empty() {
         return Built {
             nodes: vec![bytemuck::Zeroable::zeroed()],
@@ -122,11 +115,11 @@ pub(super) fn build_with(prims: &[PrimBounds], max_sub: u64) -> Built {
     if let Some(b) = ph.time("bound", || bound_height(&bvh2, prims, BINARY_LIMIT)) {
         bvh2 = b;
     }
-    let mut built = convert(&bvh2, &mut ph, max_sub);
+    let mut built = convert(&bvh2, &mut ph);
     // Step 3: a wide tree deeper than the stack: convert a binary tree of at most that height.
     if built.depth > STACK_DEPTH {
         if let Some(b) = bound_height(&bvh2, prims, STACK_DEPTH) {
-            built = convert(&b, &mut ph, max_sub);
+            built = convert(&b, &mut ph);
         }
     }
     debug_assert!(built.depth <= STACK_DEPTH, "{}", built.depth);
@@ -134,32 +127,16 @@ pub(super) fn build_with(prims: &[PrimBounds], max_sub: u64) -> Built {
     built
 }
 
-/// Binary subtrees of at most this many primitives (and at least [`MIN_SPLIT`]) are converted
-/// on threads of their own (`cwbvh_split`).
-fn max_sub(prims: usize) -> u64 {
-    (prims as u64 / 64).max(MIN_SPLIT)
-}
-
-/// Trees of at most this many primitives are converted whole.
-const MIN_SPLIT: u64 = 1 << 15;
-
-/// The wide tree of `bvh2`, converting subtrees of at most `max_sub` primitives in parallel
-/// (`u64::MAX`: whole, obvhs's conversion as it is).
-fn convert(bvh2: &Bvh2, ph: &mut Phases, max_sub: u64) -> Built {
-    let (nodes, order) = ph.time("convert", || {
-        convert_split(bvh2, MAX_LEAF, max_sub).unwrap_or_else(|| {
-            let cw = bvh2_to_cwbvh(bvh2, MAX_LEAF, true, false);
-            (cw.nodes, cw.primitive_indices)
-        })
-    });
+fn convert(bvh2: &Bvh2, ph: &mut Phases) -> Built {
+    let cw = ph.time("convert", || bvh2_to_cwbvh(bvh2, MAX_LEAF, true, false));
     let (nodes, depth) = ph.time("nodes", || {
-        let nodes: Vec<GpuCwbvhNode> = bytemuck::cast_vec(nodes);
+        let nodes: Vec<GpuCwbvhNode> = cw.nodes.iter().map(|n| bytemuck::cast(*n)).collect();
         let depth = depth_of(&nodes).expect("obvhs builds a tree");
         (nodes, depth)
     });
     Built {
         nodes,
-        order,
+        order: cw.primitive_indices,
         depth,
         phases: Phases::default(),
     }

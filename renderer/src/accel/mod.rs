@@ -19,7 +19,6 @@
 
 pub mod cache;
 pub mod cwbvh;
-mod cwbvh_split;
 mod flatten;
 pub mod grid;
 mod select;
