@@ -92,14 +92,24 @@ pub fn build(prims: &[PrimBounds]) -> Built {
     // their number, so copies of a box share one leaf, expanded afterwards.
     let copies = ph.time("distinct", || distinct_boxes(prims));
     let reps = &copies.reps;
-    let rep_bounds: Vec<PrimBounds> = ph.time("rep_bounds", || {
-        reps.iter().map(|&i| prims[i as usize]).collect()
-    });
+    // Without copies the distinct boxes are the input itself.
+    let copied: Vec<PrimBounds> = if reps.len() < prims.len() {
+        ph.time("rep_bounds", || {
+            reps.iter().map(|&i| prims[i as usize]).collect()
+        })
+    } else {
+        Vec::new()
+    };
+    let rep_bounds = if reps.len() < prims.len() {
+        &copied[..]
+    } else {
+        prims
+    };
     let params = BvhBuildParams::medium_build();
     let mut bvh2 = ph.time("ploc", || {
         PlocBuilder::with_capacity(reps.len()).build(
             params.ploc_search_distance,
-            &rep_bounds,
+            rep_bounds,
             (0..reps.len() as u32).collect(),
             params.sort_precision,
             params.search_depth_threshold,
@@ -128,9 +138,9 @@ pub fn build(prims: &[PrimBounds]) -> Built {
 }
 
 fn convert(bvh2: &Bvh2, ph: &mut Phases) -> Built {
-    let cw = ph.time("convert", || bvh2_to_cwbvh(bvh2, MAX_LEAF, true, false));
+    let mut cw = ph.time("convert", || bvh2_to_cwbvh(bvh2, MAX_LEAF, true, false));
     let (nodes, depth) = ph.time("nodes", || {
-        let nodes: Vec<GpuCwbvhNode> = cw.nodes.iter().map(|n| bytemuck::cast(*n)).collect();
+        let nodes: Vec<GpuCwbvhNode> = bytemuck::cast_vec(std::mem::take(&mut cw.nodes));
         let depth = depth_of(&nodes).expect("obvhs builds a tree");
         (nodes, depth)
     });
@@ -160,11 +170,11 @@ impl Copies {
 /// Groups `prims` by identical boxes with a parallel sort of (box bits, index) pairs (no hash
 /// map: one allocation, sequential memory; a hash map of 30M boxes cost seconds).
 fn distinct_boxes(prims: &[PrimBounds]) -> Copies {
-    use rayon::slice::ParallelSliceMut;
+    use rayon::prelude::*;
     // Step 1: every primitive's box bits beside its index, sorted: equal boxes form runs, each
     // in input order.
     let mut keyed: Vec<([u32; 6], u32)> = prims
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(i, b)| {
             let (lo, hi) = (b.min.map(f32::to_bits), b.max.map(f32::to_bits));
@@ -172,6 +182,14 @@ fn distinct_boxes(prims: &[PrimBounds]) -> Copies {
         })
         .collect();
     keyed.par_sort_unstable();
+    // No two equal neighbours: every box distinct (the common case), nothing to group.
+    if keyed.par_windows(2).all(|w| w[0].0 != w[1].0) {
+        return Copies {
+            reps: (0..prims.len() as u32).collect(),
+            start: Vec::new(),
+            members: Vec::new(),
+        };
+    }
     // Step 2: the runs, numbered by their first primitive.
     let mut runs: Vec<(u32, u32)> = Vec::new(); // (first primitive, start in `keyed`)
     for (k, w) in keyed.iter().enumerate() {

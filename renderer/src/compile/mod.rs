@@ -220,7 +220,12 @@ pub fn compile_with(
         frame::place_cwbvh(&mut c.nodes, origin - centre);
     }
     let reorder_start = std::time::Instant::now();
-    let mut sorted: Vec<GpuPrim> = bvh.order.iter().map(|&i| prims.gpu[i as usize]).collect();
+    let mut sorted: Vec<GpuPrim> = {
+        use rayon::prelude::*;
+        (bvh.order.par_iter())
+            .map(|&i| prims.gpu[i as usize])
+            .collect()
+    };
     // Gathering and reordering the primitives are compile steps outside `accel_build_s`,
     // listed with the build's phases for the cold-start breakdown.
     bvh.info.phases.0.insert(0, ("gather_prims", gather_s));
