@@ -119,7 +119,8 @@ pub fn build(prims: &[PrimBounds]) -> Built {
         ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None)
     });
     if reps.len() < prims.len() {
-        bvh2 = ph.time("expand", || expand_copies(&bvh2, prims, &copies));
+        let built = std::mem::take(&mut bvh2);
+        bvh2 = ph.time("expand", || expand_copies(built, prims, &copies));
     }
     // Step 2: binary chains bounded for the converter, then the conversion.
     if let Some(b) = ph.time("bound", || bound_height(&bvh2, prims, BINARY_LIMIT)) {
@@ -228,48 +229,59 @@ fn distinct_boxes(prims: &[PrimBounds]) -> Copies {
 
 /// `bvh`, built over the distinct boxes, with each leaf (one distinct box) replaced by a
 /// balanced subtree over the primitives of that box (`copies`), one primitive per leaf.
-fn expand_copies(bvh: &Bvh2, prims: &[PrimBounds], copies: &Copies) -> Bvh2 {
-    enum Task {
-        Copy(usize, usize),
-        Split(Vec<u32>, usize),
-    }
-    let mut nodes = vec![Bvh2Node::default()];
-    let mut indices = Vec::with_capacity(prims.len());
-    let mut tasks = vec![Task::Copy(0, 0)];
-    while let Some(task) = tasks.pop() {
-        match task {
-            Task::Copy(i, out) => {
-                let n = bvh.nodes[i];
-                let f = n.first_index as usize;
-                if n.prim_count > 0 {
-                    let set = bvh.primitive_indices[f..f + n.prim_count as usize]
-                        .iter()
-                        .flat_map(|&r| copies.members(r).iter().copied())
-                        .collect();
-                    tasks.push(Task::Split(set, out));
-                } else {
-                    let c = nodes.len();
-                    nodes.extend([Bvh2Node::default(); 2]);
-                    nodes[out] = Bvh2Node::new(*n.aabb(), 0, c as u32);
-                    tasks.push(Task::Copy(f, c));
-                    tasks.push(Task::Copy(f + 1, c + 1));
-                }
+/// In place: a leaf whose box has one primitive takes that primitive's index (in parallel);
+/// the few others become inner nodes whose subtrees are appended (the tree is the same as a
+/// top-down copy would make; only where its nodes are stored differs).
+fn expand_copies(bvh: Bvh2, prims: &[PrimBounds], copies: &Copies) -> Bvh2 {
+    use rayon::prelude::*;
+    let Bvh2 {
+        mut nodes,
+        primitive_indices: mut indices,
+        ..
+    } = bvh;
+    // Step 1: the leaves that hold more than one primitive once expanded, with those primitives.
+    let members_of = |n: &Bvh2Node, indices: &[u32]| -> Vec<u32> {
+        let f = n.first_index as usize;
+        indices[f..f + n.prim_count as usize]
+            .iter()
+            .flat_map(|&r| copies.members(r).iter().copied())
+            .collect()
+    };
+    let multi: Vec<(usize, Vec<u32>)> = (nodes.par_iter().enumerate())
+        .filter(|(_, n)| {
+            n.prim_count > 1
+                || (n.prim_count == 1 && copies.members(indices[n.first_index as usize]).len() > 1)
+        })
+        .map(|(i, n)| (i, members_of(n, &indices)))
+        .collect();
+    // Step 2: every slot from its distinct box to that box's (first) primitive.
+    indices
+        .par_iter_mut()
+        .for_each(|p| *p = copies.members(*p)[0]);
+    // Step 3: the other leaves split into balanced subtrees over their primitives, the first
+    // leaves in the old slots, the others in new ones.
+    for (leaf, set) in multi {
+        let f = nodes[leaf].first_index;
+        let mut reuse = f..f + nodes[leaf].prim_count;
+        let mut tasks = vec![(set, leaf)];
+        while let Some((mut set, out)) = tasks.pop() {
+            let b = prims[set[0] as usize];
+            let aabb = Aabb::new(b.min.into(), b.max.into());
+            if set.len() == 1 {
+                let slot = reuse.next().unwrap_or_else(|| {
+                    indices.push(0);
+                    indices.len() as u32 - 1
+                });
+                indices[slot as usize] = set[0];
+                nodes[out] = Bvh2Node::new(aabb, 1, slot);
+                continue;
             }
-            Task::Split(mut set, out) => {
-                let b = prims[set[0] as usize];
-                let aabb = Aabb::new(b.min.into(), b.max.into());
-                if set.len() == 1 {
-                    nodes[out] = Bvh2Node::new(aabb, 1, indices.len() as u32);
-                    indices.push(set[0]);
-                    continue;
-                }
-                let right = set.split_off(set.len() / 2);
-                let c = nodes.len();
-                nodes.extend([Bvh2Node::default(); 2]);
-                nodes[out] = Bvh2Node::new(aabb, 0, c as u32);
-                tasks.push(Task::Split(set, c));
-                tasks.push(Task::Split(right, c + 1));
-            }
+            let right = set.split_off(set.len() / 2);
+            let c = nodes.len();
+            nodes.extend([Bvh2Node::default(); 2]);
+            nodes[out] = Bvh2Node::new(aabb, 0, c as u32);
+            tasks.push((set, c));
+            tasks.push((right, c + 1));
         }
     }
     Bvh2 {
