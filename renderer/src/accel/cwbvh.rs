@@ -36,7 +36,7 @@ use obvhs::ploc::PlocBuilder;
 use obvhs::BvhBuildParams;
 
 use super::flatten::heights;
-use super::PrimBounds;
+use super::{Phases, PrimBounds};
 use crate::layout::GpuCwbvhNode;
 
 /// Levels the wide tree may have: the shaders' `CWBVH_STACK` (declared in layout.rs).
@@ -54,6 +54,8 @@ pub struct Built {
     pub nodes: Vec<GpuCwbvhNode>,
     pub order: Vec<u32>,
     pub depth: usize,
+    /// Seconds of each step of the build.
+    pub phases: Phases,
 }
 
 /// The CWBVH as uploaded: nodes (binding CWBVH_NODES) and, per leaf slot, the index of its
@@ -81,49 +83,73 @@ pub fn build(prims: &[PrimBounds]) -> Built {
             nodes: vec![bytemuck::Zeroable::zeroed()],
             order: Vec::new(),
             depth: 1,
+            phases: Phases::default(),
         };
     }
+    let mut ph = Phases::default();
     // Step 1: PLOC and reinsertion (obvhs's cwbvh builder, steps kept apart for the guards),
     // over distinct boxes: PLOC merges one pair per pass among identical boxes, quadratic in
     // their number, so copies of a box share one leaf, expanded afterwards.
-    let copies = distinct_boxes(prims);
+    let copies = ph.time("distinct", || distinct_boxes(prims));
     let reps = &copies.reps;
-    let rep_bounds: Vec<PrimBounds> = reps.iter().map(|&i| prims[i as usize]).collect();
+    // Without copies the distinct boxes are the input itself.
+    let copied: Vec<PrimBounds> = if reps.len() < prims.len() {
+        ph.time("rep_bounds", || {
+            reps.iter().map(|&i| prims[i as usize]).collect()
+        })
+    } else {
+        Vec::new()
+    };
+    let rep_bounds = if reps.len() < prims.len() {
+        &copied[..]
+    } else {
+        prims
+    };
     let params = BvhBuildParams::medium_build();
-    let mut bvh2 = PlocBuilder::with_capacity(reps.len()).build(
-        params.ploc_search_distance,
-        &rep_bounds,
-        (0..reps.len() as u32).collect(),
-        params.sort_precision,
-        params.search_depth_threshold,
-    );
-    ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+    let mut bvh2 = ph.time("ploc", || {
+        PlocBuilder::with_capacity(reps.len()).build(
+            params.ploc_search_distance,
+            rep_bounds,
+            (0..reps.len() as u32).collect(),
+            params.sort_precision,
+            params.search_depth_threshold,
+        )
+    });
+    ph.time("reinsert", || {
+        ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None)
+    });
     if reps.len() < prims.len() {
-        bvh2 = expand_copies(&bvh2, prims, &copies);
+        let built = std::mem::take(&mut bvh2);
+        bvh2 = ph.time("expand", || expand_copies(built, prims, &copies));
     }
     // Step 2: binary chains bounded for the converter, then the conversion.
-    if let Some(b) = bound_height(&bvh2, prims, BINARY_LIMIT) {
+    if let Some(b) = ph.time("bound", || bound_height(&bvh2, prims, BINARY_LIMIT)) {
         bvh2 = b;
     }
-    let mut built = convert(&bvh2);
+    let mut built = convert(&bvh2, &mut ph);
     // Step 3: a wide tree deeper than the stack: convert a binary tree of at most that height.
     if built.depth > STACK_DEPTH {
         if let Some(b) = bound_height(&bvh2, prims, STACK_DEPTH) {
-            built = convert(&b);
+            built = convert(&b, &mut ph);
         }
     }
     debug_assert!(built.depth <= STACK_DEPTH, "{}", built.depth);
+    built.phases = ph;
     built
 }
 
-fn convert(bvh2: &Bvh2) -> Built {
-    let cw = bvh2_to_cwbvh(bvh2, MAX_LEAF, true, false);
-    let nodes: Vec<GpuCwbvhNode> = cw.nodes.iter().map(|n| bytemuck::cast(*n)).collect();
-    let depth = depth_of(&nodes).expect("obvhs builds a tree");
+fn convert(bvh2: &Bvh2, ph: &mut Phases) -> Built {
+    let mut cw = ph.time("convert", || bvh2_to_cwbvh(bvh2, MAX_LEAF, true, false));
+    let (nodes, depth) = ph.time("nodes", || {
+        let nodes: Vec<GpuCwbvhNode> = bytemuck::cast_vec(std::mem::take(&mut cw.nodes));
+        let depth = depth_of(&nodes).expect("obvhs builds a tree");
+        (nodes, depth)
+    });
     Built {
         nodes,
         order: cw.primitive_indices,
         depth,
+        phases: Phases::default(),
     }
 }
 
@@ -145,11 +171,11 @@ impl Copies {
 /// Groups `prims` by identical boxes with a parallel sort of (box bits, index) pairs (no hash
 /// map: one allocation, sequential memory; a hash map of 30M boxes cost seconds).
 fn distinct_boxes(prims: &[PrimBounds]) -> Copies {
-    use rayon::slice::ParallelSliceMut;
+    use rayon::prelude::*;
     // Step 1: every primitive's box bits beside its index, sorted: equal boxes form runs, each
     // in input order.
     let mut keyed: Vec<([u32; 6], u32)> = prims
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(i, b)| {
             let (lo, hi) = (b.min.map(f32::to_bits), b.max.map(f32::to_bits));
@@ -157,6 +183,14 @@ fn distinct_boxes(prims: &[PrimBounds]) -> Copies {
         })
         .collect();
     keyed.par_sort_unstable();
+    // No two equal neighbours: every box distinct (the common case), nothing to group.
+    if keyed.par_windows(2).all(|w| w[0].0 != w[1].0) {
+        return Copies {
+            reps: (0..prims.len() as u32).collect(),
+            start: Vec::new(),
+            members: Vec::new(),
+        };
+    }
     // Step 2: the runs, numbered by their first primitive.
     let mut runs: Vec<(u32, u32)> = Vec::new(); // (first primitive, start in `keyed`)
     for (k, w) in keyed.iter().enumerate() {
@@ -195,48 +229,59 @@ fn distinct_boxes(prims: &[PrimBounds]) -> Copies {
 
 /// `bvh`, built over the distinct boxes, with each leaf (one distinct box) replaced by a
 /// balanced subtree over the primitives of that box (`copies`), one primitive per leaf.
-fn expand_copies(bvh: &Bvh2, prims: &[PrimBounds], copies: &Copies) -> Bvh2 {
-    enum Task {
-        Copy(usize, usize),
-        Split(Vec<u32>, usize),
-    }
-    let mut nodes = vec![Bvh2Node::default()];
-    let mut indices = Vec::with_capacity(prims.len());
-    let mut tasks = vec![Task::Copy(0, 0)];
-    while let Some(task) = tasks.pop() {
-        match task {
-            Task::Copy(i, out) => {
-                let n = bvh.nodes[i];
-                let f = n.first_index as usize;
-                if n.prim_count > 0 {
-                    let set = bvh.primitive_indices[f..f + n.prim_count as usize]
-                        .iter()
-                        .flat_map(|&r| copies.members(r).iter().copied())
-                        .collect();
-                    tasks.push(Task::Split(set, out));
-                } else {
-                    let c = nodes.len();
-                    nodes.extend([Bvh2Node::default(); 2]);
-                    nodes[out] = Bvh2Node::new(*n.aabb(), 0, c as u32);
-                    tasks.push(Task::Copy(f, c));
-                    tasks.push(Task::Copy(f + 1, c + 1));
-                }
+/// In place: a leaf whose box has one primitive takes that primitive's index (in parallel);
+/// the few others become inner nodes whose subtrees are appended (the tree is the same as a
+/// top-down copy would make; only where its nodes are stored differs).
+fn expand_copies(bvh: Bvh2, prims: &[PrimBounds], copies: &Copies) -> Bvh2 {
+    use rayon::prelude::*;
+    let Bvh2 {
+        mut nodes,
+        primitive_indices: mut indices,
+        ..
+    } = bvh;
+    // Step 1: the leaves that hold more than one primitive once expanded, with those primitives.
+    let members_of = |n: &Bvh2Node, indices: &[u32]| -> Vec<u32> {
+        let f = n.first_index as usize;
+        indices[f..f + n.prim_count as usize]
+            .iter()
+            .flat_map(|&r| copies.members(r).iter().copied())
+            .collect()
+    };
+    let multi: Vec<(usize, Vec<u32>)> = (nodes.par_iter().enumerate())
+        .filter(|(_, n)| {
+            n.prim_count > 1
+                || (n.prim_count == 1 && copies.members(indices[n.first_index as usize]).len() > 1)
+        })
+        .map(|(i, n)| (i, members_of(n, &indices)))
+        .collect();
+    // Step 2: every slot from its distinct box to that box's (first) primitive.
+    indices
+        .par_iter_mut()
+        .for_each(|p| *p = copies.members(*p)[0]);
+    // Step 3: the other leaves split into balanced subtrees over their primitives, the first
+    // leaves in the old slots, the others in new ones.
+    for (leaf, set) in multi {
+        let f = nodes[leaf].first_index;
+        let mut reuse = f..f + nodes[leaf].prim_count;
+        let mut tasks = vec![(set, leaf)];
+        while let Some((mut set, out)) = tasks.pop() {
+            let b = prims[set[0] as usize];
+            let aabb = Aabb::new(b.min.into(), b.max.into());
+            if set.len() == 1 {
+                let slot = reuse.next().unwrap_or_else(|| {
+                    indices.push(0);
+                    indices.len() as u32 - 1
+                });
+                indices[slot as usize] = set[0];
+                nodes[out] = Bvh2Node::new(aabb, 1, slot);
+                continue;
             }
-            Task::Split(mut set, out) => {
-                let b = prims[set[0] as usize];
-                let aabb = Aabb::new(b.min.into(), b.max.into());
-                if set.len() == 1 {
-                    nodes[out] = Bvh2Node::new(aabb, 1, indices.len() as u32);
-                    indices.push(set[0]);
-                    continue;
-                }
-                let right = set.split_off(set.len() / 2);
-                let c = nodes.len();
-                nodes.extend([Bvh2Node::default(); 2]);
-                nodes[out] = Bvh2Node::new(aabb, 0, c as u32);
-                tasks.push(Task::Split(set, c));
-                tasks.push(Task::Split(right, c + 1));
-            }
+            let right = set.split_off(set.len() / 2);
+            let c = nodes.len();
+            nodes.extend([Bvh2Node::default(); 2]);
+            nodes[out] = Bvh2Node::new(aabb, 0, c as u32);
+            tasks.push((set, c));
+            tasks.push((right, c + 1));
         }
     }
     Bvh2 {

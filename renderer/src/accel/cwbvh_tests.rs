@@ -120,7 +120,7 @@ fn deep_chains_are_bounded() {
                 let (h, count) = heights(&bounded);
                 assert!(h[0] as usize <= limit, "{} > {limit}", h[0]);
                 assert_eq!(count[0], prims.len() as u64);
-                let cw = convert(&bounded);
+                let cw = convert(&bounded, &mut Phases::default());
                 assert!(cw.depth <= limit, "{} > {limit}", cw.depth);
                 check(&prims, &cw);
             } else {
@@ -168,4 +168,97 @@ fn copies_are_grouped_in_order_of_first_appearance() {
     assert!(d.members.is_empty());
     // The tree over the copies still holds every primitive once.
     check(&prims, &build(&prims));
+}
+
+/// The reference for `expand_copies` (its former, serial form): `bvh`, built over the distinct boxes, with each leaf (one distinct box) replaced by a
+/// balanced subtree over the primitives of that box (`copies`), one primitive per leaf.
+fn expand_copies_top_down(bvh: &Bvh2, prims: &[PrimBounds], copies: &Copies) -> Bvh2 {
+    enum Task {
+        Copy(usize, usize),
+        Split(Vec<u32>, usize),
+    }
+    let mut nodes = vec![Bvh2Node::default()];
+    let mut indices = Vec::with_capacity(prims.len());
+    let mut tasks = vec![Task::Copy(0, 0)];
+    while let Some(task) = tasks.pop() {
+        match task {
+            Task::Copy(i, out) => {
+                let n = bvh.nodes[i];
+                let f = n.first_index as usize;
+                if n.prim_count > 0 {
+                    let set = bvh.primitive_indices[f..f + n.prim_count as usize]
+                        .iter()
+                        .flat_map(|&r| copies.members(r).iter().copied())
+                        .collect();
+                    tasks.push(Task::Split(set, out));
+                } else {
+                    let c = nodes.len();
+                    nodes.extend([Bvh2Node::default(); 2]);
+                    nodes[out] = Bvh2Node::new(*n.aabb(), 0, c as u32);
+                    tasks.push(Task::Copy(f, c));
+                    tasks.push(Task::Copy(f + 1, c + 1));
+                }
+            }
+            Task::Split(mut set, out) => {
+                let b = prims[set[0] as usize];
+                let aabb = Aabb::new(b.min.into(), b.max.into());
+                if set.len() == 1 {
+                    nodes[out] = Bvh2Node::new(aabb, 1, indices.len() as u32);
+                    indices.push(set[0]);
+                    continue;
+                }
+                let right = set.split_off(set.len() / 2);
+                let c = nodes.len();
+                nodes.extend([Bvh2Node::default(); 2]);
+                nodes[out] = Bvh2Node::new(aabb, 0, c as u32);
+                tasks.push(Task::Split(set, c));
+                tasks.push(Task::Split(right, c + 1));
+            }
+        }
+    }
+    Bvh2 {
+        nodes,
+        primitive_indices: indices,
+        ..Default::default()
+    }
+}
+
+/// Expanding copies in place gives the tree the top-down copy gives: the same wide tree and
+/// primitive order after the conversion, on boxes with many copies and with a few.
+#[test]
+fn expanding_copies_in_place_matches_the_top_down_copy() {
+    let mut few = unit_boxes(2000);
+    for i in (0..2000).step_by(97) {
+        few[i + 1] = few[i];
+    }
+    let mut many = unit_boxes(300);
+    many.extend(unit_boxes(300));
+    many.extend(vec![unit_boxes(1)[0]; 500]);
+    for prims in [few, many] {
+        let copies = distinct_boxes(&prims);
+        assert!(copies.reps.len() < prims.len());
+        let reps: Vec<PrimBounds> = copies.reps.iter().map(|&i| prims[i as usize]).collect();
+        let params = BvhBuildParams::medium_build();
+        let mut bvh2 = PlocBuilder::with_capacity(reps.len()).build(
+            params.ploc_search_distance,
+            &reps,
+            (0..reps.len() as u32).collect(),
+            params.sort_precision,
+            params.search_depth_threshold,
+        );
+        ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+        let reference = expand_copies_top_down(&bvh2, &prims, &copies);
+        let in_place = expand_copies(bvh2, &prims, &copies);
+        assert_eq!(in_place.primitive_indices.len(), prims.len());
+        let mut ph = Phases::default();
+        let (a, b) = (convert(&reference, &mut ph), convert(&in_place, &mut ph));
+        assert_eq!(
+            bytemuck::cast_slice::<_, u8>(&a.nodes),
+            bytemuck::cast_slice::<_, u8>(&b.nodes)
+        );
+        assert_eq!(a.order, b.order);
+        let mut sorted = b.order.clone();
+        sorted.sort_unstable();
+        assert!(sorted.iter().enumerate().all(|(i, &p)| p as usize == i));
+    }
 }

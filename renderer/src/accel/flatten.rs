@@ -75,9 +75,24 @@ fn balanced_height(n: usize) -> usize {
 /// Heights (inner levels; 0 for a leaf) and primitive counts of every subtree of `bvh`,
 /// iteratively in post-order (chains may be deep).
 pub(super) fn heights(bvh: &Bvh2) -> (Vec<u32>, Vec<u64>) {
+    let s = sizes(bvh);
+    (s.height, s.count)
+}
+
+/// Per obvhs node: the height of its subtree (inner levels; 0 for a leaf), its primitives and
+/// its inner nodes.
+pub(super) struct Sizes {
+    pub height: Vec<u32>,
+    pub count: Vec<u64>,
+    pub inner: Vec<u32>,
+}
+
+/// [`Sizes`] of every subtree of `bvh`, iteratively in post-order (chains may be deep).
+pub(super) fn sizes(bvh: &Bvh2) -> Sizes {
     let src = &bvh.nodes;
     let mut height = vec![0u32; src.len()];
     let mut count = vec![0u64; src.len()];
+    let mut inner = vec![0u32; src.len()];
     let mut stack = vec![(0usize, false)];
     while let Some((i, expanded)) = stack.pop() {
         let n = &src[i];
@@ -89,20 +104,44 @@ pub(super) fn heights(bvh: &Bvh2) -> (Vec<u32>, Vec<u64>) {
         if expanded {
             height[i] = 1 + height[l].max(height[r]);
             count[i] = count[l] + count[r];
+            inner[i] = 1 + inner[l] + inner[r];
         } else {
             stack.extend([(i, true), (l, false), (r, false)]);
         }
     }
-    (height, count)
+    Sizes {
+        height,
+        count,
+        inner,
+    }
 }
 
 /// Flattens `bvh` (built over `bounds`). `limit`: the depth to keep the tree within (None: copy
 /// obvhs's tree as it is, a testing aid for deep trees).
 pub fn flatten(bvh: &Bvh2, bounds: &[PrimBounds], limit: Option<usize>) -> Flat {
+    // Subtrees copied whole with at most this many primitives are emitted in parallel (step 3).
+    let max_job = (bvh.primitive_indices.len() / 256).max(4096);
+    flatten_with(bvh, bounds, limit, max_job)
+}
+
+/// [`flatten`], emitting subtrees copied whole with at most `max_job` primitives in parallel
+/// (0: all in the serial top-down pass); the result does not depend on `max_job`.
+pub(super) fn flatten_with(
+    bvh: &Bvh2,
+    bounds: &[PrimBounds],
+    limit: Option<usize>,
+    max_job: usize,
+) -> Flat {
     let src = &bvh.nodes;
     let n_src = src.len();
-    // Step 1: heights (inner levels) and primitive counts of every subtree, post-order.
-    let (height, count) = heights(bvh);
+    // Step 1: heights (inner levels), primitive and inner-node counts of every subtree.
+    let Sizes {
+        height,
+        count,
+        inner,
+    } = sizes(bvh);
+    let max_job = max_job as u64;
+    let mut jobs: Vec<Job> = Vec::new();
     let mut out = Flat {
         nodes: Vec::with_capacity(n_src / 2 + 1),
         order: Vec::with_capacity(bvh.primitive_indices.len()),
@@ -161,6 +200,22 @@ pub fn flatten(bvh: &Bvh2, bounds: &[PrimBounds], limit: Option<usize>) -> Flat 
                 gpu,
                 depth,
             } => {
+                if count[si] <= max_job && fits(si, depth) {
+                    // Copied as built, so its place is known: the nodes and slots it would
+                    // take here, filled in step 3.
+                    out.depth = out.depth.max(depth - 1 + height[si] as usize);
+                    jobs.push(Job {
+                        src: si,
+                        gpu,
+                        node_at: out.nodes.len(),
+                        slot_at: out.order.len(),
+                    });
+                    let (nodes, slots) = (inner[si] as usize - 1, count[si] as usize);
+                    out.nodes
+                        .resize(out.nodes.len() + nodes, GpuBvhNode::zeroed_node());
+                    out.order.resize(out.order.len() + slots, 0);
+                    continue;
+                }
                 out.depth = out.depth.max(depth);
                 let first = src[si].first_index as usize;
                 let mut slots = [None, None];
@@ -242,7 +297,108 @@ pub fn flatten(bvh: &Bvh2, bounds: &[PrimBounds], limit: Option<usize>) -> Flat 
             }
         }
     }
+    // Step 3: the deferred subtrees, each into its own range of nodes and slots.
+    run_jobs(&mut out, &jobs, |job, nodes, slots| {
+        copy_subtree(bvh, job, nodes, slots)
+    });
     out
+}
+
+/// A subtree copied as built, emitted after the top-down pass: obvhs node `src` into GPU node
+/// `gpu`, its descendants into GPU nodes from `node_at` on, its primitives into slots from
+/// `slot_at` on (the ranges the serial emission would have given them).
+struct Job {
+    src: usize,
+    gpu: usize,
+    node_at: usize,
+    slot_at: usize,
+}
+
+/// Runs `emit` on every job in parallel, each with its own ranges of `out.nodes` and
+/// `out.order` (jobs are in increasing order of both, and their ranges are disjoint), then
+/// stores the root node each returns.
+fn run_jobs(
+    out: &mut Flat,
+    jobs: &[Job],
+    emit: impl Fn(&Job, &mut [GpuBvhNode], &mut [u32]) -> GpuBvhNode + Sync,
+) {
+    use rayon::prelude::*;
+    // Carve the disjoint ranges: each job's nodes end where the next job's begin, or earlier
+    // (the serial pass may have emitted nodes in between, which stay untouched).
+    let mut parts = Vec::with_capacity(jobs.len());
+    let (mut nodes, mut slots) = (&mut out.nodes[..], &mut out.order[..]);
+    let (mut node_base, mut slot_base) = (0, 0);
+    for (k, job) in jobs.iter().enumerate() {
+        let node_end = jobs.get(k + 1).map_or(usize::MAX, |n| n.node_at);
+        let slot_end = jobs.get(k + 1).map_or(usize::MAX, |n| n.slot_at);
+        let (_, rest) = std::mem::take(&mut nodes).split_at_mut(job.node_at - node_base);
+        let take = (node_end - job.node_at).min(rest.len());
+        let (mine, rest) = rest.split_at_mut(take);
+        (nodes, node_base) = (rest, job.node_at + take);
+        let (_, rest) = std::mem::take(&mut slots).split_at_mut(job.slot_at - slot_base);
+        let take = (slot_end - job.slot_at).min(rest.len());
+        let (mine_s, rest) = rest.split_at_mut(take);
+        (slots, slot_base) = (rest, job.slot_at + take);
+        parts.push((job, mine, mine_s));
+    }
+    let roots: Vec<GpuBvhNode> = parts
+        .into_par_iter()
+        .map(|(job, n, s)| emit(job, n, s))
+        .collect();
+    for (job, root) in jobs.iter().zip(roots) {
+        out.nodes[job.gpu] = root;
+    }
+}
+
+/// Emits the subtree of `job` as the top-down pass would (children of a node numbered
+/// together, the last child's subtree first): descendants into `nodes` (the job's range,
+/// indices from `node_at`), primitives into `slots`. Returns the root's GPU node.
+fn copy_subtree(bvh: &Bvh2, job: &Job, nodes: &mut [GpuBvhNode], slots: &mut [u32]) -> GpuBvhNode {
+    let src = &bvh.nodes;
+    let (mut next_node, mut next_slot) = (0usize, 0usize);
+    let mut root = GpuBvhNode::zeroed_node();
+    let mut stack = vec![(job.src, job.gpu)];
+    while let Some((si, gpu)) = stack.pop() {
+        let first = src[si].first_index as usize;
+        let mut pair = [None, None];
+        for (k, slot) in pair.iter_mut().enumerate() {
+            let c = first + k;
+            let (min, max) = (src[c].aabb.min.into(), src[c].aabb.max.into());
+            let n = &src[c];
+            if n.prim_count > 0 {
+                let from = n.first_index as usize;
+                let count = n.prim_count as usize;
+                slots[next_slot..next_slot + count]
+                    .copy_from_slice(&bvh.primitive_indices[from..from + count]);
+                *slot = Some(Slot {
+                    index: (job.slot_at + next_slot) as u32,
+                    count: count as u32,
+                    min,
+                    max,
+                });
+                next_slot += count;
+                continue;
+            }
+            let g = job.node_at + next_node;
+            next_node += 1;
+            stack.push((c, g));
+            *slot = Some(Slot {
+                index: g as u32,
+                count: 0,
+                min,
+                max,
+            });
+        }
+        if let [Some(l), Some(r)] = pair {
+            let node = node_of(l, r);
+            if gpu == job.gpu {
+                root = node;
+            } else {
+                nodes[gpu - job.node_at] = node;
+            }
+        }
+    }
+    root
 }
 
 /// Whether obvhs inner node `i` at depth `d` can keep its split: each child that does not fit

@@ -31,7 +31,9 @@ pub use select::{
 use std::time::{Duration, Instant};
 
 use obvhs::aabb::Aabb;
-use obvhs::bvh2::builder::build_bvh2;
+use obvhs::bvh2::leaf_collapser::collapse;
+use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
+use obvhs::ploc::PlocBuilder;
 use obvhs::{Boundable, BvhBuildParams};
 
 use crate::layout::GpuBvhNode;
@@ -56,6 +58,23 @@ pub struct Bvh {
     pub order: Vec<u32>,
     pub depth: usize,
     pub build_time: Duration,
+    /// Seconds of each step of the build, in order (see [`Phases`]).
+    pub phases: Phases,
+}
+
+/// Seconds of each step of a build, in the order run (`accel_phases` in the render statistics),
+/// for finding where a cold build spends its time.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Phases(pub Vec<(&'static str, f64)>);
+
+impl Phases {
+    /// Runs `f`, recording its time under `name`.
+    pub fn time<T>(&mut self, name: &'static str, f: impl FnOnce() -> T) -> T {
+        let start = Instant::now();
+        let out = f();
+        self.0.push((name, start.elapsed().as_secs_f64()));
+        out
+    }
 }
 
 /// Builds the BVH over `prims`. An empty scene yields one node with two empty leaves.
@@ -70,19 +89,51 @@ pub fn build(prims: &[PrimBounds], keep_deep: bool) -> Bvh {
             order: vec![],
             depth: 1,
             build_time: start.elapsed(),
+            phases: Phases::default(),
         };
     }
+    // obvhs's `build_bvh2` (medium preset, our leaf size), its steps timed apart: PLOC,
+    // reinsertion, leaf collapsing, reinsertion again.
     let mut params = BvhBuildParams::medium_build();
     params.max_prims_per_leaf = MAX_LEAF as u32;
-    let mut core = Duration::ZERO;
-    let bvh = build_bvh2(prims, params, &mut core);
+    let mut ph = Phases::default();
+    let mut bvh = ph.time("ploc", || {
+        PlocBuilder::with_capacity(prims.len()).build(
+            params.ploc_search_distance,
+            prims,
+            (0..prims.len() as u32).collect::<Vec<_>>(),
+            params.sort_precision,
+            params.search_depth_threshold,
+        )
+    });
+    let mut reinsertion = ReinsertionOptimizer::default();
+    ph.time("reinsert", || {
+        reinsertion.run(&mut bvh, params.reinsertion_batch_ratio, None)
+    });
+    ph.time("collapse", || {
+        collapse(
+            &mut bvh,
+            params.max_prims_per_leaf.clamp(1, 255),
+            params.collapse_traversal_cost,
+        )
+    });
+    ph.time("reinsert2", || {
+        reinsertion.run(
+            &mut bvh,
+            params.reinsertion_batch_ratio
+                * params.post_collapse_reinsertion_batch_ratio_multiplier,
+            None,
+        )
+    });
     let limit = (!keep_deep).then_some(STACK_DEPTH);
-    let flat = flatten::flatten(&bvh, prims, limit);
+    let flat = ph.time("flatten", || flatten::flatten(&bvh, prims, limit));
+    ph.time("drop_bvh2", || drop(bvh));
     Bvh {
         nodes: flat.nodes,
         order: flat.order,
         depth: flat.depth,
         build_time: start.elapsed(),
+        phases: ph,
     }
 }
 
@@ -192,6 +243,58 @@ mod tests {
         }
         let deep = build(&nested_boxes(2000), true);
         assert!(deep.depth > STACK_DEPTH, "{}", deep.depth);
+    }
+
+    /// Pseudo-random small boxes (a fixed LCG), a mix of sizes so PLOC's tree is irregular.
+    fn random_boxes(n: usize, seed: u64) -> Vec<PrimBounds> {
+        let mut x = seed;
+        let mut next = move || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 40) as f32 / (1u64 << 24) as f32
+        };
+        (0..n)
+            .map(|_| {
+                let c = [next() * 10.0, next() * 10.0, next() * 10.0];
+                let s = 0.01 + next() * next() * 2.0;
+                PrimBounds {
+                    min: c.map(|v| v - s),
+                    max: c.map(|v| v + s),
+                }
+            })
+            .collect()
+    }
+
+    /// Emitting subtrees in parallel gives exactly the serial pass's nodes and order, with and
+    /// without the depth limit, and on trees whose top is rebuilt balanced.
+    #[test]
+    fn parallel_flatten_matches_serial() {
+        let mut params = BvhBuildParams::medium_build();
+        params.max_prims_per_leaf = MAX_LEAF as u32;
+        let cases = [
+            random_boxes(20_000, 1),
+            random_boxes(3_000, 7),
+            nested_boxes(3000),
+        ];
+        for prims in cases {
+            let mut t = Duration::ZERO;
+            let bvh = obvhs::bvh2::builder::build_bvh2(&prims, params, &mut t);
+            for limit in [None, Some(STACK_DEPTH), Some(12)] {
+                let serial = flatten::flatten_with(&bvh, &prims, limit, 0);
+                for max_job in [4, 64, 1000, usize::MAX] {
+                    let par = flatten::flatten_with(&bvh, &prims, limit, max_job);
+                    let bytes = |n: &[GpuBvhNode]| bytemuck::cast_slice::<_, u8>(n).to_vec();
+                    assert_eq!(
+                        bytes(&par.nodes),
+                        bytes(&serial.nodes),
+                        "{limit:?} {max_job}"
+                    );
+                    assert_eq!(par.order, serial.order, "{limit:?} {max_job}");
+                    assert_eq!(par.depth, serial.depth, "{limit:?} {max_job}");
+                }
+            }
+        }
     }
 
     #[test]

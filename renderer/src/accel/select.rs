@@ -9,7 +9,7 @@ use serde::Serialize;
 
 use super::cwbvh::{self, Cwbvh};
 use super::grid::{self, Grid};
-use super::{build, cache, parents, PrimBounds, STACK_DEPTH};
+use super::{build, cache, parents, Phases, PrimBounds, STACK_DEPTH};
 use crate::layout::{GpuBvhNode, GpuPrim};
 
 /// The acceleration structure kind.
@@ -100,6 +100,9 @@ pub struct AccelInfo {
     pub instance_bytes: u64,
     /// Triangles as rendered through instances (each instance counts its prototype's).
     pub instanced_triangles: u64,
+    /// Seconds of each step: cache key, then the cache read on a hit, else the builder's steps
+    /// and the cache write.
+    pub phases: Phases,
 }
 
 /// A built acceleration structure.
@@ -133,17 +136,21 @@ pub fn build_accel(
     cache_dir: Option<&Path>,
 ) -> Accel {
     let start = Instant::now();
+    let mut ph = Phases::default();
     // Step 1: the cache.
-    let key = cache_dir.map(|_| match opts.kind {
-        AccelKind::Bvh | AccelKind::Cwbvh => cache::bvh_key(opts, bvh_bounds),
-        AccelKind::Grid => cache::key(opts, prims, bounds),
+    let key = cache_dir.map(|_| {
+        ph.time("cache_key", || match opts.kind {
+            AccelKind::Bvh | AccelKind::Cwbvh => cache::bvh_key(opts, bvh_bounds),
+            AccelKind::Grid => cache::key(opts, prims, bounds),
+        })
     });
     if let (Some(dir), Some(key)) = (cache_dir, key) {
-        if let Some(e) = cache::load(dir, opts.kind, key) {
+        if let Some(e) = ph.time("cache_load", || cache::load(dir, opts.kind, key)) {
             if let Some(a) = from_entry(opts, e, prims.len()) {
                 let mut a = a;
                 a.info.build_time = start.elapsed();
                 a.info.cache = CacheStatus::Hit;
+                a.info.phases = ph;
                 return a;
             }
         }
@@ -152,6 +159,7 @@ pub fn build_accel(
     let mut a = match opts.kind {
         AccelKind::Bvh => {
             let bvh = build(bvh_bounds, opts.bvh_keep_deep);
+            ph.0.extend(bvh.phases.0);
             Accel {
                 info: AccelInfo {
                     kind: AccelKind::Bvh,
@@ -172,6 +180,7 @@ pub fn build_accel(
         }
         AccelKind::Cwbvh => {
             let built = cwbvh::build(bvh_bounds);
+            ph.0.extend(built.phases.0.iter().copied());
             let (order, prims) = if opts.cwbvh_bvh_order {
                 let order = build(bvh_bounds, false).order;
                 let mut slot = vec![0u32; order.len()];
@@ -206,9 +215,11 @@ pub fn build_accel(
             grid_accel(order, g)
         }
     };
+    // The build time leaves out the cache write (timed among the phases).
     a.info.build_time = start.elapsed();
     // Step 3: store.
     if let (Some(dir), Some(key)) = (cache_dir, key) {
+        let store = Instant::now();
         a.info.cache = CacheStatus::Miss;
         let e = cache::Entry {
             order: a.order.clone(),
@@ -223,7 +234,10 @@ pub fn build_accel(
         if let Err(err) = cache::store(dir, opts.kind, key, &e) {
             tracing::warn!("accel cache {}: not written: {err}", dir.display());
         }
+        ph.0.push(("cache_store", store.elapsed().as_secs_f64()));
     }
+    tracing::debug!("accel {} phases: {:?}", opts.kind.name(), ph.0);
+    a.info.phases = ph;
     a
 }
 

@@ -75,44 +75,74 @@ pub(super) struct Frames {
     pub centre: DVec3,
 }
 
-/// One mesh's triangles, with a shading record where the mesh has normals or uvs.
+/// One mesh's triangles, with a shading record where the mesh has normals or uvs; every
+/// triangle's records are computed in parallel into the slots it takes.
 pub(super) fn triangles(
     mesh: &TriangleMesh,
     frames: Frames,
     alpha_material: &[bool],
     out: &mut Prims,
 ) {
+    use rayon::prelude::*;
     let origin = frames.origin;
     let shaded = mesh.normals.is_some() || mesh.uvs.is_some();
-    for (t, idx) in mesh.indices.iter().enumerate() {
-        let p = idx.map(|i| mesh.positions[i as usize] - origin);
-        let m = mesh.materials.get(t).copied().unwrap_or(0);
-        let mut flags = m & PRIM_MATERIAL_MASK;
-        if alpha_material.get(m as usize).copied().unwrap_or(false) {
-            flags |= PRIM_ALPHA;
-        }
-        let shading = if shaded {
-            out.tri_shading.push(shading_record(mesh, idx));
-            (out.tri_shading.len() - 1) as u32
-        } else {
-            NONE
-        };
-        let [a, b, c] = p.map(f3);
-        out.gpu.push(GpuPrim {
-            a: [a[0], a[1], a[2], f32::from_bits(flags)],
-            b: [b[0], b[1], b[2], f32::from_bits(NONE)],
-            c: [c[0], c[1], c[2], f32::from_bits(shading)],
-        });
-        out.bounds.push(PrimBounds {
-            min: f3(p[0].min(p[1]).min(p[2])),
-            max: f3(p[0].max(p[1]).max(p[2])),
-        });
-        let w = idx.map(|i| mesh.positions[i as usize] - frames.centre);
-        out.bvh_bounds
-            .push(outward(w[0].min(w[1]).min(w[2]), w[0].max(w[1]).max(w[2])));
-        out.shapes.push(Shape::Triangle(p));
-        out.triangle_count += 1;
+    // Step 1: room for the mesh's records (triangle t's shading record, if any, is at
+    // `shade_base + t`).
+    let (n, base, shade_base) = (mesh.indices.len(), out.gpu.len(), out.tri_shading.len());
+    let empty = PrimBounds {
+        min: [0.0; 3],
+        max: [0.0; 3],
+    };
+    out.gpu.resize(base + n, bytemuck::Zeroable::zeroed());
+    out.bounds.resize(base + n, empty);
+    out.bvh_bounds.resize(base + n, empty);
+    out.shapes
+        .resize(base + n, Shape::Triangle([DVec3::ZERO; 3]));
+    if shaded {
+        out.tri_shading
+            .resize(shade_base + n, bytemuck::Zeroable::zeroed());
+        (out.tri_shading[shade_base..].par_iter_mut())
+            .zip(mesh.indices.par_iter())
+            .for_each(|(r, idx)| *r = shading_record(mesh, idx));
     }
+    // Step 2: each triangle's primitive, boxes (camera-relative and in the BVH's frame) and
+    // exact shape.
+    (
+        out.gpu[base..].par_iter_mut(),
+        out.bounds[base..].par_iter_mut(),
+        out.bvh_bounds[base..].par_iter_mut(),
+        out.shapes[base..].par_iter_mut(),
+    )
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(t, (gpu, bounds, bvh_bounds, shape))| {
+            let idx = &mesh.indices[t];
+            let p = idx.map(|i| mesh.positions[i as usize] - origin);
+            let m = mesh.materials.get(t).copied().unwrap_or(0);
+            let mut flags = m & PRIM_MATERIAL_MASK;
+            if alpha_material.get(m as usize).copied().unwrap_or(false) {
+                flags |= PRIM_ALPHA;
+            }
+            let shading = if shaded {
+                (shade_base + t) as u32
+            } else {
+                NONE
+            };
+            let [a, b, c] = p.map(f3);
+            *gpu = GpuPrim {
+                a: [a[0], a[1], a[2], f32::from_bits(flags)],
+                b: [b[0], b[1], b[2], f32::from_bits(NONE)],
+                c: [c[0], c[1], c[2], f32::from_bits(shading)],
+            };
+            *bounds = PrimBounds {
+                min: f3(p[0].min(p[1]).min(p[2])),
+                max: f3(p[0].max(p[1]).max(p[2])),
+            };
+            let w = idx.map(|i| mesh.positions[i as usize] - frames.centre);
+            *bvh_bounds = outward(w[0].min(w[1]).min(w[2]), w[0].max(w[1]).max(w[2]));
+            *shape = Shape::Triangle(p);
+        });
+    out.triangle_count += n;
 }
 
 /// A triangle's vertex normals and uvs (w of `uv_v`: 1 when the normals are the mesh's own).

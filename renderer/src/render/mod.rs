@@ -92,6 +92,11 @@ pub struct RenderStats {
     pub accel_build_s: f64,
     /// Bytes of its GPU buffers (BVH nodes and parent pointers, or the grid's buffers).
     pub accel_bytes: u64,
+    /// Seconds of each step of its build, in order (`[name, seconds]` pairs: cache key, the
+    /// builder's steps, cache write), between `gather_prims` and `reorder_prims`, the compile
+    /// steps around the build (outside `accel_build_s`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub accel_phases: Vec<(String, f64)>,
     /// GPU bytes of the geometry: primitives and per-triangle shading data.
     pub geometry_bytes: u64,
     /// GPU bytes of every scene buffer (geometry, accel, materials, textures, lights, ...).

@@ -38,6 +38,9 @@ impl RenderSession {
             accel: self.info.accel.kind.name().to_string(),
             accel_build_s: self.info.accel.build_time.as_secs_f64(),
             accel_bytes: self.info.bytes.accel,
+            accel_phases: (self.info.accel.phases.0.iter())
+                .map(|&(n, s)| (n.to_string(), s))
+                .collect(),
             geometry_bytes: self.info.bytes.geometry,
             scene_gpu_bytes: self.info.bytes.total(),
             gpu_bytes_per_triangle: if self.info.triangles > 0 {
