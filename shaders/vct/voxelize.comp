@@ -5,10 +5,10 @@
 // triangle's bounding box; spheres: the voxel box straddles the sphere surface (nearest box point
 // inside, farthest outside). Thin geometry is never lost: a voxel is kept when any part of the
 // primitive touches it. Work is cut into tiles of a primitive's voxel box (one per thread): one
-// slice along its longest axis, VOX_ROWS rows of the second longest and VOX_DEPTH voxels of the
-// shortest, numbered primitive after primitive (renderer/src/integrators/vct/build.rs,
-// `voxel_tiles`), so a warp's threads share a primitive and a wall spanning the grid is spread
-// over many threads. Counting pass (capacity 0) and emitting pass share the kernel: each thread
+// slice along its longest axis, `rows` rows of the second longest and `deep` voxels of the
+// shortest (4 and 8, more when a scene has too many tiles for one launch: VP_MODE), numbered
+// primitive after primitive (renderer/src/integrators/vct/build.rs, `voxel_tiles`), so a warp's
+// threads share a primitive and a wall spanning the grid is spread over many threads. Counting pass (capacity 0) and emitting pass share the kernel: each thread
 // counts its voxels, the workgroup sums its threads' counts in shared memory and reserves one
 // block with one global atomic (millions of threads on one counter serialise), and each thread
 // writes its share of the block.
@@ -17,9 +17,6 @@
 #include "vct/common.glsl"
 
 layout(local_size_x = 64, local_size_y = 1, local_size_z = 1) in;
-
-#define VOX_ROWS 4
-#define VOX_DEPTH 8
 
 // Per primitive: its first tile, and its tile grid (row blocks | depth blocks << 16).
 layout(set = 0, binding = B_VCT_TILES, scalar) readonly buffer VctTiles { uvec2 tiles[]; };
@@ -79,7 +76,7 @@ void main() {
     ivec3 slo = ivec3(0), shi = ivec3(-1);
     if (work) {
         // Step 1: the tile's primitive, the last whose first tile is at or before it.
-        uint lo_i = 0u, hi_i = g.counts.x - 1u;
+        uint lo_i = 0u, hi_i = uint(tiles.length()) - 1u;
         while (lo_i < hi_i) {
             uint mid = (lo_i + hi_i + 1u) >> 1;
             if (tiles[mid].x <= tile) lo_i = mid; else hi_i = mid - 1u;
@@ -107,19 +104,20 @@ void main() {
         int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
         int row_axis = ext[a1] >= ext[a2] ? a1 : a2;
         int depth_axis = 3 - axis - row_axis;
+        int rows_per = int(VP_MODE & 0xffffu), deep_per = int(VP_MODE >> 16);
         uint rows = tiles[prim].y & 0xffffu, depth = tiles[prim].y >> 16;
         uint local = tile - tiles[prim].x;
         int slice = int(local / (rows * depth));
-        int row = int((local / depth) % rows) * VOX_ROWS;
-        int deep = int(local % depth) * VOX_DEPTH;
+        int row = int((local / depth) % rows) * rows_per;
+        int deep = int(local % depth) * deep_per;
         work = slice <= ext[axis] && row <= ext[row_axis] && deep <= ext[depth_axis];
         slo = vlo; shi = vhi;
         slo[axis] = vlo[axis] + slice;
         shi[axis] = slo[axis];
         slo[row_axis] = vlo[row_axis] + row;
-        shi[row_axis] = min(slo[row_axis] + VOX_ROWS - 1, vhi[row_axis]);
+        shi[row_axis] = min(slo[row_axis] + rows_per - 1, vhi[row_axis]);
         slo[depth_axis] = vlo[depth_axis] + deep;
-        shi[depth_axis] = min(slo[depth_axis] + VOX_DEPTH - 1, vhi[depth_axis]);
+        shi[depth_axis] = min(slo[depth_axis] + deep_per - 1, vhi[depth_axis]);
     }
     // Step 4: count the voxels touched.
     uint n = 0u;

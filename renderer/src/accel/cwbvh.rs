@@ -32,7 +32,6 @@ use obvhs::bvh2::node::Bvh2Node;
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::bvh2::Bvh2;
 use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
-use obvhs::ploc::PlocBuilder;
 use obvhs::BvhBuildParams;
 
 use super::flatten::heights;
@@ -106,15 +105,7 @@ pub fn build(prims: &[PrimBounds]) -> Built {
         prims
     };
     let params = BvhBuildParams::medium_build();
-    let mut bvh2 = ph.time("ploc", || {
-        PlocBuilder::with_capacity(reps.len()).build(
-            params.ploc_search_distance,
-            rep_bounds,
-            (0..reps.len() as u32).collect(),
-            params.sort_precision,
-            params.search_depth_threshold,
-        )
-    });
+    let mut bvh2 = ph.time("ploc", || super::ploc(rep_bounds, &params));
     ph.time("reinsert", || {
         ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None)
     });

@@ -1,7 +1,8 @@
 //! Host tests of the compressed wide BVH (renderer/src/accel/cwbvh.rs): every primitive in
 //! exactly one leaf whose decoded box contains it, chains far deeper than the stack bounded
 //! within it (and a bounded binary tree converted no deeper), `depth_of` rejecting what is not a
-//! tree, the empty scene, copies of one box grouped (`distinct_boxes`).
+//! tree, the empty scene, copies of one box grouped (`distinct_boxes`) and expanded in place as
+//! the top-down copy would (`expanding_copies_in_place_matches_the_top_down_copy`).
 use super::*;
 
 fn unit_boxes(n: usize) -> Vec<PrimBounds> {
@@ -107,13 +108,7 @@ fn deep_chains_are_bounded() {
             continue; // copies of one box: raw PLOC would be quadratic
         }
         let params = BvhBuildParams::medium_build();
-        let bvh2 = PlocBuilder::with_capacity(prims.len()).build(
-            params.ploc_search_distance,
-            &prims,
-            (0..prims.len() as u32).collect(),
-            params.sort_precision,
-            params.search_depth_threshold,
-        );
+        let bvh2 = crate::accel::ploc(&prims, &params);
         let before = heights(&bvh2).0[0] as usize;
         for limit in [STACK_DEPTH, 16] {
             if let Some(bounded) = bound_height(&bvh2, &prims, limit) {
@@ -239,13 +234,7 @@ fn expanding_copies_in_place_matches_the_top_down_copy() {
         assert!(copies.reps.len() < prims.len());
         let reps: Vec<PrimBounds> = copies.reps.iter().map(|&i| prims[i as usize]).collect();
         let params = BvhBuildParams::medium_build();
-        let mut bvh2 = PlocBuilder::with_capacity(reps.len()).build(
-            params.ploc_search_distance,
-            &reps,
-            (0..reps.len() as u32).collect(),
-            params.sort_precision,
-            params.search_depth_threshold,
-        );
+        let mut bvh2 = crate::accel::ploc(&reps, &params);
         ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
         let reference = expand_copies_top_down(&bvh2, &prims, &copies);
         let in_place = expand_copies(bvh2, &prims, &copies);

@@ -38,6 +38,17 @@ use obvhs::{Boundable, BvhBuildParams};
 
 use crate::layout::GpuBvhNode;
 
+/// obvhs's PLOC build of a binary tree over `prims` (leaf i is primitive i) with `params`.
+pub(crate) fn ploc(prims: &[PrimBounds], params: &BvhBuildParams) -> obvhs::bvh2::Bvh2 {
+    PlocBuilder::with_capacity(prims.len()).build(
+        params.ploc_search_distance,
+        prims,
+        (0..prims.len() as u32).collect::<Vec<_>>(),
+        params.sort_precision,
+        params.search_depth_threshold,
+    )
+}
+
 /// A primitive's bounds for the builder.
 #[derive(Clone, Copy, Debug)]
 pub struct PrimBounds {
@@ -97,15 +108,7 @@ pub fn build(prims: &[PrimBounds], keep_deep: bool) -> Bvh {
     let mut params = BvhBuildParams::medium_build();
     params.max_prims_per_leaf = MAX_LEAF as u32;
     let mut ph = Phases::default();
-    let mut bvh = ph.time("ploc", || {
-        PlocBuilder::with_capacity(prims.len()).build(
-            params.ploc_search_distance,
-            prims,
-            (0..prims.len() as u32).collect::<Vec<_>>(),
-            params.sort_precision,
-            params.search_depth_threshold,
-        )
-    });
+    let mut bvh = ph.time("ploc", || ploc(prims, &params));
     let mut reinsertion = ReinsertionOptimizer::default();
     ph.time("reinsert", || {
         reinsertion.run(&mut bvh, params.reinsertion_batch_ratio, None)

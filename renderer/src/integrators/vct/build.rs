@@ -17,11 +17,12 @@ use crate::compile::CompiledScene;
 use crate::error::RenderError;
 use crate::gpu::{Binding, Buffer, BufferUsage, GpuContext, ShaderDefines};
 
-/// Rows of the primitive's second-longest axis one voxelization thread covers (mirrors
-/// VOX_ROWS in shaders/vct/voxelize.comp).
+/// Rows of the primitive's second-longest axis one voxelization thread covers, and voxels of
+/// its shortest (before [`voxel_tiles`] grows them to fit a launch).
 const VOX_ROWS: u32 = 4;
-/// Voxels of the primitive's shortest axis one voxelization thread covers (VOX_DEPTH).
 const VOX_DEPTH: u32 = 8;
+/// Most threads one voxelization launch numbers (LINEAR_GID is a 32-bit index).
+const VOX_MAX_THREADS: u64 = 1 << 32;
 
 fn storage_buffer(ctx: &Arc<GpuContext>, name: &str, bytes: u64) -> Result<Buffer, RenderError> {
     Ok(Buffer::new(ctx, name, bytes, BufferUsage::Storage)?)
@@ -198,10 +199,10 @@ impl<'a> Builder<'a> {
     /// voxel box: a slice along its longest axis × VOX_ROWS rows of the second × VOX_DEPTH
     /// voxels of the shortest; [`voxel_tiles`]). Returns the fragment list and its length.
     fn voxelize(&mut self) -> Result<(Buffer, u32), RenderError> {
-        let (tiles, total) = voxel_tiles(&self.scene.prims, &self.params)?;
-        let tiles = Buffer::from_slice(self.ctx, "vct voxelization tiles", &tiles)?;
-        let groups = groups_1d(total as u64);
-        let push = push(0, total, 0);
+        let t = voxel_tiles(&self.scene.prims, &self.params)?;
+        let (total, groups) = (t.total, t.groups);
+        let push = push(0, total, t.rows | t.depth << 16);
+        let tiles = Buffer::from_slice(self.ctx, "vct voxelization tiles", &t.tiles)?;
         let mut frag_count = 0u32;
         if total > 0 {
             let set = Set {
@@ -400,57 +401,92 @@ impl<'a> Builder<'a> {
     }
 }
 
+/// The voxelization's work list ([`voxel_tiles`]).
+struct VoxelTiles {
+    /// Per primitive: its first tile and its tile grid (row blocks | depth blocks << 16).
+    tiles: Vec<[u32; 2]>,
+    /// Tiles in all (threads with work).
+    total: u32,
+    /// Rows and depth of a tile.
+    rows: u32,
+    depth: u32,
+    /// The launch.
+    groups: [u32; 3],
+}
+
 /// The voxelization's work list: each primitive's voxel box cut into tiles (one per thread) of
 /// one slice along its longest axis, VOX_ROWS rows of the second longest and VOX_DEPTH voxels
 /// of the shortest, numbered consecutively primitive after primitive, so that the threads of a
 /// warp work on one primitive and a large primitive is spread over many threads (a launch over
 /// primitive × the largest box instead made every warp as slow as its largest primitive).
-/// Per primitive: its first tile and its tile grid (row blocks | depth blocks << 16), from box
-/// extents padded so that they cover the kernel's (which adds a slack of 1e-3 voxel each side);
-/// tiles past the kernel's own extents do nothing. Also the number of tiles.
+/// Per primitive: its first tile and its tile grid, from box extents padded so that they cover
+/// the kernel's (which adds a slack of 1e-3 voxel each side); tiles past the kernel's own
+/// extents do nothing. When the tiles would need more threads than one launch can number,
+/// tiles grow (rows and depth doubled) until they fit.
 fn voxel_tiles(
     prims: &[crate::layout::GpuPrim],
     params: &VctParams,
-) -> Result<(Vec<[u32; 2]>, u32), RenderError> {
+) -> Result<VoxelTiles, RenderError> {
     let (min, voxel, r) = (
         [params.grid[0], params.grid[1], params.grid[2]],
         params.grid[3],
         params.dims[0],
     );
-    let mut out = Vec::with_capacity(prims.len());
-    let mut total = 0u64;
-    for p in prims {
-        let sphere = p.a[3].to_bits() & crate::layout::PRIM_SPHERE != 0;
-        let (lo, hi) = if sphere {
-            (
-                [0, 1, 2].map(|i| p.a[i] - p.b[0]),
-                [0, 1, 2].map(|i| p.a[i] + p.b[0]),
-            )
-        } else {
-            (
-                [0, 1, 2].map(|i| p.a[i].min(p.b[i]).min(p.c[i])),
-                [0, 1, 2].map(|i| p.a[i].max(p.b[i]).max(p.c[i])),
-            )
-        };
-        // Voxels along each axis, with a voxel to spare each side, longest first.
-        let mut ext = [0u32; 3];
-        for i in 0..3 {
-            let cell = |x: f32| ((x - min[i]) / voxel).floor().clamp(0.0, (r - 1) as f32);
-            ext[i] = ((cell(hi[i]) - cell(lo[i])) as u32 + 3).min(r);
+    // Step 1: each primitive's box extents, longest first, with a voxel to spare each side.
+    let extents: Vec<[u32; 3]> = prims
+        .iter()
+        .map(|p| {
+            let sphere = p.a[3].to_bits() & crate::layout::PRIM_SPHERE != 0;
+            let (lo, hi) = if sphere {
+                (
+                    [0, 1, 2].map(|i| p.a[i] - p.b[0]),
+                    [0, 1, 2].map(|i| p.a[i] + p.b[0]),
+                )
+            } else {
+                (
+                    [0, 1, 2].map(|i| p.a[i].min(p.b[i]).min(p.c[i])),
+                    [0, 1, 2].map(|i| p.a[i].max(p.b[i]).max(p.c[i])),
+                )
+            };
+            let mut ext = [0u32; 3];
+            for i in 0..3 {
+                let cell = |x: f32| ((x - min[i]) / voxel).floor().clamp(0.0, (r - 1) as f32);
+                ext[i] = ((cell(hi[i]) - cell(lo[i])) as u32 + 3).min(r);
+            }
+            ext.sort_unstable_by(|a, b| b.cmp(a));
+            ext
+        })
+        .collect();
+    // Step 2: number the tiles, growing them until one launch numbers them all.
+    let mut scale = 1u32;
+    loop {
+        let (rows, depth) = (VOX_ROWS * scale, VOX_DEPTH * scale);
+        let mut tiles = Vec::with_capacity(prims.len());
+        let mut total = 0u64;
+        for ext in &extents {
+            let (nr, nd) = (ext[1].div_ceil(rows), ext[2].div_ceil(depth));
+            tiles.push([total.min(u32::MAX as u64) as u32, nr | nd << 16]);
+            total += ext[0] as u64 * nr as u64 * nd as u64;
         }
-        ext.sort_unstable_by(|a, b| b.cmp(a));
-        let (rows, depth) = (ext[1].div_ceil(VOX_ROWS), ext[2].div_ceil(VOX_DEPTH));
-        out.push([total as u32, rows | depth << 16]);
-        total += ext[0] as u64 * rows as u64 * depth as u64;
-        if total > u32::MAX as u64 {
+        let groups = groups_1d(total);
+        let threads = groups[0] as u64 * groups[1] as u64 * 64;
+        if total <= u32::MAX as u64 && threads <= VOX_MAX_THREADS {
+            return Ok(VoxelTiles {
+                tiles,
+                total: total as u32,
+                rows,
+                depth,
+                groups,
+            });
+        }
+        if depth >= r {
             return Err(RenderError::Invalid(format!(
-                "vct: voxelizing the scene at resolution {r} needs more than {} threads; lower \
-                 integrator.resolution",
-                u32::MAX
+                "vct: voxelizing the scene at resolution {r} needs more than {VOX_MAX_THREADS} \
+                 threads; lower integrator.resolution"
             )));
         }
+        scale *= 2;
     }
-    Ok((out, total as u32))
 }
 
 #[cfg(test)]
@@ -506,20 +542,55 @@ mod tests {
                 c: vertex(&mut rnd),
             });
         }
-        let (tiles, total) = voxel_tiles(&prims, &params).unwrap();
+        let t = voxel_tiles(&prims, &params).unwrap();
+        assert_eq!((t.rows, t.depth), (VOX_ROWS, VOX_DEPTH));
+        covers(&prims, &params, &t);
+    }
+
+    /// Asserts that `t` covers every voxel the kernel tests for each of `prims`.
+    fn covers(prims: &[GpuPrim], params: &VctParams, t: &VoxelTiles) {
         for (i, p) in prims.iter().enumerate() {
-            let mut ext = kernel_box(p, &params);
+            let mut ext = kernel_box(p, params);
             ext.sort_unstable_by(|a, b| b.cmp(a));
-            let (rows, depth) = (tiles[i][1] & 0xffff, tiles[i][1] >> 16);
-            let end = tiles.get(i + 1).map_or(total, |t| t[0]);
-            let slices = (end - tiles[i][0]) / (rows * depth);
-            assert_eq!(slices * rows * depth, end - tiles[i][0], "prim {i}");
+            let (rows, depth) = (t.tiles[i][1] & 0xffff, t.tiles[i][1] >> 16);
+            let end = t.tiles.get(i + 1).map_or(t.total, |t| t[0]);
+            let slices = (end - t.tiles[i][0]) / (rows * depth);
+            assert_eq!(slices * rows * depth, end - t.tiles[i][0], "prim {i}");
             assert!(
                 ext[0] <= slices as i32
-                    && ext[1] <= (rows * VOX_ROWS) as i32
-                    && ext[2] <= (depth * VOX_DEPTH) as i32,
+                    && ext[1] <= (rows * t.rows) as i32
+                    && ext[2] <= (depth * t.depth) as i32,
                 "prim {i}: box {ext:?}, tiles {slices} x {rows} x {depth}"
             );
         }
+    }
+
+    /// A scene with more tiles than one launch numbers (600 triangles spanning a 1024³ grid
+    /// on all three axes: 1024 × 256 × 128 tiles each at the start) gets larger tiles, still
+    /// covering every voxel, and a launch of at most 2³² threads.
+    #[test]
+    fn tiles_grow_to_fit_one_launch() {
+        let mut params = VctParams::zeroed();
+        params.grid = [0.0, 0.0, 0.0, 1.0];
+        params.dims[0] = 1024;
+        let prims: Vec<GpuPrim> = (0..600)
+            .map(|k| {
+                let o = k as f32 * 0.001;
+                GpuPrim {
+                    a: [o, 0.0, 1023.9, 0.0],
+                    b: [1023.9, o, 0.0, 0.0],
+                    c: [0.0, 1023.9, o, 0.0],
+                }
+            })
+            .collect();
+        let t = voxel_tiles(&prims, &params).unwrap();
+        assert!(
+            t.rows > VOX_ROWS && t.depth > VOX_DEPTH,
+            "{} {}",
+            t.rows,
+            t.depth
+        );
+        assert!(t.groups[0] as u64 * t.groups[1] as u64 * 64 <= VOX_MAX_THREADS);
+        covers(&prims, &params, &t);
     }
 }
