@@ -1,7 +1,8 @@
 //! A finished shard's final checkpoint, written off the render thread: the shard's sums are
 //! read back from the device (the only part that needs it), the shard's lease is handed to a
 //! name of the worker's own for writers (`NAME#write`, store/shards.rs `hand_shard`) and a
-//! thread writes `shard-<k>.bin` (durably: fsync, rename) and only then marks the shard done,
+//! thread writes `shard-<k>.bin` (durably: the file fsync'd, renamed into place, the folder
+//! fsync'd: [`sync_folder`]) and only then marks the shard done,
 //! while the device renders the worker's next shard. The worker loop collects finished writes
 //! ([`Worker::collect_writes`]), announces them (`progress` event) and claims again (the merge,
 //! once every shard is done).
@@ -80,6 +81,31 @@ pub struct Finished {
     pub readback: Duration,
 }
 
+/// Syncs the folder of `path`, so that the rename that put the file there survives a power
+/// loss before the shard is marked done. (A file system that cannot sync a folder is let be:
+/// were the rename lost after all, the merge finds the file missing and renders the shard
+/// again.)
+fn sync_folder(path: &std::path::Path) -> std::io::Result<()> {
+    // (Only Unix opens a folder as a file to sync it.)
+    let Some(dir) = path
+        .parent()
+        .filter(|d| cfg!(unix) && !d.as_os_str().is_empty())
+    else {
+        return Ok(());
+    };
+    match std::fs::File::open(dir).and_then(|d| d.sync_all()) {
+        Err(e)
+            if matches!(
+                e.kind(),
+                std::io::ErrorKind::InvalidInput | std::io::ErrorKind::Unsupported
+            ) =>
+        {
+            Ok(())
+        }
+        r => r,
+    }
+}
+
 /// Starts the write of a finished shard whose lease was handed to `owner`.
 pub fn start(
     store: std::sync::Arc<Store>,
@@ -94,7 +120,8 @@ pub fn start(
         .spawn(move || {
             let t0 = Instant::now();
             let wrote = crate::storage::injected_fault()
-                .and_then(|_| checkpoint::write(&path, w, h, seed, &p, &acc));
+                .and_then(|_| checkpoint::write(&path, w, h, seed, &p, &acc))
+                .and_then(|_| sync_folder(&path));
             drop(acc);
             let file = t0.elapsed();
             if wrote.is_ok() {
@@ -194,7 +221,17 @@ impl Worker {
                 Err(WriteError::Io(e)) => {
                     let held = self.store.holds_shard(id, idx, &w.owner).unwrap_or(true);
                     let _ = self.store.release_shard(id, idx, &w.owner);
-                    if !held {
+                    // (A cancel removes the writer's temp file too: its rename then fails, and
+                    // the job is not this write's to fail. `discard_if_ended` cleans up.)
+                    let ended = match self.store.job_state(id) {
+                        Ok(Some(state)) => state.is_terminal(),
+                        Ok(None) => true,
+                        Err(_) => false,
+                    };
+                    if ended {
+                        info!(job = id, shard = idx, error = %e,
+                              "the job ended while its shard was written; dropping the write");
+                    } else if !held {
                         warn!(job = id, shard = idx, error = %e,
                               "lost the shard's lease; its last checkpoint failed");
                     } else if is_storage_fault(&e) {
@@ -208,12 +245,14 @@ impl Worker {
         }
     }
 
-    /// Removes shard `idx`'s file when job `id` ended (canceled or failed) or was deleted while
-    /// it was written: the cleanups at the cancel passed it by.
+    /// Removes shard `idx`'s file when job `id` ended (done, canceled or failed) or was deleted
+    /// while it was written: the cleanups at the cancel or the merge passed it by. (A late
+    /// writer, slower than its lease, renames after another worker finished the shard and the
+    /// merge, which had read every shard file, removed them.)
     fn discard_if_ended(&mut self, id: JobId, idx: u32) {
         let paths = JobPaths::new(&self.config.data_dir, id);
         match self.store.job_state(id) {
-            Ok(Some(JobState::Canceled | JobState::Failed)) => {
+            Ok(Some(JobState::Done | JobState::Canceled | JobState::Failed)) => {
                 let _ = std::fs::remove_file(paths.shard_checkpoint(idx));
             }
             Ok(None) => {
