@@ -212,9 +212,10 @@ impl Worker {
                       "lost the shard's lease; reading its sums back failed");
                 return self.keep_spare(id, job);
             }
+            // (A lost device fails no job: outcome.rs `render_failed`.)
             Err(e) => {
                 self.active.insert(id, job);
-                return self.fail(id, format!("reading a shard's sums back: {e}"));
+                return self.render_failed(id, e, "reading a shard's sums back");
             }
         };
         let readback = t0.elapsed();
