@@ -219,12 +219,27 @@ impl Worker {
             }
         };
         let readback = t0.elapsed();
-        // Step 2: the lease to the writer's name, then the write on its thread.
+        // Step 2: the lease to the writer's name, then the write on its thread. (A film-size
+        // buffer each: writes slower than the renders wait here, for the oldest, before the
+        // lease's clock starts.)
+        while self.writes.len() >= super::shard_write::MAX_PENDING {
+            self.collect_writes(1);
+        }
         let owner = super::shard_write::writer_name(&worker);
-        match self
+        // (A database error is tried once more, a moment later: else the sums are lost and
+        // the shard rendered again from its last checkpoint.)
+        let lease = self.config.lease;
+        let handed = self
             .store
-            .hand_shard(id, sh.range.idx, &worker, &owner, self.config.lease)
-        {
+            .hand_shard(id, sh.range.idx, &worker, &owner, lease)
+            .or_else(|e| {
+                warn!(job = id, shard = sh.range.idx, error = %e,
+                      "handing a shard to its writer; trying again");
+                std::thread::sleep(super::shard_write::RETRY_AFTER);
+                self.store
+                    .hand_shard(id, sh.range.idx, &worker, &owner, lease)
+            });
+        match handed {
             Ok(true) => {
                 let finished = super::shard_write::Finished {
                     id,
@@ -238,10 +253,6 @@ impl Worker {
                     rendering,
                     readback,
                 };
-                // (A film-size buffer each: writes slower than the renders wait here.)
-                if self.writes.len() >= super::shard_write::MAX_PENDING {
-                    self.collect_writes(true);
-                }
                 match super::shard_write::start(self.store.clone(), owner.clone(), finished) {
                     Ok(w) => self.writes.push(w),
                     Err(e) => {

@@ -59,8 +59,13 @@ pub struct ShardWrite {
 }
 
 /// Writes a device thread lets run at once (each holds a copy of a film-size accumulation);
-/// a shard that ends with this many under way waits for them.
+/// a shard that ends with this many under way waits for the oldest, before its own lease is
+/// handed (so that its writer's lease runs from the start of its write).
 pub const MAX_PENDING: usize = 2;
+
+/// How long a shard's hand-off or done mark that hit a database error waits before its one
+/// more try.
+pub const RETRY_AFTER: Duration = Duration::from_millis(200);
 
 /// The name a worker's shard writes hold their leases under.
 pub fn writer_name(worker: &str) -> String {
@@ -129,9 +134,17 @@ pub fn start(
             }
             let result = match wrote {
                 Err(e) => Err(WriteError::Io(e)),
-                // Done only now that the file is whole on disk.
+                // Done only now that the file is whole on disk. (A database error is tried
+                // once more, a moment later: else the shard waits for the lease to run out
+                // and is rendered again.)
                 Ok(()) => store
                     .shard_done(id, idx, &thread_owner, &p)
+                    .or_else(|e| {
+                        warn!(job = id, shard = idx, error = %e,
+                              "recording a shard done; trying again");
+                        std::thread::sleep(RETRY_AFTER);
+                        store.shard_done(id, idx, &thread_owner, &p)
+                    })
                     .map_err(WriteError::Store),
             };
             Written {
@@ -173,17 +186,34 @@ fn hold_for_test(id: JobId, idx: u32) {
 }
 
 impl Worker {
-    /// Handles the shard writes that ended (every one, waiting, when `wait`): a shard done is
-    /// announced and the worker claims again; a failed write frees the shard (rendered again)
-    /// and, unless the disk is full, fails the job as a failed checkpoint does.
-    pub(super) fn collect_writes(&mut self, wait: bool) {
-        let mut i = 0;
+    /// Renews the writers' leases of the writes under way (with the worker's heartbeat): a
+    /// write slower than `--lease` (a slow disk, writes queued ahead of it) keeps its shard.
+    pub(super) fn renew_write_leases(&self) {
+        for w in &self.writes {
+            let renewed = self
+                .store
+                .renew_shard_lease(w.id, w.idx, &w.owner, self.config.lease);
+            if let Err(e) = renewed {
+                warn!(job = w.id, shard = w.idx, error = %e, "renewing a shard writer's lease");
+            }
+        }
+    }
+
+    /// Handles the shard writes that ended, after waiting for the oldest `wait` of them (0:
+    /// none, `usize::MAX`: all): a shard done is announced and the worker claims again; a
+    /// failed write frees the shard (rendered again) and, unless the disk is full, fails the
+    /// job as a failed checkpoint does.
+    pub(super) fn collect_writes(&mut self, wait: usize) {
+        let (mut i, mut seen) = (0, 0);
         while i < self.writes.len() {
-            if !wait && !self.writes[i].handle.is_finished() {
+            let must = seen < wait;
+            seen += 1;
+            if !must && !self.writes[i].handle.is_finished() {
                 i += 1;
                 continue;
             }
-            let w = self.writes.swap_remove(i);
+            // (In start order: `writes[0]` is the oldest.)
+            let w = self.writes.remove(i);
             let (id, idx) = (w.id, w.idx);
             let written = w.handle.join().unwrap_or_else(|_| Written {
                 file: Duration::ZERO,
