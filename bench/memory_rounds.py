@@ -117,7 +117,7 @@ def main():
                     "pipelines_live": metric(text, "candela_pipelines_live"),
                     "pipeline_evictions": metric(text, "candela_cache_evictions_total",
                                                  'cache="pipelines"'),
-                    "kernel_variants": metric(text, "candela_kernel_variants_seen"),
+                    "kernel_variants": metric(text, "candela_kernel_variants_seen_total"),
                 })
             rounds.append(row)
             print("memory_rounds: " + ", ".join(f"{k} {v}" for k, v in row.items()), flush=True)

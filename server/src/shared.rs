@@ -425,8 +425,8 @@ impl Shared {
             &[("", Some(c.pipelines_live))],
         );
         family(
-            "candela_kernel_variants_seen",
-            "gauge",
+            "candela_kernel_variants_seen_total",
+            "counter",
             "Distinct kernel variants made into pipelines since the process started (kept in a cache or not).",
             &[("", Some(c.kernel_variants))],
         );

@@ -113,7 +113,7 @@ fn server_flags_bound_the_caches_and_metrics_show_them() {
     assert!(s.metric("candela_pipelines_live") >= 1.0);
     assert!(s.metric("process_resident_memory_bytes") > 1e6);
     assert!(s.metric(r#"candela_heap_bytes{kind="allocated"}"#) > 1e6);
-    let seen = s.metric("candela_kernel_variants_seen");
+    let seen = s.metric("candela_kernel_variants_seen_total");
     assert!(seen >= 2.0, "nee and whitted: {seen}");
     // The render loop reports the same with its heartbeat (the workers table): its process's
     // resident size, the one pipeline kept, the variants seen; in /api/workers and /metrics.
@@ -141,5 +141,5 @@ fn server_flags_bound_the_caches_and_metrics_show_them() {
     };
     assert!(line("candela_worker_rss_bytes") > 1e6);
     assert_eq!(line("candela_worker_pipelines_cached"), 1.0);
-    assert!(line("candela_worker_kernel_variants_seen") >= seen);
+    assert!(line("candela_worker_kernel_variants_seen_total") >= seen);
 }

@@ -95,8 +95,8 @@ pub fn prometheus(store: &Store) -> Result<String, StoreError> {
             |w| w.memory.pipelines_cached.map(|v| v as f64),
         ),
         (
-            "candela_worker_kernel_variants_seen",
-            "gauge",
+            "candela_worker_kernel_variants_seen_total",
+            "counter",
             "Distinct kernel variants the worker's process compiled since it started.",
             |w| w.memory.kernel_variants_seen.map(|v| v as f64),
         ),

@@ -318,6 +318,27 @@ impl Store {
         })
     }
 
+    /// Renews `owner`'s lease on shard `idx` of job `id` (not done) for `lease` from now: a
+    /// writer's (`NAME#write`, worker/shard_write.rs), renewed with its worker's heartbeats
+    /// while its file is written; whether `owner` still holds it.
+    pub fn renew_shard_lease(
+        &self,
+        id: JobId,
+        idx: u32,
+        owner: &str,
+        lease: std::time::Duration,
+    ) -> Result<bool, StoreError> {
+        self.write(|c| {
+            lock_job(c, id)?;
+            let n = c.exec(
+                "UPDATE shards SET lease_until = ?4 WHERE job_id = ?1 AND idx = ?2 \
+                 AND lease_owner = ?3 AND done = 0",
+                params![id, idx, owner, now_s() + lease.as_secs_f64()],
+            )?;
+            Ok((n == 1, Vec::new()))
+        })
+    }
+
     /// Gives up `owner`'s lease on shard `idx` of job `id` (not done): free to claim again.
     pub fn release_shard(&self, id: JobId, idx: u32, owner: &str) -> Result<(), StoreError> {
         self.write(|c| {
@@ -539,16 +560,24 @@ mod tests {
         // a's heartbeat (of shard 1) neither renews nor drops the writer's lease.
         assert_eq!(s.renew_leases("a", &[1], long).unwrap(), vec![1]);
         assert_eq!(part("b"), None, "shard 0 still being written");
-        // Step 2: the writer dies (its lease expires): b renders shard 0 again; the dead
-        // writer's late report is refused, b's counts once.
-        assert!(s
-            .hand_shard(1, 0, "a#write", "a#write", std::time::Duration::ZERO)
-            .unwrap());
-        std::thread::sleep(std::time::Duration::from_millis(20));
+        // Step 2: a writer slower than its lease keeps it when a's heartbeat renews it.
+        let expire = || {
+            assert!(s
+                .hand_shard(1, 0, "a#write", "a#write", std::time::Duration::ZERO)
+                .unwrap());
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        };
+        expire();
+        assert!(s.renew_shard_lease(1, 0, "a#write", long).unwrap());
+        assert_eq!(part("b"), None, "renewed: shard 0 still being written");
+        // Step 3: the writer dies (its lease expires): b renders shard 0 again; the dead
+        // writer's late renewal and report are refused, b's counts once.
+        expire();
         assert_eq!(idx(part("b")), Some(0));
+        assert!(!s.renew_shard_lease(1, 0, "a#write", long).unwrap());
         assert!(s.shard_done(1, 0, "a#write", &p).unwrap().is_none());
         assert_eq!(s.shard_done(1, 0, "b", &p).unwrap().unwrap().spp, 4);
-        // Step 3: shard 1's write fails: freed for anyone at once.
+        // Step 4: shard 1's write fails: freed for anyone at once.
         assert!(s.hand_shard(1, 1, "a", "a#write", long).unwrap());
         s.release_shard(1, 1, "a#write").unwrap();
         assert_eq!(idx(part("c")), Some(1));

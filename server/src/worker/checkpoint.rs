@@ -9,7 +9,8 @@
 //! it. The floats go to and come from the file as they lie in memory (no per-value encoding)
 //! and the checksum runs at memory speed, so a film-size checkpoint costs about its write:
 //! a split job writes one per shard (shard.rs). Files of the first layout (`CNDLCKP1`, the same
-//! but an FNV-1a 64 checksum) are still read.
+//! but an FNV-1a 64 checksum) are still read; builds before layout 2 cannot read it, so every
+//! worker of a farm is upgraded together (docs/farm.md).
 
 use std::io::Read;
 use std::path::Path;
@@ -136,11 +137,15 @@ pub fn read(
     if header.seed != seed {
         return Err(bad("made with another seed"));
     }
-    if header.entries != entries || len != (20 + json_len + entries * 16 + 4) as u64 {
+    if header.entries != entries {
         return Err(bad(&format!(
             "holds {} accumulation entries, the session {entries}",
             header.entries
         )));
+    }
+    let want = (20 + json_len + entries * 16 + 4) as u64;
+    if len != want {
+        return Err(bad(&format!("{len} bytes, expected {want} (truncated?)")));
     }
     // Step 2: the floats straight into the accumulation's memory, then the checksum.
     let mut acc = vec![[0.0f32; 4]; entries];
@@ -199,11 +204,16 @@ fn read_v1(
     if header.seed != seed {
         return Err(bad("made with another seed"));
     }
-    if header.entries != entries || body.len() != 20 + json_len + entries * 16 {
+    if header.entries != entries {
         return Err(bad(&format!(
             "holds {} accumulation entries, the session {entries}",
             header.entries
         )));
+    }
+    let want = 20 + json_len + entries * 16;
+    if body.len() != want {
+        let len = body.len();
+        return Err(bad(&format!("{len} bytes, expected {want} (truncated?)")));
     }
     let acc = body[20 + json_len..]
         .chunks_exact(16)
@@ -237,13 +247,17 @@ mod tests {
         assert!(read(&path, 1, 2, 7, 2).is_err());
         assert!(read(&path, 2, 1, 8, 2).is_err());
         assert!(read(&path, 2, 1, 7, 3).is_err());
-        let mut bytes = std::fs::read(&path).unwrap();
-        let n = bytes.len();
+        let clean = std::fs::read(&path).unwrap();
+        let n = clean.len();
+        let mut bytes = clean.clone();
         bytes[n - 12] ^= 1;
         std::fs::write(&path, &bytes).unwrap();
         assert!(read(&path, 2, 1, 7, 2).unwrap_err().contains("checksum"));
-        std::fs::write(&path, &bytes[..n - 1]).unwrap();
-        assert!(read(&path, 2, 1, 7, 2).is_err(), "truncated");
+        // (A clean copy cut short: only the length can tell.)
+        std::fs::write(&path, &clean[..n - 1]).unwrap();
+        let e = read(&path, 2, 1, 7, 2).unwrap_err();
+        assert!(e.contains("truncated?"), "{e}");
+        assert!(e.contains(&format!("{} bytes, expected {n}", n - 1)), "{e}");
         // A file of the first layout (FNV-1a 64) still reads.
         let json = serde_json::to_vec(&Header {
             seed: 7,

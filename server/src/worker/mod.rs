@@ -217,7 +217,7 @@ impl Worker {
                 }
             }
             // Shards whose final checkpoint is now on disk: done (shard_write.rs).
-            self.collect_writes(false);
+            self.collect_writes(0);
             // Step 2: the leases renewed; jobs taken over by another worker dropped.
             if self.last_heartbeat.elapsed() >= self.config.heartbeat {
                 self.heartbeat();
@@ -716,7 +716,7 @@ impl Worker {
     /// Checkpoints every active job (they stay `running` and resume at the next start).
     fn shutdown(&mut self) {
         // Finished shards are recorded done before the leases go.
-        self.collect_writes(true);
+        self.collect_writes(usize::MAX);
         let ids: Vec<JobId> = self.active.keys().copied().collect();
         for id in ids {
             if let Some(job) = self.active.get_mut(&id) {

@@ -74,6 +74,7 @@ impl Worker {
     pub(super) fn heartbeat(&mut self) {
         self.last_heartbeat = Instant::now();
         self.report(false);
+        self.renew_write_leases();
         let held: Vec<JobId> = self.active.keys().copied().collect();
         let kept = match self
             .store

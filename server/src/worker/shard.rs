@@ -212,18 +212,34 @@ impl Worker {
                       "lost the shard's lease; reading its sums back failed");
                 return self.keep_spare(id, job);
             }
+            // (A lost device fails no job: outcome.rs `render_failed`.)
             Err(e) => {
                 self.active.insert(id, job);
-                return self.fail(id, format!("reading a shard's sums back: {e}"));
+                return self.render_failed(id, e, "reading a shard's sums back");
             }
         };
         let readback = t0.elapsed();
-        // Step 2: the lease to the writer's name, then the write on its thread.
+        // Step 2: the lease to the writer's name, then the write on its thread. (A film-size
+        // buffer each: writes slower than the renders wait here, for the oldest, before the
+        // lease's clock starts.)
+        while self.writes.len() >= super::shard_write::MAX_PENDING {
+            self.collect_writes(1);
+        }
         let owner = super::shard_write::writer_name(&worker);
-        match self
+        // (A database error is tried once more, a moment later: else the sums are lost and
+        // the shard rendered again from its last checkpoint.)
+        let lease = self.config.lease;
+        let handed = self
             .store
-            .hand_shard(id, sh.range.idx, &worker, &owner, self.config.lease)
-        {
+            .hand_shard(id, sh.range.idx, &worker, &owner, lease)
+            .or_else(|e| {
+                warn!(job = id, shard = sh.range.idx, error = %e,
+                      "handing a shard to its writer; trying again");
+                std::thread::sleep(super::shard_write::RETRY_AFTER);
+                self.store
+                    .hand_shard(id, sh.range.idx, &worker, &owner, lease)
+            });
+        match handed {
             Ok(true) => {
                 let finished = super::shard_write::Finished {
                     id,
@@ -237,10 +253,6 @@ impl Worker {
                     rendering,
                     readback,
                 };
-                // (A film-size buffer each: writes slower than the renders wait here.)
-                if self.writes.len() >= super::shard_write::MAX_PENDING {
-                    self.collect_writes(true);
-                }
                 match super::shard_write::start(self.store.clone(), owner.clone(), finished) {
                     Ok(w) => self.writes.push(w),
                     Err(e) => {

@@ -1,7 +1,8 @@
 //! A finished shard's final checkpoint, written off the render thread: the shard's sums are
 //! read back from the device (the only part that needs it), the shard's lease is handed to a
 //! name of the worker's own for writers (`NAME#write`, store/shards.rs `hand_shard`) and a
-//! thread writes `shard-<k>.bin` (durably: fsync, rename) and only then marks the shard done,
+//! thread writes `shard-<k>.bin` (durably: the file fsync'd, renamed into place, the folder
+//! fsync'd: [`sync_folder`]) and only then marks the shard done,
 //! while the device renders the worker's next shard. The worker loop collects finished writes
 //! ([`Worker::collect_writes`]), announces them (`progress` event) and claims again (the merge,
 //! once every shard is done).
@@ -58,8 +59,13 @@ pub struct ShardWrite {
 }
 
 /// Writes a device thread lets run at once (each holds a copy of a film-size accumulation);
-/// a shard that ends with this many under way waits for them.
+/// a shard that ends with this many under way waits for the oldest, before its own lease is
+/// handed (so that its writer's lease runs from the start of its write).
 pub const MAX_PENDING: usize = 2;
+
+/// How long a shard's hand-off or done mark that hit a database error waits before its one
+/// more try.
+pub const RETRY_AFTER: Duration = Duration::from_millis(200);
 
 /// The name a worker's shard writes hold their leases under.
 pub fn writer_name(worker: &str) -> String {
@@ -80,6 +86,31 @@ pub struct Finished {
     pub readback: Duration,
 }
 
+/// Syncs the folder of `path`, so that the rename that put the file there survives a power
+/// loss before the shard is marked done. (A file system that cannot sync a folder is let be:
+/// were the rename lost after all, the merge finds the file missing and renders the shard
+/// again.)
+fn sync_folder(path: &std::path::Path) -> std::io::Result<()> {
+    // (Only Unix opens a folder as a file to sync it.)
+    let Some(dir) = path
+        .parent()
+        .filter(|d| cfg!(unix) && !d.as_os_str().is_empty())
+    else {
+        return Ok(());
+    };
+    match std::fs::File::open(dir).and_then(|d| d.sync_all()) {
+        Err(e)
+            if matches!(
+                e.kind(),
+                std::io::ErrorKind::InvalidInput | std::io::ErrorKind::Unsupported
+            ) =>
+        {
+            Ok(())
+        }
+        r => r,
+    }
+}
+
 /// Starts the write of a finished shard whose lease was handed to `owner`.
 pub fn start(
     store: std::sync::Arc<Store>,
@@ -94,7 +125,8 @@ pub fn start(
         .spawn(move || {
             let t0 = Instant::now();
             let wrote = crate::storage::injected_fault()
-                .and_then(|_| checkpoint::write(&path, w, h, seed, &p, &acc));
+                .and_then(|_| checkpoint::write(&path, w, h, seed, &p, &acc))
+                .and_then(|_| sync_folder(&path));
             drop(acc);
             let file = t0.elapsed();
             if wrote.is_ok() {
@@ -102,9 +134,17 @@ pub fn start(
             }
             let result = match wrote {
                 Err(e) => Err(WriteError::Io(e)),
-                // Done only now that the file is whole on disk.
+                // Done only now that the file is whole on disk. (A database error is tried
+                // once more, a moment later: else the shard waits for the lease to run out
+                // and is rendered again.)
                 Ok(()) => store
                     .shard_done(id, idx, &thread_owner, &p)
+                    .or_else(|e| {
+                        warn!(job = id, shard = idx, error = %e,
+                              "recording a shard done; trying again");
+                        std::thread::sleep(RETRY_AFTER);
+                        store.shard_done(id, idx, &thread_owner, &p)
+                    })
                     .map_err(WriteError::Store),
             };
             Written {
@@ -146,17 +186,34 @@ fn hold_for_test(id: JobId, idx: u32) {
 }
 
 impl Worker {
-    /// Handles the shard writes that ended (every one, waiting, when `wait`): a shard done is
-    /// announced and the worker claims again; a failed write frees the shard (rendered again)
-    /// and, unless the disk is full, fails the job as a failed checkpoint does.
-    pub(super) fn collect_writes(&mut self, wait: bool) {
-        let mut i = 0;
+    /// Renews the writers' leases of the writes under way (with the worker's heartbeat): a
+    /// write slower than `--lease` (a slow disk, writes queued ahead of it) keeps its shard.
+    pub(super) fn renew_write_leases(&self) {
+        for w in &self.writes {
+            let renewed = self
+                .store
+                .renew_shard_lease(w.id, w.idx, &w.owner, self.config.lease);
+            if let Err(e) = renewed {
+                warn!(job = w.id, shard = w.idx, error = %e, "renewing a shard writer's lease");
+            }
+        }
+    }
+
+    /// Handles the shard writes that ended, after waiting for the oldest `wait` of them (0:
+    /// none, `usize::MAX`: all): a shard done is announced and the worker claims again; a
+    /// failed write frees the shard (rendered again) and, unless the disk is full, fails the
+    /// job as a failed checkpoint does.
+    pub(super) fn collect_writes(&mut self, wait: usize) {
+        let (mut i, mut seen) = (0, 0);
         while i < self.writes.len() {
-            if !wait && !self.writes[i].handle.is_finished() {
+            let must = seen < wait;
+            seen += 1;
+            if !must && !self.writes[i].handle.is_finished() {
                 i += 1;
                 continue;
             }
-            let w = self.writes.swap_remove(i);
+            // (In start order: `writes[0]` is the oldest.)
+            let w = self.writes.remove(i);
             let (id, idx) = (w.id, w.idx);
             let written = w.handle.join().unwrap_or_else(|_| Written {
                 file: Duration::ZERO,
@@ -194,7 +251,17 @@ impl Worker {
                 Err(WriteError::Io(e)) => {
                     let held = self.store.holds_shard(id, idx, &w.owner).unwrap_or(true);
                     let _ = self.store.release_shard(id, idx, &w.owner);
-                    if !held {
+                    // (A cancel removes the writer's temp file too: its rename then fails, and
+                    // the job is not this write's to fail. `discard_if_ended` cleans up.)
+                    let ended = match self.store.job_state(id) {
+                        Ok(Some(state)) => state.is_terminal(),
+                        Ok(None) => true,
+                        Err(_) => false,
+                    };
+                    if ended {
+                        info!(job = id, shard = idx, error = %e,
+                              "the job ended while its shard was written; dropping the write");
+                    } else if !held {
                         warn!(job = id, shard = idx, error = %e,
                               "lost the shard's lease; its last checkpoint failed");
                     } else if is_storage_fault(&e) {
@@ -208,12 +275,14 @@ impl Worker {
         }
     }
 
-    /// Removes shard `idx`'s file when job `id` ended (canceled or failed) or was deleted while
-    /// it was written: the cleanups at the cancel passed it by.
+    /// Removes shard `idx`'s file when job `id` ended (done, canceled or failed) or was deleted
+    /// while it was written: the cleanups at the cancel or the merge passed it by. (A late
+    /// writer, slower than its lease, renames after another worker finished the shard and the
+    /// merge, which had read every shard file, removed them.)
     fn discard_if_ended(&mut self, id: JobId, idx: u32) {
         let paths = JobPaths::new(&self.config.data_dir, id);
         match self.store.job_state(id) {
-            Ok(Some(JobState::Canceled | JobState::Failed)) => {
+            Ok(Some(JobState::Done | JobState::Canceled | JobState::Failed)) => {
                 let _ = std::fs::remove_file(paths.shard_checkpoint(idx));
             }
             Ok(None) => {
