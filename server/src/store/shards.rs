@@ -409,16 +409,14 @@ mod tests {
         assert!(plan(&timed, 4).is_empty(), "time budgets stay whole");
     }
 
-    /// Three workers split a 10 spp job into shards of 4: each claims one, a fourth gets
-    /// nothing while they hold them; an expired shard goes to another worker; once every shard
-    /// is done the next claim is the merge, and the job's progress is the shards' sum.
-    #[test]
-    fn shards_are_claimed_once_then_merged() {
-        let dir = std::env::temp_dir().join(format!("candela-shards-{}", std::process::id()));
+    /// A fresh SQLite store in a temporary folder named after `tag`, holding one queued job of
+    /// `spp` samples per pixel (id 1).
+    fn store_with_job(tag: &str, spp: u32) -> (std::path::PathBuf, Store) {
+        let dir = std::env::temp_dir().join(format!("{tag}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         let s = Store::open(&dir.join("candela.db")).unwrap();
-        let json = format!("{{{BASE}, \"spp\": 10}}");
+        let json = format!("{{{BASE}, \"spp\": {spp}}}");
         s.read(|c| {
             c.exec(
                 "INSERT INTO jobs (name, state, priority, settings, scene, source, created_at, \
@@ -427,6 +425,15 @@ mod tests {
             )
         })
         .unwrap();
+        (dir, s)
+    }
+
+    /// Three workers split a 10 spp job into shards of 4: each claims one, a fourth gets
+    /// nothing while they hold them; an expired shard goes to another worker; once every shard
+    /// is done the next claim is the merge, and the job's progress is the shards' sum.
+    #[test]
+    fn shards_are_claimed_once_then_merged() {
+        let (dir, s) = store_with_job("candela-shards", 10);
         let long = std::time::Duration::from_secs(60);
         let part = |w: &str, lease| s.claim_job(w, lease, &[], 4).unwrap().map(|c| c.part);
         let range = |idx, first, samples| ShardRange {
@@ -523,19 +530,7 @@ mod tests {
     /// nothing; a failed write frees it at once.
     #[test]
     fn a_shard_being_written_is_claimed_again_only_when_its_writer_is_gone() {
-        let dir = std::env::temp_dir().join(format!("candela-shardw-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        let s = Store::open(&dir.join("candela.db")).unwrap();
-        let json = format!("{{{BASE}, \"spp\": 8}}");
-        s.read(|c| {
-            c.exec(
-                "INSERT INTO jobs (name, state, priority, settings, scene, source, created_at, \
-                 updated_at) VALUES ('j', 'queued', 10, ?1, '{}', 'inline', 1, 1)",
-                params![json],
-            )
-        })
-        .unwrap();
+        let (dir, s) = store_with_job("candela-shardw", 8);
         let long = std::time::Duration::from_secs(60);
         let part = |w: &str| s.claim_job(w, long, &[], 4).unwrap().map(|c| c.part);
         let idx = |p: Option<Part>| match p {

@@ -134,15 +134,7 @@ pub fn read(
     file.read_exact(&mut head[20..])
         .map_err(|e| bad(&e.to_string()))?;
     let header: Header = serde_json::from_slice(&head[20..]).map_err(|e| bad(&e.to_string()))?;
-    if header.seed != seed {
-        return Err(bad("made with another seed"));
-    }
-    if header.entries != entries {
-        return Err(bad(&format!(
-            "holds {} accumulation entries, the session {entries}",
-            header.entries
-        )));
-    }
+    check_header(&header, seed, entries).map_err(|what| bad(&what))?;
     let want = (20 + json_len + entries * 16 + 4) as u64;
     if len != want {
         return Err(bad(&format!("{len} bytes, expected {want} (truncated?)")));
@@ -174,6 +166,20 @@ pub fn read(
     Ok((header.progress, acc))
 }
 
+/// Whether a checkpoint's header fits the session: the same seed and accumulation length.
+fn check_header(header: &Header, seed: u64, entries: usize) -> Result<(), String> {
+    if header.seed != seed {
+        return Err("made with another seed".into());
+    }
+    if header.entries != entries {
+        return Err(format!(
+            "holds {} accumulation entries, the session {entries}",
+            header.entries
+        ));
+    }
+    Ok(())
+}
+
 /// [`read`] of a file of the first layout (`CNDLCKP1`: FNV-1a 64 checksum).
 fn read_v1(
     path: &Path,
@@ -201,15 +207,7 @@ fn read_v1(
     }
     let header: Header =
         serde_json::from_slice(&body[20..20 + json_len]).map_err(|e| bad(&e.to_string()))?;
-    if header.seed != seed {
-        return Err(bad("made with another seed"));
-    }
-    if header.entries != entries {
-        return Err(bad(&format!(
-            "holds {} accumulation entries, the session {entries}",
-            header.entries
-        )));
-    }
+    check_header(&header, seed, entries).map_err(|what| bad(&what))?;
     let want = 20 + json_len + entries * 16;
     if body.len() != want {
         let len = body.len();
