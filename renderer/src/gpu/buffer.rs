@@ -178,8 +178,17 @@ impl GpuContext {
 
     /// Reads `len` bytes of `src` from `offset` back to the host.
     pub fn download(self: &Arc<Self>, src: &Buffer, offset: u64, len: u64) -> GpuResult<Vec<u8>> {
+        let mut out = vec![0u8; len as usize];
+        self.download_to(src, offset, &mut out)?;
+        Ok(out)
+    }
+
+    /// Reads `dst.len()` bytes of `src` from `offset` into `dst` (one copy out of the staging
+    /// buffer, none more: accumulations of a 4K film are hundreds of MB).
+    fn download_to(self: &Arc<Self>, src: &Buffer, offset: u64, dst: &mut [u8]) -> GpuResult<()> {
+        let len = dst.len() as u64;
         if len == 0 {
-            return Ok(Vec::new());
+            return Ok(());
         }
         let staging = Buffer::new(self, "staging readback", len, BufferUsage::Readback)?;
         self.one_shot("download", |dev, cmd| {
@@ -194,7 +203,17 @@ impl GpuContext {
         let m = staging
             .mapped()
             .ok_or_else(|| GpuError::Other("readback buffer not mapped".into()))?;
-        Ok(m[..len as usize].to_vec())
+        dst.copy_from_slice(&m[..len as usize]);
+        Ok(())
+    }
+
+    /// Reads the first `dst.len()` elements of `src` into `dst`.
+    pub fn download_into<T: bytemuck::Pod>(
+        self: &Arc<Self>,
+        src: &Buffer,
+        dst: &mut [T],
+    ) -> GpuResult<()> {
+        self.download_to(src, 0, bytemuck::cast_slice_mut(dst))
     }
 
     /// Reads a whole buffer back as a vector of `T`.
@@ -203,7 +222,8 @@ impl GpuContext {
         src: &Buffer,
         count: usize,
     ) -> GpuResult<Vec<T>> {
-        let bytes = self.download(src, 0, (count * std::mem::size_of::<T>()) as u64)?;
-        Ok(bytemuck::pod_collect_to_vec(&bytes))
+        let mut out = vec![T::zeroed(); count];
+        self.download_into(src, &mut out)?;
+        Ok(out)
     }
 }

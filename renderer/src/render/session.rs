@@ -622,15 +622,18 @@ impl RenderSession {
     /// [`Self::accumulation_len`] entries in all. Restore it as a whole.
     pub fn accumulation(&mut self) -> Result<Vec<[f32; 4]>, RenderError> {
         self.settle()?;
+        // Each buffer straight into its place in one vector.
         let n = (self.width * self.height) as usize;
-        let mut out: Vec<[f32; 4]> = self.ctx.download_vec(&self.accum, n)?;
+        let mut out = vec![[0f32; 4]; self.accumulation_len()];
+        let (first, rest) = out.split_at_mut(n);
+        self.ctx.download_into(&self.accum, first)?;
+        let mut rest = rest;
         for (e, b) in &self.extra {
-            out.extend(
-                self.ctx
-                    .download_vec::<[f32; 4]>(b, n * e.entries_per_pixel as usize)?,
-            );
+            let (part, tail) = rest.split_at_mut(n * e.entries_per_pixel as usize);
+            self.ctx.download_into(b, part)?;
+            rest = tail;
         }
-        out.extend(self.ctx.download_vec::<[f32; 4]>(&self.accum_odd, n)?);
+        self.ctx.download_into(&self.accum_odd, rest)?;
         Ok(out)
     }
 
