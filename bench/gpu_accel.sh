@@ -27,7 +27,7 @@ import json, sys
 d = json.load(open(sys.argv[4]))
 keep = ("msamples_per_s", "triangles", "instances", "instanced_triangles", "accel_build_s",
         "load_s", "compile_s", "gpu_bytes_per_triangle", "gpu_bytes_per_instance",
-        "scene_gpu_bytes", "peak_rss_bytes", "bvh_depth", "spp", "time_s")
+        "scene_gpu_bytes", "peak_rss_bytes", "bvh_depth", "spp", "time_s", "accel_phases")
 print(json.dumps({"bin": sys.argv[1], "scene": sys.argv[2], "accel": sys.argv[3],
                   **{k: d.get(k) for k in keep}}))
 PY
