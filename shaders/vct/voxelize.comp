@@ -8,9 +8,11 @@
 // slice along its longest axis, `rows` rows of the second longest and `deep` voxels of the
 // shortest (4 and 8, more when a scene has too many tiles for one launch: VP_MODE), numbered
 // primitive after primitive (renderer/src/integrators/vct/build.rs, `voxel_tiles`), so a warp's
-// threads share a primitive and a wall spanning the grid is spread over many threads. Counting pass (capacity 0) and emitting pass share the kernel: each thread
-// counts its voxels, the workgroup sums its threads' counts in shared memory and reserves one
-// block with one global atomic (millions of threads on one counter serialise), and each thread
+// threads share a primitive and a wall spanning the grid is spread over many threads. Push
+// constants: VP_LEVEL the primitives, VP_COUNT the tiles, VP_MODE the tile size (rows | deep
+// << 16). Counting pass (capacity 0) and emitting pass share the kernel: each thread counts
+// its voxels, the workgroup sums its threads' counts in shared memory and reserves one block
+// with one global atomic (millions of threads on one counter serialise), and each thread
 // writes its share of the block.
 #version 460
 #extension GL_GOOGLE_include_directive : require
@@ -76,7 +78,7 @@ void main() {
     ivec3 slo = ivec3(0), shi = ivec3(-1);
     if (work) {
         // Step 1: the tile's primitive, the last whose first tile is at or before it.
-        uint lo_i = 0u, hi_i = uint(tiles.length()) - 1u;
+        uint lo_i = 0u, hi_i = VP_LEVEL - 1u;
         while (lo_i < hi_i) {
             uint mid = (lo_i + hi_i + 1u) >> 1;
             if (tiles[mid].x <= tile) lo_i = mid; else hi_i = mid - 1u;

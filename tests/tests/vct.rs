@@ -244,6 +244,29 @@ fn injected_radiance_is_in_path_tracer_units() {
     let vals = v.probe(&probes).expect("probe");
     let occupied: Vec<&[f32; 4]> = vals.iter().filter(|p| p[3] > 0.0).collect();
     assert_eq!(occupied.len() as u32, v.counts().0, "occupied voxels");
+    // The scene's one primitive is voxelized where it is: a thin shell around the grid's centre
+    // covering at least the sphere's area (a single-primitive scene once read past its tile).
+    let dist: Vec<f32> = (vals.iter().zip(&probes))
+        .filter(|(v, _)| v[3] > 0.0)
+        .map(|(_, (p, _))| {
+            let c = r as f32 / 2.0;
+            ((p[0] - c).powi(2) + (p[1] - c).powi(2) + (p[2] - c).powi(2)).sqrt()
+        })
+        .collect();
+    let (lo, hi) = dist
+        .iter()
+        .fold((f32::MAX, 0f32), |(a, b), &d| (a.min(d), b.max(d)));
+    let shell = 4.0 * std::f32::consts::PI * ((lo + hi) / 2.0).powi(2);
+    println!(
+        "shell radius {lo:.2}..{hi:.2} voxels, {} voxels",
+        dist.len()
+    );
+    assert!(hi - lo <= 2.0 && lo > r as f32 / 4.0, "shell {lo}..{hi}");
+    assert!(
+        dist.len() as f32 >= shell,
+        "{} voxels, area {shell}",
+        dist.len()
+    );
     let m = occupied.iter().map(|p| (p[1] / p[3]) as f64).sum::<f64>() / occupied.len() as f64;
     println!(
         "{} voxels, mean injected radiance {m:.4} (expected 1.0)",

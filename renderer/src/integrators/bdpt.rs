@@ -325,8 +325,9 @@ fn resolve(
             ((hi << 32) | lo) as f64 / (1u64 << SPLAT_FRAC_BITS) as f64
         }
     };
+    use rayon::prelude::*;
     accum
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(i, a)| {
             let mut px = [0f32; 3];

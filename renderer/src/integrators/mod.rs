@@ -235,8 +235,9 @@ pub struct ScratchBuffer {
 
 /// The plain estimate: accumulated radiance divided by the samples kept per pixel.
 pub fn mean_of_accumulation(accum: &[[f32; 4]]) -> Vec<[f32; 3]> {
+    use rayon::prelude::*;
     accum
-        .iter()
+        .par_iter()
         .map(|a| {
             if a[3] > 0.0 {
                 [a[0] / a[3], a[1] / a[3], a[2] / a[3]]

@@ -25,7 +25,13 @@
 //! splats are split by parity too (binding SPLAT_ODD), so each half carries its own
 //! (renderer/src/render/halves.rs forms the halves' images). It is meant for ≥ 8 spp.
 
+use rayon::prelude::*;
+
 use crate::film::Image;
+
+/// Pixels per parallel chunk of the estimate's sum (a fixed size, so the sum's order, and so its
+/// value, does not depend on the number of threads).
+const CHUNK: usize = 1 << 14;
 
 /// How [`rel_mse_estimate`] is computed, for reports.
 pub const REL_MSE_ESTIMATE_FORMULA: &str = "mean over pixels and RGB channels of \
@@ -47,7 +53,7 @@ pub fn rel_mse_estimate(total: &[[f32; 4]], odd: &[[f32; 4]], image: &Image) -> 
     }
     let mean = |s: [f64; 3], n: f64| s.map(|x| if n > 0.0 { x / n } else { 0.0 });
     let (even_means, odd_means): (Vec<_>, Vec<_>) = total
-        .iter()
+        .par_iter()
         .zip(odd)
         .map(|(t, o)| {
             let (n, n_b) = (f64::from(t[3]), f64::from(o[3]));
@@ -84,15 +90,14 @@ pub fn rel_mse_estimate_of_halves(
         return None;
     }
     let blurred = box3(image);
-    let mut sum = 0.0f64;
-    let mut count = 0usize;
-    for i in 0..n {
+    // Each chunk's sum and count in parallel, then the chunks' in order.
+    let pixel_term = |i: usize| -> Option<f64> {
         // Step 1: the sample counts of the halves.
         let n = f64::from(total[i][3]);
         let n_b = f64::from(odd_accum[i][3]);
         let n_a = n - n_b;
         if !(n_a >= 1.0 && n_b >= 1.0) {
-            continue;
+            return None;
         }
         let weight = n_a * n_b / (n * n);
         // Step 2: per channel, the squared difference of the half means, scaled to the
@@ -105,11 +110,22 @@ pub fn rel_mse_estimate_of_halves(
             let mu2 = (v * v).min(blurred[i][c] * blurred[i][c]);
             pixel[c] = (a - b) * (a - b) * weight / (mu2 + EPSILON);
         }
-        if pixel.iter().all(|x| x.is_finite()) {
-            sum += pixel.iter().sum::<f64>();
-            count += 3;
-        }
-    }
+        pixel
+            .iter()
+            .all(|x| x.is_finite())
+            .then(|| pixel.iter().sum::<f64>())
+    };
+    let chunks: Vec<(f64, usize)> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|k| {
+            (k * CHUNK..((k + 1) * CHUNK).min(n))
+                .filter_map(pixel_term)
+                .fold((0.0, 0), |(s, c), x| (s + x, c + 3))
+        })
+        .collect();
+    let (sum, count) = chunks
+        .iter()
+        .fold((0.0f64, 0usize), |(s, c), &(x, k)| (s + x, c + k));
     (count > 0).then(|| sum / count as f64)
 }
 
@@ -125,9 +141,10 @@ fn box3(image: &Image) -> Vec<[f64; 3]> {
             0.0
         }
     };
-    let mut out = Vec::with_capacity(image.pixels.len());
-    for y in 0..h {
-        for x in 0..w {
+    (0..image.pixels.len())
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i as i64 % w, i as i64 / w);
             let mut sum = [0.0f64; 3];
             let mut k = 0.0;
             for yy in (y - 1).max(0)..=(y + 1).min(h - 1) {
@@ -138,10 +155,9 @@ fn box3(image: &Image) -> Vec<[f64; 3]> {
                     k += 1.0;
                 }
             }
-            out.push(sum.map(|s| s / k));
-        }
-    }
-    out
+            sum.map(|s| s / k)
+        })
+        .collect()
 }
 
 #[cfg(test)]

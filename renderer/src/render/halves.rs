@@ -16,6 +16,8 @@
 //! them are odd. Extra buffers without an odd share are left out of both halves: their
 //! variance is not seen, but they do not bias the difference of the halves either.
 
+use rayon::prelude::*;
+
 use crate::film::Image;
 use crate::integrators::{ExtraBuffer, Resolver};
 
@@ -68,14 +70,14 @@ pub fn estimate(
     }
     // Step 3: each half's sums, resolved as the integrator resolves the image.
     let even_sums: Vec<[f32; 4]> = total
-        .iter()
+        .par_iter()
         .zip(odd)
         .map(|(t, o)| [t[0] - o[0], t[1] - o[1], t[2] - o[2], t[3] - o[3]])
         .collect();
     let resolve = |sums: &[[f32; 4]], extra: &[Vec<[f32; 4]>], spp: u32| -> Vec<[f64; 3]> {
         let parts: Vec<&[[f32; 4]]> = extra.iter().map(|v| v.as_slice()).collect();
         resolver(sums, &parts, spp)
-            .into_iter()
+            .into_par_iter()
             .map(|p| p.map(f64::from))
             .collect()
     };

@@ -197,11 +197,14 @@ impl<'a> Builder<'a> {
 
     /// Conservative voxelization, counting then emitting (thread = one tile of a primitive's
     /// voxel box: a slice along its longest axis × VOX_ROWS rows of the second × VOX_DEPTH
-    /// voxels of the shortest; [`voxel_tiles`]). Returns the fragment list and its length.
+    /// voxels of the shortest, grown when a scene has too many tiles for one launch;
+    /// [`voxel_tiles`]). Returns the fragment list and its length.
     fn voxelize(&mut self) -> Result<(Buffer, u32), RenderError> {
         let t = voxel_tiles(&self.scene.prims, &self.params)?;
         let (total, groups) = (t.total, t.groups);
-        let push = push(0, total, t.rows | t.depth << 16);
+        // The kernel's binary search reads exactly the primitives' entries (the buffer may be
+        // padded past them).
+        let push = push(t.tiles.len() as u32, total, t.rows | t.depth << 16);
         let tiles = Buffer::from_slice(self.ctx, "vct voxelization tiles", &t.tiles)?;
         let mut frag_count = 0u32;
         if total > 0 {
@@ -465,6 +468,7 @@ fn voxel_tiles(
         let mut total = 0u64;
         for ext in &extents {
             let (nr, nd) = (ext[1].div_ceil(rows), ext[2].div_ceil(depth));
+            debug_assert!(nr < 1 << 16 && nd < 1 << 16, "tile grid {nr} x {nd}");
             tiles.push([total.min(u32::MAX as u64) as u32, nr | nd << 16]);
             total += ext[0] as u64 * nr as u64 * nd as u64;
         }
