@@ -185,6 +185,17 @@ fn auto_job_resumes_with_its_choice() {
     let (st, body) = s.post(&format!("/api/jobs/{id}/pause"), &json!({}));
     assert_eq!(st, 200, "{body}");
     s.wait_job(id, Duration::from_secs(60), |j| j["state"] == "paused");
+    // (The worker lets go of it at its next look at the store: resumed before that, the job
+    // would simply go on in the session it has.)
+    let t0 = std::time::Instant::now();
+    while !s.log().contains("paused and checkpointed") {
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "never checkpointed:\n{}",
+            s.log()
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
     // Step 2: resumed, it finishes with the same integrator and no new pilot.
     let (st, body) = s.post(&format!("/api/jobs/{id}/resume"), &json!({}));
     assert_eq!(st, 200, "{body}");

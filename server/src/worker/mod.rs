@@ -532,10 +532,17 @@ impl Worker {
             return;
         };
         match self.store.get_job(id).map(|r| r.state) {
-            Ok(JobState::Paused) => match job.write_checkpoint() {
+            // Paused, or paused and already resumed (queued again) since the runnable jobs
+            // were read: either way it runs again from this checkpoint.
+            Ok(state @ (JobState::Paused | JobState::Queued)) => match job.write_checkpoint() {
                 Ok(p) => {
                     shard::record_progress(&self.store, &self.config.worker_id, id, &mut job, &p);
-                    info!(job = id, spp = p.spp, "paused and checkpointed");
+                    info!(
+                        job = id,
+                        spp = p.spp,
+                        state = state.as_str(),
+                        "paused and checkpointed"
+                    );
                 }
                 Err(e) => self.checkpoint_failed(id, e),
             },
