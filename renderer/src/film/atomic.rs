@@ -1,6 +1,6 @@
 //! Atomic file writes: the bytes go to a temporary file in the destination's folder, which is
-//! synced and then renamed over the destination, so a reader sees the old file or the whole new
-//! one, never half a file.
+//! synced (unless the caller can do without: [`write_atomic_parts`]) and then renamed over the
+//! destination, so a reader sees the old file or the whole new one, never half a file.
 
 use std::fs::{self, File};
 use std::io::{self, Write};
@@ -13,19 +13,23 @@ static NEXT_TEMP: AtomicU64 = AtomicU64::new(0);
 /// Writes `bytes` to `path` atomically (temporary sibling + rename). On failure the temporary
 /// file is removed and `path` is left as it was.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
-    write_atomic_parts(path, &[bytes])
+    write_atomic_parts(path, &[bytes], true)
 }
 
 /// [`write_atomic`] of the concatenation of `parts` (written one after the other, never copied
-/// into one buffer).
-pub fn write_atomic_parts(path: &Path, parts: &[&[u8]]) -> io::Result<()> {
+/// into one buffer). `sync` false skips the fsync before the rename: the file is then whole for
+/// every reader, but after a power loss it may be missing or empty, so only files their
+/// readers check (and can do without) are written so.
+pub fn write_atomic_parts(path: &Path, parts: &[&[u8]], sync: bool) -> io::Result<()> {
     let temp = temp_path(path)?;
     let result = (|| {
         let mut file = File::create_new(&temp)?;
         for part in parts {
             file.write_all(part)?;
         }
-        file.sync_all()?;
+        if sync {
+            file.sync_all()?;
+        }
         drop(file);
         fs::rename(&temp, path)
     })();

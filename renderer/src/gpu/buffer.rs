@@ -1,6 +1,7 @@
 //! GPU buffers allocated with gpu-allocator, and the staging copies that fill and read them.
-//! Storage buffers live in device-local memory; uploads and readbacks go through host-visible
-//! staging buffers and a one-shot command buffer, so the same path works on lavapipe and NVIDIA.
+//! Storage buffers live in device-local memory; uploads and readbacks go through the context's
+//! host-visible staging buffers (staging.rs) and one-shot command buffers, so the same path
+//! works on lavapipe and NVIDIA.
 
 use std::sync::Arc;
 
@@ -39,60 +40,7 @@ impl Buffer {
         size: u64,
         usage: BufferUsage,
     ) -> GpuResult<Buffer> {
-        let size = size.max(16).next_multiple_of(4);
-        let (vk_usage, location) = match usage {
-            BufferUsage::Storage => (
-                vk::BufferUsageFlags::STORAGE_BUFFER
-                    | vk::BufferUsageFlags::TRANSFER_DST
-                    | vk::BufferUsageFlags::TRANSFER_SRC,
-                MemoryLocation::GpuOnly,
-            ),
-            BufferUsage::Upload => (vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu),
-            BufferUsage::Readback => (vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu),
-        };
-        let info = vk::BufferCreateInfo::default()
-            .size(size)
-            .usage(vk_usage)
-            .sharing_mode(vk::SharingMode::EXCLUSIVE);
-        // SAFETY: valid device and create info.
-        let raw = unsafe { ctx.device.create_buffer(&info, None) }
-            .map_err(GpuError::vk("create buffer"))?;
-        // SAFETY: `raw` was just created on this device.
-        let requirements = unsafe { ctx.device.get_buffer_memory_requirements(raw) };
-        let alloc = {
-            let mut guard = ctx
-                .allocator
-                .lock()
-                .map_err(|_| GpuError::Other("allocator poisoned".into()))?;
-            let allocator = guard
-                .as_mut()
-                .ok_or_else(|| GpuError::Other("allocator gone".into()))?;
-            allocator.allocate(&AllocationCreateDesc {
-                name,
-                requirements,
-                location,
-                linear: true,
-                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-            })
-        };
-        let allocation = match alloc {
-            Ok(a) => a,
-            Err(e) => {
-                // SAFETY: the buffer has no memory bound and is not in use.
-                unsafe { ctx.device.destroy_buffer(raw, None) };
-                return Err(GpuError::Alloc {
-                    name: name.to_string(),
-                    message: e.to_string(),
-                });
-            }
-        };
-        // SAFETY: memory comes from a compatible type, offset respects the requirements.
-        unsafe {
-            ctx.device
-                .bind_buffer_memory(raw, allocation.memory(), allocation.offset())
-        }
-        .map_err(GpuError::vk("bind buffer memory"))?;
-        ctx.set_name(raw, name);
+        let (raw, allocation, size) = allocate(ctx, name, size, usage)?;
         Ok(Buffer {
             ctx: ctx.clone(),
             raw,
@@ -122,52 +70,98 @@ impl Buffer {
     pub(crate) fn mapped(&self) -> Option<&[u8]> {
         self.allocation.as_ref().and_then(|a| a.mapped_slice())
     }
+}
 
-    pub(crate) fn mapped_mut(&mut self) -> Option<&mut [u8]> {
-        self.allocation.as_mut().and_then(|a| a.mapped_slice_mut())
+/// Creates a buffer of `size` bytes (rounded up to at least 16, a multiple of 4) and binds it
+/// to fresh memory for `usage`; returns it, its memory and its size.
+pub(crate) fn allocate(
+    ctx: &GpuContext,
+    name: &str,
+    size: u64,
+    usage: BufferUsage,
+) -> GpuResult<(vk::Buffer, Allocation, u64)> {
+    let size = size.max(16).next_multiple_of(4);
+    let (vk_usage, location) = match usage {
+        BufferUsage::Storage => (
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        ),
+        BufferUsage::Upload => (vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu),
+        BufferUsage::Readback => (vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu),
+    };
+    let info = vk::BufferCreateInfo::default()
+        .size(size)
+        .usage(vk_usage)
+        .sharing_mode(vk::SharingMode::EXCLUSIVE);
+    // SAFETY: valid device and create info.
+    let raw =
+        unsafe { ctx.device.create_buffer(&info, None) }.map_err(GpuError::vk("create buffer"))?;
+    // SAFETY: `raw` was just created on this device.
+    let requirements = unsafe { ctx.device.get_buffer_memory_requirements(raw) };
+    let alloc = {
+        let mut guard = ctx
+            .allocator
+            .lock()
+            .map_err(|_| GpuError::Other("allocator poisoned".into()))?;
+        let allocator = guard
+            .as_mut()
+            .ok_or_else(|| GpuError::Other("allocator gone".into()))?;
+        allocator.allocate(&AllocationCreateDesc {
+            name,
+            requirements,
+            location,
+            linear: true,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        })
+    };
+    let allocation = match alloc {
+        Ok(a) => a,
+        Err(e) => {
+            // SAFETY: the buffer has no memory bound and is not in use.
+            unsafe { ctx.device.destroy_buffer(raw, None) };
+            return Err(GpuError::Alloc {
+                name: name.to_string(),
+                message: e.to_string(),
+            });
+        }
+    };
+    // SAFETY: memory comes from a compatible type, offset respects the requirements.
+    let bound = unsafe {
+        ctx.device
+            .bind_buffer_memory(raw, allocation.memory(), allocation.offset())
+    };
+    if let Err(e) = bound {
+        free(ctx, raw, allocation);
+        return Err(GpuError::vk("bind buffer memory")(e));
+    }
+    ctx.set_name(raw, name);
+    Ok((raw, allocation, size))
+}
+
+/// Destroys a buffer made by [`allocate`] and frees its memory (the GPU must be done with it).
+pub(crate) fn free(ctx: &GpuContext, raw: vk::Buffer, allocation: Allocation) {
+    // SAFETY: the caller guarantees the GPU no longer uses the buffer.
+    unsafe { ctx.device.destroy_buffer(raw, None) };
+    if let Ok(mut guard) = ctx.allocator.lock() {
+        if let Some(allocator) = guard.as_mut() {
+            let _ = allocator.free(allocation);
+        }
     }
 }
 
 impl Drop for Buffer {
     fn drop(&mut self) {
-        // SAFETY: callers wait for the GPU before dropping buffers it uses (every submission in
-        // this layer is waited on before returning).
-        unsafe { self.ctx.device.destroy_buffer(self.raw, None) };
-        if let (Some(a), Ok(mut guard)) = (self.allocation.take(), self.ctx.allocator.lock()) {
-            if let Some(allocator) = guard.as_mut() {
-                let _ = allocator.free(a);
-            }
+        // (Callers wait for the GPU before dropping buffers it uses: every submission in this
+        // layer is waited on before returning.)
+        if let Some(a) = self.allocation.take() {
+            free(&self.ctx, self.raw, a);
         }
     }
 }
 
 impl GpuContext {
-    /// Copies `bytes` into `dst` at `offset` through a staging buffer, waiting for completion.
-    pub fn upload(self: &Arc<Self>, dst: &Buffer, offset: u64, bytes: &[u8]) -> GpuResult<()> {
-        if bytes.is_empty() {
-            return Ok(());
-        }
-        let mut staging = Buffer::new(
-            self,
-            "staging upload",
-            bytes.len() as u64,
-            BufferUsage::Upload,
-        )?;
-        staging
-            .mapped_mut()
-            .ok_or_else(|| GpuError::Other("upload buffer not mapped".into()))?[..bytes.len()]
-            .copy_from_slice(bytes);
-        self.one_shot("upload", |dev, cmd| {
-            let region = [vk::BufferCopy {
-                src_offset: 0,
-                dst_offset: offset,
-                size: bytes.len() as u64,
-            }];
-            // SAFETY: both buffers are alive until the one-shot submission completes.
-            unsafe { dev.cmd_copy_buffer(cmd, staging.raw, dst.raw, &region) };
-        })
-    }
-
     /// Fills a buffer with zeros on the GPU.
     pub fn fill_zero(self: &Arc<Self>, dst: &Buffer) -> GpuResult<()> {
         self.one_shot("fill zero", |dev, cmd| {
@@ -181,30 +175,6 @@ impl GpuContext {
         let mut out = vec![0u8; len as usize];
         self.download_to(src, offset, &mut out)?;
         Ok(out)
-    }
-
-    /// Reads `dst.len()` bytes of `src` from `offset` into `dst` (one copy out of the staging
-    /// buffer, none more: accumulations of a 4K film are hundreds of MB).
-    fn download_to(self: &Arc<Self>, src: &Buffer, offset: u64, dst: &mut [u8]) -> GpuResult<()> {
-        let len = dst.len() as u64;
-        if len == 0 {
-            return Ok(());
-        }
-        let staging = Buffer::new(self, "staging readback", len, BufferUsage::Readback)?;
-        self.one_shot("download", |dev, cmd| {
-            let region = [vk::BufferCopy {
-                src_offset: offset,
-                dst_offset: 0,
-                size: len,
-            }];
-            // SAFETY: both buffers are alive until the one-shot submission completes.
-            unsafe { dev.cmd_copy_buffer(cmd, src.raw, staging.raw, &region) };
-        })?;
-        let m = staging
-            .mapped()
-            .ok_or_else(|| GpuError::Other("readback buffer not mapped".into()))?;
-        dst.copy_from_slice(&m[..len as usize]);
-        Ok(())
     }
 
     /// Reads the first `dst.len()` elements of `src` into `dst`.

@@ -80,6 +80,8 @@ pub struct GpuContext {
     /// VK_KHR_pipeline_executable_properties is enabled: pipelines report their compiled
     /// statistics (registers, shared memory, ... as the driver names them).
     pub(crate) executable_properties: Option<ash::khr::pipeline_executable_properties::Device>,
+    /// Reused staging memory for uploads and readbacks (staging.rs).
+    pub(crate) staging: super::staging::StagingPool,
 }
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
@@ -528,6 +530,7 @@ impl GpuContext {
             last_completion: Mutex::new(None),
             float_atomics,
             executable_properties,
+            staging: Default::default(),
         })
     }
 
@@ -621,6 +624,7 @@ impl Drop for GpuContext {
             let _ = self.device.device_wait_idle();
             self.pipelines.save(&self.device);
             self.pipeline_objects.destroy_all();
+            self.staging.release(self);
             self.device.destroy_pipeline_cache(self.pipelines.raw, None);
             if let Ok(mut a) = self.allocator.lock() {
                 a.take();

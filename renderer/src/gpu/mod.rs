@@ -4,7 +4,7 @@
 //! glslang, in-process), `kernel_cache` (compiled kernels in memory and on disk, the driver's
 //! pipeline cache, parallel compiles), `pipeline` (compute pipelines and their descriptor
 //! sets), `lru` (the bounds of the in-memory caches), `commands` (recording, submission,
-//! timestamps).
+//! timestamps), `staging` (the reused host-visible memory of uploads and readbacks).
 //!
 //! Everything is Vulkan 1.2 compute, so the same code runs on Mesa lavapipe (tests, CI) and on
 //! NVIDIA GPUs.
@@ -17,6 +17,7 @@ mod limits;
 mod lru;
 mod pipeline;
 mod shader;
+mod staging;
 
 pub use buffer::{Buffer, BufferUsage};
 pub use commands::{DispatchTiming, Frame, Recorder};

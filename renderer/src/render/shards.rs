@@ -13,6 +13,7 @@
 //! total spp. The image equals the single-device render of the same seed and spp up to the
 //! order of float additions.
 
+use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
@@ -144,12 +145,17 @@ pub fn merge_accumulation(
             from.len()
         )));
     }
+    // (Element by element, so the pieces' threads do not change the sums.)
     let add_floats = |a: &mut [[f32; 4]], b: &[[f32; 4]]| {
-        for (x, y) in a.iter_mut().zip(b) {
-            for c in 0..4 {
-                x[c] += y[c];
-            }
-        }
+        a.par_chunks_mut(1 << 16)
+            .zip(b.par_chunks(1 << 16))
+            .for_each(|(a, b)| {
+                for (x, y) in a.iter_mut().zip(b) {
+                    for c in 0..4 {
+                        x[c] += y[c];
+                    }
+                }
+            });
     };
     // Step 1: the radiance sums and sample counts.
     add_floats(&mut into[..pixels], &from[..pixels]);

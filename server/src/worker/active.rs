@@ -354,6 +354,7 @@ impl ActiveJob {
             self.settings.seed,
             &progress,
             &acc,
+            true,
         )
         .map_err(CheckpointError::Io)?;
         let t_file = t0.elapsed();

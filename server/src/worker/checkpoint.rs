@@ -12,8 +12,10 @@
 //! but an FNV-1a 64 checksum) are still read; builds before layout 2 cannot read it, so every
 //! worker of a farm is upgraded together (docs/farm.md).
 
-use std::io::Read;
+use std::io::{Read, Seek};
 use std::path::Path;
+
+use rayon::prelude::*;
 
 use renderer::render::Progress;
 use serde::{Deserialize, Serialize};
@@ -51,7 +53,8 @@ fn le_bytes(accumulation: &[[f32; 4]]) -> std::borrow::Cow<'_, [u8]> {
     }
 }
 
-/// Writes a checkpoint to `path` atomically.
+/// Writes a checkpoint to `path` atomically; `sync` false leaves it in the page cache (see
+/// `renderer::film::write_atomic_parts`: a finished shard's file, shard_write.rs).
 pub fn write(
     path: &Path,
     width: u32,
@@ -59,6 +62,7 @@ pub fn write(
     seed: u64,
     progress: &Progress,
     accumulation: &[[f32; 4]],
+    sync: bool,
 ) -> std::io::Result<()> {
     let t0 = std::time::Instant::now();
     let json = serde_json::to_vec(&Header {
@@ -83,7 +87,7 @@ pub fn write(
     if let Some(parent) = path.parent() {
         std::fs::create_dir_all(parent)?;
     }
-    renderer::film::write_atomic_parts(path, &[&head, &body, &sum])?;
+    renderer::film::write_atomic_parts(path, &[&head, &body, &sum], sync)?;
     tracing::debug!(
         path = %path.display(),
         bytes = head.len() + body.len() + sum.len(),
@@ -103,6 +107,25 @@ pub fn read(
     seed: u64,
     entries: usize,
 ) -> Result<(Progress, Vec<[f32; 4]>), String> {
+    let mut acc = Vec::new();
+    let progress = read_into(path, width, height, seed, entries, &mut acc)?;
+    Ok((progress, acc))
+}
+
+/// Bytes of the body each thread of [`read_into`] reads and checksums at a time.
+const READ_PIECE: usize = 8 << 20;
+
+/// [`read`] into `acc` (resized to `entries`; a buffer kept from an earlier read is reused,
+/// so reading many film-size files allocates once). The floats are read in pieces by several
+/// threads, each checksumming its own piece; the pieces' CRCs combine into the file's.
+pub fn read_into(
+    path: &Path,
+    width: u32,
+    height: u32,
+    seed: u64,
+    entries: usize,
+    acc: &mut Vec<[f32; 4]>,
+) -> Result<Progress, String> {
     let t0 = std::time::Instant::now();
     let bad = |what: &str| format!("{}: {what}", path.display());
     let mut file = std::fs::File::open(path).map_err(|e| e.to_string())?;
@@ -113,7 +136,9 @@ pub fn read(
         return Err(bad("not a checkpoint"));
     }
     if &head[..8] == MAGIC_V1 {
-        return read_v1(path, width, height, seed, entries);
+        let (progress, v1) = read_v1(path, width, height, seed, entries)?;
+        *acc = v1;
+        return Ok(progress);
     }
     if &head[..8] != MAGIC {
         return Err(bad("not a checkpoint"));
@@ -139,16 +164,31 @@ pub fn read(
     if len != want {
         return Err(bad(&format!("{len} bytes, expected {want} (truncated?)")));
     }
-    // Step 2: the floats straight into the accumulation's memory, then the checksum.
-    let mut acc = vec![[0.0f32; 4]; entries];
-    let body: &mut [u8] = bytemuck::cast_slice_mut(&mut acc);
-    file.read_exact(body).map_err(|e| bad(&e.to_string()))?;
+    // Step 2: the floats straight into the accumulation's memory, piece by piece on several
+    // threads, each piece checksummed as it arrives; then the stored checksum.
+    acc.resize(entries, [0.0; 4]);
+    let body: &mut [u8] = bytemuck::cast_slice_mut(&mut acc[..]);
+    let at = head.len() as u64;
+    let pieces: Vec<std::io::Result<crc32fast::Hasher>> = body
+        .par_chunks_mut(READ_PIECE)
+        .enumerate()
+        .map(|(i, piece)| {
+            read_exact_at(&file, piece, at + (i * READ_PIECE) as u64)?;
+            let mut crc = crc32fast::Hasher::new();
+            crc.update(piece);
+            Ok(crc)
+        })
+        .collect();
     let read_at = t0.elapsed();
-    let mut sum = [0u8; 4];
-    file.read_exact(&mut sum).map_err(|e| bad(&e.to_string()))?;
     let mut crc = crc32fast::Hasher::new();
     crc.update(&head);
-    crc.update(body);
+    for piece in pieces {
+        crc.combine(&piece.map_err(|e| bad(&e.to_string()))?);
+    }
+    let mut sum = [0u8; 4];
+    file.seek(std::io::SeekFrom::Start(at + body.len() as u64))
+        .and_then(|_| file.read_exact(&mut sum))
+        .map_err(|e| bad(&e.to_string()))?;
     if crc.finalize().to_le_bytes() != sum {
         return Err(bad("checksum mismatch"));
     }
@@ -163,7 +203,29 @@ pub fn read(
         check_ms = (t0.elapsed() - read_at).as_millis() as u64,
         "checkpoint read"
     );
-    Ok((header.progress, acc))
+    Ok(header.progress)
+}
+
+/// Fills `buf` from `file` at byte `at` (without moving a shared file position, so that
+/// threads can read one file at once).
+fn read_exact_at(file: &std::fs::File, buf: &mut [u8], at: u64) -> std::io::Result<()> {
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::FileExt::read_exact_at(file, buf, at)
+    }
+    #[cfg(windows)]
+    {
+        let mut done = 0;
+        while done < buf.len() {
+            let n =
+                std::os::windows::fs::FileExt::seek_read(file, &mut buf[done..], at + done as u64)?;
+            if n == 0 {
+                return Err(std::io::ErrorKind::UnexpectedEof.into());
+            }
+            done += n;
+        }
+        Ok(())
+    }
 }
 
 /// Whether a checkpoint's header fits the session: the same seed and accumulation length.
@@ -240,7 +302,7 @@ mod tests {
             gpu_time_s: 0.25,
         };
         let acc = vec![[1.0, 2.0, 3.0, 4.0], [0.5, 0.25, 0.0, 12.0]];
-        write(&path, 2, 1, 7, &progress, &acc).unwrap();
+        write(&path, 2, 1, 7, &progress, &acc, true).unwrap();
         assert_eq!(read(&path, 2, 1, 7, 2).unwrap(), (progress, acc.clone()));
         assert!(read(&path, 1, 2, 7, 2).is_err());
         assert!(read(&path, 2, 1, 8, 2).is_err());
@@ -273,6 +335,38 @@ mod tests {
         v1.extend_from_slice(&sum.to_le_bytes());
         std::fs::write(&path, &v1).unwrap();
         assert_eq!(read(&path, 2, 1, 7, 2).unwrap(), (progress, acc));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A body of several read pieces (threads): every piece lands in its place, a flipped bit
+    /// in any piece fails the checksum, and a buffer kept from a larger read is reused.
+    #[test]
+    fn pieces_read_in_parallel() {
+        let dir = std::env::temp_dir().join(format!("candela-ckpt-par-{}", std::process::id()));
+        let path = dir.join("c.bin");
+        let progress = Progress {
+            spp: 3,
+            ..Default::default()
+        };
+        // 2.5 pieces of floats, each entry different.
+        let entries = READ_PIECE * 5 / 2 / 16 + 3;
+        let acc: Vec<[f32; 4]> = (0..entries)
+            .map(|i| [i as f32, -(i as f32), 0.5 * i as f32, (i % 7) as f32])
+            .collect();
+        write(&path, entries as u32, 1, 9, &progress, &acc, false).unwrap();
+        let mut buf = vec![[7.0f32; 4]; entries + 100];
+        let p = read_into(&path, entries as u32, 1, 9, entries, &mut buf).unwrap();
+        assert_eq!(p, progress);
+        assert!(buf == acc, "the pieces did not land in their places");
+        let clean = std::fs::read(&path).unwrap();
+        let body_at = clean.len() - 4 - entries * 16;
+        for at in [body_at + 5, body_at + READ_PIECE + 1, clean.len() - 5] {
+            let mut bytes = clean.clone();
+            bytes[at] ^= 4;
+            std::fs::write(&path, &bytes).unwrap();
+            let e = read_into(&path, entries as u32, 1, 9, entries, &mut buf).unwrap_err();
+            assert!(e.contains("checksum"), "byte {at}: {e}");
+        }
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

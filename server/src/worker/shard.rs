@@ -37,13 +37,10 @@ pub struct ShardRun {
     pub image_written: bool,
 }
 
-/// Shard files read ahead by [`add_shards`] (each one film-size in memory until merged).
-const READ_AT_ONCE: usize = 4;
-
 /// Adds to `into` (an accumulation of `session`'s layout) the checkpoints of the job's shards
 /// `0..count` other than `skip`; returns each one's progress, or why it is unusable. The files
-/// are read (and checksummed) on threads, up to [`READ_AT_ONCE`] ahead of the one being
-/// added, and added in index order (the sum does not depend on which read ends first).
+/// are added in index order (the sum does not depend on the thread count), each read into one
+/// buffer kept for all of them, on all cores (checkpoint::read_into), then added on all cores.
 pub fn add_shards(
     session: &RenderSession,
     settings: &JobSettings,
@@ -54,38 +51,20 @@ pub fn add_shards(
 ) -> Vec<(u32, Result<Progress, String>)> {
     let (w, h) = (settings.width, settings.height);
     let (len, extra) = (session.accumulation_len(), session.extra_buffers());
-    let wanted: Vec<u32> = (0..count).filter(|k| Some(*k) != skip).collect();
-    let mut out = Vec::with_capacity(wanted.len());
-    std::thread::scope(|s| {
-        let read = |k: u32| {
+    let mut buf = Vec::new();
+    (0..count)
+        .filter(|k| Some(*k) != skip)
+        .map(|k| {
             let path = paths.shard_checkpoint(k);
-            s.spawn(move || checkpoint::read(&path, w, h, settings.seed, len))
-        };
-        // Step 1: the first reads start.
-        let mut ahead: std::collections::VecDeque<_> = wanted
-            .iter()
-            .take(READ_AT_ONCE)
-            .map(|k| (*k, read(*k)))
-            .collect();
-        let mut next = ahead.len();
-        // Step 2: each file, in index order, added as the next one's read starts.
-        while let Some((k, handle)) = ahead.pop_front() {
-            if let Some(k) = wanted.get(next) {
-                ahead.push_back((*k, read(*k)));
-                next += 1;
-            }
-            let added = handle
-                .join()
-                .unwrap_or_else(|_| Err("reading panicked".into()))
-                .and_then(|(p, acc)| {
-                    merge_accumulation(into, &acc, (w * h) as usize, &extra)
+            let added =
+                checkpoint::read_into(&path, w, h, settings.seed, len, &mut buf).and_then(|p| {
+                    merge_accumulation(into, &buf, (w * h) as usize, &extra)
                         .map(|_| p)
                         .map_err(|e| e.to_string())
                 });
-            out.push((k, added));
-        }
-    });
-    out
+            (k, added)
+        })
+        .collect()
 }
 
 /// Shards' summed accumulation and progress.
