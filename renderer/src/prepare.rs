@@ -73,6 +73,15 @@ pub struct PrepareOptions<'a> {
     pub kernels: KernelMode,
     /// How long the caller took to load the scene (reported as `load_s`; zero: unknown).
     pub load_time: Duration,
+    /// Every instance written out as a mesh: set for an integrator without a second level
+    /// (`IntegratorInfo::instances` false; [`expands_instances`]).
+    pub expand_instances: bool,
+}
+
+/// Whether a scene prepared for `integrator` must have its instances written out as meshes
+/// (vct and deferred read primitives by index: they have no second level to trace).
+pub fn expands_instances(integrator: &IntegratorOptions) -> bool {
+    !integrator.info().instances
 }
 
 /// Why a scene could not be prepared; each names the setting at fault.
@@ -119,6 +128,7 @@ pub fn prepare(scene: &Scene, o: &PrepareOptions<'_>) -> Result<PreparedScene, P
         &CompileOptions {
             accel,
             cache: o.cache,
+            expand_instances: o.expand_instances,
         },
     )?;
     compiled.load_time = o.load_time;

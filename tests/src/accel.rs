@@ -12,7 +12,11 @@ use renderer::scene::{Light, Scene};
 
 /// `scene` compiled for a `w`×`w` film with `accel`, its structures cached under `cache`.
 pub fn compiled(scene: &Scene, w: u32, accel: AccelOptions, cache: Option<&Path>) -> CompiledScene {
-    let opts = CompileOptions { accel, cache };
+    let opts = CompileOptions {
+        accel,
+        cache,
+        expand_instances: false,
+    };
     compile_with(scene, w, w, &opts).expect("compile")
 }
 

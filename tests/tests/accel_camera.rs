@@ -14,6 +14,7 @@ fn compiled(scene: &Scene, cache: Option<&std::path::Path>) -> CompiledScene {
     let opts = CompileOptions {
         accel: AccelOptions::default(),
         cache,
+        expand_instances: false,
     };
     compile_with(scene, 16, 16, &opts).expect("compile")
 }

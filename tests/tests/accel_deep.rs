@@ -69,7 +69,17 @@ fn bvh(keep_deep: bool) -> AccelOptions {
 }
 
 fn render_with(scene: &Scene, accel: AccelOptions) -> (Image, CompiledScene) {
-    let c = compile_with(scene, W, W, &CompileOptions { accel, cache: None }).expect("compile");
+    let c = compile_with(
+        scene,
+        W,
+        W,
+        &CompileOptions {
+            accel,
+            cache: None,
+            expand_instances: false,
+        },
+    )
+    .expect("compile");
     render_compiled(scene, c)
 }
 
@@ -104,7 +114,11 @@ fn renders_like(label: &str, deep: &Scene, twin: &Scene, min_depth: usize) {
         ("grid", grid, None),
     ];
     for (what, accel, stack) in kinds {
-        let opts = CompileOptions { accel, cache: None };
+        let opts = CompileOptions {
+            accel,
+            cache: None,
+            expand_instances: false,
+        };
         let mut c = compile_with(deep, W, W, &opts).expect("compile");
         if let Some(n) = stack {
             c = c.with_traversal_stack(n);

@@ -259,6 +259,7 @@ fn scene_render_block_selects_and_checks_the_accel() {
         &CompileOptions {
             accel: o,
             cache: None,
+            expand_instances: false,
         },
     )
     .unwrap();

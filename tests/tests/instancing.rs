@@ -232,6 +232,25 @@ fn many_instances_of_a_big_definition_load_quickly() {
     assert_eq!(scene.instances.len(), 100_000);
     assert_eq!(scene.instanced_triangles(), 50_000_000_000);
     assert!(took < std::time::Duration::from_secs(5), "{took:?}");
+    // Written out (a grid has no second level) they would be 50 billion triangles: refused at
+    // once, naming the counts, before anything is allocated.
+    let opts = CompileOptions {
+        accel: AccelOptions {
+            kind: AccelKind::Grid,
+            ..Default::default()
+        },
+        cache: None,
+        expand_instances: false,
+    };
+    let Err(e) = compile_with(&scene, 8, 8, &opts) else {
+        panic!("50 billion triangles written out");
+    };
+    assert_eq!(
+        e.to_string(),
+        "instances: writing out 100000 instances as meshes would make 50000000000 triangles; at \
+         most 50000000 (only accel \"bvh\" with an integrator that traces instances keeps one \
+         copy per definition)"
+    );
 }
 
 /// A thousand instances with identical world boxes (the top-level BVH cannot separate them; it
@@ -309,20 +328,6 @@ fn instance_errors_name_the_field() {
         ),
         (
             minimal(
-                json!([{"type": "instance", "definition": "quad", "material": "lamp"}]),
-                json!({"quad": quad}),
-            ),
-            "objects[0].material: instances of emissive meshes are not supported yet (material \"lamp\" emits)",
-        ),
-        (
-            minimal(
-                json!([{"type": "instance", "definition": "lit"}]),
-                json!({"lit": {"type": "box", "min": [0, 0, 0], "max": [1, 1, 1], "material": "lamp"}}),
-            ),
-            "objects[0].definition: instances of emissive meshes are not supported yet",
-        ),
-        (
-            minimal(
                 json!([{"type": "instance", "definition": "quad", "material": "wood"}]),
                 json!({"quad": quad}),
             ),
@@ -378,44 +383,100 @@ fn instance_errors_name_the_field() {
     }
 }
 
-/// The binary BVH is the only structure with a second level; vct and deferred read primitives
-/// by index on their own: each refuses an instanced scene with a message saying why.
+/// The binary BVH is the only structure with a second level, and vct and deferred read
+/// primitives by index: there the instances are written out as meshes (scene/expand.rs) and
+/// render the image of the flattened copy (the same meshes in the same order, so the same
+/// image up to the rounding of the transforms).
 #[test]
-fn unsupported_settings_refuse_instances() {
-    let (inst, _) = instanced_and_flat(
+fn other_structures_and_integrators_render_instances_written_out() {
+    let (inst, flat) = instanced_and_flat(
         json!({"type": "box", "min": [-1, -1, -1], "max": [1, 1, 1]}),
         "white",
     );
-    for kind in [AccelKind::Cwbvh, AccelKind::Grid] {
-        let opts = CompileOptions {
-            accel: AccelOptions {
-                kind,
-                ..Default::default()
-            },
-            cache: None,
-        };
-        let e = compile_with(&inst, 8, 8, &opts).unwrap_err().to_string();
-        assert_eq!(
-            e,
-            format!(
-                "accel \"{}\" does not support instances (objects of type \"instance\"); use accel \"bvh\"",
-                kind.name()
-            )
-        );
+    let opts = |kind, expand_instances| CompileOptions {
+        accel: AccelOptions {
+            kind,
+            ..Default::default()
+        },
+        cache: None,
+        expand_instances,
+    };
+    let cases = [
+        (AccelKind::Cwbvh, false, "nee"),
+        (AccelKind::Grid, false, "nee"),
+        (AccelKind::Bvh, true, "vct"),
+        (AccelKind::Bvh, true, "deferred"),
+    ];
+    for (kind, expand, integrator) in cases {
+        let what = format!("{} {integrator}", kind.name());
+        let a = compile_with(&inst, 24, 24, &opts(kind, expand)).unwrap();
+        let b = compile_with(&flat, 24, 24, &opts(kind, false)).unwrap();
+        assert!(a.instances.is_empty(), "{what}: instances left");
+        assert_eq!(a.prims.len(), b.prims.len(), "{what}");
+        let (ia, _) = render_compiled(&inst, &a, integrator, 2, 5, Some(3));
+        let (ib, _) = render_compiled(&flat, &b, integrator, 2, 5, Some(3));
+        let (rel, share) = difference(&ia, &ib);
+        println!("{what}: mean |Δ| {rel:.2e} of the mean, {share:.3} of pixels off");
+        assert!(mean(&ia)[0] > 0.01, "{what}: a dark image proves nothing");
+        assert!(rel < 1e-3 && share < 0.01, "{what}: {rel} {share}");
     }
+    // A library caller that compiles without writing instances out is told what to do.
     let c = compile(&inst, 8, 8).unwrap();
-    for name in ["vct", "deferred"] {
-        let options = renderer::integrators::IntegratorOptions::from_name(name).unwrap();
-        let Err(e) = renderer::render::RenderSession::new(&gpu(), &c, &options, None, 1) else {
-            panic!("{name} accepted an instanced scene");
-        };
-        let e = e.to_string();
-        assert!(
-            e.starts_with(&format!(
-                "integrator \"{name}\" does not support instances (objects of type \"instance\") yet; use one of pt, nee, bdpt, whitted"
-            )),
-            "{e}"
+    let options = renderer::integrators::IntegratorOptions::from_name("vct").unwrap();
+    let Err(e) = renderer::render::RenderSession::new(&gpu(), &c, &options, None, 1) else {
+        panic!("vct accepted a compiled scene with instances");
+    };
+    assert!(
+        e.to_string().starts_with(
+            "integrator \"vct\" does not trace instances (objects of type \"instance\"): prepare the scene with expand_instances"
+        ),
+        "{e}"
+    );
+}
+
+/// Instances of an emitting definition (or with an emitting material override) are lights:
+/// written out as meshes with the binary BVH too, while the others stay instances. The scene
+/// renders like its copy with those instances written out by hand (the same meshes in the
+/// same order, the same instances, so the same lights in the same order).
+#[test]
+fn emitting_instances_light_the_scene_like_their_written_out_copy() {
+    let quad =
+        json!({"type": "quad", "origin": [-1, 0, -1], "edge_u": [2, 0, 0], "edge_v": [0, 0, 2]});
+    let lamp = [true, false, true, false];
+    let (mut instances, mut copy) = (Vec::new(), Vec::new());
+    for ((t, _), lit) in placements().into_iter().zip(lamp) {
+        let mut i = json!({"type": "instance", "definition": "piece", "transform": t});
+        if lit {
+            i["material"] = json!("light");
+            let mut f = quad.clone();
+            f["transform"] = t;
+            f["material"] = json!("light");
+            copy.push(f);
+        } else {
+            copy.push(i.clone());
+        }
+        instances.push(i);
+    }
+    let mut def = quad.clone();
+    def["material"] = json!("white");
+    let defs = json!({ "piece": def });
+    let inst = cornell_with(instances, Some(defs.clone()));
+    let copy = cornell_with(copy, Some(defs));
+    let (a, b) = (
+        compile(&inst, 24, 24).unwrap(),
+        compile(&copy, 24, 24).unwrap(),
+    );
+    assert_eq!(a.instances.len(), 2, "the two white quads stay instances");
+    // The sphere's light and the two lamps' four triangles.
+    assert_eq!((a.lights.len(), b.lights.len()), (5, 5));
+    for integrator in ["nee", "pt"] {
+        let (ia, _) = render_compiled(&inst, &a, integrator, 4, 7, Some(3));
+        let (ib, _) = render_compiled(&copy, &b, integrator, 4, 7, Some(3));
+        let (rel, share) = difference(&ia, &ib);
+        println!(
+            "emitting, {integrator}: mean |Δ| {rel:.2e} of the mean, {share:.3} of pixels off"
         );
+        assert!(rel < 1e-3 && share < 0.01, "{integrator}: {rel} {share}");
     }
 }
 
@@ -469,6 +530,7 @@ fn a_short_stack_renders_instances_the_same() {
         let opts = CompileOptions {
             accel: AccelOptions::default(),
             cache: Some(d),
+            expand_instances: false,
         };
         compile_with(&inst, 24, 24, &opts).unwrap()
     };

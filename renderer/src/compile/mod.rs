@@ -27,6 +27,7 @@ use crate::accel::cwbvh::Cwbvh;
 use crate::accel::grid::Grid;
 use crate::accel::{self, AccelInfo, AccelOptions};
 use crate::layout::*;
+use crate::scene::expand::{expand_instances, Expand};
 use crate::scene::Scene;
 pub use features::{FeatureSet, KernelMode};
 pub use lights::{alias_table, luminance};
@@ -149,6 +150,10 @@ pub struct CompileOptions<'a> {
     pub accel: AccelOptions,
     /// Directory of the acceleration-structure cache (None: always build).
     pub cache: Option<&'a Path>,
+    /// Write every instance out as a mesh (scene/expand.rs), for integrators that read
+    /// primitives by index (vct, deferred). Without it only emitting instances are, and all of
+    /// them with an `accel` other than the binary BVH.
+    pub expand_instances: bool,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -159,9 +164,9 @@ pub enum CompileError {
     /// A primitive's material index has the low 24 bits of a u32 (`PRIM_MATERIAL_MASK`).
     #[error("scene has {0} materials; at most {max} are supported", max = PRIM_MATERIAL_MASK)]
     TooManyMaterials(usize),
-    /// Instances are traversed through binary BVHs only (docs/accel.md).
-    #[error("accel \"{0}\" does not support instances (objects of type \"instance\"); use accel \"bvh\"")]
-    InstancesNeedBvh(&'static str),
+    /// Instances to write out as meshes would make too large a scene (scene/expand.rs).
+    #[error("instances: {0}")]
+    Expand(String),
     /// Instance indices are u32, and u32::MAX marks "none".
     #[error("scene has {0} instances; at most {max} are supported", max = NONE - 1)]
     TooManyInstances(usize),
@@ -181,12 +186,18 @@ pub fn compile_with(
     options: &CompileOptions<'_>,
 ) -> Result<CompiledScene, CompileError> {
     let start = std::time::Instant::now();
+    // Step 0: instances only the binary BVH's second level can trace, and none that emit,
+    // stay instances; the others are written out as meshes (scene/expand.rs).
+    let expand = if options.expand_instances || options.accel.kind != accel::AccelKind::Bvh {
+        Expand::All
+    } else {
+        Expand::Emitting
+    };
+    let expanded = expand_instances(scene, expand).map_err(CompileError::Expand)?;
+    let scene = expanded.as_ref().unwrap_or(scene);
     let origin = scene.camera.position;
     let features = FeatureSet::detect(scene);
     if !scene.instances.is_empty() {
-        if options.accel.kind != accel::AccelKind::Bvh {
-            return Err(CompileError::InstancesNeedBvh(options.accel.kind.name()));
-        }
         if scene.instances.len() >= NONE as usize {
             return Err(CompileError::TooManyInstances(scene.instances.len()));
         }
@@ -248,8 +259,8 @@ pub fn compile_with(
     // Step 4: scene bounds (camera-relative) for directional and environment lights.
     let (center, radius) = prims::scene_sphere(scene, &[&prims.bounds, &inst.bounds], origin);
 
-    // Step 5: lights: emissive primitives, then delta lights, then the environment (instances
-    // of emissive meshes are refused when the scene is loaded).
+    // Step 5: lights: emissive primitives, then delta lights, then the environment (emitting
+    // instances were written out as meshes in step 0).
     let emitters = emitters::gather(scene, &bvh.order, &mut sorted, &prims.shapes, radius);
     sorted.extend_from_slice(&inst.prims);
     let mut tri_shading = prims.tri_shading;

@@ -148,8 +148,9 @@ impl RenderSession {
         let start = Instant::now();
         if !scene.instances.is_empty() && !options.info().instances {
             return Err(RenderError::Invalid(format!(
-                "integrator \"{}\" does not support instances (objects of type \"instance\") yet; \
-                 use one of {}",
+                "integrator \"{}\" does not trace instances (objects of type \"instance\"): \
+                 prepare the scene with expand_instances (prepare::expands_instances) or use \
+                 one of {}",
                 options.name(),
                 crate::integrators::INTEGRATORS
                     .iter()

@@ -63,11 +63,6 @@ pub(crate) fn load(json: &str, root: AssetRoot<'_>, limits: &Limits) -> Result<S
             .enumerate()
             .map(|(i, n)| (n.as_str(), i as u32))
             .collect(),
-        names: &material_names,
-        emissive: material_list
-            .iter()
-            .map(|m| m.emission != glam::Vec3::ZERO)
-            .collect(),
         meshes: Vec::new(),
         spheres: Vec::new(),
         prototypes: Vec::new(),
@@ -138,8 +133,6 @@ pub(crate) fn load(json: &str, root: AssetRoot<'_>, limits: &Limits) -> Result<S
 struct PrototypeFacts {
     lo: DVec3,
     hi: DVec3,
-    /// A material of the prototype's triangles that emits, if any.
-    emitter: Option<u32>,
 }
 
 /// Objects being converted, with what they need.
@@ -147,16 +140,13 @@ struct Objects<'a> {
     root: AssetRoot<'a>,
     limits: &'a Limits,
     by_name: HashMap<&'a str, u32>,
-    /// Material names and whether each emits (instances of emissive meshes are refused).
-    names: &'a [String],
-    emissive: Vec<bool>,
     meshes: Vec<TriangleMesh>,
     spheres: Vec<Sphere>,
     /// The definitions' meshes, and each definition's index among them (None: it has no
     /// triangles, so its instances are skipped).
     prototypes: Vec<TriangleMesh>,
-    /// Each prototype's bounding box (its own frame) and an emissive material it uses, if
-    /// any: computed once per definition so that an instance costs O(1), not O(triangles).
+    /// Each prototype's bounding box (its own frame): computed once per definition so that an
+    /// instance costs O(1), not O(triangles).
     prototype_facts: Vec<PrototypeFacts>,
     definitions: HashMap<String, Option<u32>>,
     instances: Vec<Instance>,
@@ -228,21 +218,7 @@ impl Objects<'_> {
             );
             return Ok(());
         };
-        // Emissive instances would need a light per instanced triangle: refused for now.
         let facts = &self.prototype_facts[prototype as usize];
-        let emitter = match material {
-            Some(m) => self.emissive[m as usize].then_some((m, "material")),
-            None => facts.emitter.map(|m| (m, "definition")),
-        };
-        if let Some((m, field)) = emitter {
-            return Err(SceneError::invalid(
-                join_path(path, field),
-                format!(
-                    "instances of emissive meshes are not supported yet (material \"{}\" emits); place the mesh as an object instead",
-                    self.names[m as usize]
-                ),
-            ));
-        }
         // The placed box must stay within f32 (the GPU's frame), checked on the prototype's
         // box corners: O(1) per instance.
         let inside = box_corners(facts.lo, facts.hi).all(|c| {
@@ -452,13 +428,7 @@ impl Objects<'_> {
                 .positions
                 .iter()
                 .fold(DVec3::NEG_INFINITY, |a, &p| a.max(p));
-            let emitter = mesh
-                .materials
-                .iter()
-                .copied()
-                .find(|&m| self.emissive.get(m as usize).copied().unwrap_or(false));
-            self.prototype_facts
-                .push(PrototypeFacts { lo, hi, emitter });
+            self.prototype_facts.push(PrototypeFacts { lo, hi });
             self.prototypes.push(mesh);
         } else {
             self.meshes.push(mesh);

@@ -4,7 +4,7 @@
 //! Stages: `desc*` (serde structs, `deny_unknown_fields`, JSON paths tracked by
 //! `serde_path_to_error`) → `validate` / `materials` (defaults and ranges) → `assemble` (objects:
 //! `shapes`, `obj`, `ply` through `mesh` and `transform` to world space; `texture` decoding; asset
-//! paths checked by `paths`). Every failure is a [`SceneError`] whose one-line message names the
+//! paths checked by `paths`); `expand` writes instances out as meshes where a compile needs it. Every failure is a [`SceneError`] whose one-line message names the
 //! JSON path (or `file:line` inside a mesh file). Nothing here panics on bad input, and sizes are
 //! checked against [`Limits`] before anything is allocated for them.
 
@@ -16,6 +16,7 @@ pub(crate) mod desc;
 mod desc_tagged;
 mod desc_values;
 mod error;
+pub mod expand;
 mod materials;
 pub(crate) mod mesh;
 pub(crate) mod obj;

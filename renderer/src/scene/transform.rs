@@ -85,7 +85,7 @@ impl Transform {
     }
 
     /// Validates an affine matrix: finite and invertible.
-    fn from_matrix(matrix: DMat4, path: &str) -> Result<Self, SceneError> {
+    pub(crate) fn from_matrix(matrix: DMat4, path: &str) -> Result<Self, SceneError> {
         if !matrix.is_finite() {
             return Err(SceneError::invalid(path, "produces non-finite numbers"));
         }

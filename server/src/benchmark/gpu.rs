@@ -61,6 +61,9 @@ pub fn run_bench(
             height: Some(height),
             kernels: cfg.kernels,
             load_time: load_start.elapsed(),
+            // (One prepared scene for every integrator: written out for all when one of
+            // them has no second level.)
+            expand_instances: options.iter().any(renderer::prepare::expands_instances),
             ..Default::default()
         },
     )

@@ -8,6 +8,7 @@ use clap::Args;
 use renderer::accel::{AccelKind, AccelRequest};
 use renderer::compile::KernelMode;
 use renderer::integrators::{IntegratorOptions, DEFAULT_INTEGRATOR};
+use renderer::prepare::expands_instances;
 use renderer::prepare::{prepare, FilmLimits, PrepareOptions};
 use renderer::render::{render, render_until, Budget, RenderStats};
 
@@ -229,6 +230,7 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
             cache: cache.as_deref(),
             kernels: a.kernels,
             load_time,
+            expand_instances: !auto && expands_instances(&options),
         },
     )
     .map_err(|e| CliError::input(format!("{}: {e}", a.scene.display())))?;

@@ -490,6 +490,7 @@ impl Worker {
             cache: Some(&cache),
             kernels: s.kernels,
             load_time: load_start.elapsed(),
+            expand_instances: !s.auto && renderer::prepare::expands_instances(&s.integrator),
         };
         let prepared = match prepare(&scene, &options) {
             Ok(p) => p,
