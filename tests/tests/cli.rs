@@ -99,6 +99,42 @@ fn time_budget_renders_at_least_one_pass() {
     assert!(report["spp"].as_u64().unwrap() >= 1);
 }
 
+/// `render` of an instanced scene with an integrator that has no second level (deferred)
+/// writes the instances out as meshes (PrepareOptions::expand_instances) and renders them: the
+/// report counts their triangles and no instance, and the image is not empty.
+#[test]
+fn integrators_without_a_second_level_render_instances() {
+    let dir = scratch("cli_instances");
+    let scene = write_scene(
+        "cli_instances_scene",
+        r#"{"version": 1, "camera": {"position": [0,0,5], "look_at": [0,0,0]},
+ "film": {"width": 8, "height": 8},
+ "materials": {"white": {"type": "diffuse"}},
+ "lights": [{"type": "point", "position": [0, 0, 4], "intensity": [20, 20, 20]}],
+ "definitions": {"b": {"type": "box", "min": [-0.5,-0.5,-0.5], "max": [0.5,0.5,0.5], "material": "white"}},
+ "objects": [{"type": "instance", "definition": "b", "transform": {"translate": [-0.8, 0, 0]}},
+             {"type": "instance", "definition": "b", "transform": {"translate": [0.8, 0, 0]}}]}"#,
+    );
+    let out = dir.join("i.exr");
+    let o = run(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--integrator",
+        "deferred",
+        "--spp",
+        "1",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["triangles"], 24, "{report}");
+    assert_eq!(report["instances"], 0, "{report}");
+    let img = renderer::film::read_exr(&out).unwrap();
+    assert!(img.pixels.iter().any(|p| p[0] > 0.0), "a black image");
+}
+
 fn write_scene(name: &str, text: &str) -> std::path::PathBuf {
     let dir = scratch(name);
     let p = dir.join("scene.json");
