@@ -178,6 +178,8 @@ struct StageTimes {
     shade: f64,
     emitters: f64,
     samples: u64,
+    /// Batches run (G-buffer dispatches).
+    batches: u64,
     /// Shading counters: candidate lights tested, lights that reached their pixel, pixel
     /// samples shaded with direct light.
     tested: u64,
@@ -355,6 +357,7 @@ impl Integrator for DeferredIntegrator {
                 Some(("gbuffer", n)) => {
                     self.times.gbuffer += t.gpu_ms;
                     self.times.samples += n as u64;
+                    self.times.batches += 1;
                 }
                 Some(("cull", _)) => self.times.cull += t.gpu_ms,
                 Some(("shade", _)) => self.times.shade += t.gpu_ms,
@@ -397,6 +400,7 @@ impl Integrator for DeferredIntegrator {
             d["tile_capacity"] = json!(s.params.tile_capacity);
             d["tiles"] = json!([s.params.tiles_x, s.params.tiles_y]);
             d["samples_per_batch"] = json!(s.batch);
+            d["batches"] = json!(t.batches);
             // The light lists of the first sample of the last batch rendered.
             if t.samples > 0 {
                 if let Ok(counts) = s.tile_counts() {
