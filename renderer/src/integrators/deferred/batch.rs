@@ -21,11 +21,18 @@
 //! MAX_BATCH_BYTES bounds the slices: 133 MB of G-buffer at 1280×720 (9 slices), 67 MB at
 //! 256×256 (64), 133 MB at 3840×2160 (1), plus the tile lists (4 bytes × tiles × capacity per
 //! slice, small unless thousands of lights fill large lists). `samples_per_batch` overrides B.
+//!
+//! On llvmpipe (lavapipe) the automatic B is at most LLVMPIPE_MAX_BATCH: llvmpipe ends every loop
+//! of an invocation once 65,535 loop iterations have run in it, counted over all its loops
+//! (render/session.rs, LLVMPIPE_MAX_DISPATCHES), and a shade thread runs the light and
+//! shadow-ray loops of every sample of its batch.
 
 /// Pixel-samples one dispatch aims at.
 pub const TARGET_PIXEL_SAMPLES: u64 = 8_000_000;
 /// Most samples per batch.
 pub const MAX_BATCH: u32 = 64;
+/// Most samples per automatic batch on llvmpipe.
+pub const LLVMPIPE_MAX_BATCH: u32 = 4;
 /// Most bytes of the per-sample slices (G-buffer, tile counts, tile lists) together, unless a
 /// single slice is larger.
 pub const MAX_BATCH_BYTES: u64 = 256 << 20;
@@ -36,14 +43,26 @@ pub fn slice_bytes(pixels: u64, tiles: u64, tile_capacity: u32) -> u64 {
 }
 
 /// The batch size to allocate for a film of `pixels` in `tiles` tiles: `requested` (the
-/// `samples_per_batch` option, already validated to 1 ..= MAX_BATCH) or the rule above.
-pub fn batch_size(pixels: u64, tiles: u64, tile_capacity: u32, requested: Option<u32>) -> u32 {
+/// `samples_per_batch` option, already validated to 1 ..= MAX_BATCH) or the rule above
+/// (`llvmpipe`: the device is llvmpipe).
+pub fn batch_size(
+    pixels: u64,
+    tiles: u64,
+    tile_capacity: u32,
+    requested: Option<u32>,
+    llvmpipe: bool,
+) -> u32 {
     if let Some(b) = requested {
         return b.clamp(1, MAX_BATCH);
     }
     let fill = TARGET_PIXEL_SAMPLES.div_ceil(pixels.max(1));
     let fit = MAX_BATCH_BYTES / slice_bytes(pixels, tiles, tile_capacity).max(1);
-    fill.min(fit).clamp(1, MAX_BATCH as u64) as u32
+    let most = if llvmpipe {
+        LLVMPIPE_MAX_BATCH
+    } else {
+        MAX_BATCH
+    };
+    fill.min(fit).clamp(1, most as u64) as u32
 }
 
 /// The batches of a pass of `spp` samples with batch size `b`: (first sample within the pass,
@@ -59,7 +78,7 @@ mod tests {
 
     fn size(w: u64, h: u64, cap: u32) -> (u32, u64) {
         let tiles = w.div_ceil(16) * h.div_ceil(16);
-        let b = batch_size(w * h, tiles, cap, None);
+        let b = batch_size(w * h, tiles, cap, None, false);
         (b, b as u64 * slice_bytes(w * h, tiles, cap))
     }
 
@@ -76,7 +95,9 @@ mod tests {
         // A slice above the cap still renders, one sample at a time.
         assert_eq!(size(7680, 4320, 1024).0, 1);
         // The option overrides the rule.
-        assert_eq!(batch_size(1 << 20, 4096, 8, Some(3)), 3);
+        assert_eq!(batch_size(1 << 20, 4096, 8, Some(3), false), 3);
+        assert_eq!(batch_size(1 << 16, 256, 8, None, true), LLVMPIPE_MAX_BATCH);
+        assert_eq!(batch_size(1 << 16, 256, 8, Some(9), true), 9);
     }
 
     #[test]

@@ -117,7 +117,8 @@ impl Stages {
         let tiles = params.tiles_x as u64 * params.tiles_y as u64;
         let pixels = width as u64 * height as u64;
         // Step 2: samples per batch, each with its slice of the per-sample buffers.
-        let batch = batch_size(pixels, tiles, params.tile_capacity, batch);
+        let llvmpipe = ctx.info.name.contains("llvmpipe");
+        let batch = batch_size(pixels, tiles, params.tile_capacity, batch, llvmpipe);
         let slices = batch as u64;
         // Step 3: buffers.
         let lights: &[DeferredLight] = &set.lights;
