@@ -1,15 +1,16 @@
 //! How many samples one dispatch of each `deferred` stage handles (the batch size B), and what
 //! that costs in memory. One place for the decision.
 //!
-//! A pass of spp samples records ceil(spp / B) batches of three dispatches (G-buffer, cull,
-//! shade), each over B samples: the G-buffer, the tile counts and the tile lists hold B slices,
-//! one per sample of the batch. A sample's work at small films is a few microseconds of GPU time
-//! per dispatch, shorter than the drain and refill between barrier-separated dispatches (on an
-//! H100 at 256×256 one sample per dispatch kept the GPU busy 53% of the time, at 1280×720 63%),
-//! so a batch should hold enough pixel-samples to dwarf that gap:
+//! A pass of spp samples records ceil(spp / B) batches of at most B samples (as even as
+//! possible), each three dispatches (G-buffer, cull, shade) over all its samples: the G-buffer,
+//! the tile counts and the tile lists hold B slices, one per sample of a batch. A sample's work
+//! at small films is a few microseconds of GPU time per dispatch, shorter than the drain and
+//! refill between barrier-separated dispatches (on an H100 at 256×256 one sample per dispatch
+//! kept the GPU busy 53% of the time, at 1280×720 63%), so a batch should hold enough
+//! pixel-samples to dwarf that gap:
 //!
 //!   B = clamp(ceil(TARGET_PIXEL_SAMPLES / (width · height)), 1, MAX_BATCH), then lowered until
-//!   B slices fit in MAX_BATCH_BYTES (never below 1), and per pass min(B, the pass's spp).
+//!   B slices fit in MAX_BATCH_BYTES (never below 1).
 //!
 //! Why these figures. The H100 measurements of the one-sample-per-dispatch version
 //! (bench/results/h100-i13-call3) give per sample, summed over the three stages, about 30 µs of
@@ -65,11 +66,15 @@ pub fn batch_size(
     fill.min(fit).clamp(1, most as u64) as u32
 }
 
-/// The batches of a pass of `spp` samples with batch size `b`: (first sample within the pass,
+/// The batches of a pass of `spp` samples with batch size `b`: ceil(spp / b) batches of as even
+/// a size as possible (so no short one trails a pass), as (first sample within the pass,
 /// samples), in order.
 pub fn batches(spp: u32, b: u32) -> impl Iterator<Item = (u32, u32)> {
-    let b = b.max(1);
-    (0..spp.div_ceil(b)).map(move |k| (k * b, b.min(spp - k * b)))
+    let n = spp.div_ceil(b.max(1)).max(1);
+    let (base, extra) = (spp / n, spp % n);
+    (0..n)
+        .map(move |k| (k * base + k.min(extra), base + u32::from(k < extra)))
+        .filter(|&(_, m)| m > 0)
 }
 
 #[cfg(test)]
@@ -103,8 +108,20 @@ mod tests {
     #[test]
     fn batches_cover_the_pass_in_order() {
         let v: Vec<_> = batches(7, 3).collect();
-        assert_eq!(v, [(0, 3), (3, 3), (6, 1)]);
+        assert_eq!(v, [(0, 3), (3, 2), (5, 2)]);
         assert_eq!(batches(4, 64).collect::<Vec<_>>(), [(0, 4)]);
+        assert_eq!(batches(68, 64).collect::<Vec<_>>(), [(0, 34), (34, 34)]);
         assert_eq!(batches(0, 5).count(), 0);
+        for (spp, b) in [(1, 1), (9, 2), (130, 64), (1024, 9)] {
+            let v: Vec<_> = batches(spp, b).collect();
+            assert_eq!(v.len() as u32, spp.div_ceil(b));
+            assert!(v.iter().all(|&(_, m)| m >= 1 && m <= b));
+            let mut next = 0;
+            for (first, m) in v {
+                assert_eq!(first, next);
+                next += m;
+            }
+            assert_eq!(next, spp);
+        }
     }
 }
