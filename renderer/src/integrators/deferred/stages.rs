@@ -79,7 +79,8 @@ pub struct Stages {
     tile_counts: usize,
     width: u32,
     height: u32,
-    /// Samples per batch (at most; a pass's last batch may hold fewer).
+    /// Samples per batch (at most: a pass of spp samples is cut into ceil(spp / batch) even
+    /// batches, [`batches`]).
     pub batch: u32,
 }
 
@@ -200,7 +201,7 @@ impl Stages {
         })
     }
 
-    /// Dispatches a pass of `push.spp` samples records: three per batch.
+    /// The dispatches a pass of `spp` samples records: three per batch.
     pub fn dispatches(&self, spp: u32) -> u32 {
         3 * spp.div_ceil(self.batch)
     }
