@@ -6,7 +6,12 @@
 //
 // Bindings 30–35: parameters, light records, G-buffer, tile counts, tile lists, counters.
 //
-// G-buffer: 16 bytes per pixel (one uvec4), for the one camera sample being shaded:
+// Batches: each stage's dispatch covers the samples pc.sample_base .. pc.sample_base + pc.spp − 1
+// of a batch (renderer/src/integrators/deferred/batch.rs); the G-buffer, the tile counts and the
+// tile lists hold one slice per sample of the batch (slice i: sample pc.sample_base + i), indexed
+// by gbuf_index and tile_slot below.
+//
+// G-buffer: 16 bytes per pixel and sample (one uvec4) for the batch's camera samples:
 //   x: shading normal, octahedral, 2 × 16-bit snorm (packSnorm2x16)
 //   y: depth = distance t along the camera ray (f32 bits); the position is reconstructed as
 //      o + t·d from the camera ray, which every stage regenerates from the same counter-based
@@ -88,6 +93,13 @@ void counter_add(uint i, uint v) {
 }
 
 uint dl_kind(DLight l) { return floatBitsToUint(l.intensity.w); }
+
+// The G-buffer entry of `pixel` in slice `slice` (the batch's sample pc.sample_base + slice).
+uint gbuf_index(uint slice, uint pixel) { return slice * g.film.x * g.film.y + pixel; }
+
+// The tile-count entry of tile `tile` in slice `slice`; its list starts at
+// tile_slot(slice, tile) * dp.tile_capacity.
+uint tile_slot(uint slice, uint tile) { return slice * dp.tiles_x * dp.tiles_y + tile; }
 
 // Octahedral encoding of a unit vector into [−1, 1]² (Cigolle et al. 2014, listing 1).
 vec2 oct_wrap(vec2 v) { return (1.0 - abs(v.yx)) * vec2(v.x >= 0.0 ? 1.0 : -1.0, v.y >= 0.0 ? 1.0 : -1.0); }

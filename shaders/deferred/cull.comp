@@ -1,6 +1,6 @@
 // `deferred`, stage 2: tiled light culling (after Harada et al. 2012 "Forward+" and Olsson &
 // Assarsson 2011 "Tiled Shading", with 3D tile bounds instead of a frustum and depth range).
-// One 16×16 workgroup per screen tile: its threads reconstruct their pixels' surface points
+// One 16×16 workgroup per screen tile and sample of the batch (z: the slice): its threads reconstruct their pixels' surface points
 // from the G-buffer (camera ray + depth) and reduce them to two axis-aligned bounding boxes —
 // the points nearer than the middle of the tile's depth range and the farther ones (splitting
 // at the middle depth, like the depth-range splits of 2.5D culling, keeps a foreground object
@@ -61,7 +61,8 @@ bool light_touches_box(DLight l, vec3 lo, vec3 hi) {
 void main() {
     uint lid = gl_LocalInvocationIndex;
     uvec2 tile = gl_WorkGroupID.xy;
-    uint tile_index = tile.y * dp.tiles_x + tile.x;
+    uint slice = gl_WorkGroupID.z;
+    uint tile_index = tile_slot(slice, tile.y * dp.tiles_x + tile.x);
     if (lid == 0u) {
         for (int i = 0; i < 6; ++i) { s_lo[i] = 0xffffffffu; s_hi[i] = 0u; }
         s_any[0] = 0u;
@@ -79,11 +80,10 @@ void main() {
     vec3 p = vec3(0.0);
     float t = 0.0;
     if (px.x < g.film.x && px.y < g.film.y) {
-        uint pixel = px.y * g.film.x + px.x;
-        uvec4 w = gbuf[pixel];
+        uvec4 w = gbuf[gbuf_index(slice, px.y * g.film.x + px.x)];
         if (w.z != NONE) {
             Rng rng;
-            Ray ray = sample_camera_ray(px, pc.sample_base, rng);
+            Ray ray = sample_camera_ray(px, pc.sample_base + slice, rng);
             t = uintBitsToFloat(w.y);
             p = ray.o + t * ray.d;
             hit = true;

@@ -1,6 +1,8 @@
-// `deferred`, stage 3: shading. One thread per pixel (16×16 workgroups, one per tile) reads its
-// G-buffer texel, regenerates its camera ray to reconstruct the position, and adds to the
-// accumulation buffer, in the radiometric units of `nee`:
+// `deferred`, stage 3: shading. One thread per pixel (16×16 workgroups, one per tile) shades
+// each sample of the batch in sample order — reads the sample's G-buffer texel, regenerates its
+// camera ray to reconstruct the position — and adds them to the accumulation buffer one by one,
+// exactly as one sample per dispatch would (so the image does not depend on the batch size), in
+// the radiometric units of `nee`:
 //   • emission of a front-facing emitter seen directly, or the environment where the ray escaped;
 //   • (max_depth ≥ 2) for every light of its tile's list that reaches the pixel — inside the
 //     light's influence radius, inside a spot's cone, in front of an area emitter — f·|cos|·I/d²
@@ -82,6 +84,153 @@ bool unoccluded(Surface s, DLight l, vec3 wi, float dist, inout uint rays) {
 // Estimated irradiance from a light (ranking for the per-pixel cap).
 float light_estimate(vec3 Li, vec3 wi, vec3 n) { return luminance(Li) * abs(dot(wi, n)); }
 
+// Sample `slice` of the batch (sample index pc.sample_base + slice) at pixel px: its radiance
+// (or debug value); adds its rays and shading counts to the running totals.
+vec3 shade_sample(uvec2 px, uint pixel, uint tile_index, uint slice, inout uint rays,
+                  inout uint tested, inout uint shaded, inout uint lit) {
+    uint sample_index = pc.sample_base + slice;
+    // Step 1: the camera ray (the one the G-buffer traced) and the packed surface.
+    Rng rng;
+    Ray ray = sample_camera_ray(px, sample_index, rng);
+    rays += 1u;
+    GSample gs = gbuffer_unpack(gbuf[gbuf_index(slice, pixel)]);
+    vec3 L = vec3(0.0);
+    if (!gs.hit) {
+        // Step 2a: escaped rays see the environment.
+        if (pc.max_depth >= 1) L = env_eval(ray.d);
+    } else {
+        // Step 2b: emission of an emitter seen from its front side.
+        if (gs.front && pc.max_depth >= 1) L += materials[gs.material].emission.rgb;
+        if (pc.max_depth >= 2) {
+            // Step 3: the shading point: position from the camera ray and depth; the
+            // rounding-error bound of the reconstruction for spawning shadow rays.
+            Surface s;
+            s.p = ray.o + gs.t * ray.d;
+            s.p_err = 2e-6 * (abs(s.p) + abs(ray.o) + vec3(gs.t));
+            // The stored shading normal stands in for the geometric one when offsetting
+            // shadow rays; the tangent is any frame (the G-buffer keeps no tangent).
+            s.ns = gs.n;
+            s.ng = gs.n;
+            vec3 bt;
+            make_frame(gs.n, s.tangent, bt);
+            bt = cross(s.ns, s.tangent);
+            s.uv = gs.uv;
+            s.material = gs.material;
+            s.light = NONE;
+            SurfaceParams m = resolve_material(gs.material, gs.uv);
+            vec3 wo = to_local(-ray.d, s.tangent, bt, s.ns);
+            if (!bsdf_is_delta(m)) {
+                // Step 4: the lights of this pixel's tile (all of them when the tile
+                // overflowed or culling is off).
+                uint count = tile_counts[tile_slot(slice, tile_index)];
+                bool all = dp.cull == 0u || count == TILE_OVERFLOW;
+                uint n = all ? dp.n_cull : count;
+                uint base = tile_slot(slice, tile_index) * dp.tile_capacity;
+                uint cap = min(dp.max_per_pixel, uint(MAX_CAP));
+                lit += 1u;
+                tested += n;
+                if (cap == 0u) {
+                    for (uint k = 0u; k < n; ++k) {
+                        DLight l = dlights[all ? k : tile_lights[base + k]];
+                        vec3 wi, Li; float dist;
+                        if (!light_incident(l, s.p, wi, dist, Li)) continue;
+                        shaded += 1u;
+                        vec3 f = bsdf_eval(m, wo, to_local(wi, s.tangent, bt, s.ns), TRANSPORT_RADIANCE);
+                        if (!any(greaterThan(f, vec3(0.0)))) continue;
+                        if (dp.shadows != 0u && !unoccluded(s, l, wi, dist, rays)) continue;
+                        L += f * Li;
+                    }
+                } else {
+                    // Step 4′: keep the `cap` strongest by estimated irradiance (a sorted
+                    // list, strongest first), then shade those.
+                    float best_e[MAX_CAP];
+                    uint best_i[MAX_CAP];
+                    uint nb = 0u;
+                    for (uint k = 0u; k < n; ++k) {
+                        uint li = all ? k : tile_lights[base + k];
+                        vec3 wi, Li; float dist;
+                        if (!light_incident(dlights[li], s.p, wi, dist, Li)) continue;
+                        float e = light_estimate(Li, wi, s.ns);
+                        if (nb == cap && e <= best_e[cap - 1u]) continue;
+                        uint j = nb < cap ? nb++ : cap - 1u;
+                        while (j > 0u && best_e[j - 1u] < e) {
+                            best_e[j] = best_e[j - 1u]; best_i[j] = best_i[j - 1u]; --j;
+                        }
+                        best_e[j] = e; best_i[j] = li;
+                    }
+                    shaded += nb;
+                    for (uint k = 0u; k < nb; ++k) {
+                        DLight l = dlights[best_i[k]];
+                        vec3 wi, Li; float dist;
+                        if (!light_incident(l, s.p, wi, dist, Li)) continue;
+                        vec3 f = bsdf_eval(m, wo, to_local(wi, s.tangent, bt, s.ns), TRANSPORT_RADIANCE);
+                        if (!any(greaterThan(f, vec3(0.0)))) continue;
+                        if (dp.shadows != 0u && !unoccluded(s, l, wi, dist, rays)) continue;
+                        L += f * Li;
+                    }
+                }
+                // Step 5: directional lights, always shaded.
+                for (uint k = dp.n_cull; k < dp.n_cull + dp.n_dir; ++k) {
+                    DLight l = dlights[k];
+                    vec3 wi = -l.axis.xyz;
+                    vec3 f = bsdf_eval(m, wo, to_local(wi, s.tangent, bt, s.ns), TRANSPORT_RADIANCE);
+                    if (!any(greaterThan(f, vec3(0.0)))) continue;
+                    if (dp.shadows != 0u && !unoccluded(s, l, wi, 0.0, rays)) continue;
+                    L += f * l.intensity.rgb;
+                }
+            }
+            // Step 6: the environment as an ambient term, by one BSDF sample.
+            if (dp.env_ambient != 0u && g.env.x != NONE) {
+                BsdfSample bs;
+                if (bsdf_sample(m, wo, rng_next3(rng), TRANSPORT_RADIANCE, bs)) {
+                    vec3 wi = from_local(bs.wi, s.tangent, bt, s.ns);
+                    bool vis = true;
+                    if (dp.shadows != 0u) {
+                        rays += 1u;
+                        vis = !trace_any(spawn_ray(s, wi));
+                    }
+                    if (vis) L += bs.weight * env_eval(wi);
+                }
+            }
+        }
+    }
+    // Debug views of the G-buffer and the culling.
+    if (dp.debug == DEBUG_NORMAL) {
+        L = gs.hit ? gs.n : vec3(0.0);
+    } else if (dp.debug == DEBUG_DEPTH) {
+        L = vec3(gs.hit ? gs.t : 0.0);
+    } else if (dp.debug == DEBUG_GBUFFER_ERROR) {
+        // Against a fresh ray cast with the full surface: normal angle (radians), position
+        // error relative to the depth, and 1 where hit/material/side disagree.
+        Hit hit;
+        bool h = trace_closest(ray, hit);
+        if (h != gs.hit) {
+            L = vec3(0.0, 0.0, 1.0);
+        } else if (!h) {
+            L = vec3(0.0);
+        } else {
+            Surface s = surface_at(hit, ray);
+            vec3 p = ray.o + gs.t * ray.d;
+            float angle = 2.0 * asin(min(1.0, 0.5 * length(gs.n - s.ns)));
+            bool same = s.material == gs.material && (dot(-ray.d, s.ng) > 0.0) == gs.front;
+            L = vec3(angle, length(p - s.p) / max(gs.t, 1e-30), same ? 0.0 : 1.0);
+        }
+    } else if (dp.debug == DEBUG_TILE_LIGHTS) {
+        uint count = tile_counts[tile_slot(slice, tile_index)];
+        uint reach = 0u;
+        if (gs.hit) {
+            vec3 p = ray.o + gs.t * ray.d;
+            for (uint k = 0u; k < dp.n_cull; ++k) {
+                vec3 wi, Li; float dist;
+                if (light_incident(dlights[k], p, wi, dist, Li)) reach += 1u;
+            }
+        }
+        L = vec3(count == TILE_OVERFLOW ? float(dp.n_cull) : float(count), float(reach),
+                 count == TILE_OVERFLOW ? 1.0 : 0.0);
+    }
+    return L;
+}
+
 void main() {
     uint lid = gl_LocalInvocationIndex;
     if (lid == 0u) { s_rays = 0u; s_dropped = 0u; s_tested = 0u; s_shaded = 0u; s_lit = 0u; }
@@ -93,149 +242,15 @@ void main() {
     if (inside) {
         uint pixel = px.y * g.film.x + px.x;
         uint tile_index = gl_WorkGroupID.y * dp.tiles_x + gl_WorkGroupID.x;
-        // Step 1: the camera ray (the one the G-buffer traced) and the packed surface.
-        Rng rng;
-        Ray ray = sample_camera_ray(px, pc.sample_base, rng);
-        rays += 1u;
-        GSample gs = gbuffer_unpack(gbuf[pixel]);
-        vec3 L = vec3(0.0);
-        if (!gs.hit) {
-            // Step 2a: escaped rays see the environment.
-            if (pc.max_depth >= 1) L = env_eval(ray.d);
-        } else {
-            // Step 2b: emission of an emitter seen from its front side.
-            if (gs.front && pc.max_depth >= 1) L += materials[gs.material].emission.rgb;
-            if (pc.max_depth >= 2) {
-                // Step 3: the shading point: position from the camera ray and depth; the
-                // rounding-error bound of the reconstruction for spawning shadow rays.
-                Surface s;
-                s.p = ray.o + gs.t * ray.d;
-                s.p_err = 2e-6 * (abs(s.p) + abs(ray.o) + vec3(gs.t));
-                // The stored shading normal stands in for the geometric one when offsetting
-                // shadow rays; the tangent is any frame (the G-buffer keeps no tangent).
-                s.ns = gs.n;
-                s.ng = gs.n;
-                vec3 bt;
-                make_frame(gs.n, s.tangent, bt);
-                bt = cross(s.ns, s.tangent);
-                s.uv = gs.uv;
-                s.material = gs.material;
-                s.light = NONE;
-                SurfaceParams m = resolve_material(gs.material, gs.uv);
-                vec3 wo = to_local(-ray.d, s.tangent, bt, s.ns);
-                if (!bsdf_is_delta(m)) {
-                    // Step 4: the lights of this pixel's tile (all of them when the tile
-                    // overflowed or culling is off).
-                    uint count = tile_counts[tile_index];
-                    bool all = dp.cull == 0u || count == TILE_OVERFLOW;
-                    uint n = all ? dp.n_cull : count;
-                    uint base = tile_index * dp.tile_capacity;
-                    uint cap = min(dp.max_per_pixel, uint(MAX_CAP));
-                    lit = 1u;
-                    tested = n;
-                    if (cap == 0u) {
-                        for (uint k = 0u; k < n; ++k) {
-                            DLight l = dlights[all ? k : tile_lights[base + k]];
-                            vec3 wi, Li; float dist;
-                            if (!light_incident(l, s.p, wi, dist, Li)) continue;
-                            shaded += 1u;
-                            vec3 f = bsdf_eval(m, wo, to_local(wi, s.tangent, bt, s.ns), TRANSPORT_RADIANCE);
-                            if (!any(greaterThan(f, vec3(0.0)))) continue;
-                            if (dp.shadows != 0u && !unoccluded(s, l, wi, dist, rays)) continue;
-                            L += f * Li;
-                        }
-                    } else {
-                        // Step 4′: keep the `cap` strongest by estimated irradiance (a sorted
-                        // list, strongest first), then shade those.
-                        float best_e[MAX_CAP];
-                        uint best_i[MAX_CAP];
-                        uint nb = 0u;
-                        for (uint k = 0u; k < n; ++k) {
-                            uint li = all ? k : tile_lights[base + k];
-                            vec3 wi, Li; float dist;
-                            if (!light_incident(dlights[li], s.p, wi, dist, Li)) continue;
-                            float e = light_estimate(Li, wi, s.ns);
-                            if (nb == cap && e <= best_e[cap - 1u]) continue;
-                            uint j = nb < cap ? nb++ : cap - 1u;
-                            while (j > 0u && best_e[j - 1u] < e) {
-                                best_e[j] = best_e[j - 1u]; best_i[j] = best_i[j - 1u]; --j;
-                            }
-                            best_e[j] = e; best_i[j] = li;
-                        }
-                        shaded = nb;
-                        for (uint k = 0u; k < nb; ++k) {
-                            DLight l = dlights[best_i[k]];
-                            vec3 wi, Li; float dist;
-                            if (!light_incident(l, s.p, wi, dist, Li)) continue;
-                            vec3 f = bsdf_eval(m, wo, to_local(wi, s.tangent, bt, s.ns), TRANSPORT_RADIANCE);
-                            if (!any(greaterThan(f, vec3(0.0)))) continue;
-                            if (dp.shadows != 0u && !unoccluded(s, l, wi, dist, rays)) continue;
-                            L += f * Li;
-                        }
-                    }
-                    // Step 5: directional lights, always shaded.
-                    for (uint k = dp.n_cull; k < dp.n_cull + dp.n_dir; ++k) {
-                        DLight l = dlights[k];
-                        vec3 wi = -l.axis.xyz;
-                        vec3 f = bsdf_eval(m, wo, to_local(wi, s.tangent, bt, s.ns), TRANSPORT_RADIANCE);
-                        if (!any(greaterThan(f, vec3(0.0)))) continue;
-                        if (dp.shadows != 0u && !unoccluded(s, l, wi, 0.0, rays)) continue;
-                        L += f * l.intensity.rgb;
-                    }
-                }
-                // Step 6: the environment as an ambient term, by one BSDF sample.
-                if (dp.env_ambient != 0u && g.env.x != NONE) {
-                    BsdfSample bs;
-                    if (bsdf_sample(m, wo, rng_next3(rng), TRANSPORT_RADIANCE, bs)) {
-                        vec3 wi = from_local(bs.wi, s.tangent, bt, s.ns);
-                        bool vis = true;
-                        if (dp.shadows != 0u) {
-                            rays += 1u;
-                            vis = !trace_any(spawn_ray(s, wi));
-                        }
-                        if (vis) L += bs.weight * env_eval(wi);
-                    }
-                }
-            }
-        }
-        // Debug views of the G-buffer and the culling.
-        if (dp.debug == DEBUG_NORMAL) {
-            L = gs.hit ? gs.n : vec3(0.0);
-        } else if (dp.debug == DEBUG_DEPTH) {
-            L = vec3(gs.hit ? gs.t : 0.0);
-        } else if (dp.debug == DEBUG_GBUFFER_ERROR) {
-            // Against a fresh ray cast with the full surface: normal angle (radians), position
-            // error relative to the depth, and 1 where hit/material/side disagree.
-            Hit hit;
-            bool h = trace_closest(ray, hit);
-            if (h != gs.hit) {
-                L = vec3(0.0, 0.0, 1.0);
-            } else if (!h) {
-                L = vec3(0.0);
-            } else {
-                Surface s = surface_at(hit, ray);
-                vec3 p = ray.o + gs.t * ray.d;
-                float angle = 2.0 * asin(min(1.0, 0.5 * length(gs.n - s.ns)));
-                bool same = s.material == gs.material && (dot(-ray.d, s.ng) > 0.0) == gs.front;
-                L = vec3(angle, length(p - s.p) / max(gs.t, 1e-30), same ? 0.0 : 1.0);
-            }
-        } else if (dp.debug == DEBUG_TILE_LIGHTS) {
-            uint count = tile_counts[tile_index];
-            uint reach = 0u;
-            if (gs.hit) {
-                vec3 p = ray.o + gs.t * ray.d;
-                for (uint k = 0u; k < dp.n_cull; ++k) {
-                    vec3 wi, Li; float dist;
-                    if (light_incident(dlights[k], p, wi, dist, Li)) reach += 1u;
-                }
-            }
-            L = vec3(count == TILE_OVERFLOW ? float(dp.n_cull) : float(count), float(reach),
-                     count == TILE_OVERFLOW ? 1.0 : 0.0);
-        }
+        // The batch's samples in order, each added as its own dispatch would add it (the odd
+        // half too), so the sums are those of one sample per dispatch, bit for bit.
         vec4 acc = accum[pixel];
-        film_add(acc, L, pc.sample_base, dropped);
+        for (uint slice = 0u; slice < pc.spp; ++slice) {
+            vec3 L = shade_sample(px, pixel, tile_index, slice, rays, tested, shaded, lit);
+            film_add(acc, L, pc.sample_base + slice, dropped);
+            film_odd_store(pixel);
+        }
         accum[pixel] = acc;
-        film_odd_store(pixel);
     }
     // Step 7: counters, reduced per workgroup first.
     if (rays > 0u) atomicAdd(s_rays, rays);

@@ -15,6 +15,7 @@
 //!   for summation order), no light reaching a pixel is missing from its tile list, and overflowed
 //!   tiles (shaded against every light) give the same image;
 //! - the per-pixel cap keeps the strongest light; the white furnace renders 1;
+//! - batches of 1, 3 and all samples per dispatch accumulate the same sums bit for bit;
 //! - shadows on against `nee` max_depth 2 on a scene with an occluder, and the Cornell box
 //!   (whose area light `deferred` approximates by point-like lights), are reported (printed)
 //!   with loose sanity bounds.
@@ -517,6 +518,75 @@ fn white_furnace_is_one_and_passes_split_freely() {
     let a = render_passes(&scene, r#"{"type":"deferred"}"#, 4, (16, 16), 9, Some(3)).0;
     let b = render_passes(&scene, r#"{"type":"deferred"}"#, 4, (16, 16), 9, Some(4)).0;
     assert_eq!(a.pixels, b.pixels);
+}
+
+#[test]
+fn batches_of_any_size_accumulate_the_same_sums() {
+    // Samples are keyed by index and the shade stage adds a batch's samples in sample order, so
+    // one sample per dispatch, batches of 2 and the automatic batch give the same accumulation,
+    // odd half included, bit for bit — on a 24×16 film (two tiles, one partial) with culling on
+    // and the environment. On lavapipe the session hands a pass to the integrator in
+    // LLVMPIPE_MAX_DISPATCHES chunks (render/session.rs), so the pass has 2·that + 2 samples:
+    // chunks of 2 and two of 3, which batches of 2 cut into 2 + 1.
+    let scene = parse(&floor_scene(
+        FEW_LIGHTS,
+        "",
+        r#", "environment": {"type": "constant", "radiance": [0.2, 0.25, 0.3]}"#,
+    ));
+    let (w, h) = (24u64, 16u64);
+    let compiled = compile(&scene, w as u32, h as u32).expect("compile");
+    let _serial = gpu_lock();
+    let ctx = gpu();
+    let split = renderer::render::LLVMPIPE_MAX_DISPATCHES;
+    let spp = 2 * split + 2;
+    let chunks: Vec<u32> = if ctx.info.name.contains("llvmpipe") {
+        (0..split).map(|i| if i < 2 { 3 } else { 2 }).collect()
+    } else {
+        vec![spp]
+    };
+    assert_eq!(chunks.iter().sum::<u32>(), spp);
+    let run = |batch: Option<u32>| {
+        let extra = batch.map_or(String::new(), |b| format!(r#","samples_per_batch":{b}"#));
+        let json = format!(r#"{{"type":"deferred","max_depth":2,"cutoff":0.05{extra}}}"#);
+        let mut s =
+            RenderSession::new(&ctx, &compiled, &options(&json), None, 11).expect("session");
+        s.run_pass(spp).expect("pass");
+        (s.accumulation().expect("accumulation"), s.stats())
+    };
+    let (one, st_one) = run(Some(1));
+    let d_one = st_one.details.clone().expect("details");
+    assert_eq!(d_one["batches"].as_u64(), Some(spp as u64));
+    for batch in [Some(2), None] {
+        let (acc, st) = run(batch);
+        let d = st.details.clone().expect("details");
+        let b = d["samples_per_batch"].as_u64().unwrap();
+        println!("batch {b}: rays {}, details {d}", st.rays);
+        // The batches recorded, and the per-sample slices allocated for them.
+        let batches: u64 = chunks.iter().map(|&c| c.div_ceil(b as u32) as u64).sum();
+        assert_eq!(d["batches"].as_u64(), Some(batches), "{d}");
+        assert!(batches < spp as u64);
+        assert_eq!(d["memory_bytes"]["gbuffer"].as_u64(), Some(b * w * h * 16));
+        assert_eq!(d["memory_bytes"]["tile_counts"].as_u64(), Some(b * 2 * 4));
+        assert!(acc.iter().any(|p| p[0] > 0.0), "black image");
+        let differ = acc.iter().zip(&one).filter(|(a, b)| a != b).count();
+        assert_eq!(
+            differ, 0,
+            "batch {b}: {differ} accumulation entries differ from batch 1"
+        );
+        assert_eq!(st.rays, st_one.rays);
+        assert_eq!(d["lights_per_pixel"], d_one["lights_per_pixel"]);
+        assert!(d["lights_per_pixel"]["pixel_samples"].as_u64().unwrap() > 0);
+        // The stage timings count every sample of a batch (where the queue has timestamps).
+        let ms = d["stage_ms"]["gbuffer"].as_f64().unwrap();
+        let per = d["stage_ms_per_sample"]["gbuffer"].as_f64().unwrap();
+        if ms > 0.0 {
+            assert!(
+                (ms / per - spp as f64).abs() < 1e-6,
+                "{ms} ms over {per} ms per sample"
+            );
+        }
+    }
+    ctx.check_validation().expect("validation layer messages");
 }
 
 #[test]

@@ -1,10 +1,11 @@
 //! `deferred`: deferred many-light shading (after the "optimised deferred shading for many
 //! dynamic lights" seed; tiled culling after Olsson & Assarsson 2011 and Harada et al. 2012).
-//! Direct lighting only, computed per sample in three compute stages:
+//! Direct lighting only, computed in three compute stages, each one dispatch over a batch of
+//! samples ([`batch`]: enough pixel-samples to keep the GPU busy between the barriers):
 //!
 //! 1. **G-buffer** (shaders/deferred/gbuffer.comp): the jittered camera ray of each pixel is cast
-//!    through the BVH; the surface is packed into 16 bytes per pixel ([`gbuffer`]).
-//! 2. **Cull** (cull.comp): per 16×16 tile, the bounding box of the tile's reconstructed surface
+//!    through the BVH; the surface is packed into 16 bytes per pixel and sample ([`gbuffer`]).
+//! 2. **Cull** (cull.comp): per 16×16 tile and sample, the bounding box of the tile's reconstructed surface
 //!    points is tested against every light's influence sphere and cone; survivors form the
 //!    tile's light list.
 //! 3. **Shade** (shade.comp): each pixel evaluates its material's BSDF for the lights of its tile
@@ -17,6 +18,7 @@
 //! kernel deferred/deferred.comp. max_depth above 2 (or −1) is treated as 2: `deferred` has no
 //! indirect light. docs/deferred.md describes the options and the error bounds.
 
+pub mod batch;
 pub mod gbuffer;
 pub mod lights;
 pub mod stages;
@@ -34,7 +36,7 @@ use crate::gpu::{
 };
 use crate::layout::GpuPush;
 use lights::{LightSet, ManagerOptions};
-use stages::{DeferredParams, Stages, TILE_OVERFLOW};
+use stages::{parse_stage_label, DeferredParams, Stages, TILE_OVERFLOW};
 
 /// Default irradiance cutoff (W/m² in the scene's units): a light is ignored where it would
 /// deliver less than this to a surface facing it.
@@ -43,7 +45,7 @@ pub const DEFAULT_CUTOFF: f32 = 1e-3;
 pub const DEFAULT_TILE_CAPACITY: u32 = 1024;
 /// Largest `max_lights_per_pixel` (the shade stage's fixed-size selection array).
 pub const MAX_LIGHTS_PER_PIXEL: u32 = 32;
-/// Most samples one pass may hold (each sample is three dispatches).
+/// Most samples one pass may hold.
 pub const MAX_SPP_PER_PASS: u32 = 1024;
 
 /// What the debug views show instead of radiance (per pixel, averaged over samples).
@@ -97,6 +99,9 @@ pub struct DeferredOptions {
     pub cull: Option<bool>,
     /// The environment lights surfaces as an ambient term (default true).
     pub env_ambient: Option<bool>,
+    /// Samples per dispatch of each stage (1 ..= [`batch::MAX_BATCH`]). Default: automatic
+    /// ([`batch::batch_size`]). The image does not depend on it.
+    pub samples_per_batch: Option<u32>,
     /// A debug view instead of radiance.
     pub debug: Option<DeferredDebug>,
 }
@@ -144,6 +149,11 @@ impl OptionsInfo for DeferredOptions {
             help: "the environment lights surfaces as an ambient term (default true)",
         },
         OptionField {
+            name: "samples_per_batch",
+            kind: "integer",
+            help: "samples per dispatch of each stage, 1..=64 (default: automatic, ~8M pixel-samples within 256 MiB); does not change the image",
+        },
+        OptionField {
             name: "debug",
             kind: "\"normal\" | \"depth\" | \"gbuffer_error\" | \"tile_lights\"",
             help: "a debug view instead of radiance",
@@ -168,6 +178,8 @@ struct StageTimes {
     shade: f64,
     emitters: f64,
     samples: u64,
+    /// Batches run (G-buffer dispatches).
+    batches: u64,
     /// Shading counters: candidate lights tested, lights that reached their pixel, pixel
     /// samples shaded with direct light.
     tested: u64,
@@ -218,6 +230,14 @@ pub(crate) fn validate(o: &DeferredOptions) -> Result<(), RenderError> {
     }
     if o.tile_capacity == Some(0) {
         return bad("tile_capacity: must be at least 1".into());
+    }
+    if let Some(b) = o.samples_per_batch {
+        if b == 0 || b > batch::MAX_BATCH {
+            return bad(format!(
+                "samples_per_batch: must be 1 ..= {}, got {b}",
+                batch::MAX_BATCH
+            ));
+        }
     }
     Ok(())
 }
@@ -281,6 +301,7 @@ impl Integrator for DeferredIntegrator {
             scene.height,
             &self.lights,
             params,
+            o.samples_per_batch,
             shared,
             defines,
         )?);
@@ -288,10 +309,11 @@ impl Integrator for DeferredIntegrator {
     }
 
     fn dispatches_per_pass(&self, spp: u32) -> u32 {
-        3 * spp.min(MAX_SPP_PER_PASS)
+        let spp = spp.min(MAX_SPP_PER_PASS);
+        self.stages.as_ref().map_or(3 * spp, |s| s.dispatches(spp))
     }
 
-    /// Passes are per-sample stage chains over 16×16 culling tiles: no lanes, no bands.
+    /// Passes are batched stage chains over 16×16 culling tiles: no lanes, no bands.
     fn shapes_dispatch(&self) -> bool {
         false
     }
@@ -327,14 +349,18 @@ impl Integrator for DeferredIntegrator {
 
     fn observe_timings(&mut self, timings: &[DispatchTiming]) {
         for t in timings {
-            match t.label.as_str() {
-                "deferred gbuffer" => {
+            if t.label == "deferred emitters" {
+                self.times.emitters += t.gpu_ms;
+                continue;
+            }
+            match parse_stage_label(&t.label) {
+                Some(("gbuffer", n)) => {
                     self.times.gbuffer += t.gpu_ms;
-                    self.times.samples += 1;
+                    self.times.samples += n as u64;
+                    self.times.batches += 1;
                 }
-                "deferred cull" => self.times.cull += t.gpu_ms,
-                "deferred shade" => self.times.shade += t.gpu_ms,
-                "deferred emitters" => self.times.emitters += t.gpu_ms,
+                Some(("cull", _)) => self.times.cull += t.gpu_ms,
+                Some(("shade", _)) => self.times.shade += t.gpu_ms,
                 _ => {}
             }
         }
@@ -373,7 +399,9 @@ impl Integrator for DeferredIntegrator {
             d["memory_bytes"] = json!(s.memory);
             d["tile_capacity"] = json!(s.params.tile_capacity);
             d["tiles"] = json!([s.params.tiles_x, s.params.tiles_y]);
-            // The light lists of the last sample rendered.
+            d["samples_per_batch"] = json!(s.batch);
+            d["batches"] = json!(t.batches);
+            // The light lists of the first sample of the last batch rendered.
             if t.samples > 0 {
                 if let Ok(counts) = s.tile_counts() {
                     let over = counts.iter().filter(|&&c| c == TILE_OVERFLOW).count();
@@ -448,6 +476,20 @@ mod tests {
                     ..Default::default()
                 },
                 "tile_capacity",
+            ),
+            (
+                DeferredOptions {
+                    samples_per_batch: Some(0),
+                    ..Default::default()
+                },
+                "samples_per_batch",
+            ),
+            (
+                DeferredOptions {
+                    samples_per_batch: Some(batch::MAX_BATCH + 1),
+                    ..Default::default()
+                },
+                "samples_per_batch",
             ),
         ] {
             let e = validate(&o).unwrap_err().to_string();

@@ -1,13 +1,18 @@
 //! The GPU side of `deferred`: its buffers (bindings 30–35 next to the session's scene
-//! bindings), the three stage pipelines, and the recording of a pass. Each sample of a pass runs
-//! the stages in order — `deferred gbuffer` (shaders/deferred/gbuffer.comp), `deferred cull`
-//! (cull.comp, one workgroup per 16×16 tile) and `deferred shade` (shade.comp) — so the G-buffer
-//! holds one sample at a time and its memory does not grow with the samples per pass.
+//! bindings), the three stage pipelines, and the recording of a pass. A pass runs in batches of
+//! up to `batch` samples ([`super::batch`]); each batch runs the stages in order, each stage one
+//! dispatch over all the batch's samples — `deferred gbuffer` (shaders/deferred/gbuffer.comp,
+//! the dispatch's z = the sample within the batch), `deferred cull` (cull.comp, one workgroup
+//! per 16×16 tile and sample) and `deferred shade` (shade.comp, one workgroup per tile whose
+//! threads shade their pixel's samples in sample order) — so the G-buffer, the tile counts and
+//! the tile lists hold one slice per sample of a batch, and their memory is bounded by the batch
+//! size, not by the samples per pass.
 
 use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
 
+use super::batch::{batch_size, batches};
 use super::lights::{DeferredLight, LightSet};
 use crate::error::RenderError;
 use crate::gpu::{Binding, Buffer, BufferUsage, ComputePipeline, GpuContext};
@@ -48,9 +53,12 @@ pub struct DeferredParams {
     pub pad: [u32; 2],
 }
 
-/// Sizes of what the stages allocate, bytes.
+/// Sizes of what the stages allocate, bytes (G-buffer, tile counts and tile lists: `batch`
+/// slices).
 #[derive(Debug, Clone, Copy, Default, serde::Serialize)]
 pub struct Memory {
+    /// Samples per batch: slices of the per-sample buffers.
+    pub batch: u32,
     pub gbuffer: u64,
     pub lights: u64,
     pub tile_counts: u64,
@@ -71,17 +79,33 @@ pub struct Stages {
     tile_counts: usize,
     width: u32,
     height: u32,
+    /// Samples per batch (at most: a pass of spp samples is cut into ceil(spp / batch) even
+    /// batches, [`batches`]).
+    pub batch: u32,
+}
+
+/// The label of a stage's dispatch over `n` samples, e.g. "deferred gbuffer ×4".
+pub fn stage_label(stage: &str, n: u32) -> String {
+    format!("deferred {stage} ×{n}")
+}
+
+/// The stage and sample count of a [`stage_label`]; None for other labels.
+pub fn parse_stage_label(label: &str) -> Option<(&str, u32)> {
+    let (stage, n) = label.strip_prefix("deferred ")?.split_once(" ×")?;
+    Some((stage, n.parse().ok()?))
 }
 
 impl Stages {
     /// Uploads the light set and builds the stage pipelines, binding the stages' buffers next to
-    /// the session's `shared` ones.
+    /// the session's `shared` ones; `batch`: the `samples_per_batch` option (None: automatic).
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         ctx: &Arc<GpuContext>,
         width: u32,
         height: u32,
         set: &LightSet,
         mut params: DeferredParams,
+        batch: Option<u32>,
         shared: &[Binding<'_>],
         defines: &ShaderDefines,
     ) -> Result<Stages, RenderError> {
@@ -93,7 +117,11 @@ impl Stages {
         params.tile_capacity = params.tile_capacity.min(set.n_cull).max(1);
         let tiles = params.tiles_x as u64 * params.tiles_y as u64;
         let pixels = width as u64 * height as u64;
-        // Step 2: buffers.
+        // Step 2: samples per batch, each with its slice of the per-sample buffers.
+        let llvmpipe = ctx.info.name.contains("llvmpipe");
+        let batch = batch_size(pixels, tiles, params.tile_capacity, batch, llvmpipe);
+        let slices = batch as u64;
+        // Step 3: buffers.
         let lights: &[DeferredLight] = &set.lights;
         let buffers = vec![
             Buffer::from_slice(ctx, "deferred params", std::slice::from_ref(&params))?,
@@ -101,14 +129,19 @@ impl Stages {
             Buffer::new(
                 ctx,
                 "deferred gbuffer",
-                pixels * super::gbuffer::BYTES_PER_PIXEL as u64,
+                slices * pixels * super::gbuffer::BYTES_PER_PIXEL as u64,
                 BufferUsage::Storage,
             )?,
-            Buffer::new(ctx, "deferred tile counts", tiles * 4, BufferUsage::Storage)?,
+            Buffer::new(
+                ctx,
+                "deferred tile counts",
+                slices * tiles * 4,
+                BufferUsage::Storage,
+            )?,
             Buffer::new(
                 ctx,
                 "deferred tile lists",
-                tiles * params.tile_capacity as u64 * 4,
+                slices * tiles * params.tile_capacity as u64 * 4,
                 BufferUsage::Storage,
             )?,
             Buffer::new(ctx, "deferred counters", 24, BufferUsage::Storage)?,
@@ -117,6 +150,7 @@ impl Stages {
             ctx.fill_zero(b)?;
         }
         let memory = Memory {
+            batch,
             gbuffer: buffers[2].size,
             lights: buffers[1].size,
             tile_counts: buffers[3].size,
@@ -142,7 +176,7 @@ impl Stages {
         for (index, buffer) in own.into_iter().zip(&buffers) {
             bindings.push(Binding { index, buffer });
         }
-        // Step 3: the stage pipelines, for the scene's feature set.
+        // Step 4: the stage pipelines, for the scene's feature set.
         let push = std::mem::size_of::<GpuPush>() as u32;
         let build = |kernel: &str| -> Result<ComputePipeline, RenderError> {
             let spirv = ctx.kernel(kernel, defines)?;
@@ -163,23 +197,36 @@ impl Stages {
             tile_counts: tiles as usize,
             width,
             height,
+            batch,
         })
     }
 
-    /// Records the three stages for each of the pass's `push.spp` samples.
+    /// The dispatches a pass of `spp` samples records: three per batch.
+    pub fn dispatches(&self, spp: u32) -> u32 {
+        3 * spp.div_ceil(self.batch)
+    }
+
+    /// Records the three stages for each batch of the pass's `push.spp` samples: the batch's
+    /// push constants name its first sample (`sample_base`) and its size (`spp`).
     pub fn record(&self, rec: &mut Recorder<'_>, push: GpuPush) -> GpuResult<()> {
-        let pixel_groups = [self.width.div_ceil(8), self.height.div_ceil(8), 1];
-        let tile_groups = [self.params.tiles_x, self.params.tiles_y, 1];
-        for i in 0..push.spp {
+        for (first, n) in batches(push.spp, self.batch) {
             let p = GpuPush {
-                sample_base: push.sample_base + i,
-                spp: 1,
+                sample_base: push.sample_base + first,
+                spp: n,
                 ..push
             };
             let bytes = bytemuck::bytes_of(&p);
-            rec.dispatch(&self.gbuffer, bytes, pixel_groups, "deferred gbuffer")?;
-            rec.dispatch(&self.cull, bytes, tile_groups, "deferred cull")?;
-            rec.dispatch(&self.shade, bytes, tile_groups, "deferred shade")?;
+            let pixel_groups = [self.width.div_ceil(8), self.height.div_ceil(8), n];
+            let cull_groups = [self.params.tiles_x, self.params.tiles_y, n];
+            let shade_groups = [self.params.tiles_x, self.params.tiles_y, 1];
+            rec.dispatch(
+                &self.gbuffer,
+                bytes,
+                pixel_groups,
+                &stage_label("gbuffer", n),
+            )?;
+            rec.dispatch(&self.cull, bytes, cull_groups, &stage_label("cull", n))?;
+            rec.dispatch(&self.shade, bytes, shade_groups, &stage_label("shade", n))?;
         }
         Ok(())
     }
@@ -192,9 +239,24 @@ impl Stages {
         Ok([0, 1, 2].map(|i| ((c[i][1] as u64) << 32) | c[i][0] as u64))
     }
 
-    /// The light counts of the tile lists of the last sample rendered (TILE_OVERFLOW for an
-    /// overflowed tile).
+    /// The light counts of the tile lists of the first sample of the last batch rendered (slice
+    /// 0, which every batch writes; TILE_OVERFLOW for an overflowed tile).
     pub fn tile_counts(&self) -> GpuResult<Vec<u32>> {
         self.ctx.download_vec(&self._buffers[3], self.tile_counts)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stage_labels_carry_the_batch() {
+        assert_eq!(
+            parse_stage_label(&stage_label("gbuffer", 12)),
+            Some(("gbuffer", 12))
+        );
+        assert_eq!(parse_stage_label("deferred emitters"), None);
+        assert_eq!(parse_stage_label("nee"), None);
     }
 }
