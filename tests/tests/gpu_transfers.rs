@@ -58,3 +58,40 @@ fn transfers_from_several_threads_at_once() {
         }
     });
 }
+
+/// A session's accumulation copied by the device into host-visible memory holds exactly what
+/// the read-back returns, extra buffers (bdpt's splats) and odd half in their places, and a
+/// buffer passed back is used again (its contents replaced).
+#[test]
+fn accumulation_to_host_equals_the_read_back() {
+    use renderer::compile::compile;
+    use renderer::integrators::IntegratorOptions;
+    use renderer::render::{render, Budget, RenderSession};
+    let scene = renderer::scene::load_file(&candela_tests::scene_path("cornell.json")).unwrap();
+    let compiled = compile(&scene, 12, 8).unwrap();
+    let ctx = gpu();
+    let options = IntegratorOptions::from_name("bdpt").unwrap();
+    let mut session = RenderSession::new(&ctx, &compiled, &options, Some(3), 3).unwrap();
+    assert!(
+        !session.extra_buffers().is_empty(),
+        "bdpt has extra buffers"
+    );
+    render(&mut session, Budget::Spp(2)).unwrap();
+    let read = session.accumulation().unwrap();
+    let host = session.accumulation_to_host(None).unwrap();
+    assert_eq!(host.len(), read.len());
+    assert!(
+        host.as_slice() == &read[..],
+        "the copy differs from the read-back"
+    );
+    // More samples, into the same buffer.
+    let first = read;
+    render(&mut session, Budget::Spp(4)).unwrap();
+    let read = session.accumulation().unwrap();
+    assert!(read != first, "more samples changed nothing");
+    let again = session.accumulation_to_host(Some(host)).unwrap();
+    assert!(
+        again.as_slice() == &read[..],
+        "the reused buffer differs from the read-back"
+    );
+}

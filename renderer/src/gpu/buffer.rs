@@ -66,6 +66,11 @@ impl Buffer {
         Ok(buf)
     }
 
+    /// The context it was made on.
+    pub(crate) fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
     /// Host-visible bytes (Upload and Readback buffers only).
     pub(crate) fn mapped(&self) -> Option<&[u8]> {
         self.allocation.as_ref().and_then(|a| a.mapped_slice())

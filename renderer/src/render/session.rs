@@ -8,7 +8,10 @@
 //! (dispatch.rs); [`RenderSession::run_pass`] is the one-pass-and-wait form.
 
 mod completion;
+mod host_accum;
 mod stats;
+
+pub use host_accum::HostAccumulation;
 
 use std::collections::VecDeque;
 use std::sync::Arc;

@@ -109,6 +109,7 @@ pub fn spawn(
                 claim_now: false,
                 spare: None,
                 writes: Vec::new(),
+                spare_sums: None,
                 last_open: None,
                 open_failures: 0,
                 held: BTreeMap::new(),
@@ -155,6 +156,8 @@ struct Worker {
     spare: Option<(JobId, RenderSession)>,
     /// Finished shards' final checkpoints being written (shard_write.rs).
     writes: Vec<shard_write::ShardWrite>,
+    /// The host-visible buffer of the last finished write, for the next shard's sums.
+    spare_sums: Option<renderer::render::HostAccumulation>,
     /// The last attempt to create the device, and failures in a row.
     last_open: Option<Instant>,
     open_failures: u32,

@@ -177,8 +177,9 @@ impl Worker {
         let worker = self.config.worker_id.clone();
         let t0 = std::time::Instant::now();
         let rendering = job.since_admit();
-        // Step 1: the sums read back (after the job's queued passes).
-        let accumulation = match job.session.accumulation() {
+        // Step 1: the sums copied to host-visible memory (after the job's queued passes; the
+        // writer's thread reads them from there).
+        let accumulation = match job.session.accumulation_to_host(self.spare_sums.take()) {
             Ok(acc) => acc,
             // Taken over meanwhile (its new owner renders it): lost, not a failure of the job.
             Err(e)

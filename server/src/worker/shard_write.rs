@@ -1,8 +1,10 @@
-//! A finished shard's final checkpoint, written off the render thread: the shard's sums are
-//! read back from the device (the only part that needs it), the shard's lease is handed to a
-//! name of the worker's own for writers (`NAME#write`, store/shards.rs `hand_shard`) and a
-//! thread writes `shard-<k>.bin` (whole, renamed into place) and only then marks the shard
-//! done, while the device renders the worker's next shard. The worker loop collects finished writes
+//! A finished shard's final checkpoint, written off the render thread: the device copies the
+//! shard's sums into host-visible memory (the only part on the render thread; one device copy,
+//! `RenderSession::accumulation_to_host`), the shard's lease is handed to a name of the
+//! worker's own for writers (`NAME#write`, store/shards.rs `hand_shard`) and a thread writes
+//! `shard-<k>.bin` straight from that memory (whole, renamed into place) and only then marks
+//! the shard done, while the device renders the worker's next shard; the buffer then serves
+//! the worker's next shard. The worker loop collects finished writes
 //! ([`Worker::collect_writes`]), announces them (`progress` event) and claims again (the merge,
 //! once every shard is done).
 //!
@@ -20,7 +22,7 @@
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use renderer::render::Progress;
+use renderer::render::{HostAccumulation, Progress};
 use serde_json::Value;
 use tracing::{info, warn};
 
@@ -44,6 +46,8 @@ struct Written {
     file: Duration,
     status: Duration,
     result: Result<Option<Progress>, WriteError>,
+    /// The sums' buffer, for the worker's next shard.
+    sums: Option<HostAccumulation>,
 }
 
 /// A shard's final checkpoint being written.
@@ -55,7 +59,7 @@ pub struct ShardWrite {
     /// The job's sample budget; the shard's progress event before the job's total is known.
     job_spp: u32,
     progress_json: Value,
-    /// Time from the shard's admission to its end, and of the read-back.
+    /// Time from the shard's admission to its end, and of the copy to host-visible memory.
     rendering: Duration,
     readback: Duration,
     gpu_s: f64,
@@ -83,7 +87,8 @@ pub struct Finished {
     pub settings: JobSettings,
     pub path: std::path::PathBuf,
     pub progress: Progress,
-    pub accumulation: Vec<[f32; 4]>,
+    /// The shard's sums, in host-visible memory the device copied them to.
+    pub accumulation: HostAccumulation,
     pub job_spp: u32,
     pub progress_json: Value,
     pub rendering: Duration,
@@ -104,8 +109,7 @@ pub fn start(
         .spawn(move || {
             let t0 = Instant::now();
             let wrote = crate::storage::injected_fault()
-                .and_then(|_| checkpoint::write(&path, w, h, seed, &p, &acc, false));
-            drop(acc);
+                .and_then(|_| checkpoint::write(&path, w, h, seed, &p, acc.as_slice(), false));
             let file = t0.elapsed();
             if wrote.is_ok() {
                 hold_for_test(id, idx);
@@ -129,6 +133,7 @@ pub fn start(
                 file,
                 status: t0.elapsed() - file,
                 result,
+                sums: Some(acc),
             }
         })?;
     Ok(ShardWrite {
@@ -193,11 +198,15 @@ impl Worker {
             // (In start order: `writes[0]` is the oldest.)
             let w = self.writes.remove(i);
             let (id, idx) = (w.id, w.idx);
-            let written = w.handle.join().unwrap_or_else(|_| Written {
+            let mut written = w.handle.join().unwrap_or_else(|_| Written {
                 file: Duration::ZERO,
                 status: Duration::ZERO,
                 result: Err(WriteError::Io(std::io::Error::other("the writer panicked"))),
+                sums: None,
             });
+            if let Some(sums) = written.sums.take() {
+                self.spare_sums = Some(sums);
+            }
             match written.result {
                 Ok(Some(total)) => {
                     info!(
