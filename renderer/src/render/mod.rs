@@ -19,7 +19,9 @@ pub use estimate_gpu::{ESTIMATE_KERNEL, ESTIMATE_LABELS};
 pub use inflight::{AccumSnapshot, CompletedPass, PassEstimate, PassStats, PIPELINE_DEPTH};
 pub use session::{HostAccumulation, Progress, RenderSession, LLVMPIPE_MAX_DISPATCHES};
 pub use shards::{merge_accumulation, render_split, SampleDispenser, SplitRender};
-pub use until::{next_check, target_reached, UntilChecks, UNTIL_CHECK_GROWTH, UNTIL_MIN_SPP};
+pub use until::{
+    is_check_point, next_check, target_reached, UntilChecks, UNTIL_CHECK_GROWTH, UNTIL_MIN_SPP,
+};
 
 use std::time::Duration;
 

@@ -45,6 +45,12 @@ pub fn next_check(spp: u32) -> u32 {
     c
 }
 
+/// Whether `spp` is itself a check point (a render resumed there checks its target before it
+/// renders on: an uninterrupted one would have stopped there if the target was reached).
+pub fn is_check_point(spp: u32) -> bool {
+    spp >= UNTIL_MIN_SPP && next_check(spp - 1) == spp
+}
+
 /// A render's quality target and the state of its checks.
 #[derive(Debug, Clone)]
 pub struct UntilChecks {
@@ -121,6 +127,17 @@ mod tests {
         let after = next_check(c);
         assert!(after as f64 >= c as f64 * 1.125 && (after as f64) < c as f64 * 1.125 + 1.0);
         assert_eq!(next_check(u32::MAX - 1), u32::MAX);
+    }
+
+    #[test]
+    fn check_points_are_recognised() {
+        let points: Vec<u32> = (0..60).filter(|&s| is_check_point(s)).collect();
+        assert_eq!(
+            points,
+            [8, 9, 11, 13, 15, 17, 20, 23, 26, 30, 34, 39, 44, 50]
+        );
+        assert!(is_check_point(next_check(100_000)));
+        assert!(!is_check_point(next_check(100_000) - 1));
     }
 
     #[test]

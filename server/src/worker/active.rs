@@ -139,6 +139,20 @@ impl ActiveJob {
         }
     }
 
+    /// A job resumed from a checkpoint that ends exactly at a check point of its quality target
+    /// makes that check now, from the restored sums `acc`: the interrupted render may have
+    /// stopped before it saw the check's result, and without it the resumed job would render
+    /// on to the next check point, past where an uninterrupted one stops.
+    pub fn check_restored(&mut self, acc: &[[f32; 4]]) {
+        let spp = self.session.spp();
+        if self.checks.is_none() || !renderer::render::is_check_point(spp) {
+            return;
+        }
+        let image = self.session.resolve(acc);
+        let estimate = self.session.estimate_spp(acc, spp, &image);
+        self.observe_estimate(spp, estimate);
+    }
+
     /// Whether the next pass, of `spp` samples, ends at a check point of the quality target
     /// (it is then queued with the estimate: [`Self::check_queued`]).
     pub fn check_due(&self, spp: u32) -> bool {

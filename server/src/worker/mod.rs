@@ -356,6 +356,8 @@ impl Worker {
             _ => paths.checkpoint(),
         };
         let mut merged_sums = None;
+        // (A job with a quality target keeps its restored sums for one check: check_restored.)
+        let mut restored = None;
         if let Part::Merge { count } = part {
             let t0 = std::time::Instant::now();
             match shard::merged(&self.store, &session, &s, &paths, id) {
@@ -386,6 +388,9 @@ impl Worker {
                         return self.render_failed(id, e, "restoring the checkpoint");
                     }
                     info!(job = id, spp = progress.spp, "resumed from checkpoint");
+                    if s.until_rel_mse.is_some() {
+                        restored = Some(acc);
+                    }
                 }
                 Err(e) => warn!(job = id, error = %e, "ignoring unusable checkpoint"),
             }
@@ -416,6 +421,9 @@ impl Worker {
         ctx.save_pipeline_cache_later();
         let job_spp = s.spp.unwrap_or(1);
         let mut job = ActiveJob::new(session, s, paths);
+        if let Some(acc) = restored {
+            job.check_restored(&acc);
+        }
         match part {
             Part::Shard { range, count } => {
                 info!(
