@@ -134,7 +134,7 @@ mod tests {
         let points: Vec<u32> = (0..60).filter(|&s| is_check_point(s)).collect();
         assert_eq!(
             points,
-            [8, 9, 11, 13, 15, 17, 20, 23, 26, 30, 34, 39, 44, 50]
+            [8, 9, 11, 13, 15, 17, 20, 23, 26, 30, 34, 39, 44, 50, 57]
         );
         assert!(is_check_point(next_check(100_000)));
         assert!(!is_check_point(next_check(100_000) - 1));
