@@ -9,8 +9,8 @@
 //! mid-shard and replaced by a new one, and comes out with exactly its samples and the image
 //! one worker renders of it whole; a worker killed after a shard's final checkpoint was written
 //! but before the shard was marked done (held there by a test hook) has it counted once, by the
-//! worker that takes it over; a worker
-//! with `--devices 0,0` claims shards on both its contexts, under two names, each reported by
+//! worker that takes it over, and a worker waiting for its held writes keeps every lease; a
+//! worker with `--devices 0,0` claims shards on both its contexts, under two names, each reported by
 //! the API server (`/api/workers`, `/metrics`, with its process's memory) until it is lost; a split job paused and resumed
 //! ends with exactly its samples, and one canceled leaves no shard files.
 
@@ -44,6 +44,14 @@ fn a_worker_killed_while_writing_a_shard_counts_it_once() {
     run_on(
         Backend::Postgres,
         a_worker_killed_while_writing_a_shard_counts_it_once_on_postgres,
+    )
+}
+
+#[test]
+fn a_worker_waiting_for_its_writes_keeps_its_leases() {
+    run_on(
+        Backend::Postgres,
+        a_worker_waiting_for_its_writes_keeps_its_leases_on_postgres,
     )
 }
 
@@ -476,6 +484,49 @@ fn a_worker_killed_while_writing_a_shard_counts_it_once_on_postgres() {
     let whole = |l: &&str| l.contains("resumed from checkpoint") && l.contains("spp=20");
     assert!(w2.log().lines().any(|l| whole(&l)), "{}", w2.log());
     assert_eq!(shard_files(&data, id), 0, "{}", w2.log());
+}
+
+/// A worker whose shard ends while its two writes are held (a slow disk: the test hook) waits
+/// for the oldest, renewing its leases meanwhile, so a second worker finds none to take over:
+/// every shard is claimed once, none is lost, and the job ends with exactly its samples.
+fn a_worker_waiting_for_its_writes_keeps_its_leases_on_postgres() {
+    let dir = scratch("server_farm_write_wait");
+    let data = dir.join("data");
+    let api = Server::start(&data, &["--workers", "0"]);
+    let hold = dir.join("hold");
+    std::fs::write(&hold, b"").unwrap();
+    let split = ["--shard-spp", "20"];
+    let env = [("CANDELA_TEST_SHARD_WRITE_HOLD_FILE", hold.as_path())];
+    let w1 = Worker::start_env(&data, "w1", "2", &split, &env);
+    let total = 80u64;
+    let body = json!({"scene_name": "cornell", "spp": total, "width": 16, "height": 16,
+                      "seed": 8});
+    let id = api.submit(&body)["id"].as_i64().unwrap();
+    // Step 1: two writes held; a third shard's end waits for the oldest.
+    let deadline = Instant::now() + T;
+    while !w1.log().contains("waiting for the oldest shard write") {
+        assert!(Instant::now() < deadline, "{}", w1.log());
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // Step 2: a second worker looks for work for three leases' time, then the writes go on.
+    let w2 = Worker::start_with(&data, "w2", "2", &split);
+    std::thread::sleep(Duration::from_secs(6));
+    std::fs::remove_file(&hold).unwrap();
+    let done = api.wait_job(id, T, |j| {
+        matches!(j["state"].as_str(), Some("done" | "failed"))
+    });
+    assert_eq!(done["state"], "done", "{done}\n{}\n{}", w1.log(), w2.log());
+    assert_eq!(spp(&done), total, "{done}");
+    assert!(!w1.log().contains("lost the shard's lease"), "{}", w1.log());
+    // (Each shard claimed once: by w1, which held them all; the merge by either.)
+    let rows = shards(&data, id);
+    assert!(rows.iter().all(|r| r.1 && r.3 == 20), "{rows:?}");
+    let shard_claims = claims(&data).iter().filter(|c| c.0 == id).count();
+    assert!(
+        shard_claims <= 4 + 1,
+        "shards claimed again: {:?}",
+        claims(&data)
+    );
 }
 
 fn one_worker_renders_on_two_devices_on_postgres() {

@@ -72,10 +72,16 @@ impl Worker {
     /// Renews the leases of the active jobs and gives up the others; drops, unsaved, every job
     /// whose lease was lost (it expired and another worker took the job over).
     pub(super) fn heartbeat(&mut self) {
+        self.heartbeat_keeping(None);
+    }
+
+    /// [`Self::heartbeat`] that also renews the lease of `also`, a job (or shard) that has left
+    /// the active set but is still this worker's (a shard whose sums wait for a writer).
+    pub(super) fn heartbeat_keeping(&mut self, also: Option<JobId>) {
         self.last_heartbeat = Instant::now();
         self.report(false);
         self.renew_write_leases();
-        let held: Vec<JobId> = self.active.keys().copied().collect();
+        let held: Vec<JobId> = self.active.keys().copied().chain(also).collect();
         let kept = match self
             .store
             .renew_leases(&self.config.worker_id, &held, self.config.lease)
@@ -83,7 +89,10 @@ impl Worker {
             Ok(k) => k,
             Err(e) => return error!(error = %e, "renewing the render leases"),
         };
-        for id in held.into_iter().filter(|id| !kept.contains(id)) {
+        for id in held
+            .into_iter()
+            .filter(|id| !kept.contains(id) && Some(*id) != also)
+        {
             warn!(
                 job = id,
                 "lost the job's lease to another worker; stopping it"

@@ -202,8 +202,24 @@ impl Worker {
         // Step 2: the lease to the writer's name, then the write on its thread. (A film-size
         // buffer each: writes slower than the renders wait here, for the oldest, before the
         // lease's clock starts.)
+        // (The wait renews this worker's leases, this shard's and the writers' among them, as
+        // its heartbeats would: a slow disk must not let another worker take them over.)
+        if self.writes.len() >= super::shard_write::MAX_PENDING {
+            info!(
+                job = id,
+                shard = sh.range.idx,
+                "waiting for the oldest shard write"
+            );
+        }
         while self.writes.len() >= super::shard_write::MAX_PENDING {
-            self.collect_writes(1);
+            if self.writes[0].is_finished() {
+                self.collect_writes(1);
+                continue;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(10));
+            if self.last_heartbeat.elapsed() >= self.config.heartbeat {
+                self.heartbeat_keeping(Some(id));
+            }
         }
         let owner = super::shard_write::writer_name(&worker);
         // (A database error is tried once more, a moment later: else the sums are lost and

@@ -168,6 +168,13 @@ fn hold_for_test(id: JobId, idx: u32) {
     }
 }
 
+impl ShardWrite {
+    /// Whether the write (and its done mark) has ended.
+    pub fn is_finished(&self) -> bool {
+        self.handle.is_finished()
+    }
+}
+
 impl Worker {
     /// Renews the writers' leases of the writes under way (with the worker's heartbeat): a
     /// write slower than `--lease` (a slow disk, writes queued ahead of it) keeps its shard.
