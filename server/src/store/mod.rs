@@ -167,6 +167,7 @@ mod tests {
             "shard-1.bin",
             ".shard-1.bin.4242.8.tmp",
             ".checkpoint.bin.4242.2.tmp",
+            ".image.exr.4242.3.tmp",
             "image.exr",
             "scene.json",
         ];
@@ -266,9 +267,10 @@ impl JobPaths {
         self.dir.join(format!("shard-{idx}.bin"))
     }
     /// Removes the job's checkpoint and those of its shards `0..shards` (none there: no-op), and
-    /// the temporary files of checkpoints being written (`.checkpoint.bin.PID.N.tmp`,
-    /// `.shard-K.bin.PID.N.tmp`: renderer::film::write_atomic) that a process killed mid-write
-    /// left behind; the job has ended, so no writer of them is still owed the file.
+    /// the temporary files of checkpoints and live images being written
+    /// (`.checkpoint.bin.PID.N.tmp`, `.shard-K.bin.PID.N.tmp`, `.image.exr.PID.N.tmp`:
+    /// renderer::film::write_atomic) that a process killed mid-write left behind; the job has
+    /// ended, so no writer of them is still owed the file.
     pub fn remove_checkpoints(&self, shards: u32) {
         let _ = std::fs::remove_file(self.checkpoint());
         for k in 0..shards {
@@ -280,7 +282,10 @@ impl JobPaths {
         for e in entries.flatten() {
             let name = e.file_name();
             let name = name.to_string_lossy();
-            let of_checkpoint = name.starts_with(".checkpoint.bin.") || name.starts_with(".shard-");
+            // (A live image's too: a shard's worker killed while writing the job's image.)
+            let of_checkpoint = name.starts_with(".checkpoint.bin.")
+                || name.starts_with(".shard-")
+                || name.starts_with(".image.exr.");
             if of_checkpoint && name.ends_with(".tmp") {
                 let _ = std::fs::remove_file(e.path());
             }
