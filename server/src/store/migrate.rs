@@ -195,10 +195,17 @@ ALTER TABLE workers ADD COLUMN rss_bytes BIGINT;
 ALTER TABLE workers ADD COLUMN pipelines_cached BIGINT;
 ALTER TABLE workers ADD COLUMN kernel_variants_seen BIGINT;",
     },
+    // 7: how many times each shard was reopened because its file was unusable at the merge
+    // (store/shards.rs `reopen_shard`: past a bound the job fails instead).
+    Migration {
+        version: 7,
+        sqlite: "ALTER TABLE shards ADD COLUMN reopened INTEGER NOT NULL DEFAULT 0;",
+        postgres: "ALTER TABLE shards ADD COLUMN reopened BIGINT NOT NULL DEFAULT 0;",
+    },
 ];
 
 /// The schema version this build writes.
-pub const LATEST: i64 = 6;
+pub const LATEST: i64 = 7;
 
 /// Brings the database to [`LATEST`]; runs inside the caller's transaction, which must exclude
 /// other processes migrating at once (SQLite: `BEGIN IMMEDIATE`; PostgreSQL: this takes an

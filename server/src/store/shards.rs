@@ -364,17 +364,23 @@ impl Store {
         })
     }
 
-    /// Makes a done shard whose checkpoint turned out unusable (at the merge) render again.
-    pub fn reopen_shard(&self, id: JobId, idx: u32) -> Result<(), StoreError> {
+    /// Makes a done shard whose checkpoint turned out unusable (at the merge) render again;
+    /// returns how many times it has been reopened so far (this time included).
+    pub fn reopen_shard(&self, id: JobId, idx: u32) -> Result<u32, StoreError> {
         self.write(|c| {
             lock_job(c, id)?;
-            c.exec(
+            let rows = c.query(
                 "UPDATE shards SET done = 0, progress = NULL, lease_owner = NULL, \
-                 lease_until = NULL WHERE job_id = ?1 AND idx = ?2",
+                 lease_until = NULL, reopened = reopened + 1 WHERE job_id = ?1 AND idx = ?2 \
+                 RETURNING reopened",
                 params![id, idx],
             )?;
+            let times = match rows.first() {
+                Some(r) => r.i64(0)? as u32,
+                None => 0,
+            };
             record_total(c, id)?;
-            Ok(((), Vec::new()))
+            Ok((times, Vec::new()))
         })
     }
 }
@@ -500,8 +506,8 @@ mod tests {
         assert_eq!(s.get_job(1).unwrap().progress.map(|p| p.spp), Some(10));
         assert_eq!(part("e", long), Some(Part::Merge { count: 3 }));
         assert_eq!(part("f", long), None, "the merge is e's");
-        // A shard found unusable at the merge renders again.
-        s.reopen_shard(1, 1).unwrap();
+        // A shard found unusable at the merge renders again (the times counted).
+        assert_eq!(s.reopen_shard(1, 1).unwrap(), 1);
         assert_eq!(
             part("f", long),
             Some(Part::Shard {

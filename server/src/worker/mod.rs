@@ -378,7 +378,10 @@ impl Worker {
                 }
                 // A shard to render again: the merge's lease goes at the next heartbeat.
                 Ok(None) => return,
-                Err(e) => return error!(job = id, error = %e, "merging the shards"),
+                Err(shard::MergeError::Store(e)) => {
+                    return error!(job = id, error = %e, "merging the shards")
+                }
+                Err(shard::MergeError::Unusable(why)) => return self.fail(id, why),
             }
         } else if ckpt.exists() {
             let entries = session.accumulation_len();

@@ -70,6 +70,20 @@ pub fn add_shards(
 /// Shards' summed accumulation and progress.
 type Merged = (Vec<[f32; 4]>, Progress);
 
+/// Times a shard may be reopened because its file was unusable at the merge before the job
+/// fails: files that keep coming out unusable (a shared folder that hosts see differently, a
+/// disk that corrupts them) would otherwise have the shard rendered forever.
+pub const MAX_REOPENS: u32 = 3;
+
+/// Why a merge did not happen.
+#[derive(Debug)]
+pub enum MergeError {
+    /// The store could not be read or written (the merge is tried again).
+    Store(String),
+    /// A shard's file was unusable more than [`MAX_REOPENS`] times: the job fails.
+    Unusable(String),
+}
+
 /// The merge of every shard of job `id`: their summed accumulation and progress. None when a
 /// shard's checkpoint is missing, unusable or short of its samples: that shard is reopened
 /// (to be rendered again) and its file removed.
@@ -79,8 +93,9 @@ pub fn merged(
     settings: &JobSettings,
     paths: &JobPaths,
     id: JobId,
-) -> Result<Option<Merged>, String> {
-    let rows = store.shards(id).map_err(|e| e.to_string())?;
+) -> Result<Option<Merged>, MergeError> {
+    let store_error = |e: crate::store::StoreError| MergeError::Store(e.to_string());
+    let rows = store.shards(id).map_err(store_error)?;
     let mut sums = vec![[0.0f32; 4]; session.accumulation_len()];
     let results = add_shards(session, settings, paths, rows.len() as u32, None, &mut sums);
     let mut parts = Vec::new();
@@ -95,7 +110,13 @@ pub fn merged(
                     bad.map_or_else(|e| e, |p| format!("{} of {} spp", p.spp, row.range.samples));
                 warn!(job = id, shard = k, %why, "a done shard's checkpoint is unusable; rendering it again");
                 let _ = std::fs::remove_file(paths.shard_checkpoint(k));
-                store.reopen_shard(id, k).map_err(|e| e.to_string())?;
+                let times = store.reopen_shard(id, k).map_err(store_error)?;
+                if times > MAX_REOPENS {
+                    return Err(MergeError::Unusable(format!(
+                        "shard {k}'s checkpoint was unusable at the merge {times} times (last: \
+                         {why}); is the data directory shared consistently by every host?"
+                    )));
+                }
                 return Ok(None);
             }
         }
