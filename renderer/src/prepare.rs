@@ -76,6 +76,9 @@ pub struct PrepareOptions<'a> {
     /// Every instance written out as a mesh: set for an integrator without a second level
     /// (`IntegratorInfo::instances` false; [`expands_instances`]).
     pub expand_instances: bool,
+    /// The most triangles once instances are written out (the caller's scene limits; None:
+    /// the loader's default).
+    pub max_triangles: Option<u64>,
 }
 
 /// Whether a scene prepared for `integrator` must have its instances written out as meshes
@@ -129,6 +132,7 @@ pub fn prepare(scene: &Scene, o: &PrepareOptions<'_>) -> Result<PreparedScene, P
             accel,
             cache: o.cache,
             expand_instances: o.expand_instances,
+            max_triangles: o.max_triangles,
         },
     )?;
     compiled.load_time = o.load_time;

@@ -16,6 +16,7 @@ pub fn compiled(scene: &Scene, w: u32, accel: AccelOptions, cache: Option<&Path>
         accel,
         cache,
         expand_instances: false,
+        max_triangles: None,
     };
     compile_with(scene, w, w, &opts).expect("compile")
 }

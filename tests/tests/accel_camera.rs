@@ -15,6 +15,7 @@ fn compiled(scene: &Scene, cache: Option<&std::path::Path>) -> CompiledScene {
         accel: AccelOptions::default(),
         cache,
         expand_instances: false,
+        max_triangles: None,
     };
     compile_with(scene, 16, 16, &opts).expect("compile")
 }

@@ -77,6 +77,7 @@ fn render_with(scene: &Scene, accel: AccelOptions) -> (Image, CompiledScene) {
             accel,
             cache: None,
             expand_instances: false,
+            max_triangles: None,
         },
     )
     .expect("compile");
@@ -118,6 +119,7 @@ fn renders_like(label: &str, deep: &Scene, twin: &Scene, min_depth: usize) {
             accel,
             cache: None,
             expand_instances: false,
+            max_triangles: None,
         };
         let mut c = compile_with(deep, W, W, &opts).expect("compile");
         if let Some(n) = stack {

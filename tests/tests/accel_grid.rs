@@ -260,6 +260,7 @@ fn scene_render_block_selects_and_checks_the_accel() {
             accel: o,
             cache: None,
             expand_instances: false,
+            max_triangles: None,
         },
     )
     .unwrap();

@@ -101,7 +101,7 @@ fn time_budget_renders_at_least_one_pass() {
 
 /// `render` of an instanced scene with an integrator that has no second level (deferred)
 /// writes the instances out as meshes (PrepareOptions::expand_instances) and renders them: the
-/// report counts their triangles and no instance, and the image is not empty.
+/// report counts their triangles and no instance, and the image is not empty; nee keeps them.
 #[test]
 fn integrators_without_a_second_level_render_instances() {
     let dir = scratch("cli_instances");
@@ -133,6 +133,22 @@ fn integrators_without_a_second_level_render_instances() {
     assert_eq!(report["instances"], 0, "{report}");
     let img = renderer::film::read_exr(&out).unwrap();
     assert!(img.pixels.iter().any(|p| p[0] > 0.0), "a black image");
+    // nee traces them: they stay two instances of one 12-triangle definition.
+    let o = run(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--integrator",
+        "nee",
+        "--spp",
+        "1",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["instances"], 2, "{report}");
+    assert_eq!(report["triangles"], 12, "{report}");
 }
 
 fn write_scene(name: &str, text: &str) -> std::path::PathBuf {

@@ -241,15 +241,15 @@ fn many_instances_of_a_big_definition_load_quickly() {
         },
         cache: None,
         expand_instances: false,
+        max_triangles: None,
     };
     let Err(e) = compile_with(&scene, 8, 8, &opts) else {
         panic!("50 billion triangles written out");
     };
     assert_eq!(
         e.to_string(),
-        "instances: writing out 100000 instances as meshes would make 50000000000 triangles; at \
-         most 50000000 (only accel \"bvh\" with an integrator that traces instances keeps one \
-         copy per definition)"
+        "instances: writing out 100000 instances as meshes (accel \"grid\" has no second \
+         level) would make 50000000000 triangles; at most 50000000"
     );
 }
 
@@ -393,6 +393,10 @@ fn other_structures_and_integrators_render_instances_written_out() {
         json!({"type": "box", "min": [-1, -1, -1], "max": [1, 1, 1]}),
         "white",
     );
+    let (obj_inst, obj_flat) = instanced_and_flat(
+        json!({"type": "mesh", "file": "assets/uv_sphere.obj"}),
+        "white",
+    );
     let opts = |kind, expand_instances| CompileOptions {
         accel: AccelOptions {
             kind,
@@ -400,6 +404,7 @@ fn other_structures_and_integrators_render_instances_written_out() {
         },
         cache: None,
         expand_instances,
+        max_triangles: None,
     };
     let cases = [
         (AccelKind::Cwbvh, false, "nee"),
@@ -407,19 +412,32 @@ fn other_structures_and_integrators_render_instances_written_out() {
         (AccelKind::Bvh, true, "vct"),
         (AccelKind::Bvh, true, "deferred"),
     ];
-    for (kind, expand, integrator) in cases {
+    // (The OBJ sphere has vertex normals: written out, they go through the inverse transpose
+    // of the non-uniform and mirrored placements as the flattened copy's do.)
+    let obj_case = (AccelKind::Bvh, true, "deferred");
+    let all = cases.iter().map(|c| (*c, &inst, &flat));
+    for ((kind, expand, integrator), inst, flat) in all.chain([(obj_case, &obj_inst, &obj_flat)]) {
         let what = format!("{} {integrator}", kind.name());
-        let a = compile_with(&inst, 24, 24, &opts(kind, expand)).unwrap();
-        let b = compile_with(&flat, 24, 24, &opts(kind, false)).unwrap();
+        let a = compile_with(inst, 24, 24, &opts(kind, expand)).unwrap();
+        let b = compile_with(flat, 24, 24, &opts(kind, false)).unwrap();
         assert!(a.instances.is_empty(), "{what}: instances left");
         assert_eq!(a.prims.len(), b.prims.len(), "{what}");
-        let (ia, _) = render_compiled(&inst, &a, integrator, 2, 5, Some(3));
-        let (ib, _) = render_compiled(&flat, &b, integrator, 2, 5, Some(3));
+        let (ia, _) = render_compiled(inst, &a, integrator, 2, 5, Some(3));
+        let (ib, _) = render_compiled(flat, &b, integrator, 2, 5, Some(3));
         let (rel, share) = difference(&ia, &ib);
         println!("{what}: mean |Δ| {rel:.2e} of the mean, {share:.3} of pixels off");
         assert!(mean(&ia)[0] > 0.01, "{what}: a dark image proves nothing");
         assert!(rel < 1e-3 && share < 0.01, "{what}: {rel} {share}");
     }
+    // The caller's triangle limit bounds what is written out, naming it.
+    let small = CompileOptions {
+        max_triangles: Some(40),
+        ..opts(AccelKind::Grid, false)
+    };
+    let Err(e) = compile_with(&inst, 8, 8, &small) else {
+        panic!("written out past the limit");
+    };
+    assert!(e.to_string().ends_with("triangles; at most 40"), "{e}");
     // A library caller that compiles without writing instances out is told what to do.
     let c = compile(&inst, 8, 8).unwrap();
     let options = renderer::integrators::IntegratorOptions::from_name("vct").unwrap();
@@ -434,7 +452,7 @@ fn other_structures_and_integrators_render_instances_written_out() {
     );
 }
 
-/// Instances of an emitting definition (or with an emitting material override) are lights:
+/// Instances of an emitting definition or with an emitting material override are lights:
 /// written out as meshes with the binary BVH too, while the others stay instances. The scene
 /// renders like its copy with those instances written out by hand (the same meshes in the
 /// same order, the same instances, so the same lights in the same order).
@@ -457,9 +475,18 @@ fn emitting_instances_light_the_scene_like_their_written_out_copy() {
         }
         instances.push(i);
     }
+    // And a definition that emits by itself (no override), placed once.
+    let t = json!({"scale": 0.2, "translate": [0, 0.9, 0]});
+    instances.push(json!({"type": "instance", "definition": "lamp", "transform": t}));
+    let mut f = quad.clone();
+    f["transform"] = t;
+    f["material"] = json!("light");
+    copy.push(f);
     let mut def = quad.clone();
     def["material"] = json!("white");
-    let defs = json!({ "piece": def });
+    let mut lamp_def = quad.clone();
+    lamp_def["material"] = json!("light");
+    let defs = json!({ "piece": def, "lamp": lamp_def });
     let inst = cornell_with(instances, Some(defs.clone()));
     let copy = cornell_with(copy, Some(defs));
     let (a, b) = (
@@ -467,8 +494,8 @@ fn emitting_instances_light_the_scene_like_their_written_out_copy() {
         compile(&copy, 24, 24).unwrap(),
     );
     assert_eq!(a.instances.len(), 2, "the two white quads stay instances");
-    // The sphere's light and the two lamps' four triangles.
-    assert_eq!((a.lights.len(), b.lights.len()), (5, 5));
+    // The sphere's light and the three lamps' six triangles.
+    assert_eq!((a.lights.len(), b.lights.len()), (7, 7));
     for integrator in ["nee", "pt"] {
         let (ia, _) = render_compiled(&inst, &a, integrator, 4, 7, Some(3));
         let (ib, _) = render_compiled(&copy, &b, integrator, 4, 7, Some(3));
@@ -531,6 +558,7 @@ fn a_short_stack_renders_instances_the_same() {
             accel: AccelOptions::default(),
             cache: Some(d),
             expand_instances: false,
+            max_triangles: None,
         };
         compile_with(&inst, 24, 24, &opts).unwrap()
     };

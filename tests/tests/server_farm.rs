@@ -439,19 +439,27 @@ fn three_workers_split_one_job_on_postgres() {
     assert!(e < 1e-8, "split vs whole relMSE {e}");
 }
 
+/// An API server on a fresh data directory and a worker `w1` (lease 2 s, shards of 20 spp)
+/// whose shard writes the test hook holds before they are marked done while the returned
+/// `hold` file exists: (data dir, API server, hold file, w1).
+fn farm_with_held_writes(tag: &str) -> (PathBuf, Server, PathBuf, Worker) {
+    let dir = scratch(tag);
+    let data = dir.join("data");
+    let api = Server::start(&data, &["--workers", "0"]);
+    let hold = dir.join("hold");
+    std::fs::write(&hold, b"").unwrap();
+    let env = [("CANDELA_TEST_SHARD_WRITE_HOLD_FILE", hold.as_path())];
+    let w1 = Worker::start_env(&data, "w1", "2", &["--shard-spp", "20"], &env);
+    (data, api, hold, w1)
+}
+
 /// A shard's final checkpoint is written off the render thread, and the shard marked done only
 /// after (worker/shard_write.rs): a worker killed between the two (held there by the test
 /// hook) leaves the shard to another worker once the writer's lease expires, and the job ends
 /// with exactly its samples.
 fn a_worker_killed_while_writing_a_shard_counts_it_once_on_postgres() {
-    let dir = scratch("server_farm_write_kill");
-    let data = dir.join("data");
-    let api = Server::start(&data, &["--workers", "0"]);
-    let hold = dir.join("hold");
-    std::fs::write(&hold, b"").unwrap();
+    let (data, api, _hold, mut w1) = farm_with_held_writes("server_farm_write_kill");
     let split = ["--shard-spp", "20"];
-    let env = [("CANDELA_TEST_SHARD_WRITE_HOLD_FILE", hold.as_path())];
-    let mut w1 = Worker::start_env(&data, "w1", "2", &split, &env);
     let total = 60u64;
     let body = json!({"scene_name": "cornell", "spp": total, "width": 16, "height": 16,
                       "seed": 5});
@@ -490,14 +498,8 @@ fn a_worker_killed_while_writing_a_shard_counts_it_once_on_postgres() {
 /// for the oldest, renewing its leases meanwhile, so a second worker finds none to take over:
 /// every shard is claimed once, none is lost, and the job ends with exactly its samples.
 fn a_worker_waiting_for_its_writes_keeps_its_leases_on_postgres() {
-    let dir = scratch("server_farm_write_wait");
-    let data = dir.join("data");
-    let api = Server::start(&data, &["--workers", "0"]);
-    let hold = dir.join("hold");
-    std::fs::write(&hold, b"").unwrap();
+    let (data, api, hold, w1) = farm_with_held_writes("server_farm_write_wait");
     let split = ["--shard-spp", "20"];
-    let env = [("CANDELA_TEST_SHARD_WRITE_HOLD_FILE", hold.as_path())];
-    let w1 = Worker::start_env(&data, "w1", "2", &split, &env);
     let total = 80u64;
     let body = json!({"scene_name": "cornell", "spp": total, "width": 16, "height": 16,
                       "seed": 8});

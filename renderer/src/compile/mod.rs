@@ -154,6 +154,9 @@ pub struct CompileOptions<'a> {
     /// primitives by index (vct, deferred). Without it only emitting instances are, and all of
     /// them with an `accel` other than the binary BVH.
     pub expand_instances: bool,
+    /// The most triangles the scene may have with instances written out (the caller's scene
+    /// limits; None: the loader's default, `scene::Limits::default().max_triangles`).
+    pub max_triangles: Option<u64>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -188,12 +191,23 @@ pub fn compile_with(
     let start = std::time::Instant::now();
     // Step 0: instances only the binary BVH's second level can trace, and none that emit,
     // stay instances; the others are written out as meshes (scene/expand.rs).
-    let expand = if options.expand_instances || options.accel.kind != accel::AccelKind::Bvh {
-        Expand::All
+    let (expand, why) = if options.expand_instances {
+        (
+            Expand::All,
+            "the integrator traces no instances".to_string(),
+        )
+    } else if options.accel.kind != accel::AccelKind::Bvh {
+        let name = options.accel.kind.name();
+        (Expand::All, format!("accel \"{name}\" has no second level"))
     } else {
-        Expand::Emitting
+        (
+            Expand::Emitting,
+            "emitting instances are lights".to_string(),
+        )
     };
-    let expanded = expand_instances(scene, expand).map_err(CompileError::Expand)?;
+    let max =
+        (options.max_triangles).unwrap_or(crate::scene::Limits::default().max_triangles as u64);
+    let expanded = expand_instances(scene, expand, &why, max).map_err(CompileError::Expand)?;
     let scene = expanded.as_ref().unwrap_or(scene);
     let origin = scene.camera.position;
     let features = FeatureSet::detect(scene);

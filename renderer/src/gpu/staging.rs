@@ -44,7 +44,8 @@ impl StagingPool {
     /// Frees both buffers (the context's teardown, with the device idle).
     pub(crate) fn release(&self, ctx: &GpuContext) {
         for m in [&self.upload, &self.readback] {
-            if let Some(slot) = m.lock().ok().and_then(|mut g| g.take()) {
+            let slot = m.lock().unwrap_or_else(|e| e.into_inner()).take();
+            if let Some(slot) = slot {
                 free(ctx, slot.raw, slot.allocation);
             }
         }
@@ -63,6 +64,26 @@ fn copy_bytes(dst: &mut [u8], src: &[u8]) {
     }
 }
 
+/// Records a barrier that makes transfer writes visible to host reads (after the fence: a
+/// fence alone does not).
+pub(crate) fn host_read_barrier(dev: &ash::Device, cmd: vk::CommandBuffer) {
+    let barrier = [vk::MemoryBarrier::default()
+        .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+        .dst_access_mask(vk::AccessFlags::HOST_READ)];
+    // SAFETY: a plain memory barrier in a recording command buffer.
+    unsafe {
+        dev.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::TRANSFER,
+            vk::PipelineStageFlags::HOST,
+            vk::DependencyFlags::empty(),
+            &barrier,
+            &[],
+            &[],
+        )
+    };
+}
+
 impl GpuContext {
     /// Runs `f` with a staging buffer of `usage` holding at least `need` bytes: the context's
     /// own (grown when too small), or a temporary one when another thread is using it.
@@ -76,7 +97,13 @@ impl GpuContext {
             BufferUsage::Upload => (&self.staging.upload, "staging upload"),
             _ => (&self.staging.readback, "staging readback"),
         };
-        let Ok(mut guard) = m.try_lock() else {
+        // (A slot poisoned by a panic mid-transfer is still a whole buffer: used again.)
+        let guard = match m.try_lock() {
+            Ok(g) => Some(g),
+            Err(std::sync::TryLockError::Poisoned(e)) => Some(e.into_inner()),
+            Err(std::sync::TryLockError::WouldBlock) => None,
+        };
+        let Some(mut guard) = guard else {
             let (raw, mut allocation, _) = allocate(self, name, need, usage)?;
             let r = f(raw, &mut allocation);
             free(self, raw, allocation);
@@ -147,6 +174,7 @@ impl GpuContext {
                     }];
                     // SAFETY: both buffers are alive until the one-shot submission completes.
                     unsafe { dev.cmd_copy_buffer(cmd, src.raw, staging, &region) };
+                    host_read_barrier(dev, cmd);
                 })?;
                 let mapped = allocation
                     .mapped_slice()

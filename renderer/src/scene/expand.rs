@@ -5,18 +5,14 @@
 //! what the GPU's two-level path renders: the prototype's positions through the instance's f64
 //! transform, its shading normals through the inverse transpose, its winding swapped by a
 //! mirror, the instance's material override applied. Unlike the two-level path, memory then
-//! grows with instances × triangles, so the expansion is bounded ([`MAX_EXPANDED_TRIANGLES`])
-//! and refused, naming the counts, beyond it.
+//! grows with instances × triangles, so the expansion is bounded (the scene limits'
+//! `max_triangles`, the caller's) and refused, naming the counts, beyond it.
 
 use glam::Vec3;
 
 use super::mesh::{to_world, Materials, RawMesh, Shading};
 use super::transform::Transform;
 use super::{Instance, Scene};
-
-/// The most triangles a scene may have once instances are expanded (the loader's default
-/// limit on a scene's triangles).
-pub const MAX_EXPANDED_TRIANGLES: u64 = 50_000_000;
 
 /// Which instances to write out as meshes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -55,8 +51,13 @@ fn picked(scene: &Scene, which: Expand) -> Vec<bool> {
 
 /// `scene` with the instances `which` picks written out as meshes (appended after its own, in
 /// instance order), the others kept; None when it picks none. Err names the triangle counts
-/// when the expanded scene would exceed [`MAX_EXPANDED_TRIANGLES`].
-pub fn expand_instances(scene: &Scene, which: Expand) -> Result<Option<Scene>, String> {
+/// and `why` they are written out when the expanded scene would exceed `max_triangles`.
+pub fn expand_instances(
+    scene: &Scene,
+    which: Expand,
+    why: &str,
+    max_triangles: u64,
+) -> Result<Option<Scene>, String> {
     let picks = picked(scene, which);
     if !picks.contains(&true) {
         return Ok(None);
@@ -67,19 +68,35 @@ pub fn expand_instances(scene: &Scene, which: Expand) -> Result<Option<Scene>, S
         .filter(|(_, &p)| p)
         .map(|(i, _)| scene.prototypes[i.prototype as usize].indices.len() as u64)
         .sum();
-    if own + added > MAX_EXPANDED_TRIANGLES {
+    if own + added > max_triangles {
         let n = picks.iter().filter(|p| **p).count();
         return Err(format!(
-            "writing out {n} instances as meshes would make {} triangles; at most \
-             {MAX_EXPANDED_TRIANGLES} (only accel \"bvh\" with an integrator that traces \
-             instances keeps one copy per definition)",
+            "writing out {n} instances as meshes ({why}) would make {} triangles; at most \
+             {max_triangles}",
             own + added
         ));
     }
     // Step 2: each picked instance, as the two-level path places it.
+    // (Every part but the meshes and instances as it was; the definitions only if some
+    // instance still places them.)
+    let keeps_any = picks.contains(&false);
     let mut out = Scene {
+        camera: scene.camera.clone(),
+        film: scene.film.clone(),
+        materials: scene.materials.clone(),
+        material_names: scene.material_names.clone(),
+        textures: scene.textures.clone(),
+        meshes: scene.meshes.clone(),
+        spheres: scene.spheres.clone(),
+        prototypes: if keeps_any {
+            scene.prototypes.clone()
+        } else {
+            Vec::new()
+        },
         instances: Vec::new(),
-        ..scene.clone()
+        lights: scene.lights.clone(),
+        environment: scene.environment.clone(),
+        render: scene.render.clone(),
     };
     for (k, (inst, &pick)) in scene.instances.iter().zip(&picks).enumerate() {
         if !pick {

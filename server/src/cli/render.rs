@@ -231,6 +231,7 @@ pub fn run(a: RenderArgs) -> Result<(), CliError> {
             kernels: a.kernels,
             load_time,
             expand_instances: !auto && expands_instances(&options),
+            max_triangles: None,
         },
     )
     .map_err(|e| CliError::input(format!("{}: {e}", a.scene.display())))?;

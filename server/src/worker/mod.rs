@@ -110,6 +110,7 @@ pub fn spawn(
                 spare: None,
                 writes: Vec::new(),
                 spare_sums: None,
+                device_epoch: Default::default(),
                 last_open: None,
                 open_failures: 0,
                 held: BTreeMap::new(),
@@ -158,6 +159,9 @@ struct Worker {
     writes: Vec<shard_write::ShardWrite>,
     /// The host-visible buffer of the last finished write, for the next shard's sums.
     spare_sums: Option<renderer::render::HostAccumulation>,
+    /// Bumped at each device reset: a shard write under way then does not trust its sums
+    /// (shard_write.rs).
+    device_epoch: Arc<std::sync::atomic::AtomicU64>,
     /// The last attempt to create the device, and failures in a row.
     last_open: Option<Instant>,
     open_failures: u32,
@@ -307,6 +311,9 @@ impl Worker {
         self.active.clear();
         self.sched.clear();
         self.spare = None;
+        self.spare_sums = None;
+        self.device_epoch
+            .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
         self.ctx = None;
         self.last_open = None;
         self.dirty = true;
@@ -505,6 +512,7 @@ impl Worker {
             kernels: s.kernels,
             load_time: load_start.elapsed(),
             expand_instances: !s.auto && renderer::prepare::expands_instances(&s.integrator),
+            max_triangles: Some(limits.max_triangles as u64),
         };
         let prepared = match prepare(&scene, &options) {
             Ok(p) => p,
@@ -757,6 +765,7 @@ impl Worker {
         self.sched.clear();
         self.report(true);
         self.spare = None;
+        self.spare_sums = None;
         self.ctx = None;
         // Checkpointed: another worker (or this one, restarted) may take the jobs at once.
         if let Err(e) = self

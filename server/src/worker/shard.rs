@@ -269,6 +269,10 @@ impl Worker {
                     progress_json: job.progress_json(),
                     rendering,
                     readback,
+                    device_epoch: (
+                        self.device_epoch.clone(),
+                        self.device_epoch.load(std::sync::atomic::Ordering::SeqCst),
+                    ),
                 };
                 match super::shard_write::start(self.store.clone(), owner.clone(), finished) {
                     Ok(w) => self.writes.push(w),
@@ -280,13 +284,17 @@ impl Worker {
                     }
                 }
             }
-            Ok(false) => warn!(
-                job = id,
-                shard = sh.range.idx,
-                "lost the shard's lease before recording it done"
-            ),
+            Ok(false) => {
+                warn!(
+                    job = id,
+                    shard = sh.range.idx,
+                    "lost the shard's lease before recording it done"
+                );
+                self.spare_sums = Some(accumulation);
+            }
             Err(e) => {
-                warn!(job = id, shard = sh.range.idx, error = %e, "handing a shard to its writer")
+                warn!(job = id, shard = sh.range.idx, error = %e, "handing a shard to its writer");
+                self.spare_sums = Some(accumulation);
             }
         }
         self.keep_spare(id, job);

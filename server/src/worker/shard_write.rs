@@ -38,6 +38,9 @@ use crate::store::{JobPaths, Store, StoreError};
 enum WriteError {
     Io(std::io::Error),
     Store(StoreError),
+    /// The device was lost while the file was written: Vulkan leaves the contents of its
+    /// mapped memory undefined then, so the file is not trusted (removed, the shard freed).
+    DeviceLost,
 }
 
 /// What a writer thread reports: how long the file and the status update took, and the job's
@@ -93,6 +96,9 @@ pub struct Finished {
     pub progress_json: Value,
     pub rendering: Duration,
     pub readback: Duration,
+    /// The worker's device generation (bumped at each device reset) and its value when the
+    /// sums were copied.
+    pub device_epoch: (std::sync::Arc<std::sync::atomic::AtomicU64>, u64),
 }
 
 /// Starts the write of a finished shard whose lease was handed to `owner`.
@@ -104,6 +110,7 @@ pub fn start(
     let (id, idx, p) = (f.id, f.idx, f.progress);
     let (w, h, seed) = (f.settings.width, f.settings.height, f.settings.seed);
     let (path, acc, thread_owner) = (f.path, f.accumulation, owner.clone());
+    let (epoch, at_copy) = f.device_epoch;
     let handle = std::thread::Builder::new()
         .name(format!("shard-write-{id}-{idx}"))
         .spawn(move || {
@@ -114,8 +121,13 @@ pub fn start(
             if wrote.is_ok() {
                 hold_for_test(id, idx);
             }
+            let lost = epoch.load(std::sync::atomic::Ordering::SeqCst) != at_copy;
             let result = match wrote {
                 Err(e) => Err(WriteError::Io(e)),
+                Ok(()) if lost => {
+                    let _ = std::fs::remove_file(&path);
+                    Err(WriteError::DeviceLost)
+                }
                 // Done only now that the file is whole. (A database error is tried
                 // once more, a moment later: else the shard waits for the lease to run out
                 // and is rendered again.)
@@ -211,8 +223,11 @@ impl Worker {
                 result: Err(WriteError::Io(std::io::Error::other("the writer panicked"))),
                 sums: None,
             });
+            // (Kept for the next shard only if made on the device the worker has now.)
             if let Some(sums) = written.sums.take() {
-                self.spare_sums = Some(sums);
+                if self.ctx.as_ref().is_some_and(|c| sums.is_of(c)) {
+                    self.spare_sums = Some(sums);
+                }
             }
             match written.result {
                 Ok(Some(total)) => {
@@ -241,6 +256,14 @@ impl Worker {
                 ),
                 Err(WriteError::Store(e)) => {
                     warn!(job = id, shard = idx, error = %e, "recording a shard done")
+                }
+                Err(WriteError::DeviceLost) => {
+                    let _ = self.store.release_shard(id, idx, &w.owner);
+                    warn!(
+                        job = id,
+                        shard = idx,
+                        "the device was lost while the shard's sums were written; it renders again"
+                    );
                 }
                 Err(WriteError::Io(e)) => {
                     let held = self.store.holds_shard(id, idx, &w.owner).unwrap_or(true);

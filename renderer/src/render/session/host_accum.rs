@@ -23,6 +23,11 @@ impl HostAccumulation {
         bytemuck::cast_slice(&bytes[..self.entries * 16])
     }
 
+    /// Whether it was made on `ctx` (a buffer of a lost device is not used again).
+    pub fn is_of(&self, ctx: &std::sync::Arc<crate::gpu::GpuContext>) -> bool {
+        std::sync::Arc::ptr_eq(self.buffer.context(), ctx)
+    }
+
     /// Entries held.
     pub fn len(&self) -> usize {
         self.entries
@@ -79,21 +84,7 @@ impl RenderSession {
                 unsafe { dev.cmd_copy_buffer(cmd, src.raw, buffer.raw, &region) };
                 at += size;
             }
-            let barrier = [vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::HOST_READ)];
-            // SAFETY: a plain memory barrier in a recording command buffer.
-            unsafe {
-                dev.cmd_pipeline_barrier(
-                    cmd,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::PipelineStageFlags::HOST,
-                    vk::DependencyFlags::empty(),
-                    &barrier,
-                    &[],
-                    &[],
-                )
-            };
+            crate::gpu::host_read_barrier(dev, cmd);
         })?;
         Ok(HostAccumulation { buffer, entries })
     }
