@@ -15,8 +15,6 @@
 use std::io::{Read, Seek};
 use std::path::Path;
 
-use rayon::prelude::*;
-
 use renderer::render::Progress;
 use serde::{Deserialize, Serialize};
 
@@ -112,12 +110,16 @@ pub fn read(
     Ok((progress, acc))
 }
 
-/// Bytes of the body each thread of [`read_into`] reads and checksums at a time.
+/// Bytes of the body a thread of [`read_into`] reads and checksums at a time.
 const READ_PIECE: usize = 8 << 20;
 
+/// Most threads [`read_into`] reads one file with.
+const READ_THREADS: usize = 8;
+
 /// [`read`] into `acc` (resized to `entries`; a buffer kept from an earlier read is reused,
-/// so reading many film-size files allocates once). The floats are read in pieces by several
-/// threads, each checksumming its own piece; the pieces' CRCs combine into the file's.
+/// so reading many film-size files allocates once). The floats are read by up to
+/// [`READ_THREADS`] threads, each a contiguous part in pieces of [`READ_PIECE`] bytes, each
+/// checksumming its own part; the parts' CRCs combine into the file's.
 pub fn read_into(
     path: &Path,
     width: u32,
@@ -169,16 +171,32 @@ pub fn read_into(
     acc.resize(entries, [0.0; 4]);
     let body: &mut [u8] = bytemuck::cast_slice_mut(&mut acc[..]);
     let at = head.len() as u64;
-    let pieces: Vec<std::io::Result<crc32fast::Hasher>> = body
-        .par_chunks_mut(READ_PIECE)
-        .enumerate()
-        .map(|(i, piece)| {
-            read_exact_at(&file, piece, at + (i * READ_PIECE) as u64)?;
-            let mut crc = crc32fast::Hasher::new();
-            crc.update(piece);
-            Ok(crc)
-        })
-        .collect();
+    let parts = body.len().div_ceil(READ_PIECE).clamp(1, READ_THREADS);
+    let part_len = body.len().div_ceil(parts).max(1);
+    // (Threads of its own, not the shared rayon pool: a slow disk must not hold up the other
+    // devices' CPU work queued there.)
+    let pieces: Vec<std::io::Result<crc32fast::Hasher>> = std::thread::scope(|scope| {
+        let file = &file;
+        let handles: Vec<_> = (body.chunks_mut(part_len).enumerate())
+            .map(|(i, part)| {
+                scope.spawn(move || {
+                    let mut crc = crc32fast::Hasher::new();
+                    let start = at + (i * part_len) as u64;
+                    for (j, piece) in part.chunks_mut(READ_PIECE).enumerate() {
+                        read_exact_at(file, piece, start + (j * READ_PIECE) as u64)?;
+                        crc.update(piece);
+                    }
+                    Ok(crc)
+                })
+            })
+            .collect();
+        (handles.into_iter())
+            .map(|h| {
+                h.join()
+                    .unwrap_or_else(|_| Err(std::io::Error::other("a reading thread panicked")))
+            })
+            .collect()
+    });
     let read_at = t0.elapsed();
     let mut crc = crc32fast::Hasher::new();
     crc.update(&head);
