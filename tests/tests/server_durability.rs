@@ -1,7 +1,8 @@
 //! Jobs survive crashes and restarts of the real `candela serve`: killed with SIGKILL mid-render
 //! and restarted on the same data directory, a job resumes from its checkpoint and ends with the
 //! full sample count and the same statistics (ray count, image) as an uninterrupted render,
-//! and a job that was still queued is not lost; SIGTERM writes a final checkpoint and exits 0.
+//! and a job that was still queued is not lost; SIGTERM writes a final checkpoint and exits 0;
+//! a job paused and resumed before the worker let go of it keeps its samples.
 
 use std::process::Command;
 use std::time::Duration;
@@ -172,6 +173,57 @@ fn sigterm_writes_a_final_checkpoint_and_exits_zero() {
     assert!(
         line.contains(&format!("spp={saved}")),
         "{line} (saved {saved})"
+    );
+    let (st, _) = s.send(s.request(Method::POST, &format!("/api/jobs/{id}/cancel")));
+    assert_eq!(st, 200);
+}
+
+/// A job paused and resumed again before the worker lets go of it (held there by the test hook:
+/// between the worker's two looks at the store) is checkpointed all the same and resumes from
+/// that checkpoint, instead of being dropped unsaved and rendered again from 0 spp.
+#[test]
+fn a_pause_undone_before_the_worker_lets_go_keeps_the_samples() {
+    let dir = scratch("server_durability_unpause");
+    let data = dir.join("data");
+    let hold = dir.join("hold");
+    let hold_s = hold.to_string_lossy().into_owned();
+    let args = ["--checkpoint-interval", "3600", "--pass-ms", "60"];
+    let s = Server::start_with_env(&data, &args, &[("CANDELA_TEST_RETIRE_HOLD_FILE", &hold_s)]);
+    let job = s.submit(&json!({"scene_name": "cornell", "spp": 100000, "width": 16, "height": 16}));
+    let id = job["id"].as_i64().unwrap();
+    s.wait_job(id, T, |j| spp(j) >= 8);
+    // Step 1: paused; the worker holds before it reads the job's state.
+    std::fs::write(&hold, b"").unwrap();
+    let (st, body) = s.post(&format!("/api/jobs/{id}/pause"), &json!({}));
+    assert_eq!(st, 200, "{body}");
+    let deadline = std::time::Instant::now() + T;
+    while !s.log().contains("retire held (test hook)") {
+        assert!(std::time::Instant::now() < deadline, "{}", s.log());
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // Step 2: resumed before it reads it, then let go.
+    let (st, body) = s.post(&format!("/api/jobs/{id}/resume"), &json!({}));
+    assert_eq!(st, 200, "{body}");
+    std::fs::remove_file(&hold).unwrap();
+    let saved_line = |log: &str| {
+        log.lines()
+            .find(|l| l.contains("paused and checkpointed") && l.contains("queued"))
+            .map(str::to_string)
+    };
+    s.wait_job(id, T, |_| s.log().contains("resumed from checkpoint"));
+    let log = s.log();
+    let saved: u64 = saved_line(&log)
+        .and_then(|l| l.split("spp=").nth(1).map(str::to_string))
+        .and_then(|v| v.split_whitespace().next().and_then(|v| v.parse().ok()))
+        .unwrap_or_else(|| panic!("no checkpoint at the undone pause:\n{log}"));
+    assert!(saved >= 8, "{log}");
+    let resumed = log
+        .lines()
+        .find(|l| l.contains("resumed from checkpoint"))
+        .unwrap();
+    assert!(
+        resumed.contains(&format!("spp={saved}")),
+        "{resumed} (saved {saved})"
     );
     let (st, _) = s.send(s.request(Method::POST, &format!("/api/jobs/{id}/cancel")));
     assert_eq!(st, 200);

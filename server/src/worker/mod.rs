@@ -30,6 +30,7 @@ mod scheduler;
 mod shard;
 mod shard_write;
 mod storage_hold;
+mod test_hooks;
 mod warmup;
 mod watchdog;
 
@@ -554,6 +555,8 @@ impl Worker {
         let Some(mut job) = self.active.remove(&id) else {
             return;
         };
+        // (Test hook: the job may be resumed meanwhile, as between two looks at the store.)
+        test_hooks::hold("CANDELA_TEST_RETIRE_HOLD_FILE", "retire held");
         match self.store.get_job(id).map(|r| r.state) {
             // Paused, or paused and already resumed (queued again) since the runnable jobs
             // were read: either way it runs again from this checkpoint.

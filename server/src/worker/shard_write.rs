@@ -165,19 +165,8 @@ pub fn start(
 /// whose file is written waits before it is marked done (a worker killed then must lose
 /// nothing and count nothing twice: tests/tests/server_farm.rs).
 fn hold_for_test(id: JobId, idx: u32) {
-    let Some(f) = std::env::var_os("CANDELA_TEST_SHARD_WRITE_HOLD_FILE") else {
-        return;
-    };
-    if std::path::Path::new(&f).exists() {
-        info!(
-            job = id,
-            shard = idx,
-            "shard written; held before done (test hook)"
-        );
-    }
-    while std::path::Path::new(&f).exists() {
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    let what = format!("job {id} shard {idx}: shard written; held before done");
+    super::test_hooks::hold("CANDELA_TEST_SHARD_WRITE_HOLD_FILE", &what);
 }
 
 impl ShardWrite {
