@@ -18,8 +18,8 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
 
 /// [`write_atomic`] of the concatenation of `parts` (written one after the other, never copied
 /// into one buffer). `sync` false skips the fsync before the rename: the file is then whole for
-/// every reader, but after a power loss it may be missing or empty, so only files their
-/// readers check (and can do without) are written so.
+/// every reader, but after a power loss it may be missing, empty or of the right length with
+/// stale blocks, so only files their readers checksum (and can do without) are written so.
 pub fn write_atomic_parts(path: &Path, parts: &[&[u8]], sync: bool) -> io::Result<()> {
     let temp = temp_path(path)?;
     let result = (|| {

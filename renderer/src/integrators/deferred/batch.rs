@@ -10,7 +10,8 @@
 //! pixel-samples to dwarf that gap:
 //!
 //!   B = clamp(ceil(TARGET_PIXEL_SAMPLES / (width · height)), 1, MAX_BATCH), then lowered until
-//!   B slices fit in MAX_BATCH_BYTES (never below 1).
+//!   B slices fit in MAX_BATCH_BYTES (never below 1), and below the shade stage's counter bound
+//!   ([`counter_cap`]: only with millions of lights).
 //!
 //! Why these figures. The H100 measurements of the one-sample-per-dispatch version
 //! (bench/results/h100-i13-call3) give per sample, summed over the three stages, about 30 µs of
@@ -66,6 +67,14 @@ pub fn batch_size(
     fill.min(fit).clamp(1, most as u64) as u32
 }
 
+/// Most samples per batch with `lights` lights: the shade stage's per-workgroup counters are
+/// 32-bit (256 threads, each counting the lights it tests and the rays it traces over its
+/// batch's samples, at most `lights` + 1 per sample), so B·256·(lights + 1) must stay below
+/// 2³²: the bound one sample per dispatch had, 2²⁴ per pixel-sample, kept whatever B.
+pub fn counter_cap(lights: u32) -> u32 {
+    ((1u64 << 24) / (lights as u64 + 1)).clamp(1, MAX_BATCH as u64) as u32
+}
+
 /// The batches of a pass of `spp` samples with batch size `b`: ceil(spp / b) batches of as even
 /// a size as possible (so no short one trails a pass), as (first sample within the pass,
 /// samples), in order.
@@ -103,6 +112,10 @@ mod tests {
         assert_eq!(batch_size(1 << 20, 4096, 8, Some(3), false), 3);
         assert_eq!(batch_size(1 << 16, 256, 8, None, true), LLVMPIPE_MAX_BATCH);
         assert_eq!(batch_size(1 << 16, 256, 8, Some(9), true), 9);
+        // The counters' bound: 2^24 / (lights + 1) samples, at least one.
+        assert_eq!(counter_cap(10), MAX_BATCH);
+        assert_eq!(counter_cap(1 << 20), 15);
+        assert_eq!(counter_cap(u32::MAX), 1);
     }
 
     #[test]

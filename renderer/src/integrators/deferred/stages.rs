@@ -12,7 +12,7 @@ use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
 
-use super::batch::{batch_size, batches};
+use super::batch::{batch_size, batches, counter_cap};
 use super::lights::{DeferredLight, LightSet};
 use crate::error::RenderError;
 use crate::gpu::{Binding, Buffer, BufferUsage, ComputePipeline, GpuContext};
@@ -119,7 +119,8 @@ impl Stages {
         let pixels = width as u64 * height as u64;
         // Step 2: samples per batch, each with its slice of the per-sample buffers.
         let llvmpipe = ctx.info.name.contains("llvmpipe");
-        let batch = batch_size(pixels, tiles, params.tile_capacity, batch, llvmpipe);
+        let batch = batch_size(pixels, tiles, params.tile_capacity, batch, llvmpipe)
+            .min(counter_cap(set.n_cull.saturating_add(set.n_dir)));
         let slices = batch as u64;
         // Step 3: buffers.
         let lights: &[DeferredLight] = &set.lights;
