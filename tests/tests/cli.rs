@@ -116,37 +116,28 @@ fn integrators_without_a_second_level_render_instances() {
              {"type": "instance", "definition": "b", "transform": {"translate": [0.8, 0, 0]}}]}"#,
     );
     let out = dir.join("i.exr");
-    let o = run(&[
-        "render",
-        scene.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--integrator",
-        "deferred",
-        "--spp",
-        "1",
-        "--json",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let render = |integrator: &str| {
+        let o = run(&[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--integrator",
+            integrator,
+            "--spp",
+            "1",
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    let report = render("deferred");
     assert_eq!(report["triangles"], 24, "{report}");
     assert_eq!(report["instances"], 0, "{report}");
     let img = renderer::film::read_exr(&out).unwrap();
     assert!(img.pixels.iter().any(|p| p[0] > 0.0), "a black image");
     // nee traces them: they stay two instances of one 12-triangle definition.
-    let o = run(&[
-        "render",
-        scene.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--integrator",
-        "nee",
-        "--spp",
-        "1",
-        "--json",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let report = render("nee");
     assert_eq!(report["instances"], 2, "{report}");
     assert_eq!(report["triangles"], 12, "{report}");
 }

@@ -183,16 +183,15 @@ const FEW_LIGHTS: &str = r#"
      "cutoff_angle": 25},
     {"type": "directional", "direction": [0.3, -1, -0.2], "irradiance": [0.3, 0.3, 0.35]}"#;
 
+/// A constant environment (the ambient term's test: unoccluded on the floor).
+const SKY: &str = r#", "environment": {"type": "constant", "radiance": [0.2, 0.25, 0.3]}"#;
+
 #[test]
 fn matches_nee_at_max_depth_2_without_occluders() {
     // Every light lies above a single plane: nothing can be shadowed, so shadow rays change
     // nothing and nee at max_depth 2 (direct light) is the exact reference. The constant
     // environment checks the ambient term (unoccluded on a plane, hence exact).
-    let scene = parse(&floor_scene(
-        FEW_LIGHTS,
-        "",
-        r#", "environment": {"type": "constant", "radiance": [0.2, 0.25, 0.3]}"#,
-    ));
+    let scene = parse(&floor_scene(FEW_LIGHTS, "", SKY));
     let size = (16, 16);
     let nee = estimate(&scene, r#"{"type":"nee","max_depth":2}"#, 128, size);
     let def = estimate(
@@ -528,11 +527,7 @@ fn batches_of_any_size_accumulate_the_same_sums() {
     // and the environment. On lavapipe the session hands a pass to the integrator in
     // LLVMPIPE_MAX_DISPATCHES chunks (render/session.rs), so the pass has 2·that + 2 samples:
     // chunks of 2 and two of 3, which batches of 2 cut into 2 + 1.
-    let scene = parse(&floor_scene(
-        FEW_LIGHTS,
-        "",
-        r#", "environment": {"type": "constant", "radiance": [0.2, 0.25, 0.3]}"#,
-    ));
+    let scene = parse(&floor_scene(FEW_LIGHTS, "", SKY));
     let (w, h) = (24u64, 16u64);
     let compiled = compile(&scene, w as u32, h as u32).expect("compile");
     let _serial = gpu_lock();
