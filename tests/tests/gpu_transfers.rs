@@ -89,7 +89,10 @@ fn accumulation_to_host_equals_the_read_back() {
     render(&mut session, Budget::Spp(4)).unwrap();
     let read = session.accumulation().unwrap();
     assert!(read != first, "more samples changed nothing");
+    let mapped_at = host.as_slice().as_ptr() as usize;
     let again = session.accumulation_to_host(Some(host)).unwrap();
+    let at = again.as_slice().as_ptr() as usize;
+    assert_eq!(at, mapped_at, "a new buffer, not the one given back");
     assert!(
         again.as_slice() == &read[..],
         "the reused buffer differs from the read-back"
