@@ -364,20 +364,22 @@ impl Store {
         })
     }
 
-    /// Makes a done shard whose checkpoint turned out unusable (at the merge) render again;
-    /// returns how many times it has been reopened so far (this time included).
-    pub fn reopen_shard(&self, id: JobId, idx: u32) -> Result<u32, StoreError> {
+    /// Makes a done shard whose checkpoint turned out unusable (at the merge) render again,
+    /// unless it was reopened `max` times already; returns how many times it has been reopened
+    /// (this time included), or None when it is not reopened (left as it is, in one
+    /// transaction: no worker can claim it before the caller fails the job).
+    pub fn reopen_shard(&self, id: JobId, idx: u32, max: u32) -> Result<Option<u32>, StoreError> {
         self.write(|c| {
             lock_job(c, id)?;
             let rows = c.query(
                 "UPDATE shards SET done = 0, progress = NULL, lease_owner = NULL, \
-                 lease_until = NULL, reopened = reopened + 1 WHERE job_id = ?1 AND idx = ?2 \
-                 RETURNING reopened",
-                params![id, idx],
+                 lease_until = NULL, reopened = reopened + 1 \
+                 WHERE job_id = ?1 AND idx = ?2 AND reopened < ?3 RETURNING reopened",
+                params![id, idx, max],
             )?;
             let times = match rows.first() {
-                Some(r) => r.i64(0)? as u32,
-                None => 0,
+                Some(r) => Some(r.i64(0)? as u32),
+                None => None,
             };
             record_total(c, id)?;
             Ok((times, Vec::new()))
@@ -506,8 +508,8 @@ mod tests {
         assert_eq!(s.get_job(1).unwrap().progress.map(|p| p.spp), Some(10));
         assert_eq!(part("e", long), Some(Part::Merge { count: 3 }));
         assert_eq!(part("f", long), None, "the merge is e's");
-        // A shard found unusable at the merge renders again (the times counted).
-        assert_eq!(s.reopen_shard(1, 1).unwrap(), 1);
+        // A shard found unusable at the merge renders again (the times counted, up to a bound).
+        assert_eq!(s.reopen_shard(1, 1, 3).unwrap(), Some(1));
         assert_eq!(
             part("f", long),
             Some(Part::Shard {
@@ -527,6 +529,21 @@ mod tests {
         assert!(!take(0, "g", now), "done");
         assert!(s.holds_shard(1, 1, "g").unwrap() && !s.holds_shard(1, 1, "f").unwrap());
         assert!(!s.holds_shard(1, 0, "a").unwrap(), "done: nobody's");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A shard whose file keeps coming out unusable is reopened at most `max` times; past that
+    /// it is left as it is (the merge then fails the job).
+    #[test]
+    fn a_shard_is_reopened_a_bounded_number_of_times() {
+        let (dir, s) = store_with_job("candela-shard-reopen", 10);
+        let long = std::time::Duration::from_secs(60);
+        assert!(
+            s.claim_job("a", long, &[], 4).unwrap().is_some(),
+            "the shards exist"
+        );
+        let times: Vec<_> = (0..4).map(|_| s.reopen_shard(1, 0, 3).unwrap()).collect();
+        assert_eq!(times, [Some(1), Some(2), Some(3), None]);
         let _ = std::fs::remove_dir_all(&dir);
     }
 

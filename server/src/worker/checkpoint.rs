@@ -173,30 +173,40 @@ pub fn read_into(
     let at = head.len() as u64;
     let parts = body.len().div_ceil(READ_PIECE).clamp(1, READ_THREADS);
     let part_len = body.len().div_ceil(parts).max(1);
-    // (Threads of its own, not the shared rayon pool: a slow disk must not hold up the other
-    // devices' CPU work queued there.)
-    let pieces: Vec<std::io::Result<crc32fast::Hasher>> = std::thread::scope(|scope| {
-        let file = &file;
-        let handles: Vec<_> = (body.chunks_mut(part_len).enumerate())
-            .map(|(i, part)| {
-                scope.spawn(move || {
-                    let mut crc = crc32fast::Hasher::new();
-                    let start = at + (i * part_len) as u64;
-                    for (j, piece) in part.chunks_mut(READ_PIECE).enumerate() {
-                        read_exact_at(file, piece, start + (j * READ_PIECE) as u64)?;
-                        crc.update(piece);
-                    }
-                    Ok(crc)
+    // Each part read in pieces and checksummed: on the calling thread when there is one, else
+    // on threads of its own (not the shared rayon pool: a slow disk must not hold up the other
+    // devices' CPU work queued there; a thread the system refuses fails that part's read).
+    let read_part = |i: usize, part: &mut [u8]| -> std::io::Result<crc32fast::Hasher> {
+        let mut crc = crc32fast::Hasher::new();
+        let start = at + (i * part_len) as u64;
+        for (j, piece) in part.chunks_mut(READ_PIECE).enumerate() {
+            read_exact_at(&file, piece, start + (j * READ_PIECE) as u64)?;
+            crc.update(piece);
+        }
+        Ok(crc)
+    };
+    let pieces: Vec<std::io::Result<crc32fast::Hasher>> = if parts == 1 {
+        vec![read_part(0, body)]
+    } else {
+        std::thread::scope(|scope| {
+            let read_part = &read_part;
+            let handles: Vec<_> = (body.chunks_mut(part_len).enumerate())
+                .map(|(i, part)| {
+                    std::thread::Builder::new()
+                        .name("checkpoint-read".into())
+                        .spawn_scoped(scope, move || read_part(i, part))
                 })
-            })
-            .collect();
-        (handles.into_iter())
-            .map(|h| {
-                h.join()
-                    .unwrap_or_else(|_| Err(std::io::Error::other("a reading thread panicked")))
-            })
-            .collect()
-    });
+                .collect();
+            (handles.into_iter())
+                .map(|h| match h {
+                    Ok(h) => h.join().unwrap_or_else(|_| {
+                        Err(std::io::Error::other("a reading thread panicked"))
+                    }),
+                    Err(e) => Err(e),
+                })
+                .collect()
+        })
+    };
     let read_at = t0.elapsed();
     let mut crc = crc32fast::Hasher::new();
     crc.update(&head);

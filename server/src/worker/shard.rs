@@ -40,7 +40,8 @@ pub struct ShardRun {
 /// Adds to `into` (an accumulation of `session`'s layout) the checkpoints of the job's shards
 /// `0..count` other than `skip`; returns each one's progress, or why it is unusable. The files
 /// are added in index order (the sum does not depend on the thread count), each read into one
-/// buffer kept for all of them, on all cores (checkpoint::read_into), then added on all cores.
+/// buffer kept for all of them by up to eight threads of its own (checkpoint::read_into), then
+/// added on all cores.
 pub fn add_shards(
     session: &RenderSession,
     settings: &JobSettings,
@@ -110,14 +111,17 @@ pub fn merged(
                     bad.map_or_else(|e| e, |p| format!("{} of {} spp", p.spp, row.range.samples));
                 warn!(job = id, shard = k, %why, "a done shard's checkpoint is unusable; rendering it again");
                 let _ = std::fs::remove_file(paths.shard_checkpoint(k));
-                let times = store.reopen_shard(id, k).map_err(store_error)?;
-                if times > MAX_REOPENS {
-                    return Err(MergeError::Unusable(format!(
-                        "shard {k}'s checkpoint was unusable at the merge {times} times (last: \
-                         {why}); is the data directory shared consistently by every host?"
-                    )));
-                }
-                return Ok(None);
+                return match store
+                    .reopen_shard(id, k, MAX_REOPENS)
+                    .map_err(store_error)?
+                {
+                    Some(_) => Ok(None),
+                    None => Err(MergeError::Unusable(format!(
+                        "shard {k}'s checkpoint was unusable at the merge {} times (last: \
+                         {why}); is the data directory shared consistently by every host?",
+                        MAX_REOPENS + 1
+                    ))),
+                };
             }
         }
     }
@@ -220,6 +224,8 @@ impl Worker {
             }
         };
         let readback = t0.elapsed();
+        // (The device generation the sums were copied under: shard_write.rs.)
+        let epoch_at_copy = self.device_epoch.load(std::sync::atomic::Ordering::SeqCst);
         // Step 2: the lease to the writer's name, then the write on its thread. (A film-size
         // buffer each: writes slower than the renders wait here, for the oldest, before the
         // lease's clock starts.)
@@ -269,10 +275,7 @@ impl Worker {
                     progress_json: job.progress_json(),
                     rendering,
                     readback,
-                    device_epoch: (
-                        self.device_epoch.clone(),
-                        self.device_epoch.load(std::sync::atomic::Ordering::SeqCst),
-                    ),
+                    device_epoch: (self.device_epoch.clone(), epoch_at_copy),
                 };
                 match super::shard_write::start(self.store.clone(), owner.clone(), finished) {
                     Ok(w) => self.writes.push(w),

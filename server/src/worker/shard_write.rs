@@ -38,9 +38,11 @@ use crate::store::{JobPaths, Store, StoreError};
 enum WriteError {
     Io(std::io::Error),
     Store(StoreError),
-    /// The device was lost while the file was written: Vulkan leaves the contents of its
-    /// mapped memory undefined then, so the file is not trusted (removed, the shard freed).
-    DeviceLost,
+    /// The device was reset (lost, or another device error) while the file was written:
+    /// Vulkan leaves the contents of a lost device's mapped memory undefined, so the file is
+    /// not trusted (removed if the shard is still the writer's, the shard freed). A loss the
+    /// worker notices only after the write ended is not caught here.
+    DeviceReset,
 }
 
 /// What a writer thread reports: how long the file and the status update took, and the job's
@@ -121,13 +123,10 @@ pub fn start(
             if wrote.is_ok() {
                 hold_for_test(id, idx);
             }
-            let lost = epoch.load(std::sync::atomic::Ordering::SeqCst) != at_copy;
+            let reset = epoch.load(std::sync::atomic::Ordering::SeqCst) != at_copy;
             let result = match wrote {
                 Err(e) => Err(WriteError::Io(e)),
-                Ok(()) if lost => {
-                    let _ = std::fs::remove_file(&path);
-                    Err(WriteError::DeviceLost)
-                }
+                Ok(()) if reset => Err(WriteError::DeviceReset),
                 // Done only now that the file is whole. (A database error is tried
                 // once more, a moment later: else the shard waits for the lease to run out
                 // and is rendered again.)
@@ -246,13 +245,15 @@ impl Worker {
                 Err(WriteError::Store(e)) => {
                     warn!(job = id, shard = idx, error = %e, "recording a shard done")
                 }
-                Err(WriteError::DeviceLost) => {
+                Err(WriteError::DeviceReset) => {
+                    // (Only a file still this writer's: a new owner's may be there by now.)
+                    if self.store.holds_shard(id, idx, &w.owner).unwrap_or(false) {
+                        let paths = JobPaths::new(&self.config.data_dir, id);
+                        let _ = std::fs::remove_file(paths.shard_checkpoint(idx));
+                    }
                     let _ = self.store.release_shard(id, idx, &w.owner);
-                    warn!(
-                        job = id,
-                        shard = idx,
-                        "the device was lost while the shard's sums were written; it renders again"
-                    );
+                    warn!(job = id, shard = idx,
+                          "the device was reset while the shard's sums were written; it renders again");
                 }
                 Err(WriteError::Io(e)) => {
                     let held = self.store.holds_shard(id, idx, &w.owner).unwrap_or(true);

@@ -11,7 +11,7 @@
 //!
 //!   B = clamp(ceil(TARGET_PIXEL_SAMPLES / (width · height)), 1, MAX_BATCH), then lowered until
 //!   B slices fit in MAX_BATCH_BYTES (never below 1), and below the shade stage's counter bound
-//!   ([`counter_cap`]: only with millions of lights).
+//!   ([`counter_cap`]: from about 262,000 lights).
 //!
 //! Why these figures. The H100 measurements of the one-sample-per-dispatch version
 //! (bench/results/h100-i13-call3) give per sample, summed over the three stages, about 30 µs of
@@ -69,10 +69,11 @@ pub fn batch_size(
 
 /// Most samples per batch with `lights` lights: the shade stage's per-workgroup counters are
 /// 32-bit (256 threads, each counting the lights it tests and the rays it traces over its
-/// batch's samples, at most `lights` + 1 per sample), so B·256·(lights + 1) must stay below
-/// 2³²: the bound one sample per dispatch had, 2²⁴ per pixel-sample, kept whatever B.
+/// batch's samples: at most `lights` + 2 per sample, the camera ray, a shadow ray per light and
+/// the ambient one), so B·256·(lights + 2) must stay below 2³². It binds from about 262,000
+/// lights (B < 64); `samples_per_batch` is held to it too.
 pub fn counter_cap(lights: u32) -> u32 {
-    ((1u64 << 24) / (lights as u64 + 1)).clamp(1, MAX_BATCH as u64) as u32
+    (u32::MAX as u64 / (256 * (lights as u64 + 2))).clamp(1, MAX_BATCH as u64) as u32
 }
 
 /// The batches of a pass of `spp` samples with batch size `b`: ceil(spp / b) batches of as even
@@ -112,9 +113,10 @@ mod tests {
         assert_eq!(batch_size(1 << 20, 4096, 8, Some(3), false), 3);
         assert_eq!(batch_size(1 << 16, 256, 8, None, true), LLVMPIPE_MAX_BATCH);
         assert_eq!(batch_size(1 << 16, 256, 8, Some(9), true), 9);
-        // The counters' bound: 2^24 / (lights + 1) samples, at least one.
+        // The counters' bound: (2^32 - 1) / (256 (lights + 2)) samples, at least one.
         assert_eq!(counter_cap(10), MAX_BATCH);
         assert_eq!(counter_cap(1 << 20), 15);
+        assert_eq!(counter_cap((1 << 18) - 2), 63, "exactly 2^32 would wrap");
         assert_eq!(counter_cap(u32::MAX), 1);
     }
 
