@@ -11,8 +11,7 @@
 # PARTS (default "meshes instanced"). Writes OUT/accel.jsonl; prints a table.
 set -u
 cd "$(dirname "$0")/.."
-for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
-export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+. bench/gpu_env.sh
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
 bins=${BINS:-.carry/main/candela $( [ -x .carry/base/candela ] && echo .carry/base/candela)}
 parts=${PARTS:-meshes instanced}

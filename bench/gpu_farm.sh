@@ -9,8 +9,7 @@
 # OUT/multi_gpu.jsonl and the farm logs.
 set -u
 cd "$(dirname "$0")/.."
-for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
-export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+. bench/gpu_env.sh
 nvidia-smi --query-gpu=index,name,driver_version --format=csv,noheader
 tar xJf .carry/pg15.tar.xz -C / --no-overwrite-dir
 export LD_LIBRARY_PATH=/opt/pglibs  # PostgreSQL's; farm_scaling.py drops it for candela

@@ -9,8 +9,7 @@
 # Writes OUT/cornell.jsonl, OUT/kernels.jsonl, OUT/kernels.md and OUT/depth.jsonl; prints the tables.
 set -u
 cd "$(dirname "$0")/.."
-for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
-export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+. bench/gpu_env.sh
 out=${OUT:-/tmp}
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee "$out/gpu.txt"
 parts=${PARTS:-cornell kernels depth}

@@ -6,8 +6,7 @@
 # Writes JSON lines to ${OUT:-/tmp}/bench.jsonl and prints them.
 set -u
 cd "$(dirname "$0")/.."
-for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
-export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+. bench/gpu_env.sh
 out=${OUT:-/tmp}/bench.jsonl
 : > "$out"
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee "${OUT:-/tmp}/gpu.txt"

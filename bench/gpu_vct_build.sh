@@ -7,8 +7,7 @@
 # details, one JSON line per run to OUT/vct_build.jsonl, and a median table.
 set -u
 cd "$(dirname "$0")/.."
-for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
-export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+. bench/gpu_env.sh
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
 out=${OUT:-/tmp}
 big=/tmp/vct_big

@@ -7,8 +7,7 @@
 # same seed). Prints a table; JSON lines to OUT/vct_inject.jsonl.
 set -u
 cd "$(dirname "$0")/.."
-for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
-export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+. bench/gpu_env.sh
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
 out=${OUT:-/tmp}
 : > "$out/vct_inject.jsonl"

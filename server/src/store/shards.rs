@@ -328,15 +328,8 @@ impl Store {
         owner: &str,
         lease: std::time::Duration,
     ) -> Result<bool, StoreError> {
-        self.write(|c| {
-            lock_job(c, id)?;
-            let n = c.exec(
-                "UPDATE shards SET lease_until = ?4 WHERE job_id = ?1 AND idx = ?2 \
-                 AND lease_owner = ?3 AND done = 0",
-                params![id, idx, owner, now_s() + lease.as_secs_f64()],
-            )?;
-            Ok((n == 1, Vec::new()))
-        })
+        // (A hand-off to itself.)
+        self.hand_shard(id, idx, owner, owner, lease)
     }
 
     /// Gives up `owner`'s lease on shard `idx` of job `id` (not done): free to claim again.

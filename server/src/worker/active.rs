@@ -404,9 +404,9 @@ impl ActiveJob {
         }
         self.last_checkpoint = Instant::now();
         tracing::debug!(
-            readback_ms = t_readback.as_millis() as u64,
-            file_ms = (t_file - t_readback).as_millis() as u64,
-            image_ms = (t0.elapsed() - t_file).as_millis() as u64,
+            readback_ms = super::shard::ms(t_readback),
+            file_ms = super::shard::ms(t_file - t_readback),
+            image_ms = super::shard::ms(t0.elapsed() - t_file),
             "checkpoint"
         );
         Ok(progress)

@@ -89,8 +89,8 @@ pub fn write(
     tracing::debug!(
         path = %path.display(),
         bytes = head.len() + body.len() + sum.len(),
-        encode_ms = encoded.as_millis() as u64,
-        write_ms = (t0.elapsed() - encoded).as_millis() as u64,
+        encode_ms = super::shard::ms(encoded),
+        write_ms = super::shard::ms(t0.elapsed() - encoded),
         "checkpoint written"
     );
     Ok(())
@@ -227,8 +227,8 @@ pub fn read_into(
     }
     tracing::debug!(
         path = %path.display(),
-        read_ms = read_at.as_millis() as u64,
-        check_ms = (t0.elapsed() - read_at).as_millis() as u64,
+        read_ms = super::shard::ms(read_at),
+        check_ms = super::shard::ms(t0.elapsed() - read_at),
         "checkpoint read"
     );
     Ok(header.progress)

@@ -65,8 +65,11 @@ impl Worker {
                 }
             }
         }
-        // A spare session no claim took: its device memory goes.
-        self.spare = None;
+        // A spare session no claim took: its device memory goes, and the host buffer kept for
+        // its next shard's sums with it (the worker moved on to other work).
+        if self.spare.take().is_some() {
+            self.spare_sums = None;
+        }
     }
 
     /// Renews the leases of the active jobs and gives up the others; drops, unsaved, every job
