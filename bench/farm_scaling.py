@@ -5,7 +5,9 @@ API and one `candela worker --devices LIST --shard-spp N` (a render thread per d
 claiming shards of N sample indices), then one job of --spp samples per pixel at
 --width x --height; the job's wall time from its start to its end (`started_at`, `finished_at`)
 gives its Msamples/s, and each list's scaling against the first list. A small job first makes
-every device compile its kernels, so the timed job meets warm caches on all of them.
+every device compile its kernels, and the timed job starts once the worker's background kernel
+warm-up (one per device) has ended, so it meets warm caches and a worker with nothing else to
+do on all of them.
 
     python3 bench/farm_scaling.py --candela .carry/main/candela --configs 0 0,1 --json OUT/farm.json
 
@@ -84,6 +86,11 @@ def run_config(a, devices, env):
         warm = call(f"{url}/api/jobs", "POST", dict(base, width=64, height=64,
                                                    spp=a.shard_spp * n, name="warm-up"))
         wait_done(url, warm["id"], a.timeout)
+        # (And the worker's background kernel warm-up, one per device, has ended: a farm's
+        # long-running workers render with nothing else under way.)
+        deadline = time.time() + a.timeout
+        while open(log).read().count("kernels warm") < n and time.time() < deadline:
+            time.sleep(0.2)
         # Step 2: the timed job.
         job = call(f"{url}/api/jobs", "POST", dict(base, width=a.width, height=a.height,
                                                   spp=a.spp, name=f"farm {devices}"))

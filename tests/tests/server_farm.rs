@@ -547,6 +547,11 @@ fn one_worker_renders_on_two_devices_on_postgres() {
     });
     assert_eq!(done["state"], "done", "{done}\n{}", w.log());
     assert_eq!(spp(&done), total, "{done}");
+    // The merge added the 8 shards from the process's memory (shard_sums.rs), no file read;
+    // the image is checked against a whole render at the end.
+    let merged = format!("merged the shards job={id} shards=8 from_memory=8 ");
+    assert!(w.log().contains(&merged), "{}", w.log());
+    let split_job = id;
     // Both threads claimed shards, each under its own name.
     let by: BTreeSet<String> = claims(&data).into_iter().map(|c| c.1).collect();
     let want: BTreeSet<String> = ["w/gpu0", "w/gpu1"].map(String::from).into();
@@ -651,6 +656,20 @@ fn one_worker_renders_on_two_devices_on_postgres() {
     assert!(api
         .metrics()
         .contains("candela_worker_up{worker=\"w/gpu0\""));
+    // Step 5: the job of step 1 rendered whole by a worker that splits nothing: the same
+    // image as the merge of the sums kept in memory.
+    let _one = Worker::start_with(&data, "whole", "2", &["--shard-spp", "0"]);
+    let whole = api.submit(&json!({"scene_name": "furnace", "spp": 160,
+                                   "width": 16, "height": 16, "seed": 2}))["id"]
+        .as_i64()
+        .unwrap();
+    let done = api.wait_job(whole, T, |j| {
+        matches!(j["state"].as_str(), Some("done" | "failed"))
+    });
+    assert_eq!(done["state"], "done", "{done}");
+    let image = |id: i64| read_exr(&data.join(format!("jobs/{id}/image.exr"))).unwrap();
+    let e = rel_mse(&image(split_job), &image(whole)).unwrap();
+    assert!(e < 1e-8, "split (summed in memory) vs whole relMSE {e}");
     // `serve` renders on one device.
     let o = Command::new(candela())
         .args(["serve", "--devices", "0", "--data-dir"])

@@ -12,10 +12,14 @@
 
 use std::time::Duration;
 
-use super::db::params;
+use super::db::{params, Dialect};
 use super::shards::{claim_part, Claim};
 use super::{Store, StoreError};
 use crate::jobs::model::{now_s, JobId, JobState};
+
+/// Claims tried when each finds a claimable job's row locked, and the wait between two.
+const CLAIM_TRIES: u32 = 20;
+const CLAIM_RETRY: Duration = Duration::from_millis(2);
 
 /// `id, id, …` for an `IN (…)` list (ids are integers: nothing to quote); `-1` when empty.
 fn id_list(ids: &[JobId]) -> String {
@@ -41,6 +45,28 @@ impl Store {
         exclude: &[JobId],
         shard_spp: u32,
     ) -> Result<Option<Claim>, StoreError> {
+        // (PostgreSQL: a claim that skipped a locked row while claimable work is there tries
+        // again a moment later. Shard hand-offs, done marks and other claims lock a split
+        // job's row for a few milliseconds; the devices of a farm sharing one job would
+        // otherwise meet it locked and idle until their next look, ~0.1 s a shard.)
+        for _ in 0..CLAIM_TRIES {
+            match self.claim_once(worker, lease, exclude, shard_spp)? {
+                (None, true) => std::thread::sleep(CLAIM_RETRY),
+                (claim, _) => return Ok(claim),
+            }
+        }
+        Ok(None)
+    }
+
+    /// One claim's transaction: the claim, and whether a claimable job was passed by because
+    /// its row was locked (PostgreSQL's `SKIP LOCKED`).
+    fn claim_once(
+        &self,
+        worker: &str,
+        lease: Duration,
+        exclude: &[JobId],
+        shard_spp: u32,
+    ) -> Result<(Option<Claim>, bool), StoreError> {
         let now = now_s();
         self.write(|c| {
             let free = "(j.lease_owner IS NULL OR j.lease_owner = ?1 OR j.lease_until < ?2)";
@@ -53,12 +79,15 @@ impl Store {
                      OR s.lease_until < ?2))) \
                  OR (shard_count > 0 AND {free} AND NOT EXISTS (SELECT 1 FROM shards s \
                      WHERE s.job_id = j.id AND s.done = 0))) \
-                 ORDER BY state = 'running' DESC, priority DESC, id ASC LIMIT 1{}",
+                 ORDER BY state = 'running' DESC, priority DESC, id ASC LIMIT 1",
                 id_list(exclude),
-                c.dialect().skip_locked()
             );
-            let Some(row) = c.query_opt(&pick, params![worker, now])? else {
-                return Ok((None, Vec::new()));
+            let locking = format!("{pick}{}", c.dialect().skip_locked());
+            let Some(row) = c.query_opt(&locking, params![worker, now])? else {
+                // (Without the lock clause: what a locked row hid.)
+                let skipped = c.dialect() == Dialect::Postgres
+                    && c.query_opt(&pick, params![worker, now])?.is_some();
+                return Ok(((None, skipped), Vec::new()));
             };
             let id = row.i64(0)?;
             let state = JobState::parse(&row.text(1)?).unwrap_or(JobState::Queued);
@@ -71,7 +100,7 @@ impl Store {
                 priority,
                 part,
             });
-            Ok((claim, Vec::new()))
+            Ok(((claim, false), Vec::new()))
         })
     }
 

@@ -385,8 +385,7 @@ impl ActiveJob {
                         &self.session,
                         &self.settings,
                         &self.paths,
-                        sh.count,
-                        Some(sh.range.idx),
+                        (0..sh.count).filter(|k| *k != sh.range.idx),
                         &mut acc,
                     );
                     let spp = progress.spp

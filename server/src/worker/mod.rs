@@ -28,6 +28,7 @@ mod reconcile;
 mod report;
 mod scheduler;
 mod shard;
+mod shard_sums;
 mod shard_write;
 mod storage_hold;
 mod test_hooks;
@@ -369,7 +370,7 @@ impl Worker {
         if let Part::Merge { count } = part {
             let t0 = std::time::Instant::now();
             match shard::merged(&self.store, &session, &s, &paths, id) {
-                Ok(Some((acc, progress))) => {
+                Ok(Some(((acc, progress), from_memory))) => {
                     let t_read = t0.elapsed();
                     if let Err(e) = session.restore(&acc, progress) {
                         return self.render_failed(id, e, "restoring the merged shards");
@@ -377,6 +378,7 @@ impl Worker {
                     info!(
                         job = id,
                         shards = count,
+                        from_memory,
                         spp = progress.spp,
                         read_add_ms = shard::ms(t_read),
                         restore_ms = shard::ms(t0.elapsed() - t_read),

@@ -4,8 +4,10 @@
 //! with a shard checkpoint at most once per checkpoint interval (live_merge.rs), is the merge of
 //! that shard's sums with every other shard's latest checkpoint. A finished shard's final
 //! checkpoint is written, and the shard marked done, off the render thread (shard_write.rs).
-//! The claim that finds every shard done merges their checkpoints into one accumulation
-//! (renderer::render::merge_accumulation, exact up to float addition order), restores it into a
+//! The claim that finds every shard done merges their sums into one accumulation
+//! (renderer::render::merge_accumulation, exact up to float addition order): those this process
+//! kept in memory as they landed (shard_sums.rs) and the other shards' checkpoints; it restores
+//! it into a
 //! session of the whole job, and finishes the job as a whole render. A worker keeps the
 //! session of the shard it finished last, and reuses it (reset) when its next claim
 //! is another part of the same job.
@@ -18,6 +20,7 @@ use tracing::{info, warn};
 
 use super::active::ActiveJob;
 use super::checkpoint;
+use super::shard_sums;
 use super::Worker;
 use crate::jobs::model::{JobId, JobSettings};
 use crate::store::{sum_progress, JobPaths, Part, ShardRange, Store};
@@ -38,23 +41,21 @@ pub struct ShardRun {
 }
 
 /// Adds to `into` (an accumulation of `session`'s layout) the checkpoints of the job's shards
-/// `0..count` other than `skip`; returns each one's progress, or why it is unusable. The files
-/// are added in index order (the sum does not depend on the thread count), each read into one
-/// buffer kept for all of them by up to eight threads of its own (checkpoint::read_into), then
-/// added on all cores.
+/// `shards`; returns each one's progress, or why it is unusable. The files are added in the
+/// order given (the sum does not depend on the thread count), each read into one buffer kept
+/// for all of them by up to eight threads of its own (checkpoint::read_into), then added on all
+/// cores.
 pub fn add_shards(
     session: &RenderSession,
     settings: &JobSettings,
     paths: &JobPaths,
-    count: u32,
-    skip: Option<u32>,
+    shards: impl Iterator<Item = u32>,
     into: &mut [[f32; 4]],
 ) -> Vec<(u32, Result<Progress, String>)> {
     let (w, h) = (settings.width, settings.height);
     let (len, extra) = (session.accumulation_len(), session.extra_buffers());
     let mut buf = Vec::new();
-    (0..count)
-        .filter(|k| Some(*k) != skip)
+    shards
         .map(|k| {
             let path = paths.shard_checkpoint(k);
             let added =
@@ -85,25 +86,49 @@ pub enum MergeError {
     Unusable(String),
 }
 
-/// The merge of every shard of job `id`: their summed accumulation and progress. None when a
-/// shard's checkpoint is missing, unusable or short of its samples: that shard is reopened
-/// (to be rendered again) and its file removed.
+/// The merge of every shard of job `id`: their summed accumulation, their progress, and how
+/// many came from this process's memory (shard_sums.rs) rather than their files. None when a
+/// shard was reopened since the claim, or when a shard's checkpoint is missing, unusable or
+/// short of its samples: that shard is reopened (to be rendered again) and its file removed.
 pub fn merged(
     store: &Store,
     session: &RenderSession,
     settings: &JobSettings,
     paths: &JobPaths,
     id: JobId,
-) -> Result<Option<Merged>, MergeError> {
+) -> Result<Option<(Merged, usize)>, MergeError> {
     let store_error = |e: crate::store::StoreError| MergeError::Store(e.to_string());
     let rows = store.shards(id).map_err(store_error)?;
-    let mut sums = vec![[0.0f32; 4]; session.accumulation_len()];
-    let results = add_shards(session, settings, paths, rows.len() as u32, None, &mut sums);
-    let mut parts = Vec::new();
-    for ((k, read), row) in results.into_iter().zip(&rows) {
-        if !row.done {
-            return Ok(None); // reopened since the claim
-        }
+    if rows.iter().any(|r| !r.done) {
+        return Ok(None); // reopened since the claim
+    }
+    // Step 1: the shards this process kept in memory, where they match the rows.
+    let layout = shard_sums::Layout {
+        width: settings.width,
+        height: settings.height,
+        seed: settings.seed,
+        entries: session.accumulation_len(),
+        count: rows.len() as u32,
+    };
+    let kept = shard_sums::take(&paths.dir).filter(|k| {
+        k.layout == layout
+            && k.shards.iter().all(|(i, (r, p))| {
+                let row = rows.get(*i as usize);
+                row.is_some_and(|row| row.range == *r && p.spp == r.samples)
+            })
+    });
+    let (mut sums, kept) = match kept {
+        Some(k) => (k.sum, k.shards),
+        None => (
+            vec![[0.0f32; 4]; session.accumulation_len()],
+            Default::default(),
+        ),
+    };
+    let mut parts: Vec<Progress> = kept.values().map(|(_, p)| *p).collect();
+    // Step 2: the others' files, in index order.
+    let others = (0..rows.len() as u32).filter(|k| !kept.contains_key(k));
+    for (k, read) in add_shards(session, settings, paths, others, &mut sums) {
+        let row = &rows[k as usize];
         match read {
             Ok(p) if p.spp == row.range.samples => parts.push(p),
             bad => {
@@ -125,7 +150,7 @@ pub fn merged(
             }
         }
     }
-    Ok(Some((sums, sum_progress(&parts))))
+    Ok(Some(((sums, sum_progress(&parts)), kept.len())))
 }
 
 /// Records a checkpoint's progress `p` of job `id`: the job's own, or its shard's (the job's
@@ -276,6 +301,16 @@ impl Worker {
                     rendering,
                     readback,
                     device_epoch: (self.device_epoch.clone(), epoch_at_copy),
+                    job_dir: job.paths.dir.clone(),
+                    layout: shard_sums::Layout {
+                        width: job.settings.width,
+                        height: job.settings.height,
+                        seed: job.settings.seed,
+                        entries: job.session.accumulation_len(),
+                        count: sh.count,
+                    },
+                    range: sh.range,
+                    extra: job.session.extra_buffers(),
                 };
                 match super::shard_write::start(self.store.clone(), owner.clone(), finished) {
                     Ok(w) => self.writes.push(w),

@@ -2,8 +2,9 @@
 //! shard's sums into host-visible memory (the only part on the render thread; one device copy,
 //! `RenderSession::accumulation_to_host`), the shard's lease is handed to a name of the
 //! worker's own for writers (`NAME#write`, store/shards.rs `hand_shard`) and a thread writes
-//! `shard-<k>.bin` straight from that memory (whole, renamed into place) and only then marks
-//! the shard done, while the device renders the worker's next shard; the buffer then serves
+//! `shard-<k>.bin` straight from that memory (whole, renamed into place), adds them to the
+//! job's sums kept in this process for its merge (shard_sums.rs) and only then marks the shard
+//! done, while the device renders the worker's next shard; the buffer then serves
 //! the worker's next shard. The worker loop collects finished writes
 //! ([`Worker::collect_writes`]), announces them (`progress` event) and claims again (the merge,
 //! once every shard is done).
@@ -22,16 +23,18 @@
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use renderer::integrators::ExtraBuffer;
 use renderer::render::{HostAccumulation, Progress};
 use serde_json::Value;
 use tracing::{info, warn};
 
 use super::checkpoint;
 use super::shard::ms;
+use super::shard_sums;
 use super::storage_hold::is_storage_fault;
 use super::Worker;
 use crate::jobs::model::{JobId, JobSettings, JobState};
-use crate::store::{JobPaths, Store, StoreError};
+use crate::store::{JobPaths, ShardRange, Store, StoreError};
 
 /// Why a shard's background write failed.
 #[derive(Debug)]
@@ -101,6 +104,12 @@ pub struct Finished {
     /// The worker's device generation (bumped at each device reset) and its value when the
     /// sums were copied.
     pub device_epoch: (std::sync::Arc<std::sync::atomic::AtomicU64>, u64),
+    /// Where the sums are kept in memory for the merge (shard_sums.rs): the job's folder, its
+    /// layout, the shard's range and the session's extra buffers.
+    pub job_dir: std::path::PathBuf,
+    pub layout: shard_sums::Layout,
+    pub range: ShardRange,
+    pub extra: Vec<ExtraBuffer>,
 }
 
 /// Starts the write of a finished shard whose lease was handed to `owner`.
@@ -124,6 +133,11 @@ pub fn start(
                 hold_for_test(id, idx);
             }
             let reset = epoch.load(std::sync::atomic::Ordering::SeqCst) != at_copy;
+            // The sums kept for the merge too, before the shard is done (shard_sums.rs).
+            if wrote.is_ok() && !reset {
+                let (layout, range) = (f.layout, f.range);
+                shard_sums::add(&f.job_dir, layout, range, p, acc.as_slice(), &f.extra);
+            }
             let result = match wrote {
                 Err(e) => Err(WriteError::Io(e)),
                 Ok(()) if reset => Err(WriteError::DeviceReset),
@@ -282,8 +296,8 @@ impl Worker {
         }
     }
 
-    /// Removes shard `idx`'s file when job `id` ended (done, canceled or failed) or was deleted
-    /// while it was written: the cleanups at the cancel or the merge passed it by. (A late
+    /// Removes shard `idx`'s file (and the job's sums kept in memory) when job `id` ended (done,
+    /// canceled or failed) or was deleted while it was written: the cleanups at the cancel or the merge passed it by. (A late
     /// writer, slower than its lease, renames after another worker finished the shard and the
     /// merge, which had read every shard file, removed them.)
     fn discard_if_ended(&mut self, id: JobId, idx: u32) {
@@ -291,9 +305,11 @@ impl Worker {
         match self.store.job_state(id) {
             Ok(Some(JobState::Done | JobState::Canceled | JobState::Failed)) => {
                 let _ = std::fs::remove_file(paths.shard_checkpoint(idx));
+                shard_sums::forget(&paths.dir);
             }
             Ok(None) => {
                 let _ = std::fs::remove_dir_all(&paths.dir);
+                shard_sums::forget(&paths.dir);
             }
             _ => {}
         }
