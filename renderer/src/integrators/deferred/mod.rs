@@ -180,11 +180,6 @@ struct StageTimes {
     samples: u64,
     /// Batches run (G-buffer dispatches).
     batches: u64,
-    /// Shading counters: candidate lights tested, lights that reached their pixel, pixel
-    /// samples shaded with direct light.
-    tested: u64,
-    shaded: u64,
-    lit: u64,
 }
 
 pub struct DeferredIntegrator {
@@ -364,15 +359,16 @@ impl Integrator for DeferredIntegrator {
                 _ => {}
             }
         }
-        if let Some(Ok(c)) = self.stages.as_ref().map(Stages::take_counters) {
-            self.times.tested += c[0];
-            self.times.shaded += c[1];
-            self.times.lit += c[2];
-        }
     }
 
     fn details(&self) -> Option<serde_json::Value> {
         let t = &self.times;
+        // (The counters since the stages were made; a read waits for the queued passes.)
+        let [tested, shaded, lit] = self
+            .stages
+            .as_ref()
+            .and_then(|s| s.counters().ok())
+            .unwrap_or_default();
         let per = |ms: f64| {
             if t.samples > 0 {
                 ms / t.samples as f64
@@ -388,9 +384,9 @@ impl Integrator for DeferredIntegrator {
                                     "shade": per(t.shade)},
             "lights": self.lights.stats,
             "lights_per_pixel": {
-                "tested": t.tested as f64 / t.lit.max(1) as f64,
-                "shaded": t.shaded as f64 / t.lit.max(1) as f64,
-                "pixel_samples": t.lit,
+                "tested": tested as f64 / lit.max(1) as f64,
+                "shaded": shaded as f64 / lit.max(1) as f64,
+                "pixel_samples": lit,
             },
             "cutoff": self.cutoff(),
             "options": self.options,

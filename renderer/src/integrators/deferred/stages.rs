@@ -232,11 +232,13 @@ impl Stages {
         Ok(())
     }
 
-    /// Reads and clears the shading counters: (candidate lights tested, lights that reached
-    /// their pixel, pixel samples shaded with direct light) since the last call.
-    pub fn take_counters(&self) -> GpuResult<[u64; 3]> {
+    /// Reads the shading counters: (candidate lights tested, lights that reached their pixel,
+    /// pixel samples shaded with direct light) since the stages were made. They are 64-bit
+    /// (the shader carries into the high word), so they are never cleared, and read only when
+    /// the statistics are asked for: a read waits for the queued passes, and one per pass
+    /// (with a clear) drained the pass queue, the GPU idle while the next pass was recorded.
+    pub fn counters(&self) -> GpuResult<[u64; 3]> {
         let c: Vec<[u32; 2]> = self.ctx.download_vec(&self._buffers[5], 3)?;
-        self.ctx.fill_zero(&self._buffers[5])?;
         Ok([0, 1, 2].map(|i| ((c[i][1] as u64) << 32) | c[i][0] as u64))
     }
 
