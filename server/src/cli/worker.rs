@@ -60,9 +60,17 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
         }
         let shared = Shared::default();
         shared.set_storage(crate::storage::status(dir, c.min_free_space));
-        let (worker, thread) =
-            crate::worker::spawn(store.clone(), Arc::new(shared), Arc::new(c))
-                .map_err(|e| CliError::failure(format!("starting the GPU worker: {e}")))?;
+        // (A connection per device: the store serialises its calls on one, and the devices'
+        // claims, hand-offs and done marks queued there stalled the others' passes.)
+        let store = match k {
+            0 => store.clone(),
+            _ => Arc::new(
+                Store::connect(&db)
+                    .map_err(|e| CliError::failure(format!("{}: {e}", db.describe())))?,
+            ),
+        };
+        let (worker, thread) = crate::worker::spawn(store, Arc::new(shared), Arc::new(c))
+            .map_err(|e| CliError::failure(format!("starting the GPU worker: {e}")))?;
         running.push((worker, thread));
     }
     // A job submitted, paused, resumed, canceled or reprioritised: every loop looks at once
