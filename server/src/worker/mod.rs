@@ -112,7 +112,6 @@ pub fn spawn(
                 spare: None,
                 writes: Vec::new(),
                 spare_sums: None,
-                sums_ahead: None,
                 device_epoch: Default::default(),
                 last_open: None,
                 open_failures: 0,
@@ -162,9 +161,6 @@ struct Worker {
     writes: Vec<shard_write::ShardWrite>,
     /// The host-visible buffer of the last finished write, for the next shard's sums.
     spare_sums: Option<renderer::render::HostAccumulation>,
-    /// Such a buffer being allocated on a thread of its own, while the first shard renders
-    /// (shard.rs `allocate_sums_ahead`).
-    sums_ahead: Option<std::thread::JoinHandle<Option<renderer::render::HostAccumulation>>>,
     /// Bumped at each device reset: a shard write under way then does not trust its sums
     /// (shard_write.rs).
     device_epoch: Arc<std::sync::atomic::AtomicU64>,
@@ -318,7 +314,6 @@ impl Worker {
         self.sched.clear();
         self.spare = None;
         self.spare_sums = None;
-        self.sums_ahead = None;
         self.device_epoch
             .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
         self.ctx = None;
@@ -460,7 +455,6 @@ impl Worker {
                     merge_every: self.config.checkpoint_interval,
                     image_written: false,
                 });
-                self.allocate_sums_ahead(&ctx, job.session.accumulation_len());
             }
             Part::Merge { count } => {
                 job.merged_shards = Some(count);
@@ -777,7 +771,6 @@ impl Worker {
         self.report(true);
         self.spare = None;
         self.spare_sums = None;
-        self.sums_ahead = None;
         self.ctx = None;
         // Checkpointed: another worker (or this one, restarted) may take the jobs at once.
         if let Err(e) = self

@@ -69,7 +69,6 @@ impl Worker {
         // its next shard's sums with it (the worker moved on to other work).
         if self.spare.take().is_some() {
             self.spare_sums = None;
-            self.sums_ahead = None;
         }
     }
 

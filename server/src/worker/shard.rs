@@ -14,8 +14,7 @@
 
 use std::sync::Arc;
 
-use renderer::gpu::GpuContext;
-use renderer::render::{merge_accumulation, HostAccumulation, Progress, RenderSession};
+use renderer::render::{merge_accumulation, Progress, RenderSession};
 use serde_json::json;
 use tracing::{info, warn};
 
@@ -230,11 +229,7 @@ impl Worker {
         let rendering = job.since_admit();
         // Step 1: the sums copied to host-visible memory (after the job's queued passes; the
         // writer's thread reads them from there).
-        let reuse = self.spare_sums.take().or_else(|| {
-            let ahead = self.sums_ahead.take()?;
-            ahead.join().ok().flatten()
-        });
-        let accumulation = match job.session.accumulation_to_host(reuse) {
+        let accumulation = match job.session.accumulation_to_host(self.spare_sums.take()) {
             Ok(acc) => acc,
             // Taken over meanwhile (its new owner renders it): lost, not a failure of the job.
             Err(e)
@@ -341,24 +336,6 @@ impl Worker {
             }
         }
         self.keep_spare(id, job);
-    }
-
-    /// Starts allocating, on a thread of its own, the host-visible buffer a shard's sums are
-    /// copied to at its end (`entries` of them on `ctx`) when the worker has none to reuse (its
-    /// first shard): the allocation then overlaps the render instead of following it.
-    pub(super) fn allocate_sums_ahead(&mut self, ctx: &Arc<GpuContext>, entries: usize) {
-        if self.spare_sums.is_some() || self.sums_ahead.is_some() {
-            return;
-        }
-        let ctx = ctx.clone();
-        let spawned = std::thread::Builder::new()
-            .name("shard-sums-alloc".into())
-            .spawn(move || {
-                HostAccumulation::allocate(&ctx, entries)
-                    .map_err(|e| warn!(error = %e, "allocating a shard's host buffer ahead"))
-                    .ok()
-            });
-        self.sums_ahead = spawned.ok();
     }
 
     /// Keeps the session of the shard `job` ended for the job's next shard (or merge), if this

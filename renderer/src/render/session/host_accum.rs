@@ -17,18 +17,6 @@ pub struct HostAccumulation {
 }
 
 impl HostAccumulation {
-    /// A buffer for `entries` entries on `ctx`, for [`RenderSession::accumulation_to_host`] to
-    /// fill: allocated ahead of the copy, on any thread (host-visible memory of a film's size
-    /// takes a while to allocate and pin: ~0.25 s for 265 MB with four devices at once).
-    pub fn allocate(
-        ctx: &std::sync::Arc<crate::gpu::GpuContext>,
-        entries: usize,
-    ) -> Result<HostAccumulation, RenderError> {
-        let bytes = entries as u64 * 16;
-        let buffer = Buffer::new(ctx, "accumulation to host", bytes, BufferUsage::Readback)?;
-        Ok(HostAccumulation { buffer, entries })
-    }
-
     /// The entries, as [`RenderSession::accumulation`] returns them.
     pub fn as_slice(&self) -> &[[f32; 4]] {
         let bytes = self.buffer.mapped().expect("a readback buffer is mapped");
@@ -69,7 +57,12 @@ impl RenderSession {
             {
                 h.buffer
             }
-            _ => HostAccumulation::allocate(&self.ctx, entries)?.buffer,
+            _ => Buffer::new(
+                &self.ctx,
+                "accumulation to host",
+                bytes,
+                BufferUsage::Readback,
+            )?,
         };
         // Step 2: each part copied to its place (accumulation, extra buffers, odd half), then
         // made visible to the host.
