@@ -241,7 +241,8 @@ impl ActiveJob {
 
     /// The data of a `progress` event.
     pub fn progress_json(&self) -> Value {
-        let stats = self.session.stats();
+        // (Not the session's whole stats: see `rates`.)
+        let (msamples_per_s, rays_per_s) = self.session.rates();
         let p = self.session.progress();
         // Wall-clock seconds per unit of work since admission: includes the time other jobs
         // held the GPU, so the ETA reflects the current share.
@@ -275,8 +276,8 @@ impl ActiveJob {
             "time_s": self.settings.time_s,
             "elapsed_s": p.time_s,
             "passes": p.passes,
-            "msamples_per_s": stats.msamples_per_s,
-            "rays_per_s": stats.rays_per_s,
+            "msamples_per_s": msamples_per_s,
+            "rays_per_s": rays_per_s,
             "eta_s": eta_s,
             "fraction": fraction.min(1.0),
             "dropped_samples": p.dropped_samples,

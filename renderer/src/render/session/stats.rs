@@ -4,11 +4,24 @@ use super::RenderSession;
 use crate::render::RenderStats;
 
 impl RenderSession {
+    /// Millions of pixel samples and rays per second of render time so far: a progress
+    /// report's figures, without [`Self::stats`]'s driver queries and integrator details (the
+    /// deferred integrator reads its counters back from the device there: a wait for every
+    /// queued pass, which would leave the GPU idle at each progress event).
+    pub fn rates(&self) -> (f64, f64) {
+        let t = self.elapsed.as_secs_f64();
+        if t <= 0.0 {
+            return (0.0, 0.0);
+        }
+        let samples = self.spp as f64 * self.width as f64 * self.height as f64;
+        (samples / t * 1e-6, self.rays as f64 / t)
+    }
+
     /// What the session did so far (the render's report; [`crate::render::render_until`] and
     /// the server add the estimate and why it stopped).
     pub fn stats(&self) -> RenderStats {
         let t = self.elapsed.as_secs_f64();
-        let samples = self.spp as f64 * self.width as f64 * self.height as f64;
+        let (msamples_per_s, rays_per_s) = self.rates();
         RenderStats {
             device: self.ctx.info.clone(),
             integrator: self.entry.name.to_string(),
@@ -20,8 +33,8 @@ impl RenderSession {
             seed: self.seed,
             time_s: t,
             gpu_time_s: self.gpu_time.as_secs_f64(),
-            msamples_per_s: if t > 0.0 { samples / t * 1e-6 } else { 0.0 },
-            rays_per_s: if t > 0.0 { self.rays as f64 / t } else { 0.0 },
+            msamples_per_s,
+            rays_per_s,
             rays: self.rays,
             dropped_samples: self.dropped,
             triangles: self.info.triangles,
