@@ -21,3 +21,11 @@ pub mod prepare;
 pub mod render;
 pub mod scene;
 pub mod upload;
+
+/// Starts the renderer's pool of CPU threads (rayon's global pool: acceleration builds, shard
+/// merges, copies) now, at the calling thread's priority, and returns its size. Threads take
+/// the priority of the thread that starts them (Linux), so a thread that lowered its own
+/// priority must not be the pool's first user.
+pub fn start_cpu_pool() -> usize {
+    rayon::current_num_threads()
+}

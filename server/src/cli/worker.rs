@@ -51,6 +51,14 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
             .collect(),
         None => vec![None],
     };
+    // A connection per device (the store serialises its calls on one: the devices' claims,
+    // hand-offs and done marks would queue there), all opened before any loop starts.
+    let mut stores = vec![store];
+    while stores.len() < devices.len() {
+        let more = Store::connect(&db)
+            .map_err(|e| CliError::failure(format!("{}: {e}", db.describe())))?;
+        stores.push(Arc::new(more));
+    }
     let mut running = Vec::new();
     for (k, index) in devices.iter().enumerate() {
         let mut c = config.clone();
@@ -60,15 +68,7 @@ pub fn run(a: ServeArgs) -> Result<(), CliError> {
         }
         let shared = Shared::default();
         shared.set_storage(crate::storage::status(dir, c.min_free_space));
-        // (A connection per device: the store serialises its calls on one, and the devices'
-        // claims, hand-offs and done marks queued there stalled the others' passes.)
-        let store = match k {
-            0 => store.clone(),
-            _ => Arc::new(
-                Store::connect(&db)
-                    .map_err(|e| CliError::failure(format!("{}: {e}", db.describe())))?,
-            ),
-        };
+        let store = stores[k].clone();
         let (worker, thread) = crate::worker::spawn(store, Arc::new(shared), Arc::new(c))
             .map_err(|e| CliError::failure(format!("starting the GPU worker: {e}")))?;
         running.push((worker, thread));

@@ -45,10 +45,22 @@ impl Store {
         exclude: &[JobId],
         shard_spp: u32,
     ) -> Result<Option<Claim>, StoreError> {
-        // (PostgreSQL: a claim that skipped a locked row while claimable work is there tries
-        // again a moment later. Shard hand-offs, done marks and other claims lock a split
-        // job's row for a few milliseconds; the devices of a farm sharing one job would
-        // otherwise meet it locked and idle until their next look, ~0.1 s a shard.)
+        Ok(self.claim_once(worker, lease, exclude, shard_spp)?.0)
+    }
+
+    /// [`Self::claim_job`] for a worker with nothing to render: a claim that passed a locked
+    /// row by while claimable work was there (PostgreSQL's `SKIP LOCKED`) tries again 2 ms
+    /// later, up to 20 times. Shard hand-offs, done marks and other claims lock a split job's
+    /// row for a few milliseconds; the devices of a farm sharing one job would otherwise meet
+    /// it locked and idle until their next look. (A worker still rendering claims once: its
+    /// loop must not wait.)
+    pub fn claim_job_patiently(
+        &self,
+        worker: &str,
+        lease: Duration,
+        exclude: &[JobId],
+        shard_spp: u32,
+    ) -> Result<Option<Claim>, StoreError> {
         for _ in 0..CLAIM_TRIES {
             match self.claim_once(worker, lease, exclude, shard_spp)? {
                 (None, true) => std::thread::sleep(CLAIM_RETRY),

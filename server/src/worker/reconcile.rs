@@ -21,6 +21,13 @@ impl Worker {
                 return;
             }
         };
+        // Shard sums kept in memory for jobs no longer runnable (merged elsewhere, canceled,
+        // deleted, paused): their merge, if any, reads the files (shard_sums.rs).
+        for (dir, id) in super::shard_sums::kept_jobs() {
+            if !runnable.iter().any(|(r, _, _)| *r == id) {
+                super::shard_sums::forget(&dir);
+            }
+        }
         let gone: Vec<JobId> = self
             .active
             .keys()
@@ -40,12 +47,15 @@ impl Worker {
         let mut skip: Vec<JobId> = self.held.keys().copied().collect();
         while self.active.len() < self.config.max_active.max(1) && self.ctx.is_some() {
             let exclude: Vec<JobId> = self.active.keys().chain(&skip).copied().collect();
-            let claim = self.store.claim_job(
+            let (who, lease, split) = (
                 &self.config.worker_id,
                 self.config.lease,
-                &exclude,
                 self.config.shard_spp,
             );
+            let claim = match self.active.is_empty() {
+                true => self.store.claim_job_patiently(who, lease, &exclude, split),
+                false => self.store.claim_job(who, lease, &exclude, split),
+            };
             match claim {
                 Ok(Some(claim)) => {
                     let id = claim.id;

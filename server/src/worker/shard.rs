@@ -42,7 +42,8 @@ pub struct ShardRun {
 
 /// Adds to `into` (an accumulation of `session`'s layout) the checkpoints of the job's shards
 /// `shards`; returns each one's progress, or why it is unusable. The files are added in the
-/// order given (the sum does not depend on the thread count), each read into one buffer kept
+/// order given (the sum does not depend on the thread count; shards kept in memory were added
+/// in the order they landed, shard_sums.rs), each read into one buffer kept
 /// for all of them by up to eight threads of its own (checkpoint::read_into), then added on all
 /// cores.
 pub fn add_shards(
@@ -103,13 +104,7 @@ pub fn merged(
         return Ok(None); // reopened since the claim
     }
     // Step 1: the shards this process kept in memory, where they match the rows.
-    let layout = shard_sums::Layout {
-        width: settings.width,
-        height: settings.height,
-        seed: settings.seed,
-        entries: session.accumulation_len(),
-        count: rows.len() as u32,
-    };
+    let layout = shard_sums::Layout::of(settings, session, rows.len() as u32);
     let kept = shard_sums::take(&paths.dir).filter(|k| {
         k.layout == layout
             && k.shards.iter().all(|(i, (r, p))| {
@@ -302,15 +297,8 @@ impl Worker {
                     readback,
                     device_epoch: (self.device_epoch.clone(), epoch_at_copy),
                     job_dir: job.paths.dir.clone(),
-                    layout: shard_sums::Layout {
-                        width: job.settings.width,
-                        height: job.settings.height,
-                        seed: job.settings.seed,
-                        entries: job.session.accumulation_len(),
-                        count: sh.count,
-                    },
+                    layout: shard_sums::Layout::of(&job.settings, &job.session, sh.count),
                     range: sh.range,
-                    extra: job.session.extra_buffers(),
                 };
                 match super::shard_write::start(self.store.clone(), owner.clone(), finished) {
                     Ok(w) => self.writes.push(w),

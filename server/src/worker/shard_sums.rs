@@ -25,8 +25,9 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Instant;
 
 use renderer::integrators::ExtraBuffer;
-use renderer::render::{merge_accumulation, Progress};
+use renderer::render::{merge_accumulation, Progress, RenderSession};
 
+use crate::jobs::model::{JobId, JobSettings};
 use crate::store::ShardRange;
 
 /// Jobs whose sums a process keeps at once.
@@ -34,16 +35,32 @@ pub const MAX_JOBS: usize = 2;
 /// Bytes of sums a process keeps in all (a 3840×2160 nee job's sum is 265 MB).
 pub const MAX_BYTES: usize = 2 << 30;
 
-/// What a job's shards must agree on to be added up: film, seed, accumulation layout, split.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// What a job's shards must agree on to be added up: film, seed, accumulation layout (its
+/// length and the integrator's extra buffers, which say how they add up), split.
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Layout {
     pub width: u32,
     pub height: u32,
     pub seed: u64,
     /// Entries (`[f32; 4]`) of the accumulation.
     pub entries: usize,
+    pub extra: Vec<ExtraBuffer>,
     /// The job's shard count.
     pub count: u32,
+}
+
+impl Layout {
+    /// The layout of a job with `settings` rendered by `session`, split into `count` shards.
+    pub fn of(settings: &JobSettings, session: &RenderSession, count: u32) -> Layout {
+        Layout {
+            width: settings.width,
+            height: settings.height,
+            seed: settings.seed,
+            entries: session.accumulation_len(),
+            extra: session.extra_buffers(),
+            count,
+        }
+    }
 }
 
 /// A job's kept shards: their summed accumulation, and each one's range and progress.
@@ -54,7 +71,9 @@ pub struct Kept {
 }
 
 struct Entry {
-    /// None once taken by the merge (a late writer then adds nothing).
+    id: JobId,
+    /// None once taken by the merge (a writer that found the entry before the take then adds
+    /// nothing; one after it starts a new entry, forgotten once the job is seen ended).
     kept: Option<Kept>,
     last_add: Instant,
 }
@@ -66,16 +85,16 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Adds shard `range`'s sums (`sums`, with its `progress`) to the kept sum of the job in folder
-/// `job`; `pixels` and `extra` describe the layout as merge_accumulation takes it. Whether it
-/// was added (false: kept already, no room, or a layout that does not match).
+/// Adds shard `range`'s sums (`sums`, with its `progress`) to the kept sum of job `id` in
+/// folder `job`. Whether it was added (false: kept already, no room, a layout that does not
+/// match, or an add that failed half way before).
 pub fn add(
     job: &Path,
+    id: JobId,
     layout: Layout,
     range: ShardRange,
     progress: Progress,
     sums: &[[f32; 4]],
-    extra: &[ExtraBuffer],
 ) -> bool {
     let bytes = layout.entries * 16;
     if sums.len() != layout.entries || bytes > MAX_BYTES {
@@ -87,11 +106,12 @@ pub fn add(
         if !jobs.contains_key(job) {
             evict_for(&mut jobs, bytes);
             let kept = Kept {
-                layout,
                 sum: vec![[0.0; 4]; layout.entries],
+                layout: layout.clone(),
                 shards: BTreeMap::new(),
             };
             let e = Entry {
+                id,
                 kept: Some(kept),
                 last_add: Instant::now(),
             };
@@ -99,8 +119,12 @@ pub fn add(
         }
         jobs[job].clone()
     };
-    // Step 2: the add, under the job's own lock (other jobs' writers do not wait).
-    let mut e = lock(&entry);
+    // Step 2: the add, under the job's own lock (other jobs' writers do not wait). (A lock
+    // poisoned by an add that panicked half way: the sum is in doubt, nothing is added to it
+    // and the merge will not take it.)
+    let Ok(mut e) = entry.lock() else {
+        return false;
+    };
     e.last_add = Instant::now();
     let Some(kept) = e.kept.as_mut() else {
         return false;
@@ -109,7 +133,7 @@ pub fn add(
         return false;
     }
     let pixels = (layout.width * layout.height) as usize;
-    if merge_accumulation(&mut kept.sum, sums, pixels, extra).is_err() {
+    if merge_accumulation(&mut kept.sum, sums, pixels, &layout.extra).is_err() {
         return false;
     }
     kept.shards.insert(range.idx, (range, progress));
@@ -142,8 +166,14 @@ fn evict_for(jobs: &mut BTreeMap<PathBuf, Arc<Mutex<Entry>>>, bytes: usize) {
 /// Takes the kept sums of the job in folder `job` for its merge (none are kept after).
 pub fn take(job: &Path) -> Option<Kept> {
     let entry = lock(&JOBS).remove(job)?;
-    let mut e = lock(&entry);
+    let mut e = entry.lock().ok()?;
     e.kept.take()
+}
+
+/// The jobs kept (their folder and id): a worker forgets those it sees ended.
+pub fn kept_jobs() -> Vec<(PathBuf, JobId)> {
+    let jobs = lock(&JOBS);
+    jobs.iter().map(|(k, e)| (k.clone(), lock(e).id)).collect()
 }
 
 /// Forgets the job in folder `job` (it ended, or its merge is another process's).
@@ -161,6 +191,7 @@ mod tests {
             height: 1,
             seed: 7,
             entries: 4, // 2 pixels + their odd half
+            extra: Vec::new(),
             count,
         }
     }
@@ -186,16 +217,16 @@ mod tests {
     fn shards_add_up_once_and_leave_with_the_merge() {
         let job = Path::new("/nowhere/shard-sums-a");
         let sums = [[1.0, 2.0, 3.0, 1.0]; 4];
-        assert!(add(job, layout(3), range(0), progress(10), &sums, &[]));
-        assert!(add(job, layout(3), range(2), progress(10), &sums, &[]));
+        assert!(add(job, 1, layout(3), range(0), progress(10), &sums));
+        assert!(add(job, 1, layout(3), range(2), progress(10), &sums));
         assert!(
-            !add(job, layout(3), range(2), progress(10), &sums, &[]),
+            !add(job, 1, layout(3), range(2), progress(10), &sums),
             "kept already"
         );
         let mut other = layout(3);
         other.seed = 8;
         assert!(
-            !add(job, other, range(1), progress(10), &sums, &[]),
+            !add(job, 1, other, range(1), progress(10), &sums),
             "another seed"
         );
         let kept = take(job).expect("kept");
@@ -203,7 +234,7 @@ mod tests {
         assert_eq!(kept.sum, vec![[2.0, 4.0, 6.0, 2.0]; 4]);
         assert!(take(job).is_none(), "taken");
         // (A writer after the take starts a new entry: forgotten when it sees the job ended.)
-        assert!(add(job, layout(3), range(1), progress(10), &sums, &[]));
+        assert!(add(job, 1, layout(3), range(1), progress(10), &sums));
         forget(job);
         assert!(take(job).is_none());
         // At most MAX_JOBS jobs: a new one evicts the one added to least recently. (One test:
@@ -212,7 +243,7 @@ mod tests {
             .map(|i| PathBuf::from(format!("/nowhere/shard-sums-evict-{i}")))
             .collect();
         for j in &jobs {
-            assert!(add(j, layout(2), range(0), progress(10), &sums, &[]));
+            assert!(add(j, 1, layout(2), range(0), progress(10), &sums));
             std::thread::sleep(std::time::Duration::from_millis(2));
         }
         assert!(take(&jobs[0]).is_none(), "the oldest was evicted");

@@ -23,10 +23,9 @@
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use renderer::integrators::ExtraBuffer;
 use renderer::render::{HostAccumulation, Progress};
 use serde_json::Value;
-use tracing::{info, warn};
+use tracing::{debug, info, warn};
 
 use super::checkpoint;
 use super::shard::ms;
@@ -105,11 +104,10 @@ pub struct Finished {
     /// sums were copied.
     pub device_epoch: (std::sync::Arc<std::sync::atomic::AtomicU64>, u64),
     /// Where the sums are kept in memory for the merge (shard_sums.rs): the job's folder, its
-    /// layout, the shard's range and the session's extra buffers.
+    /// layout and the shard's range.
     pub job_dir: std::path::PathBuf,
     pub layout: shard_sums::Layout,
     pub range: ShardRange,
-    pub extra: Vec<ExtraBuffer>,
 }
 
 /// Starts the write of a finished shard whose lease was handed to `owner`.
@@ -132,11 +130,25 @@ pub fn start(
             if wrote.is_ok() {
                 hold_for_test(id, idx);
             }
-            let reset = epoch.load(std::sync::atomic::Ordering::SeqCst) != at_copy;
+            let reset_at = || epoch.load(std::sync::atomic::Ordering::SeqCst) != at_copy;
             // The sums kept for the merge too, before the shard is done (shard_sums.rs).
-            if wrote.is_ok() && !reset {
+            let mut kept = false;
+            if wrote.is_ok() && !reset_at() {
                 let (layout, range) = (f.layout, f.range);
-                shard_sums::add(&f.job_dir, layout, range, p, acc.as_slice(), &f.extra);
+                kept = shard_sums::add(&f.job_dir, id, layout, range, p, acc.as_slice());
+                if !kept {
+                    debug!(
+                        job = id,
+                        shard = idx,
+                        "shard sums not kept in memory (see shard_sums.rs)"
+                    );
+                }
+            }
+            // (Checked after the add too: a reset noticed meanwhile leaves the kept sum in
+            // doubt, so the job's kept sums go and its merge reads the files.)
+            let reset = reset_at();
+            if reset && kept {
+                shard_sums::forget(&f.job_dir);
             }
             let result = match wrote {
                 Err(e) => Err(WriteError::Io(e)),

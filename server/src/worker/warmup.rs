@@ -35,6 +35,9 @@ pub fn start(ctx: &Arc<GpuContext>, config: &Arc<ServerConfig>, shared: &Arc<Sha
     if integrators.is_empty() {
         return;
     }
+    // (The shared CPU pool started here, at the worker's priority: else the warm-up, at the
+    // lowest, could be its first user and leave every pool thread there.)
+    renderer::start_cpu_pool();
     let (ctx, config, shared) = (ctx.clone(), config.clone(), shared.clone());
     let spawned = std::thread::Builder::new()
         .name("kernel-warmup".into())
@@ -48,7 +51,8 @@ pub fn start(ctx: &Arc<GpuContext>, config: &Arc<ServerConfig>, shared: &Arc<Sha
 }
 
 /// Runs the calling thread, and the threads it starts, at the lowest CPU priority (Linux: nice
-/// values are per thread and inherited): the warm-up prepares for later jobs and must not slow
+/// values are per thread and inherited; the work it hands the shared CPU pool runs at the
+/// pool's priority): the warm-up prepares for later jobs and must not slow
 /// the ones rendering meanwhile (a farm worker's shard copies, file writes and merge: on a
 /// 4-GPU host the four devices' warm-ups ran 8–10 s beside the first job).
 fn lower_priority() {
