@@ -4,6 +4,7 @@
 
 pub mod accel;
 pub mod database;
+pub mod farm;
 pub mod server;
 
 use std::path::{Path, PathBuf};

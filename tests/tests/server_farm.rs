@@ -15,15 +15,14 @@
 //! ends with exactly its samples, and one canceled leaves no shard files.
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::path::PathBuf;
+use std::process::Command;
 use std::time::{Duration, Instant};
 
-use candela_tests::database::{cluster, database_env, run_on, Backend};
+use candela_tests::database::{run_on, Backend};
+use candela_tests::farm::{claims, psql, rel_mse_to_whole, shard_files, shards, spp, Worker};
 use candela_tests::server::Server;
-use candela_tests::{candela, repo_root, scratch};
-use renderer::film::read_exr;
-use renderer::metrics::rel_mse;
+use candela_tests::{candela, scratch};
 use serde_json::{json, Value};
 
 const T: Duration = Duration::from_secs(180);
@@ -69,105 +68,6 @@ fn a_killed_workers_job_is_taken_over() {
         Backend::Postgres,
         a_killed_workers_job_is_taken_over_on_postgres,
     )
-}
-
-/// A `candela worker` process, killed when dropped; its output goes to `<name>.log`.
-struct Worker {
-    child: Child,
-    log: PathBuf,
-}
-
-impl Worker {
-    /// Starts worker `name` on `data`'s store and waits for its `rendering` line.
-    fn start(data: &Path, name: &str, lease_s: &str) -> Worker {
-        Worker::start_with(data, name, lease_s, &[])
-    }
-
-    /// [`Worker::start`] with more arguments.
-    fn start_with(data: &Path, name: &str, lease_s: &str, extra: &[&str]) -> Worker {
-        Worker::start_env(data, name, lease_s, extra, &[])
-    }
-
-    /// [`Worker::start_with`] with more environment variables.
-    fn start_env(
-        data: &Path,
-        name: &str,
-        lease_s: &str,
-        extra: &[&str],
-        env: &[(&str, &Path)],
-    ) -> Worker {
-        let log = data.parent().unwrap().join(format!("{name}.log"));
-        let out = std::fs::File::create(&log).unwrap();
-        let url = database_env(data).expect("a PostgreSQL database");
-        let child = Command::new(candela())
-            .arg("worker")
-            .arg("--data-dir")
-            .arg(data)
-            .args(["--database", &url, "--worker-id", name, "--lease", lease_s])
-            .args(["--pass-ms", "40", "--checkpoint-interval", "0.2"])
-            .args(["--snapshot-interval", "0.2", "--max-active", "2"])
-            .args(["--warm-kernels", "none"])
-            .args(extra)
-            .current_dir(repo_root())
-            .env("CANDELA_LOG", "info")
-            .envs(env.iter().copied())
-            .stdin(Stdio::null())
-            .stdout(out.try_clone().unwrap())
-            .stderr(out)
-            .spawn()
-            .expect("start candela worker");
-        let w = Worker { child, log };
-        let deadline = Instant::now() + Duration::from_secs(60);
-        while !w.log().contains("candela: worker") {
-            assert!(Instant::now() < deadline, "worker {name}:\n{}", w.log());
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        w
-    }
-
-    fn log(&self) -> String {
-        std::fs::read_to_string(&self.log).unwrap_or_default()
-    }
-
-    fn kill9(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-impl Drop for Worker {
-    fn drop(&mut self) {
-        self.kill9();
-    }
-}
-
-/// The rows of `sql` on `data`'s store, each as its fields.
-fn psql(data: &Path, sql: &str) -> Vec<Vec<String>> {
-    let url = database_env(data).unwrap();
-    let o = Command::new(cluster().tool("psql"))
-        .args([&url, "-At", "-F", "|", "-c", sql])
-        .output()
-        .expect("run psql");
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    String::from_utf8_lossy(&o.stdout)
-        .lines()
-        .map(|l| l.split('|').map(str::to_string).collect())
-        .collect()
-}
-
-/// Every claim in the store's lease history: (job, worker, claimed_at), in claim order.
-fn claims(data: &Path) -> Vec<(i64, String, f64)> {
-    psql(
-        data,
-        "SELECT job_id, worker, claimed_at FROM leases ORDER BY claimed_at, job_id",
-    )
-    .into_iter()
-    .map(|f| (f[0].parse().unwrap(), f[1].clone(), f[2].parse().unwrap()))
-    .collect()
-}
-
-fn spp(job: &Value) -> u64 {
-    job["progress"]["spp"].as_u64().unwrap_or(0)
 }
 
 fn two_workers_share_the_jobs_on_postgres() {
@@ -305,40 +205,6 @@ fn a_killed_workers_job_is_taken_over_on_postgres() {
     );
 }
 
-/// Job `id`'s shards: (index, done, lease owner, spp checkpointed).
-fn shards(data: &Path, id: i64) -> Vec<(u32, bool, String, u64)> {
-    let sql = format!(
-        "SELECT idx, done, COALESCE(lease_owner, ''), COALESCE(progress, '{{}}') FROM shards \
-         WHERE job_id = {id} ORDER BY idx"
-    );
-    psql(data, &sql)
-        .into_iter()
-        .map(|f| {
-            let p: Value = serde_json::from_str(&f[3]).unwrap();
-            (
-                f[0].parse().unwrap(),
-                f[1] == "1",
-                f[2].clone(),
-                spp(&json!({ "progress": p })),
-            )
-        })
-        .collect()
-}
-
-/// How many files `shard-*` (a shard's checkpoint, or a temporary one) job `id`'s folder holds.
-fn shard_files(data: &Path, id: i64) -> usize {
-    std::fs::read_dir(data.join(format!("jobs/{id}")))
-        .map(|d| {
-            d.filter(|e| {
-                let name = e.as_ref().unwrap().file_name();
-                let name = name.to_string_lossy();
-                name.starts_with("shard-") || name.starts_with(".shard-")
-            })
-            .count()
-        })
-        .unwrap_or(0)
-}
-
 fn three_workers_split_one_job_on_postgres() {
     let dir = scratch("server_farm_split");
     let data = dir.join("data");
@@ -427,15 +293,7 @@ fn three_workers_split_one_job_on_postgres() {
     );
     // Step 3: one worker, splitting nothing, renders the same job whole: the same image.
     drop(workers);
-    let _one = Worker::start_with(&data, "whole", "2", &["--shard-spp", "0"]);
-    let whole = api.submit(&body)["id"].as_i64().unwrap();
-    let done = api.wait_job(whole, T, |j| {
-        matches!(j["state"].as_str(), Some("done" | "failed"))
-    });
-    assert_eq!(done["state"], "done", "{done}");
-    assert!(shards(&data, whole).is_empty());
-    let image = |id: i64| read_exr(&data.join(format!("jobs/{id}/image.exr"))).unwrap();
-    let e = rel_mse(&image(id), &image(whole)).unwrap();
+    let e = rel_mse_to_whole(&api, &data, &body, id);
     assert!(e < 1e-8, "split vs whole relMSE {e}");
 }
 
@@ -539,10 +397,9 @@ fn one_worker_renders_on_two_devices_on_postgres() {
     let mut w = Worker::start_with(&data, "w", "2", &["--devices", "0,0", "--shard-spp", "20"]);
     let total = 160u64;
     // (cornell: a furnace image is ~1 everywhere, whatever was summed.)
-    let id = api.submit(&json!({"scene_name": "cornell", "spp": total,
-                                "width": 16, "height": 16, "seed": 2}))["id"]
-        .as_i64()
-        .unwrap();
+    let body = json!({"scene_name": "cornell", "spp": total, "width": 16, "height": 16,
+                      "seed": 2});
+    let id = api.submit(&body)["id"].as_i64().unwrap();
     let done = api.wait_job(id, T, |j| {
         matches!(j["state"].as_str(), Some("done" | "failed"))
     });
@@ -659,17 +516,7 @@ fn one_worker_renders_on_two_devices_on_postgres() {
         .contains("candela_worker_up{worker=\"w/gpu0\""));
     // Step 5: the job of step 1 rendered whole by a worker that splits nothing: the same
     // image as the merge of the sums kept in memory.
-    let _one = Worker::start_with(&data, "whole", "2", &["--shard-spp", "0"]);
-    let whole = api.submit(&json!({"scene_name": "cornell", "spp": 160,
-                                   "width": 16, "height": 16, "seed": 2}))["id"]
-        .as_i64()
-        .unwrap();
-    let done = api.wait_job(whole, T, |j| {
-        matches!(j["state"].as_str(), Some("done" | "failed"))
-    });
-    assert_eq!(done["state"], "done", "{done}");
-    let image = |id: i64| read_exr(&data.join(format!("jobs/{id}/image.exr"))).unwrap();
-    let e = rel_mse(&image(split_job), &image(whole)).unwrap();
+    let e = rel_mse_to_whole(&api, &data, &body, split_job);
     assert!(e < 1e-8, "split (summed in memory) vs whole relMSE {e}");
     // `serve` renders on one device.
     let o = Command::new(candela())

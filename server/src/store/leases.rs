@@ -37,33 +37,24 @@ impl Store {
     /// `lease`: running before queued, then by priority (highest first), then oldest first; a
     /// job or shard only when its lease expired or is `worker`'s own. `exclude`: jobs the
     /// worker already holds. `shard_spp`: how this worker splits a job it claims first (0:
-    /// never).
+    /// never). `patient` (a worker with nothing to render): a claim that passed a locked row by
+    /// while claimable work was there (PostgreSQL's `SKIP LOCKED`) tries again 2 ms later, up
+    /// to 20 times. Shard hand-offs, done marks and other claims lock a split job's row for a
+    /// few milliseconds; the devices of a farm sharing one job would otherwise meet it locked
+    /// and idle until their next look. (A worker still rendering claims once: its loop must
+    /// not wait.)
     pub fn claim_job(
         &self,
         worker: &str,
         lease: Duration,
         exclude: &[JobId],
         shard_spp: u32,
+        patient: bool,
     ) -> Result<Option<Claim>, StoreError> {
-        Ok(self.claim_once(worker, lease, exclude, shard_spp)?.0)
-    }
-
-    /// [`Self::claim_job`] for a worker with nothing to render: a claim that passed a locked
-    /// row by while claimable work was there (PostgreSQL's `SKIP LOCKED`) tries again 2 ms
-    /// later, up to 20 times. Shard hand-offs, done marks and other claims lock a split job's
-    /// row for a few milliseconds; the devices of a farm sharing one job would otherwise meet
-    /// it locked and idle until their next look. (A worker still rendering claims once: its
-    /// loop must not wait.)
-    pub fn claim_job_patiently(
-        &self,
-        worker: &str,
-        lease: Duration,
-        exclude: &[JobId],
-        shard_spp: u32,
-    ) -> Result<Option<Claim>, StoreError> {
-        for _ in 0..CLAIM_TRIES {
+        let tries = if patient { CLAIM_TRIES } else { 1 };
+        for t in 1..=tries {
             match self.claim_once(worker, lease, exclude, shard_spp)? {
-                (None, true) => std::thread::sleep(CLAIM_RETRY),
+                (None, true) if t < tries => std::thread::sleep(CLAIM_RETRY),
                 (claim, _) => return Ok(claim),
             }
         }
@@ -198,15 +189,15 @@ mod tests {
         let long = Duration::from_secs(60);
         // Step 1: the higher priority first; held jobs are not claimed twice.
         assert_eq!(
-            s.claim_job("a", long, &[], 0).unwrap().map(|c| c.id),
+            s.claim_job("a", long, &[], 0, false).unwrap().map(|c| c.id),
             Some(2)
         );
         assert_eq!(
-            s.claim_job("b", long, &[], 0).unwrap().map(|c| c.id),
+            s.claim_job("b", long, &[], 0, false).unwrap().map(|c| c.id),
             Some(1)
         );
         assert_eq!(
-            s.claim_job("c", long, &[], 0).unwrap(),
+            s.claim_job("c", long, &[], 0, false).unwrap(),
             None,
             "done or held"
         );
@@ -214,16 +205,16 @@ mod tests {
         assert_eq!(s.renew_leases("a", &[2], Duration::ZERO).unwrap(), vec![2]);
         std::thread::sleep(Duration::from_millis(20));
         assert_eq!(
-            s.claim_job("c", long, &[], 0).unwrap().map(|c| c.id),
+            s.claim_job("c", long, &[], 0, false).unwrap().map(|c| c.id),
             Some(2)
         );
         assert!(s.renew_leases("a", &[2], long).unwrap().is_empty(), "lost");
         assert_eq!(s.renew_leases("c", &[2], long).unwrap(), vec![2]);
         // Step 3: b gives up 1 (a heartbeat without it); a may claim it, and exclude it.
         assert!(s.renew_leases("b", &[], long).unwrap().is_empty());
-        assert_eq!(s.claim_job("a", long, &[1], 0).unwrap(), None);
+        assert_eq!(s.claim_job("a", long, &[1], 0, false).unwrap(), None);
         assert_eq!(
-            s.claim_job("a", long, &[], 0).unwrap().map(|c| c.id),
+            s.claim_job("a", long, &[], 0, false).unwrap().map(|c| c.id),
             Some(1)
         );
         // Every claim is in the history.

@@ -436,7 +436,11 @@ mod tests {
     fn shards_are_claimed_once_then_merged() {
         let (dir, s) = store_with_job("candela-shards", 10);
         let long = std::time::Duration::from_secs(60);
-        let part = |w: &str, lease| s.claim_job(w, lease, &[], 4).unwrap().map(|c| c.part);
+        let part = |w: &str, lease| {
+            s.claim_job(w, lease, &[], 4, false)
+                .unwrap()
+                .map(|c| c.part)
+        };
         let range = |idx, first, samples| ShardRange {
             idx,
             first,
@@ -532,7 +536,7 @@ mod tests {
         let (dir, s) = store_with_job("candela-shard-reopen", 10);
         let long = std::time::Duration::from_secs(60);
         assert!(
-            s.claim_job("a", long, &[], 4).unwrap().is_some(),
+            s.claim_job("a", long, &[], 4, false).unwrap().is_some(),
             "the shards exist"
         );
         let times: Vec<_> = (0..4).map(|_| s.reopen_shard(1, 0, 3).unwrap()).collect();
@@ -548,7 +552,7 @@ mod tests {
     fn a_shard_being_written_is_claimed_again_only_when_its_writer_is_gone() {
         let (dir, s) = store_with_job("candela-shardw", 8);
         let long = std::time::Duration::from_secs(60);
-        let part = |w: &str| s.claim_job(w, long, &[], 4).unwrap().map(|c| c.part);
+        let part = |w: &str| s.claim_job(w, long, &[], 4, false).unwrap().map(|c| c.part);
         let idx = |p: Option<Part>| match p {
             Some(Part::Shard { range, .. }) => Some(range.idx),
             _ => None,

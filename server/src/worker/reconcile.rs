@@ -47,15 +47,13 @@ impl Worker {
         let mut skip: Vec<JobId> = self.held.keys().copied().collect();
         while self.active.len() < self.config.max_active.max(1) && self.ctx.is_some() {
             let exclude: Vec<JobId> = self.active.keys().chain(&skip).copied().collect();
-            let (who, lease, split) = (
+            let claim = self.store.claim_job(
                 &self.config.worker_id,
                 self.config.lease,
+                &exclude,
                 self.config.shard_spp,
+                self.active.is_empty(),
             );
-            let claim = match self.active.is_empty() {
-                true => self.store.claim_job_patiently(who, lease, &exclude, split),
-                false => self.store.claim_job(who, lease, &exclude, split),
-            };
             match claim {
                 Ok(Some(claim)) => {
                     let id = claim.id;
