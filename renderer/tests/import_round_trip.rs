@@ -55,7 +55,7 @@ fn same_texture(a: &Texture, b: &Texture, what: &str) {
         (b.width, b.height, b.scale),
         "{what}"
     );
-    for (x, y) in a.texels.iter().zip(&b.texels) {
+    for (x, y) in a.texels.iter().zip(b.texels.iter()) {
         for c in 0..3 {
             assert!((x[c] - y[c]).abs() < 2e-5, "{what}: texel {x:?} vs {y:?}");
         }
@@ -94,7 +94,7 @@ impl Pair<'_> {
                     (t.width, t.height, t.scale),
                     "{what}"
                 );
-                for (p, q) in s.texels.iter().zip(&t.texels) {
+                for (p, q) in s.texels.iter().zip(t.texels.iter()) {
                     assert!(
                         (p[0] - q[0]).abs() < 2e-5,
                         "{what}: red {} vs {}",
@@ -117,7 +117,7 @@ impl Pair<'_> {
             (None, None) => {}
             (Some(i), Some(j)) => {
                 let (s, t) = (&self.a.textures[*i as usize], &self.b.textures[*j as usize]);
-                for (p, q) in s.texels.iter().zip(&t.texels) {
+                for (p, q) in s.texels.iter().zip(t.texels.iter()) {
                     assert_eq!(p[0] < 0.5, q[0] < 0.5, "{what}.alpha_mask");
                 }
             }

@@ -150,7 +150,7 @@ impl<'a> TextureCache<'a> {
                     source: rel.to_string(),
                     width,
                     height,
-                    texels,
+                    texels: texels.into(),
                     scale,
                 };
                 (texture, channel.is_some())
@@ -158,10 +158,11 @@ impl<'a> TextureCache<'a> {
         };
         texture.scale = scale;
         if let (Some(c), true) = (channel, needs_channel) {
-            for t in &mut texture.texels {
+            let picked = texture.texels.iter().map(|t| {
                 let v = c.pick(*t);
-                *t = [v, v, v, 1.0];
-            }
+                [v, v, v, 1.0]
+            });
+            texture.texels = picked.collect();
         }
         let index = u32::try_from(self.textures.len())
             .map_err(|_| SceneError::invalid(path, "too many textures"))?;
@@ -354,6 +355,9 @@ pub(crate) mod tests {
             .unwrap();
         assert_eq!(cache.textures.len(), 3);
         assert_eq!(cache.textures[k as usize].scale, Vec2::new(2.0, 2.0));
+        // (Another scale of a decoded image shares its texels, not a copy.)
+        let (t_i, t_k) = (&cache.textures[i as usize], &cache.textures[k as usize]);
+        assert!(std::sync::Arc::ptr_eq(&t_i.texels, &t_k.texels));
     }
 
     #[test]

@@ -157,7 +157,9 @@ pub struct Texture {
     pub source: String,
     pub width: u32,
     pub height: u32,
-    pub texels: Vec<[f32; 4]>,
+    /// Shared, not copied, by the textures of one image (another scale or channel of the same
+    /// file reads it anew) and by scenes derived from this one (instances written out).
+    pub texels: std::sync::Arc<[[f32; 4]]>,
     /// UV scale from the scene's `scale` field.
     pub scale: Vec2,
 }
