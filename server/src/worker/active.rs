@@ -380,16 +380,27 @@ impl ActiveJob {
             }
             Some(sh) => {
                 // (Rebuilt only at live_merge's cadence: it reads every other shard's file.)
+                // (The shards this process finished come from its memory, shard_sums.rs.)
                 let ticket = super::live_merge::try_begin(&self.paths.dir, sh.merge_every);
                 if ticket.is_some() {
+                    let layout =
+                        super::shard_sums::Layout::of(&self.settings, &self.session, sh.count);
+                    let (kept, kept_spp) = super::shard_sums::add_kept_into(
+                        &self.paths.dir,
+                        &layout,
+                        sh.range.idx,
+                        &mut acc,
+                    )
+                    .unwrap_or_default();
                     let others = super::shard::add_shards(
                         &self.session,
                         &self.settings,
                         &self.paths,
-                        (0..sh.count).filter(|k| *k != sh.range.idx),
+                        (0..sh.count).filter(|k| *k != sh.range.idx && !kept.contains_key(k)),
                         &mut acc,
                     );
                     let spp = progress.spp
+                        + kept_spp
                         + others
                             .iter()
                             .filter_map(|(_, r)| r.as_ref().ok().map(|p| p.spp))

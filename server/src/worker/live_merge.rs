@@ -1,6 +1,7 @@
 //! How often a split job's live image (the merge of every shard's latest checkpoint, written
 //! with a shard's checkpoint: shard.rs) is rebuilt. Each rebuild reads the other shards'
-//! checkpoint files — (shards − 1) film-size reads — so at a shard checkpoint it is rebuilt
+//! checkpoint files — up to (shards − 1) film-size reads; the shards this process finished come
+//! from its memory (shard_sums.rs) — so at a shard checkpoint it is rebuilt
 //! only when this process rebuilt the job's image no sooner than `every` ago and no other
 //! rebuild of it is under way; a skipped one leaves the image (and its `snapshot` event) as it
 //! was. The job's final image is the merge's claim (exact), never this one.

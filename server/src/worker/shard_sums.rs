@@ -163,6 +163,27 @@ fn evict_for(jobs: &mut BTreeMap<PathBuf, Arc<Mutex<Entry>>>, bytes: usize) {
     }
 }
 
+/// Adds the kept sum of the job in folder `job` (when its layout is `layout` and it does not
+/// hold shard `rendering`, whose samples `into` has already) to `into`, for a live image of the
+/// job; returns the shards it holds and their samples (the live image reads the other shards'
+/// checkpoints). None: nothing added.
+pub fn add_kept_into(
+    job: &Path,
+    layout: &Layout,
+    rendering: u32,
+    into: &mut [[f32; 4]],
+) -> Option<(BTreeMap<u32, ShardRange>, u32)> {
+    let entry = lock(&JOBS).get(job)?.clone();
+    let e = entry.lock().ok()?;
+    let kept = e.kept.as_ref();
+    let kept = kept.filter(|k| k.layout == *layout && !k.shards.contains_key(&rendering))?;
+    let pixels = (layout.width * layout.height) as usize;
+    merge_accumulation(into, &kept.sum, pixels, &layout.extra).ok()?;
+    let spp = kept.shards.values().map(|(_, p)| p.spp).sum();
+    let shards = kept.shards.iter().map(|(k, (r, _))| (*k, *r)).collect();
+    Some((shards, spp))
+}
+
 /// Takes the kept sums of the job in folder `job` for its merge (none are kept after).
 pub fn take(job: &Path) -> Option<Kept> {
     let entry = lock(&JOBS).remove(job)?;
@@ -229,6 +250,17 @@ mod tests {
             !add(job, 1, other, range(1), progress(10), &sums),
             "another seed"
         );
+        let mut live = vec![[1.0; 4]; 4];
+        assert!(
+            add_kept_into(job, &layout(3), 2, &mut live).is_none(),
+            "holds shard 2"
+        );
+        let (held, spp) = add_kept_into(job, &layout(3), 1, &mut live).expect("kept");
+        assert_eq!(
+            (held.keys().copied().collect::<Vec<_>>(), spp),
+            (vec![0, 2], 20)
+        );
+        assert_eq!(live, vec![[3.0, 5.0, 7.0, 3.0]; 4], "the live image's sum");
         let kept = take(job).expect("kept");
         assert_eq!(kept.shards.keys().copied().collect::<Vec<_>>(), vec![0, 2]);
         assert_eq!(kept.sum, vec![[2.0, 4.0, 6.0, 2.0]; 4]);
