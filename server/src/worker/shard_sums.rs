@@ -71,15 +71,17 @@ pub struct Kept {
 }
 
 struct Entry {
-    id: JobId,
     /// None once taken by the merge (a writer that found the entry before the take then adds
     /// nothing; one after it starts a new entry, forgotten once the job is seen ended).
     kept: Option<Kept>,
     last_add: Instant,
 }
 
+/// A kept job's id and entry.
+type Slot = (JobId, Arc<Mutex<Entry>>);
+
 /// Every kept job in this process, by the job's folder (a worker's device threads share it).
-static JOBS: Mutex<BTreeMap<PathBuf, Arc<Mutex<Entry>>>> = Mutex::new(BTreeMap::new());
+static JOBS: Mutex<BTreeMap<PathBuf, Slot>> = Mutex::new(BTreeMap::new());
 
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|e| e.into_inner())
@@ -111,13 +113,12 @@ pub fn add(
                 shards: BTreeMap::new(),
             };
             let e = Entry {
-                id,
                 kept: Some(kept),
                 last_add: Instant::now(),
             };
-            jobs.insert(job.to_path_buf(), Arc::new(Mutex::new(e)));
+            jobs.insert(job.to_path_buf(), (id, Arc::new(Mutex::new(e))));
         }
-        jobs[job].clone()
+        jobs[job].1.clone()
     };
     // Step 2: the add, under the job's own lock (other jobs' writers do not wait). (A lock
     // poisoned by an add that panicked half way: the sum is in doubt, nothing is added to it
@@ -142,11 +143,11 @@ pub fn add(
 
 /// Drops kept jobs, least recently added to first, until `bytes` more fit (the jobs and bytes
 /// bounds).
-fn evict_for(jobs: &mut BTreeMap<PathBuf, Arc<Mutex<Entry>>>, bytes: usize) {
+fn evict_for(jobs: &mut BTreeMap<PathBuf, Slot>, bytes: usize) {
     loop {
         let sizes: Vec<(PathBuf, Instant, usize)> = jobs
             .iter()
-            .map(|(k, e)| {
+            .map(|(k, (_, e))| {
                 let e = lock(e);
                 let size = e.kept.as_ref().map_or(0, |k| k.sum.len() * 16);
                 (k.clone(), e.last_add, size)
@@ -173,7 +174,7 @@ pub fn add_kept_into(
     rendering: u32,
     into: &mut [[f32; 4]],
 ) -> Option<(BTreeMap<u32, ShardRange>, u32)> {
-    let entry = lock(&JOBS).get(job)?.clone();
+    let entry = lock(&JOBS).get(job)?.1.clone();
     let e = entry.lock().ok()?;
     let kept = e.kept.as_ref();
     let kept = kept.filter(|k| k.layout == *layout && !k.shards.contains_key(&rendering))?;
@@ -186,15 +187,16 @@ pub fn add_kept_into(
 
 /// Takes the kept sums of the job in folder `job` for its merge (none are kept after).
 pub fn take(job: &Path) -> Option<Kept> {
-    let entry = lock(&JOBS).remove(job)?;
+    let entry = lock(&JOBS).remove(job)?.1;
     let mut e = entry.lock().ok()?;
     e.kept.take()
 }
 
-/// The jobs kept (their folder and id): a worker forgets those it sees ended.
+/// The jobs kept (their folder and id): a worker forgets those it sees ended. (Never waits for
+/// an add under way on the job itself.)
 pub fn kept_jobs() -> Vec<(PathBuf, JobId)> {
     let jobs = lock(&JOBS);
-    jobs.iter().map(|(k, e)| (k.clone(), lock(e).id)).collect()
+    jobs.iter().map(|(k, (id, _))| (k.clone(), *id)).collect()
 }
 
 /// Forgets the job in folder `job` (it ended, or its merge is another process's).
