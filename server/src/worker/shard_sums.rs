@@ -5,8 +5,9 @@
 //! whose four GPUs rendered for 6.7 s), all of it after the last shard.
 //!
 //! A shard's writer (shard_write.rs) adds its sums here once its file is whole, before it marks
-//! the shard done: every shard this process marked done is in its job's sum by the time any
-//! thread can claim the merge. The sums are only a cache of what the files hold:
+//! the shard done: every shard this process marked done (and had room for) is in its job's sum
+//! by the time any thread can claim the merge. The sums are only a cache of what the files
+//! hold:
 //! - the merge takes a job's sum and uses a kept shard only when its row is done and has the
 //!   same sample range (a shard kept by a writer that then lost its lease holds the same sample
 //!   indices as the file of whoever finished it: the same samples, counted once);
@@ -16,8 +17,13 @@
 //!
 //! Memory is bounded: at most [`MAX_JOBS`] jobs and [`MAX_BYTES`] in all; a job that does not
 //! fit evicts the one added to least recently, and a job larger than the bound is not kept. A
-//! job's sum leaves at its merge, or when the worker sees the job ended (merged by another
-//! process, canceled, deleted).
+//! job's sum leaves at its merge, when the worker sees the job no longer queued or running
+//! (merged by another process, canceled, deleted, paused: reconcile.rs; a writer also drops it
+//! when it sees the job ended), or when a device reset is noticed during an add (shard_write.rs).
+//!
+//! Kept shards are added in the order they land, so a merged sum is exact up to the order of
+//! float additions but not bit for bit the same from run to run (files are added in index
+//! order). A split job's live image takes the kept sum too (`add_kept_into`).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
