@@ -309,9 +309,9 @@ impl Worker {
     }
 
     /// Removes shard `idx`'s file (and the job's sums kept in memory) when job `id` ended (done,
-    /// canceled or failed) or was deleted while it was written: the cleanups at the cancel or the merge passed it by. (A late
-    /// writer, slower than its lease, renames after another worker finished the shard and the
-    /// merge, which had read every shard file, removed them.)
+    /// canceled or failed) or was deleted while it was written: the cleanups at the cancel or
+    /// the merge passed it by. (A late writer, slower than its lease, renames after another
+    /// worker finished the shard and the merge, which had read every shard file, removed them.)
     fn discard_if_ended(&mut self, id: JobId, idx: u32) {
         let paths = JobPaths::new(&self.config.data_dir, id);
         match self.store.job_state(id) {
