@@ -10,10 +10,11 @@
 //!    creates the pipelines (the driver's compile, kept in its pipeline cache) and, for vct,
 //!    builds the scene's volume (kept in the in-process volume cache).
 //!
-//! It runs at the lowest CPU priority (nice 19), beside the jobs. Jobs do not wait for it: a job that needs a kernel being compiled waits for that compile
-//! alone. Progress is in `GET /api/health` (`kernels`). The in-memory caches keep only the most
-//! recently used of what it builds (`--cache-kernels`, `--cache-pipelines`); the rest come back
-//! from the kernel cache on disk and the driver's pipeline cache.
+//! It runs at the lowest CPU priority (nice 19), beside the jobs. Jobs do not wait for it: a job
+//! that needs a kernel being compiled waits for that compile alone. Progress is in `GET
+//! /api/health` (`kernels`). The in-memory caches keep only the most recently used of what it
+//! builds (`--cache-kernels`, `--cache-pipelines`); the rest come back from the kernel cache on
+//! disk and the driver's pipeline cache.
 
 use std::collections::HashSet;
 use std::sync::Arc;
