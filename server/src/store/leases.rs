@@ -40,9 +40,9 @@ impl Store {
     /// never). `patient` (a worker with nothing to render): a claim that passed a locked row by
     /// while claimable work was there (PostgreSQL's `SKIP LOCKED`) tries again 2 ms later, up
     /// to 20 times. Shard hand-offs, done marks and other claims lock a split job's row for a
-    /// few milliseconds; the devices of a farm sharing one job would otherwise meet it locked
-    /// and idle until their next look. (A worker still rendering claims once: its loop must
-    /// not wait.)
+    /// few milliseconds; the devices of a farm sharing one job could otherwise meet it locked
+    /// and idle until their next look (not measured on its own: bench/RESULTS.md). (A worker
+    /// still rendering claims once: its loop must not wait.)
     pub fn claim_job(
         &self,
         worker: &str,

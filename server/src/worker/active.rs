@@ -396,7 +396,7 @@ impl ActiveJob {
                         &self.session,
                         &self.settings,
                         &self.paths,
-                        (0..sh.count).filter(|k| *k != sh.range.idx && !kept.contains_key(k)),
+                        (0..sh.count).filter(|k| *k != sh.range.idx && !kept.contains(k)),
                         &mut acc,
                     );
                     let spp = progress.spp

@@ -25,7 +25,7 @@
 //! float additions but not bit for bit the same from run to run (files are added in index
 //! order). A split job's live image takes the kept sum too (`add_kept_into`).
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Instant;
@@ -179,7 +179,7 @@ pub fn add_kept_into(
     layout: &Layout,
     rendering: u32,
     into: &mut [[f32; 4]],
-) -> Option<(BTreeMap<u32, ShardRange>, u32)> {
+) -> Option<(BTreeSet<u32>, u32)> {
     let entry = lock(&JOBS).get(job)?.1.clone();
     let e = entry.lock().ok()?;
     let kept = e.kept.as_ref();
@@ -187,8 +187,7 @@ pub fn add_kept_into(
     let pixels = (layout.width * layout.height) as usize;
     merge_accumulation(into, &kept.sum, pixels, &layout.extra).ok()?;
     let spp = kept.shards.values().map(|(_, p)| p.spp).sum();
-    let shards = kept.shards.iter().map(|(k, (r, _))| (*k, *r)).collect();
-    Some((shards, spp))
+    Some((kept.shards.keys().copied().collect(), spp))
 }
 
 /// Takes the kept sums of the job in folder `job` for its merge (none are kept after).
@@ -265,7 +264,7 @@ mod tests {
         );
         let (held, spp) = add_kept_into(job, &layout(3), 1, &mut live).expect("kept");
         assert_eq!(
-            (held.keys().copied().collect::<Vec<_>>(), spp),
+            (held.into_iter().collect::<Vec<_>>(), spp),
             (vec![0, 2], 20)
         );
         assert_eq!(live, vec![[3.0, 5.0, 7.0, 3.0]; 4], "the live image's sum");

@@ -39,6 +39,7 @@ pub fn start(ctx: &Arc<GpuContext>, config: &Arc<ServerConfig>, shared: &Arc<Sha
     // (The shared CPU pool started here, at the worker's priority: else the warm-up, at the
     // lowest, could be its first user and leave every pool thread there.)
     renderer::start_cpu_pool();
+    info!(device = %ctx.info.name, integrators = integrators.len(), "warming kernels");
     let (ctx, config, shared) = (ctx.clone(), config.clone(), shared.clone());
     let spawned = std::thread::Builder::new()
         .name("kernel-warmup".into())
