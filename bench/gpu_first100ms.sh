@@ -70,9 +70,15 @@ if [[ $parts == *throughput* ]]; then
       CANDELA_MAX_LANES=$l render "nee 256 lanes $l" $C --integrator nee --width 256 --height 256 --spp 1024
     done
   fi
+  # 256x256 against 1280x720 differs in content as well as size (a square film of the Cornell
+  # box sees only the box; a 16:9 one also sees the dark space beside it, whose samples cost
+  # almost nothing), so each size is also compared with the other's aspect: 256x144 and
+  # 1280x1280.
   for s in cornell lights mirror_glass envmap; do
     render "nee 256 $s" scenes/$s.json --integrator nee --width 256 --height 256 --spp 1024
     render "nee 720p $s" scenes/$s.json --integrator nee --width 1280 --height 720 --spp 256
+    render "nee 256x144 $s" scenes/$s.json --integrator nee --width 256 --height 144 --spp 4096
+    render "nee 1280x1280 $s" scenes/$s.json --integrator nee --width 1280 --height 1280 --spp 144
   done
 fi
 if [[ $parts == *bench* ]]; then
@@ -103,7 +109,7 @@ for l in open(sys.argv[1]):
     fp = r.get("first_pass") or {}
     k = r.get("kernel_build") or {}
     print(f"{r['integrator']:8} {r['width']}x{r['height']} {r['spp']:5} spp {r['time_s']:.3f} s gpu {r['gpu_time_s']:.3f} "
-          f"setup {r['setup_s']:.2f} {r['msamples_per_s']:8.1f} Ms/s first {fp.get('gpu_ms', 0):.1f} ms "
+          f"setup {r['setup_s']:.2f} {r['msamples_per_s']:8.1f} Ms/s {r.get('rays', 0) / max(r['gpu_time_s'], 1e-9) / 1e6:7.0f} Mrays/s first {fp.get('gpu_ms', 0):.1f} ms "
           f"compile {k.get('compile_ms', 0):.0f} pipe {k.get('pipeline_ms', 0):.0f} "
           + " ".join(f"{a}={t[a]:.2f}" for a in ('voxelize', 'build', 'inject', 'filter', 'trace') if a in t)
           + f" {r.get('scene', '')}")

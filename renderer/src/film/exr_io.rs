@@ -1,10 +1,11 @@
-//! OpenEXR in and out (the `exr` crate): linear float32 RGB, no alpha, ZIP (16-line) compressed
-//! scanlines, which OpenEXR, Mitsuba, Blender and `exr` itself all read.
+//! OpenEXR in and out (the `exr` crate; blocks formed and compressed in parallel by exr_zip.rs):
+//! linear float32 RGB, no alpha, ZIP (16-line) compressed scanlines, which OpenEXR, Mitsuba,
+//! Blender and `exr` itself all read.
 
 use std::io::Cursor;
 use std::path::Path;
 
-use exr::prelude::{ReadChannels, ReadLayers, SpecificChannels, Vec2, WritableImage};
+use exr::prelude::{ReadChannels, ReadLayers, Vec2};
 
 use super::atomic::write_atomic;
 use super::error::one_line;
@@ -32,22 +33,7 @@ pub fn encode_exr(img: &Image) -> Result<Vec<u8>, FilmError> {
             img.width, img.height
         )));
     }
-    let width = img.width as usize;
-    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
-        let [r, g, b] = img.pixels[y * width + x];
-        (r, g, b)
-    });
-    let exr_image = exr::prelude::Image::from_encoded_channels(
-        (img.width as usize, img.height as usize),
-        exr::prelude::Encoding::SMALL_LOSSLESS,
-        channels,
-    );
-    let mut bytes = Cursor::new(Vec::new());
-    exr_image
-        .write()
-        .to_buffered(&mut bytes)
-        .map_err(|e| encode_error(one_line(e)))?;
-    Ok(bytes.into_inner())
+    super::exr_zip::encode(img).map_err(encode_error)
 }
 
 /// Writes `img` to `path` as EXR (see [`encode_exr`]), atomically.

@@ -9,6 +9,7 @@
 mod atomic;
 mod error;
 mod exr_io;
+mod exr_zip;
 mod png_io;
 mod raster;
 mod tonemap;

@@ -430,9 +430,14 @@ impl ActiveJob {
 
     /// Writes `image` as the job's on-disk image (EXR, atomically).
     pub fn write_image(&self, image: &Image) -> Result<(), CheckpointError> {
+        Self::write_image_to(&self.paths, image)
+    }
+
+    /// [`Self::write_image`] for the job of `paths` (from another thread).
+    pub fn write_image_to(paths: &JobPaths, image: &Image) -> Result<(), CheckpointError> {
         crate::storage::injected_fault().map_err(CheckpointError::Io)?;
-        std::fs::create_dir_all(&self.paths.dir).map_err(CheckpointError::Io)?;
-        renderer::film::write_exr(&self.paths.image(), image)
+        std::fs::create_dir_all(&paths.dir).map_err(CheckpointError::Io)?;
+        renderer::film::write_exr(&paths.image(), image)
             .map_err(|e| CheckpointError::Io(std::io::Error::other(e.to_string())))
     }
 }

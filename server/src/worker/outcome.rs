@@ -9,7 +9,7 @@ use super::metrics_lane::SnapshotImage;
 use serde_json::json;
 use tracing::{error, info, warn};
 
-use super::active::CheckpointError;
+use super::active::{ActiveJob, CheckpointError};
 use super::device_loss::is_device_lost;
 use super::storage_hold::is_storage_fault;
 use super::{is_device_error, Worker};
@@ -41,25 +41,33 @@ impl Worker {
             return self.finish_shard(id, job);
         }
         let t0 = std::time::Instant::now();
-        // (Merged shards: resolved from the sums the session was given, if it holds just them.)
+        // Step 1: the final sums (merged shards: the sums the session was given, if it holds
+        // just them) and their image.
         let spp_now = job.session.progress().spp;
-        let resolved = match job.merged_sums.take().filter(|(spp, _)| *spp == spp_now) {
-            Some((spp, sums)) => {
-                let image = job.session.resolve(&sums);
-                let estimate = job.session.estimate_spp(&sums, spp, &image);
-                Ok((image, estimate))
-            }
-            None => job.session.image_and_estimate(),
+        let sums = match job.merged_sums.take().filter(|(spp, _)| *spp == spp_now) {
+            Some((_, sums)) => sums,
+            None => match job.session.accumulation() {
+                Ok(sums) => sums,
+                Err(e) => return self.render_failed(id, e, "reading the final image"),
+            },
         };
-        let image = match resolved {
-            Ok((i, estimate)) => {
-                job.estimate = estimate;
-                i
-            }
-            Err(e) => return self.render_failed(id, e, "reading the final image"),
-        };
+        let image = job.session.resolve(&sums);
         let t_resolve = t0.elapsed();
-        if let Err(e) = job.write_image(&image) {
+        // Step 2: the image file, and meanwhile the error estimate (for the stats).
+        let paths = &job.paths;
+        let (written, estimate) = std::thread::scope(|scope| {
+            let file = scope.spawn(|| ActiveJob::write_image_to(paths, &image));
+            let estimate = job.session.estimate_spp(&sums, spp_now, &image);
+            let written = file.join().unwrap_or_else(|_| {
+                Err(CheckpointError::Io(std::io::Error::other(
+                    "the EXR writer panicked",
+                )))
+            });
+            (written, estimate)
+        });
+        drop(sums);
+        job.estimate = estimate;
+        if let Err(e) = written {
             let msg = match e {
                 CheckpointError::Io(e) if is_storage_fault(&e) => {
                     // Back in the active set only to be held: it resumes from its checkpoint.
