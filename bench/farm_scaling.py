@@ -4,7 +4,8 @@
 API and one `candela worker --devices LIST --shard-spp N` (a render thread per device, each
 claiming shards of N sample indices), then one job of --spp samples per pixel at
 --width x --height; the job's wall time from its start to its end (`started_at`, `finished_at`)
-gives its Msamples/s, and each list's scaling against the first list. A small job first makes
+gives its Msamples/s, and each list's scaling against the first list (with --repeats N, N rounds
+of all the lists; the medians). A small job first makes
 every device compile its kernels, and the timed job starts once the worker's background kernel
 warm-up (one per device) has ended, so it meets warm caches and a worker with nothing else to
 do on all of them.
@@ -54,7 +55,7 @@ def wait_done(url, job, timeout):
     raise RuntimeError(f"job {job} not done within {timeout} s")
 
 
-def run_config(a, devices, env):
+def run_config(a, devices, env, tag):
     work = tempfile.mkdtemp(prefix="candela-farm-")
     log = os.path.join(work, "log.txt")
     pg = Postgres(log)
@@ -117,7 +118,7 @@ def run_config(a, devices, env):
             except subprocess.TimeoutExpired:
                 p.kill()
         pg.stop()
-        shutil.copy(log, os.path.join(a.out, f"farm_{devices.replace(',', '_')}.log"))
+        shutil.copy(log, os.path.join(a.out, f"farm_{tag}.log"))
         pg.remove()
         shutil.rmtree(work, ignore_errors=True)
 
@@ -133,21 +134,32 @@ def main():
     p.add_argument("--spp", type=int, default=1024)
     p.add_argument("--shard-spp", type=int, default=128)
     p.add_argument("--timeout", type=float, default=300)
+    p.add_argument("--repeats", type=int, default=1, help="rounds of all the configurations")
     p.add_argument("--out", default=".")
     a = p.parse_args()
     env = {k: v for k, v in os.environ.items() if k != "LD_LIBRARY_PATH"}
     rows = []
-    for devices in a.configs:
-        r = run_config(a, devices, env)
-        rows.append(r)
-        print(json.dumps({k: v for k, v in r.items() if k != "workers"}), flush=True)
+    # Rounds of every configuration in turn, so that a drift of the machine (clocks, heat)
+    # spreads over all of them.
+    for rnd in range(a.repeats):
+        for devices in a.configs:
+            tag = devices.replace(",", "_") + (f"_r{rnd}" if a.repeats > 1 else "")
+            r = dict(run_config(a, devices, env, tag), round=rnd)
+            rows.append(r)
+            print(json.dumps({k: v for k, v in r.items() if k != "workers"}), flush=True)
     with open(os.path.join(a.out, "farm.json"), "w") as f:
         json.dump(rows, f, indent=1)
-    print(f"| devices | spp | wall s | Msamples/s | scaling |\n|---|---|---|---|---|")
-    for r in rows:
-        print(f"| {r['devices']} | {r['spp']} | {r['wall_s']:.2f} | {r['msamples_per_s']:.1f} | "
-              f"{r['msamples_per_s'] / rows[0]['msamples_per_s']:.2f} |")
-
+    walls = {d: sorted(r["wall_s"] for r in rows if r["devices"] == d) for d in a.configs}
+    median = {d: w[len(w) // 2] if len(w) % 2 else (w[len(w) // 2 - 1] + w[len(w) // 2]) / 2
+              for d, w in walls.items()}
+    first = median[a.configs[0]]
+    print(f"| devices | spp | wall s (each run) | median wall s | Msamples/s | scaling |\n"
+          f"|---|---|---|---|---|---|")
+    for d in a.configs:
+        spp = next(r["spp"] for r in rows if r["devices"] == d)
+        each = " / ".join(f"{r['wall_s']:.2f}" for r in rows if r["devices"] == d)
+        print(f"| {d} | {spp} | {each} | {median[d]:.2f} | "
+              f"{a.width * a.height * spp / median[d] * 1e-6:.1f} | {first / median[d]:.2f} |")
 
 if __name__ == "__main__":
     main()
