@@ -443,10 +443,16 @@ fn one_worker_renders_on_two_devices_on_postgres() {
         assert!(x["rss_bytes"].as_u64().unwrap() > 1 << 20, "{x}");
         assert!(x["pipelines_cached"].as_u64().unwrap() >= 1, "{x}");
         assert!(x["kernel_variants_seen"].as_u64().unwrap() >= 1, "{x}");
+        // And the bytes of finished shards' sums its process keeps for their merge.
+        assert!(x["kept_shard_bytes"].as_u64().is_some(), "{x}");
     }
     let metrics = api.metrics();
     for name in ["w/gpu0", "w/gpu1"] {
-        for series in ["candela_worker_up", "candela_worker_rss_bytes"] {
+        for series in [
+            "candela_worker_up",
+            "candela_worker_rss_bytes",
+            "candela_worker_kept_shard_bytes",
+        ] {
             let line = format!("{series}{{worker=\"{name}\",device=\"llvmpipe");
             assert!(metrics.contains(&line), "{metrics}");
         }

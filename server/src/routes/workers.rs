@@ -1,7 +1,8 @@
 //! The farm's workers (store/workers.rs): `GET /api/workers` (each worker's last report: name,
 //! state — running, stopped or lost —, device, passes, samples, samples/s, held jobs with their
-//! lease age, and its memory: `rss_bytes`, `pipelines_cached`, `kernel_variants_seen`, null where
-//! unknown), and the per-worker series of `/metrics`. Workers that last reported more than
+//! lease age, `kept_shard_bytes` (finished shards' sums its process keeps for their merge), and
+//! its memory: `rss_bytes`, `pipelines_cached`, `kernel_variants_seen`, null where unknown), and
+//! the per-worker series of `/metrics`. Workers that last reported more than
 //! an hour ago are left out.
 
 use std::fmt::Write;
@@ -57,7 +58,7 @@ fn label(v: &str) -> String {
 pub fn prometheus(store: &Store) -> Result<String, StoreError> {
     let workers: Vec<WorkerRecord> = store.list_workers(KEEP_S)?;
     let mut out = String::new();
-    let series: [Series; 7] = [
+    let series: [Series; 8] = [
         (
             "candela_worker_up",
             "gauge",
@@ -93,6 +94,12 @@ pub fn prometheus(store: &Store) -> Result<String, StoreError> {
             "gauge",
             "Compiled kernel variants (pipelines) the worker's device keeps.",
             |w| w.memory.pipelines_cached.map(|v| v as f64),
+        ),
+        (
+            "candela_worker_kept_shard_bytes",
+            "gauge",
+            "Bytes of finished shards' sums the worker's process keeps for their merge.",
+            |w| w.report["kept_shard_bytes"].as_f64(),
         ),
         (
             "candela_worker_kernel_variants_seen_total",

@@ -1,7 +1,8 @@
 //! What a worker reports of itself with each heartbeat (store/workers.rs): its name, host,
 //! device, passes and pixel samples rendered since it started, samples per second since its
 //! last report, and each job it holds — the shard, the samples so far, and the seconds since it
-//! claimed it (the age of the lease) — and its memory (store/workers.rs's `WorkerMemory`): the
+//! claimed it (the age of the lease) —, the bytes of finished shards' sums its process keeps
+//! for their merge (shard_sums.rs), and its memory (store/workers.rs's `WorkerMemory`): the
 //! process's resident size, the pipelines its device keeps and the kernel variants it has
 //! compiled since it started.
 
@@ -61,6 +62,7 @@ impl Worker {
             "samples": samples,
             "samples_per_s": rate,
             "jobs": jobs,
+            "kept_shard_bytes": super::shard_sums::kept_bytes(),
         })
     }
 

@@ -83,8 +83,8 @@ struct Entry {
     last_add: Instant,
 }
 
-/// A kept job's id and entry.
-type Slot = (JobId, Arc<Mutex<Entry>>);
+/// A kept job's id, the bytes of its sum, and its entry.
+type Slot = (JobId, usize, Arc<Mutex<Entry>>);
 
 /// Every kept job in this process, by the job's folder (a worker's device threads share it).
 static JOBS: Mutex<BTreeMap<PathBuf, Slot>> = Mutex::new(BTreeMap::new());
@@ -122,9 +122,9 @@ pub fn add(
                 kept: Some(kept),
                 last_add: Instant::now(),
             };
-            jobs.insert(job.to_path_buf(), (id, Arc::new(Mutex::new(e))));
+            jobs.insert(job.to_path_buf(), (id, bytes, Arc::new(Mutex::new(e))));
         }
-        jobs[job].1.clone()
+        jobs[job].2.clone()
     };
     // Step 2: the add, under the job's own lock (other jobs' writers do not wait). (A lock
     // poisoned by an add that panicked half way: the sum is in doubt, nothing is added to it
@@ -153,7 +153,7 @@ fn evict_for(jobs: &mut BTreeMap<PathBuf, Slot>, bytes: usize) {
     loop {
         let sizes: Vec<(PathBuf, Instant, usize)> = jobs
             .iter()
-            .map(|(k, (_, e))| {
+            .map(|(k, (_, _, e))| {
                 let e = lock(e);
                 let size = e.kept.as_ref().map_or(0, |k| k.sum.len() * 16);
                 (k.clone(), e.last_add, size)
@@ -180,7 +180,7 @@ pub fn add_kept_into(
     rendering: u32,
     into: &mut [[f32; 4]],
 ) -> Option<(BTreeSet<u32>, u32)> {
-    let entry = lock(&JOBS).get(job)?.1.clone();
+    let entry = lock(&JOBS).get(job)?.2.clone();
     let e = entry.lock().ok()?;
     let kept = e.kept.as_ref();
     let kept = kept.filter(|k| k.layout == *layout && !k.shards.contains_key(&rendering))?;
@@ -192,7 +192,7 @@ pub fn add_kept_into(
 
 /// Takes the kept sums of the job in folder `job` for its merge (none are kept after).
 pub fn take(job: &Path) -> Option<Kept> {
-    let entry = lock(&JOBS).remove(job)?.1;
+    let entry = lock(&JOBS).remove(job)?.2;
     let mut e = entry.lock().ok()?;
     e.kept.take()
 }
@@ -201,7 +201,17 @@ pub fn take(job: &Path) -> Option<Kept> {
 /// an add under way on the job itself.)
 pub fn kept_jobs() -> Vec<(PathBuf, JobId)> {
     let jobs = lock(&JOBS);
-    jobs.iter().map(|(k, (id, _))| (k.clone(), *id)).collect()
+    jobs.iter()
+        .map(|(k, (id, _, _))| (k.clone(), *id))
+        .collect()
+}
+
+/// Bytes of the sums this process keeps, for its worker reports (never waits for an add).
+pub fn kept_bytes() -> u64 {
+    lock(&JOBS)
+        .values()
+        .map(|(_, bytes, _)| *bytes as u64)
+        .sum()
 }
 
 /// Forgets the job in folder `job` (it ended, or its merge is another process's).
@@ -251,6 +261,11 @@ mod tests {
             !add(job, 1, layout(3), range(2), progress(10), &sums),
             "kept already"
         );
+        assert_eq!(
+            kept_bytes(),
+            4 * 16,
+            "one sum of 4 entries, however many shards"
+        );
         let mut other = layout(3);
         other.seed = 8;
         assert!(
@@ -272,6 +287,7 @@ mod tests {
         assert_eq!(kept.shards.keys().copied().collect::<Vec<_>>(), vec![0, 2]);
         assert_eq!(kept.sum, vec![[2.0, 4.0, 6.0, 2.0]; 4]);
         assert!(take(job).is_none(), "taken");
+        assert_eq!(kept_bytes(), 0);
         // (A writer after the take starts a new entry: forgotten when it sees the job ended.)
         assert!(add(job, 1, layout(3), range(1), progress(10), &sums));
         forget(job);
