@@ -113,12 +113,6 @@ impl ActiveJob {
 
     /// Whether the budget (or the quality target) is reached and every queued pass has
     /// completed.
-    /// Whether a pass of this job has completed, so the next ones can be sized (until then
-    /// its first pass is queued alone).
-    pub fn knows_cost(&self) -> bool {
-        self.sizer.knows_cost()
-    }
-
     pub fn finished(&self) -> bool {
         self.stop_reason().is_some() && self.session.in_flight() == 0
     }

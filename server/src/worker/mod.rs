@@ -667,28 +667,10 @@ impl Worker {
         if snapshot {
             job.last_snapshot = Some(Instant::now());
         }
-        let first = !job.knows_cost();
         job.report_flags.push_back(snapshot);
         self.queued.push_back(id);
         for p in done {
             self.after_pass(id, p);
-        }
-        // Step 4: a job's first pass goes alone, until it shows what a sample costs: wait for it
-        // now and queue the next pass at once. (Between two turns of the loop its messages,
-        // heartbeat and reconcile would come first, and the GPU, done with a pass of a fraction
-        // of a millisecond, would idle.)
-        if first {
-            while !self.queued.is_empty()
-                && self
-                    .active
-                    .get(&id)
-                    .is_some_and(|j| !j.knows_cost() && j.session.in_flight() > 0)
-            {
-                self.complete_oldest();
-            }
-            if self.active.get(&id).is_some_and(|j| j.knows_cost()) {
-                self.step(id);
-            }
         }
     }
 
