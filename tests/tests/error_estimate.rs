@@ -99,3 +99,33 @@ fn bdpt_estimate_sees_its_splats() {
     println!("float splats: estimate {a:.6e}, fixed point {b:.6e}");
     assert!((a - b).abs() <= 1e-3 * a, "float {a} vs fixed point {b}");
 }
+
+/// A pass's snapshot gives the session's image and estimate: a first snapshot of 1 spp holds no
+/// odd half (it would be empty: the pass copies half the bytes) and has no estimate; from 2 spp
+/// on its estimate is the session's. bdpt has an extra buffer split by parity too.
+#[test]
+fn snapshots_give_the_sessions_image_and_estimate() {
+    let ctx = gpu();
+    let loaded = renderer::scene::load_file(&scene_path("cornell.json")).unwrap();
+    let compiled = compile(&loaded, 16, 16).unwrap();
+    for integrator in ["nee", "bdpt"] {
+        let options = IntegratorOptions::from_name(integrator).unwrap();
+        let mut s = RenderSession::new(&ctx, &compiled, &options, Some(3), 5).unwrap();
+        for (pass, spp) in [(1, 1), (2, 3)] {
+            s.submit_pass_with(pass, true, false).unwrap();
+            let done = s.complete_oldest().unwrap().expect("the pass");
+            let snap = done.snapshot.expect("its snapshot");
+            let (image, estimate) = snap.image_and_estimate().unwrap();
+            let (want, want_estimate) = s.image_and_estimate().unwrap();
+            assert_eq!((s.spp(), snap.spp()), (spp, spp));
+            assert_eq!(image, want, "{integrator} at {spp} spp");
+            assert_eq!(estimate, want_estimate, "{integrator} at {spp} spp");
+            assert_eq!(estimate.is_some(), spp >= 2, "{integrator}: {estimate:?}");
+            // (The odd half: 16 × 16 entries at the end of the accumulation.)
+            let odd = if spp < 2 { 16 * 16 } else { 0 };
+            let entries = snap.entries().unwrap().len();
+            assert_eq!(entries, s.accumulation_len() - odd, "{integrator}");
+        }
+    }
+    ctx.check_validation().unwrap();
+}

@@ -56,7 +56,10 @@ pub struct AccumSnapshot {
     height: u32,
     /// Entries (`[f32; 4]`) of the accumulation and of each extra buffer, in order.
     parts: Vec<usize>,
-    /// Entries of the odd half, after the parts.
+    /// Pixels of the film.
+    pixels: usize,
+    /// Entries of the odd half, after the parts: `pixels`, or 0 when the snapshot holds fewer
+    /// than 2 samples per pixel (the odd half is empty and the estimate needs both halves).
     odd: usize,
     /// The integrator's extra buffers (their layout, for the estimate's halves).
     extra: Vec<ExtraBuffer>,
@@ -71,7 +74,7 @@ impl AccumSnapshot {
     }
 
     /// Every entry: the accumulation followed by the integrator's extra buffers and the odd half
-    /// (the layout of `RenderSession::accumulation`).
+    /// (the layout of `RenderSession::accumulation`; without the odd half below 2 spp).
     pub fn entries(&self) -> Result<Vec<[f32; 4]>, RenderError> {
         let n: usize = self.parts.iter().sum::<usize>() + self.odd;
         let bytes = self
@@ -89,7 +92,7 @@ impl AccumSnapshot {
         let image = self.resolve(&all[..n]);
         let estimate = super::halves::estimate(
             &all,
-            self.odd,
+            self.pixels,
             &self.extra,
             &self.resolver,
             self.spp,
@@ -197,7 +200,9 @@ impl PassRing {
 }
 
 /// A host-visible buffer for a snapshot of an accumulation of `width`·`height` pixels with the
-/// integrator's `extra` buffers and the odd half.
+/// integrator's `extra` buffers and, from 2 samples per pixel on, the odd half. (Below, the odd
+/// half holds nothing: a first snapshot of 1 spp copies half the bytes; at 1280×720 the copy to
+/// host memory is most of a 1-spp pass's wall time beyond its dispatches.)
 pub(super) fn snapshot_target(
     ctx: &Arc<GpuContext>,
     width: u32,
@@ -206,9 +211,10 @@ pub(super) fn snapshot_target(
     spp: u32,
     resolver: Resolver,
 ) -> Result<AccumSnapshot, RenderError> {
-    let odd = (width * height) as usize;
-    let mut parts = vec![odd];
-    parts.extend(extra.iter().map(|e| odd * e.entries_per_pixel as usize));
+    let pixels = (width * height) as usize;
+    let odd = if snapshot_has_odd(spp) { pixels } else { 0 };
+    let mut parts = vec![pixels];
+    parts.extend(extra.iter().map(|e| pixels * e.entries_per_pixel as usize));
     let n: usize = parts.iter().sum::<usize>() + odd;
     Ok(AccumSnapshot {
         buffer: Buffer::new(
@@ -220,6 +226,7 @@ pub(super) fn snapshot_target(
         width,
         height,
         parts,
+        pixels,
         odd,
         extra,
         spp,
@@ -227,9 +234,19 @@ pub(super) fn snapshot_target(
     })
 }
 
+/// Whether a snapshot of `spp` samples per pixel (indices from 0) copies the odd half.
+fn snapshot_has_odd(spp: u32) -> bool {
+    spp >= 2
+}
+
 impl AccumSnapshot {
     pub(super) fn buffer(&self) -> &Buffer {
         &self.buffer
+    }
+
+    /// Whether the pass copies the odd half too ([`snapshot_has_odd`]).
+    pub(super) fn has_odd(&self) -> bool {
+        self.odd > 0
     }
 }
 

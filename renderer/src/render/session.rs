@@ -562,7 +562,7 @@ impl RenderSession {
             rec.fill_zero(stats_buf);
             if let Some(t) = &target {
                 let mut at = 0;
-                let odd = std::iter::once(accum_odd);
+                let odd = std::iter::once(accum_odd).filter(|_| t.has_odd());
                 for b in std::iter::once(accum)
                     .chain(extra.iter().map(|(_, b)| b))
                     .chain(odd)
