@@ -21,6 +21,7 @@ import datetime
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -137,29 +138,51 @@ def main():
     p.add_argument("--repeats", type=int, default=1, help="rounds of all the configurations")
     p.add_argument("--out", default=".")
     a = p.parse_args()
+    if a.repeats < 1:
+        p.error("--repeats must be at least 1")
     env = {k: v for k, v in os.environ.items() if k != "LD_LIBRARY_PATH"}
     rows = []
-    # Rounds of every configuration in turn, so that a drift of the machine (clocks, heat)
-    # spreads over all of them.
-    for rnd in range(a.repeats):
-        for devices in a.configs:
-            tag = devices.replace(",", "_") + (f"_r{rnd}" if a.repeats > 1 else "")
-            r = dict(run_config(a, devices, env, tag), round=rnd)
-            rows.append(r)
-            print(json.dumps({k: v for k, v in r.items() if k != "workers"}), flush=True)
-    with open(os.path.join(a.out, "farm.json"), "w") as f:
-        json.dump(rows, f, indent=1)
-    walls = {d: sorted(r["wall_s"] for r in rows if r["devices"] == d) for d in a.configs}
-    median = {d: w[len(w) // 2] if len(w) % 2 else (w[len(w) // 2 - 1] + w[len(w) // 2]) / 2
-              for d, w in walls.items()}
-    first = median[a.configs[0]]
-    print(f"| devices | spp | wall s (each run) | median wall s | Msamples/s | scaling |\n"
-          f"|---|---|---|---|---|---|")
+    # (A time limit's SIGTERM ends the runs as an exception: the table of what ran still prints.)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
+    try:
+        # Rounds of every configuration in turn, so that a drift of the machine (clocks, heat)
+        # spreads over all of them. farm.json is rewritten after each run.
+        for rnd in range(a.repeats):
+            for devices in a.configs:
+                tag = devices.replace(",", "_") + (f"_r{rnd}" if a.repeats > 1 else "")
+                r = dict(run_config(a, devices, env, tag), round=rnd)
+                rows.append(r)
+                print(json.dumps({k: v for k, v in r.items() if k != "workers"}), flush=True)
+                with open(os.path.join(a.out, "farm.json"), "w") as f:
+                    json.dump(rows, f, indent=1)
+    finally:
+        print_table(a, rows)
+
+
+def print_table(a, rows):
+    """Each configuration's runs that ended done: their walls, the median, and the scaling
+    against the first configuration — of the median walls, and per round (the first
+    configuration's wall in the same round over this one's)."""
+    done = [r for r in rows if r["state"] == "done"]
+    walls = {d: sorted(r["wall_s"] for r in done if r["devices"] == d) for d in a.configs}
+    median = {d: (w[len(w) // 2] if len(w) % 2 else (w[len(w) // 2 - 1] + w[len(w) // 2]) / 2)
+              for d, w in walls.items() if w}
+    first = median.get(a.configs[0])
+    base = {r["round"]: r["wall_s"] for r in done if r["devices"] == a.configs[0]}
+    print(f"| devices | spp | wall s (each run) | median wall s | Msamples/s | scaling (median "
+          f"walls) | scaling per round |\n|---|---|---|---|---|---|---|", flush=True)
     for d in a.configs:
-        spp = next(r["spp"] for r in rows if r["devices"] == d)
-        each = " / ".join(f"{r['wall_s']:.2f}" for r in rows if r["devices"] == d)
-        print(f"| {d} | {spp} | {each} | {median[d]:.2f} | "
-              f"{a.width * a.height * spp / median[d] * 1e-6:.1f} | {first / median[d]:.2f} |")
+        mine = [r for r in done if r["devices"] == d]
+        if not mine:
+            print(f"| {d} | — | — | — | — | — | — |")
+            continue
+        each = " / ".join(f"{r['wall_s']:.2f}" for r in mine)
+        rounds = " / ".join(f"{base[r['round']] / r['wall_s']:.2f}" for r in mine
+                            if r["round"] in base)
+        ratio = f"{first / median[d]:.2f}" if first else "—"
+        print(f"| {d} | {mine[0]['spp']} | {each} | {median[d]:.2f} | "
+              f"{a.width * a.height * mine[0]['spp'] / median[d] * 1e-6:.1f} | {ratio} | "
+              f"{rounds or '—'} |", flush=True)
 
 if __name__ == "__main__":
     main()

@@ -109,7 +109,7 @@ for l in open(sys.argv[1]):
     fp = r.get("first_pass") or {}
     k = r.get("kernel_build") or {}
     print(f"{r['integrator']:8} {r['width']}x{r['height']} {r['spp']:5} spp {r['time_s']:.3f} s gpu {r['gpu_time_s']:.3f} "
-          f"setup {r['setup_s']:.2f} {r['msamples_per_s']:8.1f} Ms/s {r.get('rays', 0) / max(r['gpu_time_s'], 1e-9) / 1e6:7.0f} Mrays/s first {fp.get('gpu_ms', 0):.1f} ms "
+          f"setup {r['setup_s']:.2f} {r['msamples_per_s']:8.1f} Ms/s {r.get('rays', 0) / max(r['gpu_time_s'], 1e-9) / 1e6:7.0f} Mrays/GPU-s first {fp.get('gpu_ms', 0):.1f} ms "
           f"compile {k.get('compile_ms', 0):.0f} pipe {k.get('pipeline_ms', 0):.0f} "
           + " ".join(f"{a}={t[a]:.2f}" for a in ('voxelize', 'build', 'inject', 'filter', 'trace') if a in t)
           + f" {r.get('scene', '')}")

@@ -100,9 +100,10 @@ fn bdpt_estimate_sees_its_splats() {
     assert!((a - b).abs() <= 1e-3 * a, "float {a} vs fixed point {b}");
 }
 
-/// A pass's snapshot gives the session's image and estimate: a first snapshot of 1 spp holds no
-/// odd half (it would be empty: the pass copies half the bytes) and has no estimate; from 2 spp
-/// on its estimate is the session's. bdpt has an extra buffer split by parity too.
+/// A pass's snapshot gives the session's accumulation, image and estimate. A snapshot none of
+/// whose samples has an odd index copies no odd half (it is empty: a first 1-spp snapshot copies
+/// half the bytes) and reads it as zeros; from 2 spp on, or with one sample of odd index, the
+/// half is copied. bdpt has an extra buffer split by parity too.
 #[test]
 fn snapshots_give_the_sessions_image_and_estimate() {
     let ctx = gpu();
@@ -110,21 +111,26 @@ fn snapshots_give_the_sessions_image_and_estimate() {
     let compiled = compile(&loaded, 16, 16).unwrap();
     for integrator in ["nee", "bdpt"] {
         let options = IntegratorOptions::from_name(integrator).unwrap();
-        let mut s = RenderSession::new(&ctx, &compiled, &options, Some(3), 5).unwrap();
-        for (pass, spp) in [(1, 1), (2, 3)] {
-            s.submit_pass_with(pass, true, false).unwrap();
-            let done = s.complete_oldest().unwrap().expect("the pass");
-            let snap = done.snapshot.expect("its snapshot");
-            let (image, estimate) = snap.image_and_estimate().unwrap();
-            let (want, want_estimate) = s.image_and_estimate().unwrap();
-            assert_eq!((s.spp(), snap.spp()), (spp, spp));
-            assert_eq!(image, want, "{integrator} at {spp} spp");
-            assert_eq!(estimate, want_estimate, "{integrator} at {spp} spp");
-            assert_eq!(estimate.is_some(), spp >= 2, "{integrator}: {estimate:?}");
-            // (The odd half: 16 × 16 entries at the end of the accumulation.)
-            let odd = if spp < 2 { 16 * 16 } else { 0 };
-            let entries = snap.entries().unwrap().len();
-            assert_eq!(entries, s.accumulation_len() - odd, "{integrator}");
+        // (first sample index, passes' spp, whether each snapshot holds an odd half)
+        for (first, passes) in [(0, [(1, false), (2, true)]), (7, [(1, true), (2, true)])] {
+            let mut s = RenderSession::new(&ctx, &compiled, &options, Some(3), 5).unwrap();
+            s.set_next_sample(first);
+            for (pass, odd) in passes {
+                s.submit_pass_with(pass, true, false).unwrap();
+                let done = s.complete_oldest().unwrap().expect("the pass");
+                let snap = done.snapshot.expect("its snapshot");
+                let what = format!("{integrator}, first {first}, {} spp", s.spp());
+                assert_eq!(snap.has_odd(), odd, "{what}");
+                assert_eq!(snap.spp(), s.spp(), "{what}");
+                assert!(
+                    snap.entries().unwrap() == s.accumulation().unwrap(),
+                    "{what}"
+                );
+                let (image, estimate) = snap.image_and_estimate().unwrap();
+                let (want, want_estimate) = s.image_and_estimate().unwrap();
+                assert_eq!(image, want, "{what}");
+                assert_eq!(estimate, want_estimate, "{what}");
+            }
         }
     }
     ctx.check_validation().unwrap();

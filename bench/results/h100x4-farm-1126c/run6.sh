@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Session 2026-11-26c call 6: busy at 10 ms through the server, 1280x720, main (609ed54) vs new (553edc1: no odd half in a 1-spp snapshot), 3 rounds.
+# Session 2026-11-26c calls 6 and 7: busy at 10 ms through the server, main (609ed54) vs new (call 6: a231845, the first pass waited for at once; call 7: 553edc1, no odd half in a 1-spp snapshot), 3 rounds.
 set -u
 . bench/gpu_env.sh
 for r in 1 2 3; do for b in main new; do

@@ -3,8 +3,8 @@
 //!
 //! Why not `exr`'s own image writer: it forms each block's bytes by calling a closure per pixel
 //! on one thread, and deflates at level 4; on a 3840×2160 film that is 0.2–0.25 s of a farm
-//! job's serial end (bench/RESULTS.md, issue 15) for a file 2 % smaller than level 1 makes of
-//! float noise. The format is OpenEXR's ZIP compression (ImfZip.cpp), which readers decode
+//! job's serial end (bench/RESULTS.md, issue 15) for a file ~5 % smaller than this encoder's
+//! on a noisy render (zlib level 1, about 4× faster to encode). The format is OpenEXR's ZIP compression (ImfZip.cpp), which readers decode
 //! whatever the deflate level:
 //!
 //! 1. a block holds 16 lines; a line holds the B, then the G, then the R samples of its pixels
@@ -28,7 +28,8 @@ use super::Image;
 /// Lines per block of ZIP compression (OpenEXR's ZIP, not ZIPS).
 const LINES: usize = 16;
 
-/// The deflate level: the fastest of miniz's levels (see the module doc for the trade).
+/// The zlib level: 1, the fastest that compresses (see the module doc for the trade). The
+/// blocks are compressed on the global rayon pool.
 const LEVEL: u32 = 1;
 
 /// `img` as an EXR file; `img` is well-formed and at least 1×1 (the caller checks).
@@ -65,7 +66,7 @@ pub(super) fn encode(img: &Image) -> Result<Vec<u8>, String> {
         }
         Ok(())
     })
-    .map_err(|e| e.to_string())?;
+    .map_err(super::error::one_line)?;
     Ok(bytes.into_inner())
 }
 

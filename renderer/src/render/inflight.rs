@@ -58,8 +58,8 @@ pub struct AccumSnapshot {
     parts: Vec<usize>,
     /// Pixels of the film.
     pixels: usize,
-    /// Entries of the odd half, after the parts: `pixels`, or 0 when the snapshot holds fewer
-    /// than 2 samples per pixel (the odd half is empty and the estimate needs both halves).
+    /// Entries of the odd half copied after the parts: `pixels`, or 0 when no sample of the
+    /// snapshot has an odd index (the half is empty; [`Self::entries`] gives zeros for it).
     odd: usize,
     /// The integrator's extra buffers (their layout, for the estimate's halves).
     extra: Vec<ExtraBuffer>,
@@ -74,14 +74,17 @@ impl AccumSnapshot {
     }
 
     /// Every entry: the accumulation followed by the integrator's extra buffers and the odd half
-    /// (the layout of `RenderSession::accumulation`; without the odd half below 2 spp).
+    /// (the layout of `RenderSession::accumulation`; an odd half that was not copied, being
+    /// empty, as zeros).
     pub fn entries(&self) -> Result<Vec<[f32; 4]>, RenderError> {
         let n: usize = self.parts.iter().sum::<usize>() + self.odd;
         let bytes = self
             .buffer
             .mapped()
             .ok_or_else(|| RenderError::Invalid("snapshot buffer not mapped".into()))?;
-        Ok(bytemuck::pod_collect_to_vec(&bytes[..n * 16]))
+        let mut all: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes[..n * 16]);
+        all.resize(n - self.odd + self.pixels, [0.0; 4]);
+        Ok(all)
     }
 
     /// The image and the estimate of its relMSE against the converged image
@@ -200,19 +203,21 @@ impl PassRing {
 }
 
 /// A host-visible buffer for a snapshot of an accumulation of `width`·`height` pixels with the
-/// integrator's `extra` buffers and, from 2 samples per pixel on, the odd half. (Below, the odd
-/// half holds nothing: a first snapshot of 1 spp copies half the bytes; at 1280×720 the copy to
-/// host memory is most of a 1-spp pass's wall time beyond its dispatches.)
+/// integrator's `extra` buffers and, when `has_odd` (a sample of the snapshot has an odd index),
+/// the odd half. (Else that half is empty: a first snapshot of one sample of even index copies
+/// half the bytes; at 1280×720 the copy to host memory is most of a 1-spp pass's wall time
+/// beyond its dispatches.)
 pub(super) fn snapshot_target(
     ctx: &Arc<GpuContext>,
     width: u32,
     height: u32,
     extra: Vec<ExtraBuffer>,
     spp: u32,
+    has_odd: bool,
     resolver: Resolver,
 ) -> Result<AccumSnapshot, RenderError> {
     let pixels = (width * height) as usize;
-    let odd = if snapshot_has_odd(spp) { pixels } else { 0 };
+    let odd = if has_odd { pixels } else { 0 };
     let mut parts = vec![pixels];
     parts.extend(extra.iter().map(|e| pixels * e.entries_per_pixel as usize));
     let n: usize = parts.iter().sum::<usize>() + odd;
@@ -234,18 +239,13 @@ pub(super) fn snapshot_target(
     })
 }
 
-/// Whether a snapshot of `spp` samples per pixel (indices from 0) copies the odd half.
-fn snapshot_has_odd(spp: u32) -> bool {
-    spp >= 2
-}
-
 impl AccumSnapshot {
     pub(super) fn buffer(&self) -> &Buffer {
         &self.buffer
     }
 
-    /// Whether the pass copies the odd half too ([`snapshot_has_odd`]).
-    pub(super) fn has_odd(&self) -> bool {
+    /// Whether the pass copied the odd half too (false: it was empty).
+    pub fn has_odd(&self) -> bool {
         self.odd > 0
     }
 }

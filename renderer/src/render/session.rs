@@ -516,12 +516,17 @@ impl RenderSession {
             self.shape_for(spp)
                 .dispatches(&push, self.split_limit, self.width, self.height);
         let target = if snapshot {
+            // The odd half holds something once a sample of odd index is in: with two samples,
+            // or with one whose index (this pass's first) is odd.
+            let total = self.submitted_spp() + spp;
+            let has_odd = total >= 2 || self.next_sample % 2 == 1;
             Some(snapshot_target(
                 &self.ctx,
                 self.width,
                 self.height,
                 self.extra_buffers(),
-                self.submitted_spp() + spp,
+                total,
+                has_odd,
                 self.integrator.resolver(),
             )?)
         } else {

@@ -56,13 +56,19 @@ impl Worker {
         // Step 2: the image file, and meanwhile the error estimate (for the stats).
         let paths = &job.paths;
         let (written, estimate) = std::thread::scope(|scope| {
-            let file = scope.spawn(|| ActiveJob::write_image_to(paths, &image));
+            let file = std::thread::Builder::new()
+                .name("final-exr".into())
+                .spawn_scoped(scope, || ActiveJob::write_image_to(paths, &image));
             let estimate = job.session.estimate_spp(&sums, spp_now, &image);
-            let written = file.join().unwrap_or_else(|_| {
-                Err(CheckpointError::Io(std::io::Error::other(
-                    "the EXR writer panicked",
-                )))
-            });
+            let written = match file {
+                Ok(h) => h.join().unwrap_or_else(|_| {
+                    Err(CheckpointError::Io(std::io::Error::other(
+                        "the EXR writer panicked",
+                    )))
+                }),
+                // (No thread to be had: written here, after the estimate.)
+                Err(_) => ActiveJob::write_image_to(paths, &image),
+            };
             (written, estimate)
         });
         drop(sums);

@@ -80,11 +80,17 @@ struct Entry {
     /// None once taken by the merge (a writer that found the entry before the take then adds
     /// nothing; one after it starts a new entry, forgotten once the job is seen ended).
     kept: Option<Kept>,
-    last_add: Instant,
 }
 
-/// A kept job's id, the bytes of its sum, and its entry.
-type Slot = (JobId, usize, Arc<Mutex<Entry>>);
+/// A kept job: its id, the bytes of its sum, when an add to it last began, and its entry. (The
+/// figures the eviction and the reports read are here, under the map's lock, so that neither
+/// waits for an add under way on an entry.)
+struct Slot {
+    id: JobId,
+    bytes: usize,
+    last_add: Instant,
+    entry: Arc<Mutex<Entry>>,
+}
 
 /// Every kept job in this process, by the job's folder (a worker's device threads share it).
 static JOBS: Mutex<BTreeMap<PathBuf, Slot>> = Mutex::new(BTreeMap::new());
@@ -118,13 +124,17 @@ pub fn add(
                 layout: layout.clone(),
                 shards: BTreeMap::new(),
             };
-            let e = Entry {
-                kept: Some(kept),
+            let slot = Slot {
+                id,
+                bytes,
                 last_add: Instant::now(),
+                entry: Arc::new(Mutex::new(Entry { kept: Some(kept) })),
             };
-            jobs.insert(job.to_path_buf(), (id, bytes, Arc::new(Mutex::new(e))));
+            jobs.insert(job.to_path_buf(), slot);
         }
-        jobs[job].2.clone()
+        let slot = jobs.get_mut(job).expect("inserted above");
+        slot.last_add = Instant::now();
+        slot.entry.clone()
     };
     // Step 2: the add, under the job's own lock (other jobs' writers do not wait). (A lock
     // poisoned by an add that panicked half way: the sum is in doubt, nothing is added to it
@@ -132,7 +142,6 @@ pub fn add(
     let Ok(mut e) = entry.lock() else {
         return false;
     };
-    e.last_add = Instant::now();
     let Some(kept) = e.kept.as_mut() else {
         return false;
     };
@@ -151,22 +160,15 @@ pub fn add(
 /// bounds).
 fn evict_for(jobs: &mut BTreeMap<PathBuf, Slot>, bytes: usize) {
     loop {
-        let sizes: Vec<(PathBuf, Instant, usize)> = jobs
-            .iter()
-            .map(|(k, (_, _, e))| {
-                let e = lock(e);
-                let size = e.kept.as_ref().map_or(0, |k| k.sum.len() * 16);
-                (k.clone(), e.last_add, size)
-            })
-            .collect();
-        let used: usize = sizes.iter().map(|s| s.2).sum();
+        let used: usize = jobs.values().map(|s| s.bytes).sum();
         if jobs.len() < MAX_JOBS && used + bytes <= MAX_BYTES {
             return;
         }
-        let Some(oldest) = sizes.iter().min_by_key(|s| s.1) else {
+        let Some(oldest) = jobs.iter().min_by_key(|(_, s)| s.last_add) else {
             return;
         };
-        jobs.remove(&oldest.0);
+        let oldest = oldest.0.clone();
+        jobs.remove(&oldest);
     }
 }
 
@@ -180,7 +182,7 @@ pub fn add_kept_into(
     rendering: u32,
     into: &mut [[f32; 4]],
 ) -> Option<(BTreeSet<u32>, u32)> {
-    let entry = lock(&JOBS).get(job)?.2.clone();
+    let entry = lock(&JOBS).get(job)?.entry.clone();
     let e = entry.lock().ok()?;
     let kept = e.kept.as_ref();
     let kept = kept.filter(|k| k.layout == *layout && !k.shards.contains_key(&rendering))?;
@@ -192,7 +194,7 @@ pub fn add_kept_into(
 
 /// Takes the kept sums of the job in folder `job` for its merge (none are kept after).
 pub fn take(job: &Path) -> Option<Kept> {
-    let entry = lock(&JOBS).remove(job)?.2;
+    let entry = lock(&JOBS).remove(job)?.entry;
     let mut e = entry.lock().ok()?;
     e.kept.take()
 }
@@ -201,17 +203,12 @@ pub fn take(job: &Path) -> Option<Kept> {
 /// an add under way on the job itself.)
 pub fn kept_jobs() -> Vec<(PathBuf, JobId)> {
     let jobs = lock(&JOBS);
-    jobs.iter()
-        .map(|(k, (id, _, _))| (k.clone(), *id))
-        .collect()
+    jobs.iter().map(|(k, s)| (k.clone(), s.id)).collect()
 }
 
 /// Bytes of the sums this process keeps, for its worker reports (never waits for an add).
 pub fn kept_bytes() -> u64 {
-    lock(&JOBS)
-        .values()
-        .map(|(_, bytes, _)| *bytes as u64)
-        .sum()
+    lock(&JOBS).values().map(|s| s.bytes as u64).sum()
 }
 
 /// Forgets the job in folder `job` (it ended, or its merge is another process's).
