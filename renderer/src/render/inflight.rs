@@ -56,11 +56,10 @@ pub struct AccumSnapshot {
     height: u32,
     /// Entries (`[f32; 4]`) of the accumulation and of each extra buffer, in order.
     parts: Vec<usize>,
-    /// Pixels of the film.
-    pixels: usize,
-    /// Entries of the odd half copied after the parts: `pixels`, or 0 when no sample of the
-    /// snapshot has an odd index (the half is empty; [`Self::entries`] gives zeros for it).
-    odd: usize,
+    /// Whether the odd half (one entry per pixel) was copied after the parts; not when no
+    /// sample of the snapshot has an odd index (the half is empty; [`Self::entries`] gives
+    /// zeros for it).
+    has_odd: bool,
     /// The integrator's extra buffers (their layout, for the estimate's halves).
     extra: Vec<ExtraBuffer>,
     spp: u32,
@@ -77,13 +76,14 @@ impl AccumSnapshot {
     /// (the layout of `RenderSession::accumulation`; an odd half that was not copied, being
     /// empty, as zeros).
     pub fn entries(&self) -> Result<Vec<[f32; 4]>, RenderError> {
-        let n: usize = self.parts.iter().sum::<usize>() + self.odd;
+        let parts: usize = self.parts.iter().sum();
+        let copied = parts + if self.has_odd { self.pixels() } else { 0 };
         let bytes = self
             .buffer
             .mapped()
             .ok_or_else(|| RenderError::Invalid("snapshot buffer not mapped".into()))?;
-        let mut all: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes[..n * 16]);
-        all.resize(n - self.odd + self.pixels, [0.0; 4]);
+        let mut all: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes[..copied * 16]);
+        all.resize(parts + self.pixels(), [0.0; 4]);
         Ok(all)
     }
 
@@ -95,7 +95,7 @@ impl AccumSnapshot {
         let image = self.resolve(&all[..n]);
         let estimate = super::halves::estimate(
             &all,
-            self.pixels,
+            self.pixels(),
             &self.extra,
             &self.resolver,
             self.spp,
@@ -231,8 +231,7 @@ pub(super) fn snapshot_target(
         width,
         height,
         parts,
-        pixels,
-        odd,
+        has_odd,
         extra,
         spp,
         resolver,
@@ -246,7 +245,11 @@ impl AccumSnapshot {
 
     /// Whether the pass copied the odd half too (false: it was empty).
     pub fn has_odd(&self) -> bool {
-        self.odd > 0
+        self.has_odd
+    }
+
+    fn pixels(&self) -> usize {
+        (self.width * self.height) as usize
     }
 }
 
