@@ -41,29 +41,80 @@ float mis_term(float ri, int s_other, int s, float nee_ratio) {
     return bdpt_mis ? ri * ri : 1.0;
 }
 
-// Weight of strategy (s, t) for the current subpaths (pbrt-v3 MISWeight).
+// A ratio's term without the NEE corrections: ri² (power heuristic), or 1 (mis off).
+float mis_sq(float ri) { return bdpt_mis ? ri * ri : 1.0; }
+
+// The running sums that make a weight O(1) (the idea of SmallVCM's recursive weights, in pbrt's
+// densities). A strategy changes the densities of at most two vertices at each end (MisInputs);
+// below them the ratios and the delta tests are the subpath's own. So the terms of every
+// hypothetical strategy that moves the join further than two vertices down one subpath are the
+// product of the two changed ratios with a sum fixed per subpath, kept at each vertex:
+//   camera, m ≥ 1:  A_m = sq(R_m) · (valid_m + A_{m−1}),  A_0 = 0,
+//                   R_m = pdf_rev(c_m) / pdf_fwd(c_m), valid_m = neither c_m nor c_{m−1} is δ;
+//   light, m ≥ 0:   B_m = sq(R_m) · (valid_m · f_m + B_{m−1}),  B_{−1} = 0,
+//                   R_m = pdf_rev(l_m) / pdf_fwd(l_m), valid_m = l_m not δ and l_{m−1} not δ
+//                   (m = 0: not a delta light), f_1 = nee_ratio² (the s = 1 term sees NEE's
+//                   density of x0, nee_density_ratio(l_0, l_1); f = 1 elsewhere and with mis off).
+// (densities through remap0; sq as mis_sq.) Written into mis_acc of the vertices this kernel
+// traced, once per sample, before any strategy; the split design's light pass stores them with
+// the light vertices.
+void mis_running_sums(int nc, int nl, float nee_ratio_light) {
+#ifndef BDPT_LIGHT_PASS
+    float a = 0.0;
+    for (int m = 1; m < nc; ++m) {
+        Vertex c = vtx[CAM(m)];
+        float valid = vertex_is_delta(c) || vertex_is_delta(vtx[CAM(m - 1)]) ? 0.0 : 1.0;
+        a = mis_sq(remap0(c.pdf_rev) / remap0(c.pdf_fwd)) * (valid + a);
+        vtx[CAM(m)].mis_acc = a;
+    }
+#endif
+#ifndef BDPT_CAMERA_PASS
+    float b = 0.0;
+    for (int m = 0; m < nl; ++m) {
+        Vertex l = vtx[LGT(m)];
+        bool before_delta = m == 0 ? (l.flags & VF_DELTA_LIGHT) != 0u : vertex_is_delta(vtx[LGT(max(m - 1, 0))]);
+        float valid = vertex_is_delta(l) || before_delta ? 0.0 : 1.0;
+        float f = m == 1 ? mis_sq(nee_ratio_light) : 1.0;
+        b = mis_sq(remap0(l.pdf_rev) / remap0(l.pdf_fwd)) * (valid * f + b);
+        vtx[LGT(m)].mis_acc = b;
+    }
+#endif
+}
+
+// Weight of strategy (s, t) for the current subpaths (pbrt-v3 MISWeight): the terms of the two
+// vertices at each end that the strategy changes one by one, the rest from the running sums.
 float mis_weight(int s, int t, MisInputs mi) {
     if (s + t == 2) return 1.0;
     float sum_ri = 0.0;
-    // Step 1: hypothetical strategies with fewer camera vertices (i = their t).
+    // Step 1: hypothetical strategies with fewer camera vertices (i = their t): i = t−1, t−2,
+    // then every i ≤ t−3 at once (s_other ≥ 3 there, so only s = 1's correction applies).
     float ri = 1.0;
-    for (int i = t - 1; i > 0; --i) {
+    for (int i = t - 1; i > 0 && i >= t - 2; --i) {
         Vertex c = CAMV(i);
-        float rev = i == t - 1 ? mi.pt_rev : (i == t - 2 ? mi.ptm_rev : c.pdf_rev);
+        float rev = i == t - 1 ? mi.pt_rev : mi.ptm_rev;
         ri *= remap0(rev) / remap0(c.pdf_fwd);
         bool delta = i == t - 1 ? false : vertex_is_delta(c);
         if (!delta && !vertex_is_delta(CAMV(i - 1))) sum_ri += mis_term(ri, s + t - i, s, mi.nee_ratio);
     }
-    // Step 2: hypothetical strategies with fewer light vertices (i = their s).
+    if (t >= 4) {
+        float x = mis_term(ri, 3, s, mi.nee_ratio);
+        if (x > 0.0) sum_ri += x * CAMV(t - 3).mis_acc;
+    }
+    // Step 2: hypothetical strategies with fewer light vertices (i = their s): i = s−1, s−2,
+    // then every i ≤ s−3 at once (s ≥ 3 there, so the running sum holds the s = 1 correction).
     ri = 1.0;
-    for (int i = s - 1; i >= 0; --i) {
+    for (int i = s - 1; i >= 0 && i >= s - 2; --i) {
         Vertex l = LGTV(i);
         float fwd = i == 0 ? mi.l0_fwd : l.pdf_fwd;
-        float rev = i == s - 1 ? mi.qs_rev : (i == s - 2 ? mi.qsm_rev : l.pdf_rev);
+        float rev = i == s - 1 ? mi.qs_rev : mi.qsm_rev;
         ri *= remap0(rev) / remap0(fwd);
         bool delta = i == s - 1 ? false : vertex_is_delta(l);
         bool delta_light = i > 0 ? vertex_is_delta(LGTV(i - 1)) : mi.l0_delta;
         if (!delta && !delta_light) sum_ri += mis_term(ri, i, s, mi.nee_ratio);
+    }
+    if (s >= 3) {
+        float x = mis_sq(ri);
+        if (x > 0.0) sum_ri += x * LGTV(s - 3).mis_acc;
     }
     return 1.0 / (1.0 + sum_ri);
 }
@@ -200,25 +251,27 @@ vec3 connect_st(int s, int t, vec4 u, inout uint rays, out vec2 film, inout MisI
     return L;
 }
 
-// Strategy (s, t): the unweighted contribution and its weight w (see connect_s0, connect_st).
-vec3 connect(int s, int t, vec4 u, inout uint rays, out vec2 film, out float w) {
+// The MisInputs every strategy of a sample starts from: light vertex 0 as the light subpath
+// made it, and NEE's density ratio of x0 for s ≥ 2 (x0, x1 = light vertices 0, 1: the same for
+// all of them, so computed once).
+MisInputs mis_inputs_of_sample(int nl) {
+    Vertex l0 = LGTV(0);
+    float nee_ratio = nl >= 2 ? nee_density_ratio(l0, LGTV(1)) : 1.0;
+    return MisInputs(0.0, 0.0, 0.0, 0.0, l0.pdf_fwd, (l0.flags & VF_DELTA_LIGHT) != 0u, nee_ratio);
+}
+
+// Strategy (s, t): the unweighted contribution and its weight w (see connect_s0, connect_st);
+// mi: mis_inputs_of_sample's.
+vec3 connect(int s, int t, vec4 u, MisInputs mi, inout uint rays, out vec2 film, out float w) {
     w = 0.0;
     film = vec2(-1.0);
-    Vertex l0 = LGTV(0);
-    MisInputs mi = MisInputs(0.0, 0.0, 0.0, 0.0, l0.pdf_fwd, (l0.flags & VF_DELTA_LIGHT) != 0u, 1.0);
     Vertex q;
     vec3 L = s == 0 ? connect_s0(t, mi) : connect_st(s, t, u, rays, film, mi, q);
     if (!any(greaterThan(L, vec3(0.0)))) return vec3(0.0);
-    // x0 (the light end) and x1 (its neighbour), for NEE's density of x0 (sphere lights).
-    Vertex x0 = l0, x1 = LGTV(1);
-    if (s == 0) {
-        x0 = CAMV(t - 1);
-        x1 = CAMV(max(t - 2, 0));
-    } else if (s == 1) {
-        x0 = q;
-        x1 = CAMV(t - 1);
-    }
-    mi.nee_ratio = nee_density_ratio(x0, x1);
+    // NEE's density of x0 (the light end) given x1 (its neighbour), where they are not light
+    // vertices 0 and 1.
+    if (s == 0) mi.nee_ratio = nee_density_ratio(CAMV(t - 1), CAMV(max(t - 2, 0)));
+    else if (s == 1) mi.nee_ratio = nee_density_ratio(q, CAMV(t - 1));
     w = mis_weight(s, t, mi);
     return L;
 }

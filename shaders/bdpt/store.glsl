@@ -27,7 +27,7 @@ void light_vertex_store(int v, Vertex x) {
     light_vertices[lv_at(v, 3u)] = vec4(x.tangent, uintBitsToFloat(x.light));
     light_vertices[lv_at(v, 4u)] = vec4(x.wo, x.pdf_rev);
     light_vertices[lv_at(v, 5u)] = vec4(x.beta, x.pdf_fwd);
-    light_vertices[lv_at(v, 6u)] = vec4(x.uv, 0.0, 0.0);
+    light_vertices[lv_at(v, 6u)] = vec4(x.uv, x.mis_acc, 0.0);
 }
 
 Vertex light_vertex_load(int v) {
@@ -44,9 +44,9 @@ Vertex light_vertex_load(int v) {
     x.wo = w.xyz; x.pdf_rev = w.w;
     w = light_vertices[lv_at(v, 5u)];
     x.beta = w.xyz; x.pdf_fwd = w.w;
-    x.uv = light_vertices[lv_at(v, 6u)].xy;
+    w = light_vertices[lv_at(v, 6u)];
+    x.uv = w.xy; x.mis_acc = w.z;
     x.p_err = vec3(0.0);
-    x.pad = 0.0;
     return x;
 }
 

@@ -30,6 +30,8 @@ float strategy_weight(float w) {
 // own light point, so it runs even when the light subpath is empty.
 vec3 bdpt_strategies(int nc, int nl, int t_first, int max_depth, inout Rng rng, inout uint rays, inout uint dropped) {
     vec3 L = vec3(0.0);
+    MisInputs mi = mis_inputs_of_sample(nl);
+    mis_running_sums(nc, nl, mi.nee_ratio);
     for (int t = t_first; t <= nc; ++t) {
         for (int s = 0; s <= max(nl, 1); ++s) {
             int k = s + t - 1;
@@ -40,7 +42,7 @@ vec3 bdpt_strategies(int nc, int nl, int t_first, int max_depth, inout Rng rng, 
             rng.dim = 1024u + uint(t) * 64u + uint(s);
             float w;
             vec2 film;
-            vec3 c = connect(s, t, rng_next4(rng), rays, film, w);
+            vec3 c = connect(s, t, rng_next4(rng), mi, rays, film, w);
             c *= strategy_weight(w);
             if (t == 1) {
                 if (!is_finite(c)) {

@@ -1,7 +1,8 @@
 // Path vertices of bdpt and the densities between them, after pbrt-v3's `Vertex`
 // (integrators/bdpt.h): each vertex keeps its throughput β and the area densities of being
 // sampled from either side — pdf_fwd along its own subpath, pdf_rev from the other direction —
-// which the MIS weights (connect.glsl) turn into the ratios of Veach's technique densities.
+// which the MIS weights (connect.glsl) turn into the ratios of Veach's technique densities, and
+// a running sum of those ratios along its subpath (mis_acc) so that a weight costs O(1).
 // Conventions: densities are per unit area at the receiving vertex, except towards an infinite
 // light, where they are per unit solid angle; after an infinite light the first vertex's density
 // is planar (the bounding disk's 1/(πR²) times |cos|); specular vertices store 0 (pbrt's
@@ -31,7 +32,7 @@ struct Vertex {
     vec3 tangent; uint light;
     vec3 p_err; float pdf_fwd;
     vec3 wo; float pdf_rev;  // wo: unit direction towards the previous vertex of its own subpath
-    vec3 beta; float pad;
+    vec3 beta; float mis_acc; // mis_acc: the running sum of the MIS weights' unchanged terms (connect.glsl)
     vec2 uv;
 };
 
@@ -43,7 +44,7 @@ Vertex vertex_blank(uint kind) {
     Vertex v;
     v.p = vec3(0.0); v.kind = kind; v.ng = vec3(0.0); v.flags = 0u; v.ns = vec3(0.0);
     v.material = NONE; v.tangent = vec3(1.0, 0.0, 0.0); v.light = NONE; v.p_err = vec3(0.0);
-    v.pdf_fwd = 0.0; v.wo = vec3(0.0); v.pdf_rev = 0.0; v.beta = vec3(0.0); v.pad = 0.0; v.uv = vec2(0.0);
+    v.pdf_fwd = 0.0; v.wo = vec3(0.0); v.pdf_rev = 0.0; v.beta = vec3(0.0); v.mis_acc = 0.0; v.uv = vec2(0.0);
     return v;
 }
 

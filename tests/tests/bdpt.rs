@@ -343,38 +343,42 @@ fn each_strategy_alone_is_unbiased() {
 }
 
 /// The MIS-weighted strategies of one path length add up to the full image of that length, to
-/// rounding: same seed, same subpaths, only the bookkeeping differs.
+/// rounding: same seed, same subpaths, only the bookkeeping differs. k = 5 exercises the running
+/// sums of both subpaths (connect.glsl: strategies moving the join three or more vertices).
 #[test]
 fn weighted_strategies_add_up_to_the_full_image() {
     let scene = load("cornell.json");
     let fixed = r#""fixed_point_splats":true"#;
     let img = |json: String| render_with(&scene, &json, 8, (W, W), 7).0;
-    let full = combine(
-        &img(format!(r#"{{"type":"bdpt","max_depth":3,{fixed}}}"#)),
-        &img(format!(r#"{{"type":"bdpt","max_depth":2,{fixed}}}"#)),
-        1.0,
-        -1.0,
-    );
-    let mut sum = Image::new(W, W);
-    for t in 1..=4 {
-        let s = 4 - t;
-        let json = format!(r#"{{"type":"bdpt","max_depth":3,"strategy":[{s},{t}],{fixed}}}"#);
-        let part = img(json);
-        println!("strategy ({s},{t}) weighted: mean {:.5?}", part.mean());
-        sum = combine(&sum, &part, 1.0, 1.0);
+    for k in [3, 5] {
+        let full = combine(
+            &img(format!(r#"{{"type":"bdpt","max_depth":{k},{fixed}}}"#)),
+            &img(format!(r#"{{"type":"bdpt","max_depth":{},{fixed}}}"#, k - 1)),
+            1.0,
+            -1.0,
+        );
+        let mut sum = Image::new(W, W);
+        for t in 1..=k + 1 {
+            let s = k + 1 - t;
+            let json = format!(r#"{{"type":"bdpt","max_depth":{k},"strategy":[{s},{t}],{fixed}}}"#);
+            let part = img(json);
+            println!("strategy ({s},{t}) weighted: mean {:.5?}", part.mean());
+            sum = combine(&sum, &part, 1.0, 1.0);
+        }
+        let worst = sum
+            .pixels
+            .iter()
+            .zip(&full.pixels)
+            .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs() / (b[c].abs() + 1e-3)))
+            .fold(0f32, f32::max);
+        println!(
+            "k = {k}: sum of weighted strategies {:.5?} vs full {:.5?}, worst pixel difference {worst:.2e}",
+            sum.mean(),
+            full.mean()
+        );
+        assert!(full.mean()[0] > 0.0, "k = {k}: no light at this length");
+        assert!(worst < 1e-4, "k = {k}: weighted strategies do not add up: {worst}");
     }
-    let worst = sum
-        .pixels
-        .iter()
-        .zip(&full.pixels)
-        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs() / (b[c].abs() + 1e-3)))
-        .fold(0f32, f32::max);
-    println!(
-        "k = 3: sum of weighted strategies {:.5?} vs full {:.5?}, worst pixel difference {worst:.2e}",
-        sum.mean(),
-        full.mean()
-    );
-    assert!(worst < 1e-4, "weighted strategies do not add up: {worst}");
 }
 
 /// A white diffuse sphere under constant radiance 1 is exactly 1: environment emission through
