@@ -153,7 +153,7 @@ vec3 connect_st(int s, int t, vec4 u, inout uint rays, out vec2 film, inout MisI
     LightSample ls;
     if (s == 1) {
         // A fresh light point, chosen from camera vertex t−1 as NEE does.
-        if (!sample_light(p_end.p, u.xyz, ls) || !any(greaterThan(ls.L, vec3(0.0)))) return vec3(0.0);
+        if (!sample_light(p_end.p, p_end.ns, u.xyz, ls) || !any(greaterThan(ls.L, vec3(0.0)))) return vec3(0.0);
         uint li = ls.li;
         bool infinite = isinf(ls.dist);
         q_end = vertex_blank(infinite ? VTX_INF : VTX_LIGHT);

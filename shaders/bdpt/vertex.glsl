@@ -109,7 +109,7 @@ float pdf_light(Vertex l, Vertex to) {
 float env_pdf_emit(vec3 d) {
     uint li = g.env.x;
     if (li == NONE) return 0.0;
-    float nee_pick = light_pick_pmf(li, vec3(0.0));
+    float nee_pick = light_pick_pmf(li, vec3(0.0), vec3(0.0));
     return nee_pick > 0.0 ? env_pdf(d) / nee_pick * lights[li].pick_pdf : 0.0;
 }
 
@@ -140,13 +140,13 @@ float nee_density_ratio(Vertex x0, Vertex x1) {
     uint li = x0.light != NONE ? x0.light : (x0.kind == VTX_INF ? g.env.x : NONE);
     if (li == NONE) return 1.0;
     GpuLight l = lights[li];
-    float r = light_pick_pmf(li, x1.p) / l.pick_pdf;
+    float r = light_pick_pmf(li, x1.p, x1.ns) / l.pick_pdf;
     if (x0.kind != VTX_INF && l.kind == LIGHT_SPHERE) {
         vec3 w = x0.p - x1.p;
         float d2 = dot(w, w);
         float cosl = abs(dot(x0.ng, w)) * inversesqrt(max(d2, 1e-38));
         // light_pdf_hit includes NEE's pick probability, and pemit = pick / area.
-        r = light_pdf_hit(li, x1.p, x0.p, x0.ng) * cosl / d2 * light_area(l) / l.pick_pdf;
+        r = light_pdf_hit(li, x1.p, x1.ns, x0.p, x0.ng) * cosl / d2 * light_area(l) / l.pick_pdf;
     }
     return (r > 0.0 && !isinf(r) && !isnan(r)) ? r : 1.0;
 }

@@ -38,10 +38,10 @@ uint pick_light(float u) {
     return (x - float(i)) < a.prob ? i : a.alias;
 }
 
-// The probability that NEE at p_ref picks light li.
-float light_pick_pmf(uint li, vec3 p_ref) {
+// The probability that NEE at p_ref (shading normal n_ref, or 0) picks light li.
+float light_pick_pmf(uint li, vec3 p_ref, vec3 n_ref) {
 #ifdef LIGHT_SAMPLER_BVH
-    return light_bvh_pmf(li, p_ref);
+    return light_bvh_pmf(li, p_ref, n_ref);
 #else
     return lights[li].pick_pdf;
 #endif
@@ -108,17 +108,17 @@ float sphere_light_pdf(GpuLight l, vec3 p_ref, vec3 pl, vec3 nl) {
     return 1.0 / (2.0 * PI * one_minus_cos);
 }
 
-// Solid-angle pdf (× pick probability) that NEE at p_ref would have chosen the point hit on
-// light `li` at position pl with front normal nl.
-float light_pdf_hit(uint li, vec3 p_ref, vec3 pl, vec3 nl) {
+// Solid-angle pdf (× pick probability) that NEE at p_ref (shading normal n_ref) would have
+// chosen the point hit on light `li` at position pl with front normal nl.
+float light_pdf_hit(uint li, vec3 p_ref, vec3 n_ref, vec3 pl, vec3 nl) {
     GpuLight l = lights[li];
     if (l.kind == LIGHT_TRIANGLE) {
         vec3 w = pl - p_ref;
         float dist2 = dot(w, w);
         float cosl = abs(dot(nl, w)) * inversesqrt(max(dist2, 1e-38));
-        return cosl > 0.0 ? light_pick_pmf(li, p_ref) * dist2 / (cosl * l.p0.w) : 0.0;
+        return cosl > 0.0 ? light_pick_pmf(li, p_ref, n_ref) * dist2 / (cosl * l.p0.w) : 0.0;
     }
-    if (l.kind == LIGHT_SPHERE) return light_pick_pmf(li, p_ref) * sphere_light_pdf(l, p_ref, pl, nl);
+    if (l.kind == LIGHT_SPHERE) return light_pick_pmf(li, p_ref, n_ref) * sphere_light_pdf(l, p_ref, pl, nl);
     return 0.0;
 }
 
@@ -127,20 +127,22 @@ float env_pdf(vec3 d) {
     uint li = g.env.x;
     if (li == NONE) return 0.0;
     GpuLight l = lights[li];
-    float pick = light_pick_pmf(li, vec3(0.0)); // (infinite lights: the same from everywhere)
+    float pick = light_pick_pmf(li, vec3(0.0), vec3(0.0)); // (infinite lights: the same from everywhere)
 #ifdef HAS_ENV_MAP
     if (l.kind == LIGHT_ENV_MAP) return pick * env_map_pdf(d);
 #endif
     return pick * INV_4PI;
 }
 
-bool sample_light(vec3 p_ref, vec3 u, out LightSample ls) {
+// NEE's light sample from p_ref (shading normal n_ref, or 0 where there is none; only the light
+// BVH's pick uses it).
+bool sample_light(vec3 p_ref, vec3 n_ref, vec3 u, out LightSample ls) {
     ls.wi = vec3(0.0, 0.0, 1.0); ls.dist = 0.0; ls.p = vec3(0.0); ls.L = vec3(0.0); ls.pdf = 0.0; ls.delta = false; ls.li = NONE;
     if (g.film.w == 0u) return false;
 #ifdef LIGHT_SAMPLER_BVH
     uint li;
     float pick;
-    if (!light_bvh_pick(p_ref, u.x, li, pick)) return false;
+    if (!light_bvh_pick(p_ref, n_ref, u.x, li, pick)) return false;
 #else
     uint li = pick_light(u.x);
     float pick = lights[li].pick_pdf;

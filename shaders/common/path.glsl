@@ -43,6 +43,7 @@ vec3 trace_path(uvec2 px, inout Rng rng, inout uint rays) {
     float prev_pdf = 1.0;     // BSDF pdf of the direction that led here
     bool prev_delta = true;   // ... and whether it was a delta lobe
     vec3 prev_p = ray.o;      // where that direction started (for light pdfs)
+    vec3 prev_n = vec3(0.0);  // ... and its shading normal (the light BVH's receiver term)
     for (int depth = 0;; ++depth) {
         // Step 2: find the next vertex; escaping rays see the environment.
         Hit hit;
@@ -67,7 +68,7 @@ vec3 trace_path(uvec2 px, inout Rng rng, inout uint rays) {
         if (s.light != NONE && dot(wo_world, s.ng) > 0.0) {
             float w = 1.0;
 #if INTEGRATOR_NEE
-            if (!prev_delta) w = power_heuristic(prev_pdf, light_pdf_hit(s.light, prev_p, s.p, s.ng));
+            if (!prev_delta) w = power_heuristic(prev_pdf, light_pdf_hit(s.light, prev_p, prev_n, s.p, s.ng));
 #endif
             L += beta * w * gm.emission.rgb;
         }
@@ -84,7 +85,7 @@ vec3 trace_path(uvec2 px, inout Rng rng, inout uint rays) {
         vec3 ul = rng_next3(rng);
         if (!bsdf_is_delta(m)) {
             LightSample ls;
-            if (sample_light(s.p, ul, ls) && any(greaterThan(ls.L, vec3(0.0)))) {
+            if (sample_light(s.p, s.ns, ul, ls) && any(greaterThan(ls.L, vec3(0.0)))) {
                 vec3 wi = to_local(ls.wi, s.tangent, bt, s.ns);
                 vec3 f = bsdf_eval(m, wo, wi, TRANSPORT_RADIANCE);
                 if (any(greaterThan(f, vec3(0.0)))) {
@@ -106,6 +107,7 @@ vec3 trace_path(uvec2 px, inout Rng rng, inout uint rays) {
         prev_pdf = bs.pdf;
         prev_delta = (bs.flags & BSDF_DELTA) != 0u;
         prev_p = s.p;
+        prev_n = s.ns;
         if ((bs.flags & BSDF_TRANSMISSION) != 0u) eta_scale *= sqr(bs.eta);
         ray = spawn_ray(s, from_local(bs.wi, s.tangent, bt, s.ns));
 

@@ -37,7 +37,7 @@ void main() {
     const vec3 R2 = vec3(0.8191725133961645, 0.6710436067037893, 0.5497004779019703);
     for (uint i = 0u; i < K; ++i) {
         LightSample ls;
-        if (!sample_light(vx.p, fract(shift + float(i) * R2), ls)) continue;
+        if (!sample_light(vx.p, vx.n, fract(shift + float(i) * R2), ls)) continue;
         float c = dot(vx.n, ls.wi);
         float cosw = vx.two_sided ? abs(c) : max(c, 0.0);
         if (degenerate) cosw = 0.5; // normals cancel: the average over both sides

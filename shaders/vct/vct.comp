@@ -96,7 +96,7 @@ vec3 shade(uvec2 px, inout Rng rng, inout uint rays) {
     vec3 ul = rng_next3(rng);
     if (!bsdf_is_delta(m)) {
         LightSample ls;
-        if (sample_light(s.p, ul, ls) && any(greaterThan(ls.L, vec3(0.0)))) {
+        if (sample_light(s.p, s.ns, ul, ls) && any(greaterThan(ls.L, vec3(0.0)))) {
             vec3 wi = to_local(ls.wi, s.tangent, bt, s.ns);
             vec3 f = bsdf_eval(m, wo, wi, TRANSPORT_RADIANCE);
             float vis;
@@ -122,7 +122,7 @@ vec3 shade(uvec2 px, inout Rng rng, inout uint rays) {
         } else {
             Surface s2 = surface_at(h2, r2);
             if (s2.light != NONE && dot(-wi_world, s2.ng) > 0.0) {
-                float w = delta ? 1.0 : power_heuristic(bs.pdf, light_pdf_hit(s2.light, s.p, s2.p, s2.ng));
+                float w = delta ? 1.0 : power_heuristic(bs.pdf, light_pdf_hit(s2.light, s.p, s.ns, s2.p, s2.ng));
                 L += bs.weight * materials[s2.material].emission.rgb * w;
             }
         }

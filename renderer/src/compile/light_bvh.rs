@@ -4,7 +4,9 @@
 //! Tree Splitting"; pbrt-v4's `BVHLightSampler`). From a shading point p a light is picked by
 //! descending the tree, choosing each child with probability ∝ its importance, an upper bound of
 //! the light it can send towards p: power · (cosine of the smallest angle between its emission
-//! cone and p) / distance². The pick's probability is the product of the choices; the GPU finds
+//! cone and p) / distance² · (the receiver's |cosine|: at p's shading normal n, towards the
+//! nearest direction of the node's bounding sphere; either side, as a BSDF may transmit). The
+//! pick's probability is the product of the choices; the GPU finds
 //! it again for MIS from the light's path in the tree (its "bit trail"). Infinite lights
 //! (directional, environment) are picked first, with the share of the total power they have in
 //! the power sampler, uniformly among them. (pbrt-v4 picks them with probability
@@ -12,8 +14,9 @@
 //! power sampler's noise on tests/tests/light_sampler.rs's scene.)
 //!
 //! This module is the reference implementation (build, importance, sampling, pmf), mirrored in
-//! shaders/common/light_bvh.glsl. The receiver's normal is not used (the GPU's MIS lookups know
-//! only the shading point), so the importance bounds the light arriving at p from any side.
+//! shaders/common/light_bvh.glsl. Every pick and every MIS lookup passes the same (p, n): the
+//! shading point and its shading normal; n = 0 (no receiver term) where there is no surface
+//! normal (e.g. vct's voxels).
 
 use glam::DVec3;
 
@@ -108,9 +111,9 @@ impl LightBounds {
         0.5 * (self.min + self.max)
     }
 
-    /// An upper bound of the light these bounds can send to point `p` (pbrt-v4
-    /// `LightBounds::Importance` without the receiver's cosine).
-    pub fn importance(&self, p: DVec3) -> f64 {
+    /// An upper bound of the light these bounds can send to point `p` with unit shading
+    /// normal `n` (zero: no receiver term), pbrt-v4's `LightBounds::Importance`.
+    pub fn importance(&self, p: DVec3, n: DVec3) -> f64 {
         // Step 1: the distance to the centre, at least half the diagonal.
         let pc = self.centroid();
         let half_diag = 0.5 * (self.max - self.min).length();
@@ -134,7 +137,14 @@ impl LightBounds {
         if cos_p <= self.cos_theta_e {
             return 0.0;
         }
-        (self.phi * cos_p / d2).max(0.0)
+        // Step 4: the receiver's |cosine| at its smallest angle to the bounding sphere.
+        let cos_r = if wi == DVec3::ZERO || n == DVec3::ZERO {
+            1.0
+        } else {
+            let cos_i = n.dot(wi).abs();
+            cos_sub_clamped(safe_sqrt(1.0 - cos_i * cos_i), cos_i, sin_b, cos_b)
+        };
+        (self.phi * cos_p * cos_r / d2).max(0.0)
     }
 }
 
@@ -320,17 +330,18 @@ impl LightBvh {
 
     /// The probability of choosing the first child of inner node `i` from `p` (None: neither
     /// child can reach p).
-    fn p_first(&self, i: usize, p: DVec3) -> Option<f64> {
-        let c0 = self.nodes[i + 1].bounds.importance(p);
+    fn p_first(&self, i: usize, p: DVec3, n: DVec3) -> Option<f64> {
+        let c0 = self.nodes[i + 1].bounds.importance(p, n);
         let c1 = self.nodes[self.nodes[i].index as usize]
             .bounds
-            .importance(p);
+            .importance(p, n);
         (c0 + c1 > 0.0).then(|| c0 / (c0 + c1))
     }
 
-    /// Picks a light from `p` with `u` ∈ [0, 1): (light, probability); None when none can
-    /// reach p.
-    pub fn sample(&self, p: DVec3, mut u: f64) -> Option<(u32, f64)> {
+    /// Picks a light from `p` (shading normal `n`, or zero) with `u` ∈ [0, 1): (light,
+    /// probability); None when none can reach p.
+    pub fn sample(&self, p: DVec3, n: DVec3, mut u: f64) -> Option<(u32, f64)> {
+        let n = n.normalize_or_zero();
         // Step 1: an infinite light, or the tree.
         let p_inf = self.p_infinite();
         if u < p_inf {
@@ -348,9 +359,9 @@ impl LightBvh {
         loop {
             let node = &self.nodes[i];
             if node.leaf {
-                return (node.bounds.importance(p) > 0.0).then_some((node.index, pmf));
+                return (node.bounds.importance(p, n) > 0.0).then_some((node.index, pmf));
             }
-            let p0 = self.p_first(i, p)?;
+            let p0 = self.p_first(i, p, n)?;
             if u < p0 {
                 u = (u / p0).min(1.0 - f64::EPSILON);
                 pmf *= p0;
@@ -363,8 +374,10 @@ impl LightBvh {
         }
     }
 
-    /// The probability that [`Self::sample`] from `p` picks `light` (following its bit trail).
-    pub fn pmf(&self, p: DVec3, light: u32) -> f64 {
+    /// The probability that [`Self::sample`] from `p` (shading normal `n`) picks `light`
+    /// (following its bit trail).
+    pub fn pmf(&self, p: DVec3, n: DVec3, light: u32) -> f64 {
+        let n = n.normalize_or_zero();
         let p_inf = self.p_infinite();
         if self.infinite.contains(&light) {
             return p_inf / self.infinite.len() as f64;
@@ -376,7 +389,7 @@ impl LightBvh {
         let mut i = 0usize;
         let mut depth = 0;
         while !self.nodes[i].leaf {
-            let Some(p0) = self.p_first(i, p) else {
+            let Some(p0) = self.p_first(i, p, n) else {
                 return 0.0;
             };
             if trail & (1 << depth) == 0 {
@@ -388,7 +401,7 @@ impl LightBvh {
             }
             depth += 1;
         }
-        if self.nodes[i].bounds.importance(p) > 0.0 {
+        if self.nodes[i].bounds.importance(p, n) > 0.0 {
             pmf
         } else {
             0.0
@@ -461,38 +474,41 @@ mod tests {
         (b.lights, b.power)
     }
 
-    fn points() -> Vec<DVec3> {
+    /// Shading points and their normals (zero: no receiver term).
+    fn points() -> Vec<(DVec3, DVec3)> {
         vec![
-            DVec3::new(0.0, 0.0, 0.0),
-            DVec3::new(3.5, 1.9, -2.5),
-            DVec3::new(-4.0, 2.05, 3.0),
-            DVec3::new(0.1, 10.0, 0.2),
-            DVec3::new(-2.0, 2.9, 0.0),
+            (DVec3::new(0.0, 0.0, 0.0), DVec3::ZERO),
+            (DVec3::new(0.0, 0.0, 0.0), DVec3::Y),
+            (DVec3::new(3.5, 1.9, -2.5), DVec3::new(1.0, 2.0, -0.5).normalize()),
+            (DVec3::new(-4.0, 2.05, 3.0), DVec3::X),
+            (DVec3::new(0.1, 10.0, 0.2), DVec3::ZERO),
+            (DVec3::new(0.1, 10.0, 0.2), -DVec3::Y),
+            (DVec3::new(-2.0, 2.9, 0.0), DVec3::Z),
         ]
     }
 
     /// The probability that sampling from `p` ends without a light: at an inner node whose
     /// children both have importance 0, or at a leaf of importance 0 (its bounds are tighter
     /// than its ancestors'); such lights cannot light p.
-    fn dead_end_mass(bvh: &LightBvh, p: DVec3) -> f64 {
-        fn walk(bvh: &LightBvh, i: usize, p: DVec3, mass: f64) -> f64 {
+    fn dead_end_mass(bvh: &LightBvh, p: DVec3, n: DVec3) -> f64 {
+        fn walk(bvh: &LightBvh, i: usize, p: DVec3, n: DVec3, mass: f64) -> f64 {
             let node = &bvh.nodes[i];
             if node.leaf {
-                return if node.bounds.importance(p) > 0.0 {
+                return if node.bounds.importance(p, n) > 0.0 {
                     0.0
                 } else {
                     mass
                 };
             }
-            match bvh.p_first(i, p) {
+            match bvh.p_first(i, p, n) {
                 None => mass,
                 Some(p0) => {
-                    walk(bvh, i + 1, p, mass * p0)
-                        + walk(bvh, node.index as usize, p, mass * (1.0 - p0))
+                    walk(bvh, i + 1, p, n, mass * p0)
+                        + walk(bvh, node.index as usize, p, n, mass * (1.0 - p0))
                 }
             }
         }
-        walk(bvh, 0, p, 1.0 - bvh.p_infinite())
+        walk(bvh, 0, p, n, 1.0 - bvh.p_infinite())
     }
 
     #[test]
@@ -501,10 +517,10 @@ mod tests {
         let bvh = LightBvh::build(&lights, &power);
         assert_eq!(bvh.infinite.len(), 1);
         assert!(bvh.trails.iter().filter(|t| t.is_some()).count() == lights.len() - 1);
-        for p in points() {
+        for (p, n) in points() {
             // Σ pmf over lights plus the mass of samples that end without a light is 1.
-            let total: f64 = (0..lights.len() as u32).map(|l| bvh.pmf(p, l)).sum();
-            let dead = dead_end_mass(&bvh, p);
+            let total: f64 = (0..lights.len() as u32).map(|l| bvh.pmf(p, n, l)).sum();
+            let dead = dead_end_mass(&bvh, p, n);
             println!("{p}: Σ pmf {total:.6}, no light {dead:.6}");
             assert!(
                 (total + dead - 1.0).abs() < 1e-9,
@@ -513,16 +529,16 @@ mod tests {
             // Every light that can send light to p (its own importance) can be picked.
             for (l, t) in bvh.trails.iter().enumerate() {
                 if let Some((leaf, _)) = t {
-                    if bvh.nodes[*leaf as usize].bounds.importance(p) > 0.0 && dead == 0.0 {
-                        assert!(bvh.pmf(p, l as u32) > 0.0, "{p}: light {l}");
+                    if bvh.nodes[*leaf as usize].bounds.importance(p, n) > 0.0 && dead == 0.0 {
+                        assert!(bvh.pmf(p, n, l as u32) > 0.0, "{p}: light {l}");
                     }
                 }
             }
             for k in 0..200 {
                 let u = (k as f64 + 0.5) / 200.0;
-                if let Some((l, pmf)) = bvh.sample(p, u) {
+                if let Some((l, pmf)) = bvh.sample(p, n, u) {
                     assert!(
-                        (pmf - bvh.pmf(p, l)).abs() < 1e-12 * pmf.max(1.0),
+                        (pmf - bvh.pmf(p, n, l)).abs() < 1e-12 * pmf.max(1.0),
                         "{p} {l}"
                     );
                 }
@@ -536,7 +552,7 @@ mod tests {
         let bvh = LightBvh::build(&lights, &power);
         let n = 200_000usize;
         let mut state = 0x2545_f491_4f6c_dd1du64;
-        for p in points() {
+        for (p, nrm) in points() {
             // counts[lights.len()]: samples that ended without a light.
             let mut counts = vec![0usize; lights.len() + 1];
             for _ in 0..n {
@@ -544,7 +560,7 @@ mod tests {
                 state ^= state >> 7;
                 state ^= state << 17;
                 let u = (state >> 11) as f64 / (1u64 << 53) as f64;
-                match bvh.sample(p, u) {
+                match bvh.sample(p, nrm, u) {
                     Some((l, _)) => counts[l as usize] += 1,
                     None => counts[lights.len()] += 1,
                 }
@@ -554,9 +570,9 @@ mod tests {
             let mut dof = 0usize;
             for (l, &c) in counts.iter().enumerate() {
                 let prob = if l < lights.len() {
-                    bvh.pmf(p, l as u32)
+                    bvh.pmf(p, nrm, l as u32)
                 } else {
-                    dead_end_mass(&bvh, p)
+                    dead_end_mass(&bvh, p, nrm)
                 };
                 let e = prob * n as f64;
                 if e >= 5.0 {
@@ -591,13 +607,35 @@ mod tests {
         b.triangle(2, [f, f + DVec3::X * 0.1, f + DVec3::Z * 0.1], Vec3::ONE);
         let bvh = LightBvh::build(&b.lights, &b.power);
         let p = DVec3::ZERO;
-        assert_eq!(bvh.pmf(p, 1), 0.0);
-        assert!(
-            bvh.pmf(p, 0) > 10.0 * bvh.pmf(p, 2),
-            "{} {}",
-            bvh.pmf(p, 0),
-            bvh.pmf(p, 2)
-        );
+        for n in [DVec3::ZERO, DVec3::Y] {
+            assert_eq!(bvh.pmf(p, n, 1), 0.0);
+            assert!(
+                bvh.pmf(p, n, 0) > 10.0 * bvh.pmf(p, n, 2),
+                "{} {}",
+                bvh.pmf(p, n, 0),
+                bvh.pmf(p, n, 2)
+            );
+        }
+    }
+
+    #[test]
+    fn lights_at_grazing_angles_to_the_receiver_are_picked_less() {
+        // Two equal point lights as far from p: one straight above its normal, one nearly in
+        // its tangent plane. Without a normal they are picked alike; with it, the grazing one
+        // about as much less as its cosine (the point's sphere is tiny), on either side.
+        let mut b = LightBuilder::new();
+        b.point(DVec3::new(0.0, 4.0, 0.0), Vec3::ONE);
+        b.point(DVec3::new((16.0f64 - 0.04).sqrt(), 0.2, 0.0), Vec3::ONE);
+        let bvh = LightBvh::build(&b.lights, &b.power);
+        let p = DVec3::ZERO;
+        let ratio = |n: DVec3| bvh.pmf(p, n, 1) / bvh.pmf(p, n, 0);
+        assert!((ratio(DVec3::ZERO) - 1.0).abs() < 1e-6, "{}", ratio(DVec3::ZERO));
+        let cos = 0.2 / 4.0;
+        for n in [DVec3::Y, -DVec3::Y, DVec3::Y * 3.0] {
+            let r = ratio(n);
+            assert!((r - cos).abs() < 0.02 * cos, "{n}: ratio {r}, cosine {cos}");
+            assert!((bvh.pmf(p, n, 0) + bvh.pmf(p, n, 1) - 1.0).abs() < 1e-12);
+        }
     }
 
     #[test]
