@@ -15,6 +15,7 @@
 #     (--until-rel-mse 0.01, capped at 60 s) with the true relMSE it reached, and a time ladder
 #     (0.1, 0.3, 1, 3 s) against a 60 s (ML_REF_TIME) BVH-sampler reference, from which the time to a true
 #     relMSE of 0.01 is interpolated (relMSE ∝ 1/time between the two rungs around it).
+#     ML_UNTIL=0 skips the --until-rel-mse renders (the ladder only).
 # PARTS (default "lights estimate auto big") picks the parts. Writes OUT/*.jsonl; prints tables.
 # DRY=1: a quick run on any Vulkan device (lavapipe) before the GPU: no driver setup, the
 # binary target/debug/candela, 32x18 pixels and seconds-long budgets; the same scenes.
@@ -99,12 +100,14 @@ if has meshlights; then
     "$bin" render $scene -o /tmp/mlm_ref.exr --integrator nee --light-sampler bvh --max-depth 2 \
       $ML_REF $R > /dev/null || exit 1
     for s in power bvh; do
-      # The time to an estimated relMSE of 0.01, and the true relMSE there.
-      "$bin" render $scene -o /tmp/mlm.exr --integrator nee --light-sampler $s --max-depth 2 \
-        --warmup $ML_WARM --until-rel-mse 0.01 --time $ML_CAP $R --json > /tmp/row.json || exit 1
-      rel=$(true_rel /tmp/mlm.exr /tmp/mlm_ref.exr)
-      tag "{'scene_lights': '$sc', 'sampler': '$s', 'mode': 'until', 'true_rel_mse': $rel}" \
-        < /tmp/row.json >> "$out/meshlights.jsonl"
+      # The time to an estimated relMSE of 0.01, and the true relMSE there (ML_UNTIL=0: skip).
+      if [ "${ML_UNTIL:-1}" = 1 ]; then
+        "$bin" render $scene -o /tmp/mlm.exr --integrator nee --light-sampler $s --max-depth 2 \
+          --warmup $ML_WARM --until-rel-mse 0.01 --time $ML_CAP $R --json > /tmp/row.json || exit 1
+        rel=$(true_rel /tmp/mlm.exr /tmp/mlm_ref.exr)
+        tag "{'scene_lights': '$sc', 'sampler': '$s', 'mode': 'until', 'true_rel_mse': $rel}" \
+          < /tmp/row.json >> "$out/meshlights.jsonl"
+      fi
       # The ladder: fixed times, true relMSE against the reference.
       for t in $ML_LADDER; do
         "$bin" render $scene -o /tmp/mlm.exr --integrator nee --light-sampler $s --max-depth 2 \

@@ -34,7 +34,7 @@ pub struct LightBounds {
     pub cos_theta_e: f64,
 }
 
-/// Most levels of the tree (bit trails are 32-bit; the median split keeps it near log2 n).
+/// Most levels of the tree (bit trails are 32-bit; light_split.rs keeps every leaf within it).
 pub const MAX_DEPTH: usize = 31;
 
 /// Node flag: a leaf (its `index` is a light).
@@ -233,8 +233,8 @@ pub struct Node {
 }
 
 impl LightBvh {
-    /// Builds the tree over `lights` with their powers (`LightBuilder`'s), splitting at the
-    /// median of the longest centroid axis.
+    /// Builds the tree over `lights` with their powers (`LightBuilder`'s), split by the surface
+    /// area orientation heuristic (light_split.rs).
     pub fn build(lights: &[GpuLight], power: &[f64]) -> LightBvh {
         let mut bvh = LightBvh {
             trails: vec![None; lights.len()],
@@ -280,8 +280,8 @@ impl LightBvh {
     ) -> LightBounds {
         let at = self.nodes.len();
         if items.len() == 1 || depth >= MAX_DEPTH {
-            // (At the depth limit, which the median split reaches only past 2³¹ lights, the
-            // remaining lights would be lost; a Vec of that size cannot exist here.)
+            // (At the depth limit, which the split reaches only past 2³¹ lights, the remaining
+            // lights would be lost; a Vec of that size cannot exist here.)
             let (li, b) = items[0];
             self.nodes.push(Node {
                 bounds: b,
@@ -291,23 +291,8 @@ impl LightBvh {
             self.trails[li as usize] = Some((at as u32, trail));
             return b;
         }
-        // Step 1: split at the median along the longest axis of the centroids.
-        let (cmin, cmax) = items.iter().fold(
-            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |(lo, hi), (_, b)| (lo.min(b.centroid()), hi.max(b.centroid())),
-        );
-        let ext = cmax - cmin;
-        let axis = if ext.x >= ext.y && ext.x >= ext.z {
-            0
-        } else if ext.y >= ext.z {
-            1
-        } else {
-            2
-        };
-        let mid = items.len() / 2;
-        items.select_nth_unstable_by(mid, |a, b| {
-            a.1.centroid()[axis].total_cmp(&b.1.centroid()[axis])
-        });
+        // Step 1: where to split (light_split.rs: SAOH, else the median).
+        let mid = super::light_split::split(items, depth);
         // Step 2: the children (first right after this node), then this node's union.
         self.nodes.push(Node {
             bounds: items[0].1,

@@ -16,6 +16,7 @@ mod features;
 mod frame;
 mod instances;
 pub mod light_bvh;
+mod light_split;
 mod lights;
 mod materials;
 mod prims;
