@@ -15,6 +15,8 @@
 layout(set = 0, binding = B_LIGHT_BVH, scalar) readonly buffer LightBvh { GpuLightNode light_nodes[]; };
 
 const float LBVH_ONE_MINUS_EPS = 0.99999994;
+// d² is at least (diagonal / 8)² (light_bvh.rs MIN_D2_SCALE).
+const float LBVH_MIN_D2_SCALE = 1.0 / 64.0;
 
 // cos(max(0, a − b)) and sin(max(0, a − b)) from the sines and cosines of a and b.
 float lbvh_cos_sub(float sin_a, float cos_a, float sin_b, float cos_b) {
@@ -26,13 +28,13 @@ float lbvh_sin_sub(float sin_a, float cos_a, float sin_b, float cos_b) {
 
 // The importance of node n at p with shading normal nrm (LightBounds::importance).
 float light_node_importance(GpuLightNode n, vec3 p, vec3 nrm) {
-    // Step 1: the distance to the centre, at least half the diagonal.
+    // Step 1: the distance to the centre, at least an eighth of the diagonal.
     vec3 bmin = n.min_phi.xyz, bmax = n.max_cos_o.xyz;
     vec3 pc = 0.5 * (bmin + bmax);
     vec3 diag = bmax - bmin;
     vec3 d = p - pc;
     float dd = dot(d, d);
-    float d2 = max(max(dd, 0.25 * dot(diag, diag)), 1e-12);
+    float d2 = max(max(dd, LBVH_MIN_D2_SCALE * dot(diag, diag)), 1e-12);
     // Step 2: the angle between the cone's axis and p, less the cone's spread and the angle
     // the box's bounding sphere subtends from p.
     float cos_w = dd > 0.0 ? dot(n.w_cos_e.xyz, d * inversesqrt(dd)) : 1.0;
