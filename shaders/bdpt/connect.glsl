@@ -137,11 +137,13 @@ vec3 connect_s0(int t, inout MisInputs mi) {
 
 // s ≥ 1, t ≥ 1: light vertex s−1 (for s = 1, a fresh light sample drawn as NEE draws it, with
 // u.xyz) joined to camera vertex t−1 (for t = 1, a fresh lens point, with u.zw). Returns the
-// unweighted contribution and sets the densities it changes; for t = 1 the contribution is
-// before the pixel filter and `film` says where it lands (the caller splats it). Both ends go
-// through one loop, so the BSDF code is inlined once.
-vec3 connect_st(int s, int t, vec4 u, inout uint rays, out vec2 film, inout MisInputs mi, out Vertex q) {
+// unweighted contribution before visibility, the shadow ray that decides it, and sets the
+// densities it changes (and, for s = 1, NEE's density ratio of the fresh point); for t = 1 the
+// contribution is before the pixel filter and `film` says where it lands (the caller splats
+// it). Both ends go through one loop, so the BSDF code is inlined once.
+vec3 connect_st(int s, int t, vec4 u, out vec2 film, inout MisInputs mi, out Ray shadow) {
     film = vec2(-1.0);
+    shadow.o = vec3(0.0); shadow.d = vec3(0.0, 0.0, 1.0); shadow.tmin = 0.0; shadow.tmax = 0.0;
     // Step 1: the two ends (q: light side, p: camera side). Plain variables, not arrays: arrays
     // of vertices indexed in the loop below would live in (slow) local memory.
     Vertex p_end = CAMV(t - 1);
@@ -227,8 +229,8 @@ vec3 connect_st(int s, int t, vec4 u, inout uint rays, out vec2 film, inout MisI
         L /= dot(d, d);
     }
     if (!any(greaterThan(L, vec3(0.0)))) return vec3(0.0);
-    // Step 4: visibility, from the camera end when it is a surface.
-    Ray shadow;
+    // Step 4: the shadow ray, from the camera end when it is a surface (traced by connect, once
+    // the weight is known).
     if (t == 1) {
         shadow = spawn_ray_to(vertex_surface(q_end), p_end.p);
     } else if (s == 1 && isinf(ls.dist)) {
@@ -236,13 +238,12 @@ vec3 connect_st(int s, int t, vec4 u, inout uint rays, out vec2 film, inout MisI
     } else {
         shadow = spawn_ray_to(vertex_surface(p_end), q_end.p);
     }
-    rays += 1u;
-    if (trace_any(shadow)) return vec3(0.0);
-    // Step 5: the densities this strategy changes.
-    q = q_end;
+    // Step 5: the densities this strategy changes; for s = 1, NEE's density of the fresh point
+    // given camera vertex t−1 (for t = 1 a lens point: ratio 1).
     if (s == 1) {
         mi.l0_fwd = pdf_light_origin(q_end);
         mi.l0_delta = ls.delta;
+        mi.nee_ratio = nee_density_ratio(q_end, p_end);
     }
     mi.pt_rev = q_rev_other;
     mi.qs_rev = p_rev_other;
@@ -261,18 +262,25 @@ MisInputs mis_inputs_of_sample(int nl) {
 }
 
 // Strategy (s, t): the unweighted contribution and its weight w (see connect_s0, connect_st);
-// mi: mis_inputs_of_sample's.
+// mi: mis_inputs_of_sample's. The shadow ray is traced last, when only the contribution and
+// the ray are still needed (fewer registers live across the traversal).
 vec3 connect(int s, int t, vec4 u, MisInputs mi, inout uint rays, out vec2 film, out float w) {
     w = 0.0;
     film = vec2(-1.0);
-    Vertex q;
-    vec3 L = s == 0 ? connect_s0(t, mi) : connect_st(s, t, u, rays, film, mi, q);
+    Ray shadow;
+    vec3 L = s == 0 ? connect_s0(t, mi) : connect_st(s, t, u, film, mi, shadow);
     if (!any(greaterThan(L, vec3(0.0)))) return vec3(0.0);
-    // NEE's density of x0 (the light end) given x1 (its neighbour), where they are not light
-    // vertices 0 and 1.
+    // NEE's density of x0 (the light end) given x1 (its neighbour), for s = 0 (s = 1: set by
+    // connect_st; s ≥ 2: light vertices 0 and 1, mis_inputs_of_sample's).
     if (s == 0) mi.nee_ratio = nee_density_ratio(CAMV(t - 1), CAMV(max(t - 2, 0)));
-    else if (s == 1) mi.nee_ratio = nee_density_ratio(q, CAMV(t - 1));
     w = mis_weight(s, t, mi);
+    if (s > 0) {
+        rays += 1u;
+        if (trace_any(shadow)) {
+            w = 0.0;
+            return vec3(0.0);
+        }
+    }
     return L;
 }
 
