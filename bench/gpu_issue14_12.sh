@@ -15,7 +15,9 @@
 #     (--until-rel-mse 0.01, capped at 60 s) with the true relMSE it reached, and a time ladder
 #     (0.1, 0.3, 1, 3 s) against a 60 s (ML_REF_TIME) BVH-sampler reference, from which the time to a true
 #     relMSE of 0.01 is interpolated (relMSE ∝ 1/time between the two rungs around it).
-#     ML_UNTIL=0 skips the --until-rel-mse renders (the ladder only).
+#     ML_UNTIL=0 skips the --until-rel-mse renders (the ladder only); ML_LAYOUT=panel makes the
+#     N triangles tile the single light's square instead of scattering them (make_mesh_lights.py
+#     --panel); rows carry "layout".
 # PARTS (default "lights estimate auto big") picks the parts. Writes OUT/*.jsonl; prints tables.
 # DRY=1: a quick run on any Vulkan device (lavapipe) before the GPU: no driver setup, the
 # binary target/debug/candela, 32x18 pixels and seconds-long budgets; the same scenes.
@@ -95,7 +97,7 @@ if has meshlights; then
     if [ $sc = single ]; then
       python3 bench/make_mesh_lights.py 1 $scene --single
     else
-      python3 bench/make_mesh_lights.py $sc $scene
+      python3 bench/make_mesh_lights.py $sc $scene ${ML_LAYOUT:+--$ML_LAYOUT}
     fi
     "$bin" render $scene -o /tmp/mlm_ref.exr --integrator nee --light-sampler bvh --max-depth 2 \
       $ML_REF $R > /dev/null || exit 1
@@ -105,7 +107,7 @@ if has meshlights; then
         "$bin" render $scene -o /tmp/mlm.exr --integrator nee --light-sampler $s --max-depth 2 \
           --warmup $ML_WARM --until-rel-mse 0.01 --time $ML_CAP $R --json > /tmp/row.json || exit 1
         rel=$(true_rel /tmp/mlm.exr /tmp/mlm_ref.exr)
-        tag "{'scene_lights': '$sc', 'sampler': '$s', 'mode': 'until', 'true_rel_mse': $rel}" \
+        tag "{'scene_lights': '$sc', 'sampler': '$s', 'mode': 'until', 'layout': '${ML_LAYOUT:-scattered}', 'true_rel_mse': $rel}" \
           < /tmp/row.json >> "$out/meshlights.jsonl"
       fi
       # The ladder: fixed times, true relMSE against the reference.
@@ -113,7 +115,7 @@ if has meshlights; then
         "$bin" render $scene -o /tmp/mlm.exr --integrator nee --light-sampler $s --max-depth 2 \
           --warmup $ML_WARM --time $t $R --json > /tmp/row.json || exit 1
         rel=$(true_rel /tmp/mlm.exr /tmp/mlm_ref.exr)
-        tag "{'scene_lights': '$sc', 'sampler': '$s', 'mode': 'ladder', 'true_rel_mse': $rel}" \
+        tag "{'scene_lights': '$sc', 'sampler': '$s', 'mode': 'ladder', 'layout': '${ML_LAYOUT:-scattered}', 'true_rel_mse': $rel}" \
           < /tmp/row.json >> "$out/meshlights.jsonl"
       done
     done

@@ -4,10 +4,13 @@ emissive triangle. A 20×20 m floor with a grid of boxes (occluders) under a lay
 triangles scattered at random over 18×18 m between heights 3 and 6 m, each facing down, of area
 --area/N and radiance --radiance: the total emitted power (radiance · π · total area) is the same
 for every N and for --single (one triangle of area --area at the centre, 4.5 m up, facing down).
-Deterministic for a given --seed. Python standard library only.
+With --panel the N triangles instead tile one square of area --area there (a tessellated area
+light: the same light as --single, split into N pieces; N even). Deterministic for a given
+--seed. Python standard library only.
 
-usage: python3 bench/make_mesh_lights.py N OUT.json [--single] [--area 4] [--radiance 20]
-                                         [--seed 1] [--width 1280 --height 720] [--spp 16]
+usage: python3 bench/make_mesh_lights.py N OUT.json [--single | --panel] [--area 4]
+                                         [--radiance 20] [--seed 1] [--width 1280 --height 720]
+                                         [--spp 16]
 """
 import argparse
 import json
@@ -30,7 +33,27 @@ def down_triangle(cx, y, cz, area, angle):
     return pts
 
 
-def scene(n, single, area, radiance, seed, width, height, spp):
+def panel_triangles(n, area, y):
+    """n (even) triangles tiling a square of `area` centred at (0, y, 0), facing down: rows × cols
+    cells of two triangles, rows the largest divisor of n/2 not above its square root."""
+    cells = n // 2
+    rows = max(r for r in range(1, int(math.isqrt(cells)) + 1) if cells % r == 0)
+    cols = cells // rows
+    side = math.sqrt(area)
+    dx, dz = side / cols, side / rows
+    tris = []
+    for r in range(rows):
+        for c in range(cols):
+            x0, z0 = -side / 2 + c * dx, -side / 2 + r * dz
+            a, b = [x0, y, z0], [x0 + dx, y, z0]
+            cc, d = [x0 + dx, y, z0 + dz], [x0, y, z0 + dz]
+            # (b − a) × (c − a) and (c − a) × (d − a) point along −y.
+            tris.append([a, b, cc])
+            tris.append([a, cc, d])
+    return tris
+
+
+def scene(n, single, panel, area, radiance, seed, width, height, spp):
     rnd = random.Random(seed)
     half = 10.0
     objects = [
@@ -47,6 +70,8 @@ def scene(n, single, area, radiance, seed, width, height, spp):
     indices = []
     if single:
         tris = [down_triangle(0.0, 4.5, 0.0, area, 0.0)]
+    elif panel:
+        tris = panel_triangles(n, area, 4.5)
     else:
         each = area / n
         tris = [down_triangle(rnd.uniform(-9, 9), rnd.uniform(3, 6), rnd.uniform(-9, 9), each,
@@ -77,6 +102,8 @@ def main():
     ap.add_argument("n", type=int, help="number of emissive triangles (>= 1; ignored with --single)")
     ap.add_argument("out", help="scene file to write")
     ap.add_argument("--single", action="store_true", help="one triangle with all the power")
+    ap.add_argument("--panel", action="store_true",
+                    help="the N triangles tile one square at the single light's place")
     ap.add_argument("--area", type=float, default=4.0, help="total emitting area, m²")
     ap.add_argument("--radiance", type=float, default=20.0)
     ap.add_argument("--seed", type=int, default=1)
@@ -86,10 +113,12 @@ def main():
     a = ap.parse_args()
     if a.n < 1:
         sys.exit("n: must be at least 1")
+    if a.panel and (a.single or a.n % 2):
+        sys.exit("--panel: needs an even n, and not --single")
     if not (a.area > 0 and a.radiance > 0):
         sys.exit("--area, --radiance: must be positive")
     with open(a.out, "w") as f:
-        json.dump(scene(a.n, a.single, a.area, a.radiance, a.seed, a.width, a.height, a.spp), f,
+        json.dump(scene(a.n, a.single, a.panel, a.area, a.radiance, a.seed, a.width, a.height, a.spp), f,
                   separators=(",", ":"))
 
 
