@@ -97,8 +97,9 @@ float mis_weight(int s, int t, MisInputs mi) {
         if (!delta && !vertex_is_delta(CAMV(i - 1))) sum_ri += mis_term(ri, s + t - i, s, mi.nee_ratio);
     }
     if (t >= 4) {
-        float x = mis_term(ri, 3, s, mi.nee_ratio);
-        if (x > 0.0) sum_ri += x * CAMV(t - 3).mis_acc;
+        // (Both factors checked: a product of 0 and inf is no term, as in the walk.)
+        float x = mis_term(ri, 3, s, mi.nee_ratio), acc = CAMV(t - 3).mis_acc;
+        if (x > 0.0 && acc > 0.0) sum_ri += x * acc;
     }
     // Step 2: hypothetical strategies with fewer light vertices (i = their s): i = s−1, s−2,
     // then every i ≤ s−3 at once (s ≥ 3 there, so the running sum holds the s = 1 correction).
@@ -113,8 +114,8 @@ float mis_weight(int s, int t, MisInputs mi) {
         if (!delta && !delta_light) sum_ri += mis_term(ri, i, s, mi.nee_ratio);
     }
     if (s >= 3) {
-        float x = mis_sq(ri);
-        if (x > 0.0) sum_ri += x * LGTV(s - 3).mis_acc;
+        float x = mis_sq(ri), acc = LGTV(s - 3).mis_acc;
+        if (x > 0.0 && acc > 0.0) sum_ri += x * acc;
     }
     return 1.0 / (1.0 + sum_ri);
 }
@@ -239,7 +240,7 @@ vec3 connect_st(int s, int t, vec4 u, out vec2 film, inout MisInputs mi, out Ray
         shadow = spawn_ray_to(vertex_surface(p_end), q_end.p);
     }
     // Step 5: the densities this strategy changes; for s = 1, NEE's density of the fresh point
-    // given camera vertex t−1 (for t = 1 a lens point: ratio 1).
+    // given camera vertex t−1 (p_end; (1, 1) is not a strategy).
     if (s == 1) {
         mi.l0_fwd = pdf_light_origin(q_end);
         mi.l0_delta = ls.delta;

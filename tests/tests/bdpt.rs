@@ -344,40 +344,57 @@ fn each_strategy_alone_is_unbiased() {
 
 /// The MIS-weighted strategies of one path length add up to the full image of that length, to
 /// rounding: same seed, same subpaths, only the bookkeeping differs. k = 5 exercises the running
-/// sums of both subpaths (connect.glsl: strategies moving the join three or more vertices).
+/// sums of both subpaths (connect.glsl: strategies moving the join three or more vertices), on
+/// the Cornell box (split design), mirror and glass (specular vertices; per-pixel design) and
+/// point, spot and directional lights (delta lights; uniform weights, `mis: false`).
 #[test]
 fn weighted_strategies_add_up_to_the_full_image() {
-    let scene = load("cornell.json");
-    let fixed = r#""fixed_point_splats":true"#;
-    let img = |json: String| render_with(&scene, &json, 8, (W, W), 7).0;
-    for k in [3, 5] {
+    for (name, extra, k) in [
+        ("cornell.json", "", 3),
+        ("cornell.json", "", 5),
+        ("mirror_glass.json", r#","design":"per_pixel""#, 5),
+        ("lights.json", r#","mis":false"#, 5),
+    ] {
+        let scene = load(name);
+        let opts = format!(r#""fixed_point_splats":true{extra}"#);
+        let img = |json: String| render_with(&scene, &json, 8, (W, W), 7).0;
+        let full_k = img(format!(r#"{{"type":"bdpt","max_depth":{k},{opts}}}"#));
         let full = combine(
-            &img(format!(r#"{{"type":"bdpt","max_depth":{k},{fixed}}}"#)),
-            &img(format!(r#"{{"type":"bdpt","max_depth":{},{fixed}}}"#, k - 1)),
+            &full_k,
+            &img(format!(r#"{{"type":"bdpt","max_depth":{},{opts}}}"#, k - 1)),
             1.0,
             -1.0,
         );
         let mut sum = Image::new(W, W);
         for t in 1..=k + 1 {
             let s = k + 1 - t;
-            let json = format!(r#"{{"type":"bdpt","max_depth":{k},"strategy":[{s},{t}],{fixed}}}"#);
+            let json = format!(r#"{{"type":"bdpt","max_depth":{k},"strategy":[{s},{t}],{opts}}}"#);
             let part = img(json);
-            println!("strategy ({s},{t}) weighted: mean {:.5?}", part.mean());
+            println!("{name}{extra} ({s},{t}) weighted: mean {:.5?}", part.mean());
             sum = combine(&sum, &part, 1.0, 1.0);
         }
-        let worst = sum
-            .pixels
-            .iter()
-            .zip(&full.pixels)
-            .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs() / (b[c].abs() + 1e-3)))
+        // Relative to the length-k image, plus a floor for dark pixels and one for the rounding
+        // of the difference of two bright images (lengths ≤ k and ≤ k − 1; an ulp of 5 is 5e-7).
+        let worst = (0..sum.pixels.len())
+            .flat_map(|i| (0..3).map(move |c| (i, c)))
+            .map(|(i, c)| {
+                let (a, b) = (sum.pixels[i][c], full.pixels[i][c]);
+                (a - b).abs() / (b.abs() + 1e-3 + 1e-2 * full_k.pixels[i][c].abs())
+            })
             .fold(0f32, f32::max);
         println!(
-            "k = {k}: sum of weighted strategies {:.5?} vs full {:.5?}, worst pixel difference {worst:.2e}",
+            "{name}{extra} k = {k}: sum of weighted strategies {:.5?} vs full {:.5?}, worst pixel difference {worst:.2e}",
             sum.mean(),
             full.mean()
         );
-        assert!(full.mean()[0] > 0.0, "k = {k}: no light at this length");
-        assert!(worst < 1e-4, "k = {k}: weighted strategies do not add up: {worst}");
+        assert!(
+            full.mean()[0] > 0.0,
+            "{name} k = {k}: no light at this length"
+        );
+        assert!(
+            worst < 1e-4,
+            "{name}{extra} k = {k}: weighted strategies do not add up: {worst}"
+        );
     }
 }
 

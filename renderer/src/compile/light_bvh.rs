@@ -475,7 +475,10 @@ mod tests {
         vec![
             (DVec3::new(0.0, 0.0, 0.0), DVec3::ZERO),
             (DVec3::new(0.0, 0.0, 0.0), DVec3::Y),
-            (DVec3::new(3.5, 1.9, -2.5), DVec3::new(1.0, 2.0, -0.5).normalize()),
+            (
+                DVec3::new(3.5, 1.9, -2.5),
+                DVec3::new(1.0, 2.0, -0.5).normalize(),
+            ),
             (DVec3::new(-4.0, 2.05, 3.0), DVec3::X),
             (DVec3::new(0.1, 10.0, 0.2), DVec3::ZERO),
             (DVec3::new(0.1, 10.0, 0.2), -DVec3::Y),
@@ -625,7 +628,11 @@ mod tests {
         let bvh = LightBvh::build(&b.lights, &b.power);
         let p = DVec3::ZERO;
         let ratio = |n: DVec3| bvh.pmf(p, n, 1) / bvh.pmf(p, n, 0);
-        assert!((ratio(DVec3::ZERO) - 1.0).abs() < 1e-6, "{}", ratio(DVec3::ZERO));
+        assert!(
+            (ratio(DVec3::ZERO) - 1.0).abs() < 1e-6,
+            "{}",
+            ratio(DVec3::ZERO)
+        );
         let cos = 0.2 / 4.0;
         for n in [DVec3::Y, -DVec3::Y, DVec3::Y * 3.0] {
             let r = ratio(n);

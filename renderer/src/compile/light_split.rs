@@ -4,8 +4,8 @@
 //! power · M_Ω (the solid angle the side's emission cone and spread can reach) · surface area ·
 //! Kr (the centroids' box: its longest extent over its extent along the axis, which discourages
 //! thin boxes).
-//! The cheapest split of the three axes wins; where none exists (every centroid in one bucket)
-//! or the tree could run out of depth (the bit trails hold MAX_DEPTH levels), the median along
+//! The cheapest split of the three axes wins; where none exists (every centroid in one bucket),
+//! where the best costs nothing (flat or powerless sides) or the tree could run out of depth (the bit trails hold MAX_DEPTH levels), the median along
 //! the longest axis is taken, which keeps what is left within log2 n levels.
 
 use glam::DVec3;
@@ -50,8 +50,10 @@ pub fn split(items: &mut [(u32, LightBounds)], depth: usize) -> usize {
     } else {
         2
     };
-    // Step 1: the SAOH split, while the depth left allows any split (after it, the larger side
-    // must still fit by medians: depth + 1 + ⌈log2(n − 1)⌉ ≤ MAX_DEPTH).
+    // Step 1: the SAOH split, while the depth left allows any split: after it, the larger side
+    // (at most n − 1 lights, at depth + 1) must still fit by medians. The test is
+    // bits(n − 1) = ⌊log2(n − 1)⌋ + 1 ≤ MAX_DEPTH − depth − 1, one level stricter than
+    // ⌈log2(n − 1)⌉ where n − 1 is a power of two.
     let levels_left = MAX_DEPTH.saturating_sub(depth + 1);
     let fits = (usize::BITS - (n - 1).leading_zeros()) as usize <= levels_left;
     let bucket_of = |b: &LightBounds, axis: usize| {
@@ -90,7 +92,9 @@ pub fn split(items: &mut [(u32, LightBounds)], depth: usize) -> usize {
             }
         }
     }
-    if let Some((_, axis, k)) = best {
+    // A best cost of 0 (every side flat or powerless: e.g. point lights on a line) says nothing;
+    // the median keeps the tree balanced there.
+    if let Some((_, axis, k)) = best.filter(|b| b.0 > 0.0) {
         // Step 2: partition at that bucket boundary.
         let mut first = 0;
         for i in 0..n {
@@ -155,16 +159,46 @@ mod tests {
         let first = split(&mut items, 0);
         assert_eq!(first, 8);
         let near: Vec<bool> = items.iter().map(|(_, b)| b.min.x < 5.0).collect();
-        assert!(near[..8].iter().all(|&n| n) || near[..8].iter().all(|&n| !n), "{near:?}");
+        assert!(
+            near[..8].iter().all(|&n| n) || near[..8].iter().all(|&n| !n),
+            "{near:?}"
+        );
+    }
+
+    #[test]
+    fn points_on_a_line_are_split_at_the_median() {
+        // Every side is flat (no surface area): every split costs 0, so the median is taken.
+        let mut items: Vec<(u32, LightBounds)> = (0..10u32)
+            .map(|i| {
+                let p = DVec3::new(1.5f64.powi(i as i32), 0.0, 0.0);
+                let b = LightBounds {
+                    min: p,
+                    max: p,
+                    phi: 1.0,
+                    w: DVec3::Z,
+                    cos_theta_o: -1.0,
+                    cos_theta_e: 0.0,
+                };
+                (i, b)
+            })
+            .collect();
+        assert_eq!(split(&mut items, 0), 5);
+        assert!(
+            items[..5].iter().all(|(i, _)| *i < 5),
+            "{:?}",
+            items.iter().map(|x| x.0).collect::<Vec<_>>()
+        );
     }
 
     #[test]
     fn skewed_lights_stay_within_the_trail_depth() {
-        // Lights at geometrically growing distances: the SAOH peels a few off at each level,
-        // which would exceed 32 levels; the median takes over in time. Plus identical points.
+        // Lights at geometrically growing distances (off a line, so that the sides' costs are
+        // not 0): the SAOH peels a few off at each level, which would exceed 32 levels; the
+        // median takes over in time. Plus identical points.
         let mut b = LightBuilder::new();
         for i in 0..900 {
-            b.point(DVec3::new(1.1f64.powi(i), 0.0, 0.0), Vec3::ONE);
+            let off = DVec3::new(0.0, 0.01 * (i % 7) as f64, 0.01 * (i % 5) as f64);
+            b.point(DVec3::new(1.1f64.powi(i), 0.0, 0.0) + off, Vec3::ONE);
         }
         for _ in 0..300 {
             b.point(DVec3::new(-1.0, 2.0, 3.0), Vec3::ONE);
@@ -175,6 +209,11 @@ mod tests {
         let deepest = *depths.iter().max().unwrap();
         println!("deepest leaf {deepest} of {}", depths.len());
         assert!(deepest <= MAX_DEPTH, "a leaf at depth {deepest}");
+        // The tree reaches the limit, so the guard is exercised (measured: 31).
+        assert!(
+            deepest >= MAX_DEPTH - 2,
+            "the guard was not exercised: {deepest}"
+        );
         assert!(bvh.trails.iter().all(|t| t.is_some()));
         let p = DVec3::new(5.0, 1.0, 0.0);
         let total: f64 = (0..1200).map(|l| bvh.pmf(p, DVec3::Y, l)).sum();
