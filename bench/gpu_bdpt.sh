@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # bdpt throughput, builds side by side (issue 13): Msamples/s of `candela render --json` at
 # 1280×720 max_depth 6 for each build, scene and design, in interleaved rounds, on the GPU
-# machine (../shared/gpu/README.md). Kernels are compiled by a first untimed render per build.
+# machine (../shared/gpu/README.md). Kernels are compiled by a first untimed render per build,
+# scene and design.
 #   usage: OUT=DIR BINS="name=path ..." [ROUNDS=3] [SCENES="cornell mirror_glass lights envmap"]
 #          [DESIGNS="split per_pixel"] [SPP=64] bash bench/gpu_bdpt.sh
 # Writes $OUT/bdpt.jsonl (one report per render, with "build", "design", "round") and prints the
@@ -13,7 +14,12 @@ designs=${DESIGNS:-split per_pixel}; spp=${SPP:-64}
 . bench/gpu_env.sh
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > "$out/gpu.txt" 2>/dev/null
 for b in ${BINS:?BINS=\"name=path ...\"}; do
-  "${b#*=}" render scenes/cornell.json --integrator bdpt --width 64 --height 64 --spp 1 -o /tmp/w.exr > /dev/null 2>&1
+  for s in $scenes; do
+    for d in $designs; do
+      "${b#*=}" render "scenes/$s.json" --integrator bdpt --width 64 --height 64 --spp 1 \
+        --options "{\"design\": \"$d\"}" -o /tmp/w.exr > /dev/null 2>&1
+    done
+  done
 done
 for r in $(seq 1 "$rounds"); do
   for s in $scenes; do

@@ -17,7 +17,7 @@
 #     relMSE of 0.01 is interpolated (relMSE ∝ 1/time between the two rungs around it).
 #     ML_UNTIL=0 skips the --until-rel-mse renders (the ladder only); ML_LAYOUT=panel makes the
 #     N triangles tile the single light's square instead of scattering them (make_mesh_lights.py
-#     --panel); rows carry "layout".
+#     --panel); rows carry "layout". ML_COUNTS (default "10000 100000 single") lists the scenes.
 # PARTS (default "lights estimate auto big") picks the parts. Writes OUT/*.jsonl; prints tables.
 # DRY=1: a quick run on any Vulkan device (lavapipe) before the GPU: no driver setup, the
 # binary target/debug/candela, 32x18 pixels and seconds-long budgets; the same scenes.
@@ -92,7 +92,7 @@ fi
 
 if has meshlights; then
   : > "$out/meshlights.jsonl"
-  for sc in 10000 100000 single; do
+  for sc in ${ML_COUNTS:-10000 100000 single}; do
     scene=/tmp/mesh_lights_$sc.json
     if [ $sc = single ]; then
       python3 bench/make_mesh_lights.py 1 $scene --single
