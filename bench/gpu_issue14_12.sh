@@ -16,7 +16,7 @@
 #     (0.1, 0.3, 1, 3 s) against a 60 s (ML_REF_TIME) BVH-sampler reference, from which the time to a true
 #     relMSE of 0.01 is interpolated (relMSE ∝ 1/time between the two rungs around it).
 #     ML_UNTIL=0 skips the --until-rel-mse renders (the ladder only); ML_LAYOUT=panel makes the
-#     N triangles tile the single light's square instead of scattering them (make_mesh_lights.py
+#     N triangles tile a square of the single light's area and centre instead of scattering them (make_mesh_lights.py
 #     --panel); rows carry "layout". ML_COUNTS (default "10000 100000 single") lists the scenes.
 # PARTS (default "lights estimate auto big") picks the parts. Writes OUT/*.jsonl; prints tables.
 # DRY=1: a quick run on any Vulkan device (lavapipe) before the GPU: no driver setup, the

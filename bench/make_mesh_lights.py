@@ -4,8 +4,9 @@ emissive triangle. A 20×20 m floor with a grid of boxes (occluders) under a lay
 triangles scattered at random over 18×18 m between heights 3 and 6 m, each facing down, of area
 --area/N and radiance --radiance: the total emitted power (radiance · π · total area) is the same
 for every N and for --single (one triangle of area --area at the centre, 4.5 m up, facing down).
-With --panel the N triangles instead tile one square of area --area there (a tessellated area
-light: the same light as --single, split into N pieces; N even). Deterministic for a given
+With --panel the N triangles instead tile one square of area --area at the single light's centre
+and height (a tessellated area light; N even; N = 2 is the square as one quad: the --single
+triangle has the same area, power and centre, not the same shape). Deterministic for a given
 --seed. Python standard library only.
 
 usage: python3 bench/make_mesh_lights.py N OUT.json [--single | --panel] [--area 4]
@@ -103,7 +104,7 @@ def main():
     ap.add_argument("out", help="scene file to write")
     ap.add_argument("--single", action="store_true", help="one triangle with all the power")
     ap.add_argument("--panel", action="store_true",
-                    help="the N triangles tile one square at the single light's place")
+                    help="the N triangles tile one square of the same area at the single light's centre")
     ap.add_argument("--area", type=float, default=4.0, help="total emitting area, m²")
     ap.add_argument("--radiance", type=float, default=20.0)
     ap.add_argument("--seed", type=int, default=1)
