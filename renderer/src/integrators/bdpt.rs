@@ -58,7 +58,9 @@ use super::{
 };
 use crate::compile::CompiledScene;
 use crate::error::RenderError;
-use crate::gpu::{Binding, ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
+use crate::gpu::{
+    Binding, ComputePipeline, DispatchTiming, GpuContext, GpuResult, Recorder, ShaderDefines,
+};
 use crate::layout::{
     binding, GpuPush, PUSH_FLAG_BDPT_NO_MIS, PUSH_FLAG_BDPT_STRATEGY, PUSH_FLAG_BDPT_S_SHIFT,
     PUSH_FLAG_BDPT_T_SHIFT, PUSH_FLAG_BDPT_UNWEIGHTED,
@@ -75,6 +77,9 @@ pub const LIGHT_VERTEX_BYTES: u64 = 7 * 16;
 /// Most bytes of the split design's light-vertex buffer (one band of pixels, one sample).
 pub const LIGHT_BUFFER_BYTES: u64 = 192 << 20;
 
+/// The split design's light-pass dispatches (their GPU time is reported apart).
+const LIGHT_PASS_LABEL: &str = "bdpt light pass";
+
 /// Fractional bits of the fixed-point splats (mirrors SPLAT_FRAC_BITS in shaders/bdpt/splat.glsl).
 const SPLAT_FRAC_BITS: i32 = 20;
 
@@ -90,6 +95,9 @@ pub struct BdptIntegrator {
     float_splats: bool,
     /// Split design: the light pass (made in `setup`).
     light_pass: Option<ComputePipeline>,
+    /// GPU milliseconds of the passes observed so far: (light passes, camera or per-pixel
+    /// passes), reported in `details`.
+    pass_ms: (f64, f64),
 }
 
 pub fn new(o: &BdptOptions, scene_max_depth: Option<i32>) -> BdptIntegrator {
@@ -103,6 +111,7 @@ pub fn new(o: &BdptOptions, scene_max_depth: Option<i32>) -> BdptIntegrator {
         design: o.design.unwrap_or_default(),
         float_splats: false,
         light_pass: None,
+        pass_ms: (0.0, 0.0),
     }
 }
 
@@ -184,7 +193,7 @@ impl Integrator for BdptIntegrator {
         for i in 0..spp {
             push.sample_base = base + i;
             push.spp = 1;
-            rec.dispatch(light, bytemuck::bytes_of(&push), groups, "bdpt light pass")?;
+            rec.dispatch(light, bytemuck::bytes_of(&push), groups, LIGHT_PASS_LABEL)?;
             rec.dispatch(
                 pipeline,
                 bytemuck::bytes_of(&push),
@@ -270,6 +279,25 @@ impl Integrator for BdptIntegrator {
             d.push(("BDPT_SPLIT".into(), "1".into()));
         }
         d
+    }
+    fn observe_timings(&mut self, timings: &[DispatchTiming]) {
+        for t in timings {
+            if t.label == LIGHT_PASS_LABEL {
+                self.pass_ms.0 += t.gpu_ms;
+            } else {
+                self.pass_ms.1 += t.gpu_ms;
+            }
+        }
+    }
+    fn details(&self) -> Option<serde_json::Value> {
+        let design = match self.design {
+            BdptDesign::Split => "split",
+            BdptDesign::PerPixel => "per_pixel",
+        };
+        Some(serde_json::json!({
+            "design": design,
+            "timings_ms": { "light_passes": self.pass_ms.0, "camera_passes": self.pass_ms.1 },
+        }))
     }
     fn extra_buffers(&self) -> Vec<ExtraBuffer> {
         // The splats, then their odd-indexed samples' share (the error estimate's halves).
