@@ -116,7 +116,7 @@ impl LightBounds {
         }
     }
 
-    fn centroid(&self) -> DVec3 {
+    pub(crate) fn centroid(&self) -> DVec3 {
         0.5 * (self.min + self.max)
     }
 

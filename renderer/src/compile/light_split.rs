@@ -37,7 +37,7 @@ fn cost(b: &LightBounds, extent: DVec3, axis: usize) -> f64 {
 /// part (1 ..= len − 1).
 pub fn split(items: &mut [(u32, LightBounds)], depth: usize) -> usize {
     let n = items.len();
-    let centroid = |b: &LightBounds| 0.5 * (b.min + b.max);
+    let centroid = LightBounds::centroid;
     let (cmin, cmax) = items.iter().fold(
         (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
         |(lo, hi), (_, b)| (lo.min(centroid(b)), hi.max(centroid(b))),
@@ -138,6 +138,18 @@ mod tests {
         out
     }
 
+    /// Bounds of lights that shine in every direction, in the box [min, max], of power phi.
+    fn omni(min: DVec3, max: DVec3, phi: f64) -> LightBounds {
+        LightBounds {
+            min,
+            max,
+            phi,
+            w: DVec3::Z,
+            cos_theta_o: -1.0,
+            cos_theta_e: 0.0,
+        }
+    }
+
     #[test]
     fn two_clusters_are_split_apart() {
         // Eight lights near x = 0 and eight near x = 10, in an order that mixes them.
@@ -145,15 +157,7 @@ mod tests {
             .map(|i| {
                 let x = if i % 2 == 0 { 0.0 } else { 10.0 } + 0.01 * i as f64;
                 let p = DVec3::new(x, 0.1 * (i % 3) as f64, 0.0);
-                let b = LightBounds {
-                    min: p,
-                    max: p + DVec3::splat(0.05),
-                    phi: 1.0 + (i % 4) as f64,
-                    w: DVec3::Z,
-                    cos_theta_o: -1.0,
-                    cos_theta_e: 0.0,
-                };
-                (i, b)
+                (i, omni(p, p + DVec3::splat(0.05), 1.0 + (i % 4) as f64))
             })
             .collect();
         let first = split(&mut items, 0);
@@ -171,15 +175,7 @@ mod tests {
         let mut items: Vec<(u32, LightBounds)> = (0..10u32)
             .map(|i| {
                 let p = DVec3::new(1.5f64.powi(i as i32), 0.0, 0.0);
-                let b = LightBounds {
-                    min: p,
-                    max: p,
-                    phi: 1.0,
-                    w: DVec3::Z,
-                    cos_theta_o: -1.0,
-                    cos_theta_e: 0.0,
-                };
-                (i, b)
+                (i, omni(p, p, 1.0))
             })
             .collect();
         assert_eq!(split(&mut items, 0), 5);
