@@ -50,6 +50,10 @@
 //! pyramid), multiplied by its MIS weight unless `weighted` is false; unweighted, each technique
 //! of a path length is an unbiased estimate of that length's image wherever it can sample every
 //! path (no delta lights or specular connections).
+//!
+//! # Report
+//! `details`: `{"design", "timings_ms": {"light_passes", "camera_passes"}}`, the GPU time of the
+//! split design's two kernels summed over the render (per_pixel: all in `camera_passes`).
 
 use std::sync::Arc;
 
