@@ -434,6 +434,21 @@ fn pass_split_and_checkpoint() {
         let exact = json.contains("fixed");
         let mut one = session(json, 42);
         one.run_pass(8).unwrap();
+        // The report says where the GPU time went: both kernels of the split design ran.
+        let st = one.stats();
+        let d = st.details.expect("bdpt details");
+        let ms = |k: &str| d["timings_ms"][k].as_f64().expect("pass timing");
+        assert_eq!(d["design"], "split");
+        // (All zero on a queue without timestamps, where gpu_time_s is 0 too.)
+        let sum = ms("light_passes") + ms("camera_passes");
+        assert!(
+            (sum * 1e-3 - st.gpu_time_s).abs() <= 1e-6 * sum.max(1.0),
+            "{d} vs {}",
+            st.gpu_time_s
+        );
+        if st.gpu_time_s > 0.0 {
+            assert!(ms("light_passes") > 0.0 && ms("camera_passes") > 0.0, "{d}");
+        }
         let mut many = session(json, 42);
         for k in [1, 2, 1, 4] {
             many.run_pass(k).unwrap();
