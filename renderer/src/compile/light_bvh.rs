@@ -50,6 +50,18 @@ pub const MIN_D2_SCALE: f64 = 1.0 / 64.0;
 pub const NODE_LEAF: u32 = 1;
 
 impl LightBounds {
+    /// Bounds of lights in the box [min, max] that shine in every direction, of power phi.
+    pub(crate) fn all_directions(min: DVec3, max: DVec3, phi: f64) -> LightBounds {
+        LightBounds {
+            min,
+            max,
+            phi,
+            w: DVec3::Z,
+            cos_theta_o: -1.0,
+            cos_theta_e: 0.0,
+        }
+    }
+
     /// The bounds of light `l` (camera-relative) of power `phi`; None for infinite lights and
     /// lights of no power.
     pub fn of(l: &GpuLight, phi: f64) -> Option<LightBounds> {
@@ -57,14 +69,7 @@ impl LightBounds {
             return None;
         }
         let p = |v: [f32; 4]| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
-        let all_directions = |min: DVec3, max: DVec3| LightBounds {
-            min,
-            max,
-            phi,
-            w: DVec3::Z,
-            cos_theta_o: -1.0,
-            cos_theta_e: 0.0,
-        };
+        let all_directions = |min: DVec3, max: DVec3| LightBounds::all_directions(min, max, phi);
         match l.kind {
             light::TRIANGLE => {
                 let (a, b, c) = (p(l.p0), p(l.p1), p(l.p2));

@@ -138,18 +138,6 @@ mod tests {
         out
     }
 
-    /// Bounds of lights that shine in every direction, in the box [min, max], of power phi.
-    fn omni(min: DVec3, max: DVec3, phi: f64) -> LightBounds {
-        LightBounds {
-            min,
-            max,
-            phi,
-            w: DVec3::Z,
-            cos_theta_o: -1.0,
-            cos_theta_e: 0.0,
-        }
-    }
-
     #[test]
     fn two_clusters_are_split_apart() {
         // Eight lights near x = 0 and eight near x = 10, in an order that mixes them.
@@ -157,7 +145,10 @@ mod tests {
             .map(|i| {
                 let x = if i % 2 == 0 { 0.0 } else { 10.0 } + 0.01 * i as f64;
                 let p = DVec3::new(x, 0.1 * (i % 3) as f64, 0.0);
-                (i, omni(p, p + DVec3::splat(0.05), 1.0 + (i % 4) as f64))
+                (
+                    i,
+                    LightBounds::all_directions(p, p + DVec3::splat(0.05), 1.0 + (i % 4) as f64),
+                )
             })
             .collect();
         let first = split(&mut items, 0);
@@ -175,7 +166,7 @@ mod tests {
         let mut items: Vec<(u32, LightBounds)> = (0..10u32)
             .map(|i| {
                 let p = DVec3::new(1.5f64.powi(i as i32), 0.0, 0.0);
-                (i, omni(p, p, 1.0))
+                (i, LightBounds::all_directions(p, p, 1.0))
             })
             .collect();
         assert_eq!(split(&mut items, 0), 5);
