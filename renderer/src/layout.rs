@@ -39,6 +39,9 @@ pub mod binding {
     /// the band being rendered, and each path's vertex count.
     pub const BDPT_LIGHT_VERTICES: u32 = 40;
     pub const BDPT_LIGHT_COUNTS: u32 = 41;
+    /// bdpt with float splats: the odd-indexed samples' splats of the pass being rendered,
+    /// merged into SPLAT and SPLAT_ODD at its end (shaders/bdpt/splat_merge.comp).
+    pub const BDPT_SPLAT_NEW: u32 = 42;
     /// The session's second range (50–59). Each BVH node's parent (u32, NONE for the root),
     /// read only by the traversal's stackless fallback for trees deeper than its short stack
     /// (`accel::STACK_DEPTH`); one placeholder word otherwise. See shaders/common/traverse.glsl.
@@ -394,6 +397,7 @@ pub fn glsl_constants() -> String {
         ("B_GRID_PRIMS", binding::GRID_PRIMS),
         ("B_BDPT_LIGHT_VERTICES", binding::BDPT_LIGHT_VERTICES),
         ("B_BDPT_LIGHT_COUNTS", binding::BDPT_LIGHT_COUNTS),
+        ("B_BDPT_SPLAT_NEW", binding::BDPT_SPLAT_NEW),
         ("B_BVH_PARENTS", binding::BVH_PARENTS),
         // Entries of the traversal's short stack (plain integer: an array size).
         ("BVH_STACK", BVH_STACK_DEPTH),

@@ -11,7 +11,7 @@
 // The pixel filter (camera_we.glsl) spreads a splat over every pixel whose filter covers it.
 // Splats of odd sample index are also added to a second buffer of the same format (B_SPLAT_ODD),
 // so that the two halves of the error estimate (renderer/src/render/halves.rs) each carry their
-// own light tracing.
+// own light tracing (with float splats through B_BDPT_SPLAT_NEW and splat_merge.comp).
 #ifndef BDPT_SPLAT_GLSL
 #define BDPT_SPLAT_GLSL
 #include "common/camera_we.glsl"
@@ -20,16 +20,20 @@
 
 #ifdef BDPT_FLOAT_SPLATS
 layout(set = 0, binding = B_SPLAT, scalar) buffer Splat { float splat[]; };
-layout(set = 0, binding = B_SPLAT_ODD, scalar) buffer SplatOdd { float splat_odd[]; };
+layout(set = 0, binding = B_BDPT_SPLAT_NEW, scalar) buffer SplatNew { float splat_new[]; };
 
+// Odd samples' splats go to B_BDPT_SPLAT_NEW alone, which splat_merge.comp adds to both B_SPLAT
+// and B_SPLAT_ODD at the end of the pass: three atomics per pixel whatever the parity (adding
+// them to both buffers here took six, and the atomics are most of the splats' cost).
 void splat_add(uint pixel, vec3 v, bool odd) {
-    atomicAdd(splat[4u * pixel + 0u], v.r);
-    atomicAdd(splat[4u * pixel + 1u], v.g);
-    atomicAdd(splat[4u * pixel + 2u], v.b);
     if (odd) {
-        atomicAdd(splat_odd[4u * pixel + 0u], v.r);
-        atomicAdd(splat_odd[4u * pixel + 1u], v.g);
-        atomicAdd(splat_odd[4u * pixel + 2u], v.b);
+        atomicAdd(splat_new[4u * pixel + 0u], v.r);
+        atomicAdd(splat_new[4u * pixel + 1u], v.g);
+        atomicAdd(splat_new[4u * pixel + 2u], v.b);
+    } else {
+        atomicAdd(splat[4u * pixel + 0u], v.r);
+        atomicAdd(splat[4u * pixel + 1u], v.g);
+        atomicAdd(splat[4u * pixel + 2u], v.b);
     }
 }
 #else

@@ -53,7 +53,8 @@
 //!
 //! # Report
 //! `details`: `{"design", "timings_ms": {"light_passes", "camera_passes"}}`, the GPU time of the
-//! split design's two kernels summed over the render (per_pixel: all in `camera_passes`).
+//! split design's two kernels summed over the render (per_pixel: its kernel in `camera_passes`);
+//! the float splats' merge counts with the light passes.
 
 use std::sync::Arc;
 
@@ -83,6 +84,12 @@ pub const LIGHT_BUFFER_BYTES: u64 = 192 << 20;
 
 /// The split design's light-pass dispatches (their GPU time is reported apart).
 const LIGHT_PASS_LABEL: &str = "bdpt light pass";
+/// The float splats' end-of-pass merge (reported with the light passes: it is light tracing's).
+const SPLAT_MERGE_LABEL: &str = "bdpt splat merge";
+/// The merge kernel (shaders/bdpt/splat_merge.comp) and its workgroups (a grid-stride loop over
+/// the film: enough to fill a large GPU).
+const SPLAT_MERGE_KERNEL: &str = "bdpt/splat_merge.comp";
+const SPLAT_MERGE_GROUPS: u32 = 1024;
 
 /// Fractional bits of the fixed-point splats (mirrors SPLAT_FRAC_BITS in shaders/bdpt/splat.glsl).
 const SPLAT_FRAC_BITS: i32 = 20;
@@ -99,6 +106,8 @@ pub struct BdptIntegrator {
     float_splats: bool,
     /// Split design: the light pass (made in `setup`).
     light_pass: Option<ComputePipeline>,
+    /// Float splats: the end-of-pass merge of the odd samples' splats (made in `setup`).
+    splat_merge: Option<ComputePipeline>,
     /// GPU milliseconds of the passes observed so far: (light passes, camera or per-pixel
     /// passes), reported in `details`.
     pass_ms: (f64, f64),
@@ -115,6 +124,7 @@ pub fn new(o: &BdptOptions, scene_max_depth: Option<i32>) -> BdptIntegrator {
         design: o.design.unwrap_or_default(),
         float_splats: false,
         light_pass: None,
+        splat_merge: None,
         pass_ms: (0.0, 0.0),
     }
 }
@@ -189,29 +199,40 @@ impl Integrator for BdptIntegrator {
         push.max_depth = self.max_depth;
         push.rr_depth = self.rr_depth;
         push.flags |= self.flags();
-        let Some(light) = &self.light_pass else {
-            return rec.dispatch(pipeline, bytemuck::bytes_of(&push), groups, "bdpt pass");
-        };
-        // Split: per sample, the band's light subpaths, then its camera subpaths.
-        let (base, spp) = (push.sample_base, push.spp);
-        for i in 0..spp {
-            push.sample_base = base + i;
-            push.spp = 1;
-            rec.dispatch(light, bytemuck::bytes_of(&push), groups, LIGHT_PASS_LABEL)?;
+        match &self.light_pass {
+            None => rec.dispatch(pipeline, bytemuck::bytes_of(&push), groups, "bdpt pass")?,
+            Some(light) => {
+                // Split: per sample, the band's light subpaths, then its camera subpaths.
+                let (base, spp) = (push.sample_base, push.spp);
+                for i in 0..spp {
+                    push.sample_base = base + i;
+                    push.spp = 1;
+                    rec.dispatch(light, bytemuck::bytes_of(&push), groups, LIGHT_PASS_LABEL)?;
+                    rec.dispatch(
+                        pipeline,
+                        bytemuck::bytes_of(&push),
+                        groups,
+                        "bdpt camera pass",
+                    )?;
+                }
+            }
+        }
+        if let Some(merge) = &self.splat_merge {
             rec.dispatch(
-                pipeline,
+                merge,
                 bytemuck::bytes_of(&push),
-                groups,
-                "bdpt camera pass",
+                [SPLAT_MERGE_GROUPS, 1, 1],
+                SPLAT_MERGE_LABEL,
             )?;
         }
         Ok(())
     }
     fn dispatches_per_pass(&self, spp: u32) -> u32 {
-        match self.design {
+        let passes = match self.design {
             BdptDesign::Split => 2 * spp,
             BdptDesign::PerPixel => 1,
-        }
+        };
+        passes + u32::from(self.float_splats)
     }
     fn max_lanes(&self) -> u32 {
         match self.design {
@@ -227,11 +248,19 @@ impl Integrator for BdptIntegrator {
         }
     }
     fn scratch_buffers(&self, width: u32, height: u32) -> Vec<ScratchBuffer> {
+        let mut out = Vec::new();
+        if self.float_splats {
+            out.push(ScratchBuffer {
+                binding: binding::BDPT_SPLAT_NEW,
+                name: "bdpt splats of the pass (odd)",
+                bytes: width as u64 * height as u64 * 16,
+            });
+        }
         if self.design != BdptDesign::Split {
-            return Vec::new();
+            return out;
         }
         let paths = self.band_paths(width, height);
-        vec![
+        out.extend([
             ScratchBuffer {
                 binding: binding::BDPT_LIGHT_VERTICES,
                 name: "bdpt light vertices",
@@ -242,13 +271,19 @@ impl Integrator for BdptIntegrator {
                 name: "bdpt light vertex counts",
                 bytes: paths * 4,
             },
-        ]
+        ]);
+        out
     }
     fn kernels(&self, defines: &ShaderDefines) -> Vec<(String, ShaderDefines)> {
-        match self.design {
-            BdptDesign::Split => vec![("bdpt/light.comp".into(), self.light_defines(defines))],
-            BdptDesign::PerPixel => Vec::new(),
+        let mut out = Vec::new();
+        if self.design == BdptDesign::Split {
+            out.push(("bdpt/light.comp".into(), self.light_defines(defines)));
         }
+        if self.float_splats {
+            // (It reads no scene: one variant for every session.)
+            out.push((SPLAT_MERGE_KERNEL.into(), ShaderDefines::new()));
+        }
+        out
     }
     fn setup(
         &mut self,
@@ -257,13 +292,23 @@ impl Integrator for BdptIntegrator {
         shared: &[Binding<'_>],
         defines: &ShaderDefines,
     ) -> Result<(), RenderError> {
+        let push = std::mem::size_of::<GpuPush>() as u32;
         if self.design == BdptDesign::Split {
             let d = self.light_defines(defines);
             let spirv = ctx.kernel("bdpt/light.comp", &d)?;
-            let push = std::mem::size_of::<GpuPush>() as u32;
             self.light_pass = Some(ComputePipeline::new(
                 ctx,
                 "bdpt/light.comp",
+                &spirv,
+                shared,
+                push,
+            )?);
+        }
+        if self.float_splats {
+            let spirv = ctx.kernel(SPLAT_MERGE_KERNEL, &ShaderDefines::new())?;
+            self.splat_merge = Some(ComputePipeline::new(
+                ctx,
+                SPLAT_MERGE_KERNEL,
                 &spirv,
                 shared,
                 push,
@@ -286,7 +331,7 @@ impl Integrator for BdptIntegrator {
     }
     fn observe_timings(&mut self, timings: &[DispatchTiming]) {
         for t in timings {
-            if t.label == LIGHT_PASS_LABEL {
+            if t.label == LIGHT_PASS_LABEL || t.label == SPLAT_MERGE_LABEL {
                 self.pass_ms.0 += t.gpu_ms;
             } else {
                 self.pass_ms.1 += t.gpu_ms;

@@ -225,7 +225,7 @@ pub enum GpuResolve {
 }
 
 /// A device buffer an integrator's kernels use as scratch (not carried in checkpoints, not part
-/// of the image): the session allocates it and binds it next to ACCUM and STATS.
+/// of the image): the session allocates it zeroed and binds it next to ACCUM and STATS.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ScratchBuffer {
     pub binding: u32,

@@ -190,7 +190,9 @@ impl RenderSession {
         ctx.fill_zero(&stats_buf)?;
         let mut scratch = Vec::new();
         for b in integrator.scratch_buffers(w, h) {
-            scratch.push((b, Buffer::new(ctx, b.name, b.bytes, BufferUsage::Storage)?));
+            let buf = Buffer::new(ctx, b.name, b.bytes, BufferUsage::Storage)?;
+            ctx.fill_zero(&buf)?;
+            scratch.push((b, buf));
         }
         let mut extra = Vec::new();
         for e in integrator.extra_buffers() {
