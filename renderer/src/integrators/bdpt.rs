@@ -20,9 +20,10 @@
 //!   its private array, and light walks no longer run in lock-step with camera walks. Why not
 //!   Davidovič et al. 2014's light-vertex *cache* (each camera vertex joined to a few random
 //!   cached vertices): it changes the estimator; this keeps pbrt's and still separates the
-//!   walks. The buffer holds a band of at most [`LIGHT_BUFFER_BYTES`]; a pass is two dispatches
-//!   per sample and band. On an H100 (Cornell box, 1280×720, max_depth 6) it renders 123.5
-//!   Msamples/s against the per-pixel design's 99.8 (bench/RESULTS.md).
+//!   walks. The buffer holds a band of at most [`LIGHT_BUFFER_BYTES`] (less on a device with
+//!   under 32 GB); a pass is two dispatches per sample and band. On an H100 (Cornell box,
+//!   1280×720, max_depth 6) it renders about 1.3× the per-pixel design's samples per second
+//!   (bench/RESULTS.md).
 //!
 //! Per-thread state is bounded by the array's capacity, compiled in as `BDPT_DEPTH_CAP`:
 //! [`SMALL_DEPTH_CAP`] segments for max_depth up to that (one kernel for the usual depths), else
@@ -79,8 +80,14 @@ pub const SMALL_DEPTH_CAP: i32 = 8;
 
 /// Bytes per light vertex in the split design's buffer (7 vec4, shaders/bdpt/store.glsl).
 pub const LIGHT_VERTEX_BYTES: u64 = 7 * 16;
-/// Most bytes of the split design's light-vertex buffer (one band of pixels, one sample).
-pub const LIGHT_BUFFER_BYTES: u64 = 192 << 20;
+/// Most bytes of the split design's light-vertex buffer (one band of pixels, one sample): a
+/// 1280×720 film in one band at the usual depths (826 MB). Bands of 192 MB (five at 1280×720)
+/// rendered 5–8% fewer samples per second on an H100 than 400 MB–1 GB (bench/RESULTS.md): every
+/// band's two dispatches end in a barrier, where the GPU drains.
+pub const LIGHT_BUFFER_BYTES: u64 = 1 << 30;
+/// The share of the device's memory the light-vertex buffer may take (1/32: 256 MB on an 8 GB
+/// GPU), within [`LIGHT_BUFFER_BYTES`] and the device's largest buffer.
+const LIGHT_BUFFER_SHARE: u64 = 32;
 
 /// The split design's light-pass dispatches (their GPU time is reported apart).
 const LIGHT_PASS_LABEL: &str = "bdpt light pass";
@@ -106,6 +113,8 @@ pub struct BdptIntegrator {
     float_splats: bool,
     /// Split design: the light pass (made in `setup`).
     light_pass: Option<ComputePipeline>,
+    /// Bytes the light-vertex buffer may take on this device (set in `prepare`).
+    light_buffer_bytes: u64,
     /// Float splats: the end-of-pass merge of the odd samples' splats (made in `setup`).
     splat_merge: Option<ComputePipeline>,
     /// GPU milliseconds of the passes observed so far: (light passes, camera or per-pixel
@@ -124,6 +133,7 @@ pub fn new(o: &BdptOptions, scene_max_depth: Option<i32>) -> BdptIntegrator {
         design: o.design.unwrap_or_default(),
         float_splats: false,
         light_pass: None,
+        light_buffer_bytes: LIGHT_BUFFER_BYTES / LIGHT_BUFFER_SHARE,
         splat_merge: None,
         pass_ms: (0.0, 0.0),
     }
@@ -170,7 +180,7 @@ impl BdptIntegrator {
     fn band_paths(&self, width: u32, height: u32) -> u64 {
         let per_path = self.light_capacity() * LIGHT_VERTEX_BYTES;
         let film = width as u64 * height as u64;
-        (LIGHT_BUFFER_BYTES / per_path)
+        (self.light_buffer_bytes / per_path)
             .max(8 * width as u64)
             .min(film)
     }
@@ -318,6 +328,10 @@ impl Integrator for BdptIntegrator {
     }
     fn prepare(&mut self, ctx: &GpuContext) {
         self.float_splats = ctx.float_atomics && !self.force_fixed_point;
+        let l = ctx.limits;
+        self.light_buffer_bytes = (l.memory_bytes / LIGHT_BUFFER_SHARE)
+            .min(l.max_buffer_bytes)
+            .min(LIGHT_BUFFER_BYTES);
     }
     fn defines(&self) -> ShaderDefines {
         let mut d: ShaderDefines = vec![("BDPT_DEPTH_CAP".into(), self.depth_cap().to_string())];
