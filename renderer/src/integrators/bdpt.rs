@@ -93,8 +93,8 @@ const LIGHT_BUFFER_SHARE: u64 = 32;
 const LIGHT_PASS_LABEL: &str = "bdpt light pass";
 /// The float splats' end-of-pass merge (reported with the light passes: it is light tracing's).
 const SPLAT_MERGE_LABEL: &str = "bdpt splat merge";
-/// The merge kernel (shaders/bdpt/splat_merge.comp) and its workgroups (a grid-stride loop over
-/// the film: enough to fill a large GPU).
+/// The merge kernel (shaders/bdpt/splat_merge.comp) and its most workgroups (of 256 threads, in
+/// a grid-stride loop over the film: enough to fill a large GPU).
 const SPLAT_MERGE_KERNEL: &str = "bdpt/splat_merge.comp";
 const SPLAT_MERGE_GROUPS: u32 = 1024;
 
@@ -228,10 +228,14 @@ impl Integrator for BdptIntegrator {
             }
         }
         if let Some(merge) = &self.splat_merge {
+            // About one thread per pixel of the band (8×8 per workgroup there, 256 here), at most
+            // SPLAT_MERGE_GROUPS workgroups; the merge's loop covers the whole film either way.
+            let threads: u64 = groups.iter().map(|&g| g as u64).product::<u64>() * 64;
+            let merge_groups = threads.div_ceil(256).clamp(1, SPLAT_MERGE_GROUPS as u64) as u32;
             rec.dispatch(
                 merge,
                 bytemuck::bytes_of(&push),
-                [SPLAT_MERGE_GROUPS, 1, 1],
+                [merge_groups, 1, 1],
                 SPLAT_MERGE_LABEL,
             )?;
         }
