@@ -21,7 +21,8 @@
 //!   Davidovič et al. 2014's light-vertex *cache* (each camera vertex joined to a few random
 //!   cached vertices): it changes the estimator; this keeps pbrt's and still separates the
 //!   walks. The buffer holds a band of at most [`LIGHT_BUFFER_BYTES`] (less on a device with
-//!   under 32 GB); a pass is two dispatches per sample and band. On an H100 (Cornell box,
+//!   under 32 GB); a pass is two dispatches per sample and band (and, with float
+//!   splats, their merge). On an H100 (Cornell box,
 //!   1280×720, max_depth 6) it renders about 1.3× the per-pixel design's samples per second
 //!   (bench/RESULTS.md).
 //!
