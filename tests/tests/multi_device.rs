@@ -65,6 +65,13 @@ fn split_equals_single(integrator: &str, options: &str) -> std::path::PathBuf {
     assert_eq!(split["spp"], 6);
     let spp = shard_spp(&split);
     assert_eq!(spp.len(), 2);
+    // An integrator's details are each device's, not one of them passed off as the whole's.
+    if single.get("details").is_some() {
+        assert!(split.get("details").is_none(), "{split}");
+        for d in split["devices"].as_array().unwrap() {
+            assert_eq!(d["details"]["design"], single["details"]["design"], "{d}");
+        }
+    }
     assert!(spp.iter().all(|&s| s >= 1), "both shards rendered: {spp:?}");
     let (a, b) = (read_exr(&two).unwrap(), read_exr(&one).unwrap());
     let e = rel_mse(&a, &b).unwrap();

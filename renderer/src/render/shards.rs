@@ -104,7 +104,8 @@ impl SplitRender {
     /// The statistics of the whole render: the first shard's description (scene, integrator,
     /// setup) with the totals: spp, passes, rays, dropped samples, GPU time summed; time the
     /// longest shard's pass time (the shards run at once); Msamples/s and rays/s the totals
-    /// over that time.
+    /// over that time. The integrator's `details` are each shard's own (in [`Self::shards`]),
+    /// none here when there are several: they are not one render's to add up.
     pub fn total(&self) -> RenderStats {
         let mut t = self.shards[0].clone();
         t.spp = self.spp;
@@ -120,6 +121,9 @@ impl SplitRender {
         t.setup_s = self.shards.iter().map(|s| s.setup_s).fold(0.0, f64::max);
         t.first_pass = None;
         t.rel_mse_estimate = self.rel_mse_estimate;
+        if self.shards.len() > 1 {
+            t.details = None;
+        }
         t
     }
 }

@@ -144,7 +144,7 @@ pub fn device_json(indices: &[usize], split: &SplitRender) -> serde_json::Value 
             .iter()
             .zip(&split.shards)
             .map(|(i, s)| {
-                serde_json::json!({
+                let mut d = serde_json::json!({
                     "index": i,
                     "name": s.device.name,
                     "spp": s.spp,
@@ -153,7 +153,11 @@ pub fn device_json(indices: &[usize], split: &SplitRender) -> serde_json::Value 
                     "gpu_time_s": s.gpu_time_s,
                     "msamples_per_s": s.msamples_per_s,
                     "rays": s.rays,
-                })
+                });
+                if let Some(details) = &s.details {
+                    d["details"] = details.clone();
+                }
+                d
             })
             .collect(),
     )
