@@ -7,7 +7,8 @@
 //! - [`peak_rss_bytes`]: the host process's peak resident memory (`VmHWM` of
 //!   /proc/self/status; None where there is no /proc);
 //! - [`check_fits`]: every buffer within the device's `maxStorageBufferRange` and all of them
-//!   within its largest device-local heap, else an error naming the buffer, its size and the
+//!   (a render session checks the scene's with its film's and its integrator's scratch and
+//!   per-pixel buffers) within its largest device-local heap, else an error naming the buffer, its size and the
 //!   limit (a scene too large for the device is refused with that message instead of failing in
 //!   the driver). The limits can be lowered for tests and for sharing a GPU with
 //!   `CANDELA_GPU_MEMORY_LIMIT` and `CANDELA_GPU_BUFFER_LIMIT` (bytes; see `gpu::DeviceLimits`).
@@ -106,7 +107,7 @@ pub fn check_fits(buffers: &[(&str, u64)], limits: &DeviceLimits) -> Result<(), 
     for &(name, bytes) in buffers {
         if bytes > limits.max_buffer_bytes {
             return Err(GpuError::TooLarge(format!(
-                "the scene's {name} buffer needs {} ({bytes} bytes), more than the device's \
+                "the {name} buffer needs {} ({bytes} bytes), more than the device's \
                  largest storage buffer, maxStorageBufferRange = {} ({} bytes){how}",
                 mib(bytes),
                 mib(limits.max_buffer_bytes),
@@ -122,7 +123,7 @@ pub fn check_fits(buffers: &[(&str, u64)], limits: &DeviceLimits) -> Result<(), 
             .copied()
             .unwrap_or(("", 0));
         return Err(GpuError::TooLarge(format!(
-            "the scene needs {} of GPU memory ({total} bytes; the largest buffer, {name}, {}), \
+            "the render needs {} of GPU memory ({total} bytes; the largest buffer, {name}, {}), \
              more than the device's memory, {} ({} bytes){how}",
             mib(total),
             mib(most),

@@ -418,6 +418,26 @@ fn white_furnace_is_exactly_one() {
 /// split and after a checkpoint/restore; with float atomics the camera-side accumulation is
 /// bit-identical and the splats (summed in a varying order) agree to rounding; the two splat
 /// encodings agree to rounding.
+/// The split design's report: its light and camera passes' GPU time (and `other`, none) add up
+/// to the session's GPU time less `excluded_s` seconds, and both kernels ran.
+fn pass_split_adds_up(s: &RenderSession, excluded_s: f64) {
+    let st = s.stats();
+    let d = st.details.expect("bdpt details");
+    let ms = |k: &str| d["timings_ms"][k].as_f64().expect("pass timing");
+    assert_eq!(d["design"], "split");
+    assert_eq!(ms("other"), 0.0, "{d}");
+    // (All zero on a queue without timestamps, where gpu_time_s is 0 too.)
+    let sum = ms("light_passes") + ms("camera_passes");
+    let want = st.gpu_time_s - excluded_s;
+    assert!(
+        (sum * 1e-3 - want).abs() <= 1e-6 * sum.max(1.0),
+        "{d} vs {want} s"
+    );
+    if st.gpu_time_s > 0.0 {
+        assert!(ms("light_passes") > 0.0 && ms("camera_passes") > 0.0, "{d}");
+    }
+}
+
 #[test]
 fn pass_split_and_checkpoint() {
     let scene = load("cornell.json");
@@ -435,20 +455,7 @@ fn pass_split_and_checkpoint() {
         let mut one = session(json, 42);
         one.run_pass(8).unwrap();
         // The report says where the GPU time went: both kernels of the split design ran.
-        let st = one.stats();
-        let d = st.details.expect("bdpt details");
-        let ms = |k: &str| d["timings_ms"][k].as_f64().expect("pass timing");
-        assert_eq!(d["design"], "split");
-        // (All zero on a queue without timestamps, where gpu_time_s is 0 too.)
-        let sum = ms("light_passes") + ms("camera_passes");
-        assert!(
-            (sum * 1e-3 - st.gpu_time_s).abs() <= 1e-6 * sum.max(1.0),
-            "{d} vs {}",
-            st.gpu_time_s
-        );
-        if st.gpu_time_s > 0.0 {
-            assert!(ms("light_passes") > 0.0 && ms("camera_passes") > 0.0, "{d}");
-        }
+        pass_split_adds_up(&one, 0.0);
         let mut many = session(json, 42);
         for k in [1, 2, 1, 4] {
             many.run_pass(k).unwrap();
@@ -480,14 +487,25 @@ fn pass_split_and_checkpoint() {
         let mut other = session(json, 43);
         other.run_pass(8).unwrap();
         assert_ne!(a.pixels, other.image().unwrap().pixels, "seed must matter");
+        // After a reset, with the GPU error estimate in a pass: the estimate's dispatches are
+        // the checks' cost, not a pass's, and the warm-up before the reset is forgotten.
+        other.reset(44).unwrap();
+        other.submit_pass_with(2, false, true).unwrap();
+        other.drain().unwrap();
+        let checks = other.stats().estimate_checks.expect("one check");
+        assert_eq!(checks.checks, 1);
+        pass_split_adds_up(&other, checks.gpu_ms * 1e-3);
         // Checkpoint after 5 spp, restore into a fresh session, finish: as if never stopped.
         let mut first = session(json, 42);
         first.run_pass(5).unwrap();
         let (acc, progress) = (first.accumulation().unwrap(), first.progress());
         drop(first);
         let mut resumed = session(json, 42);
+        resumed.run_pass(2).unwrap();
         resumed.restore(&acc, progress).unwrap();
         resumed.run_pass(3).unwrap();
+        // The pass times speak of the passes since the restore (the 2 spp before are gone).
+        pass_split_adds_up(&resumed, progress.gpu_time_s);
         let r = resumed.image().unwrap();
         if exact {
             assert_eq!(a.pixels, r.pixels, "{json}: checkpoint changed the image");

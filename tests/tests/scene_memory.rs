@@ -90,6 +90,29 @@ fn a_scene_too_large_for_the_device_names_the_limit() {
     );
 }
 
+/// The check counts the session's buffers too: a limit the scene's buffers fit but not with
+/// the film's and bdpt's light vertices is refused before anything is allocated.
+#[test]
+fn the_memory_check_counts_the_film_and_integrator_buffers() {
+    let o = render(&[], &["--json", "--integrator", "bdpt"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let scene = v["scene_gpu_bytes"].as_u64().expect("scene_gpu_bytes");
+    // The 8×8 film's two accumulations alone are 2 KiB more than the scene.
+    let limit = (scene + 1024).to_string();
+    let o = render(
+        &[("CANDELA_GPU_MEMORY_LIMIT", &limit)],
+        &["--integrator", "bdpt"],
+    );
+    assert!(!o.status.success(), "fitted in {limit} bytes");
+    let err = text(&o.stderr);
+    println!("{err}");
+    assert!(
+        err.contains("does not fit the device") && err.contains(&format!("{limit} bytes")),
+        "{err}"
+    );
+}
+
 #[test]
 fn server_job_stats_have_the_figures_and_too_large_jobs_fail_clearly() {
     let dir = scratch("scene-memory-server");

@@ -54,9 +54,11 @@
 //! path (no delta lights or specular connections).
 //!
 //! # Report
-//! `details`: `{"design", "timings_ms": {"light_passes", "camera_passes"}}`, the GPU time of the
-//! split design's two kernels summed over the render (per_pixel: its kernel in `camera_passes`);
-//! the float splats' merge counts with the light passes.
+//! `details`: `{"design", "timings_ms": {"light_passes", "camera_passes", "other"}}`, the GPU
+//! time of the split design's two kernels summed over the render since its start or last reset
+//! (per_pixel: its kernel in `camera_passes`); the float splats' merge counts with the light
+//! passes; `other` is any dispatch of the pass not named here (0 today), so that the three add up
+//! to the session's GPU time less the error estimate's.
 
 use std::sync::Arc;
 
@@ -90,8 +92,11 @@ pub const LIGHT_BUFFER_BYTES: u64 = 1 << 30;
 /// GPU), within [`LIGHT_BUFFER_BYTES`] and the device's largest buffer.
 const LIGHT_BUFFER_SHARE: u64 = 32;
 
-/// The split design's light-pass dispatches (their GPU time is reported apart).
+/// The split design's light-pass and camera-pass dispatches, and the per-pixel design's one
+/// kernel (their GPU times are reported apart).
 const LIGHT_PASS_LABEL: &str = "bdpt light pass";
+const CAMERA_PASS_LABEL: &str = "bdpt camera pass";
+const PASS_LABEL: &str = "bdpt pass";
 /// The float splats' end-of-pass merge (reported with the light passes: it is light tracing's).
 const SPLAT_MERGE_LABEL: &str = "bdpt splat merge";
 /// The merge kernel (shaders/bdpt/splat_merge.comp) and its most workgroups (of 256 threads, in
@@ -118,9 +123,9 @@ pub struct BdptIntegrator {
     light_buffer_bytes: u64,
     /// Float splats: the end-of-pass merge of the odd samples' splats (made in `setup`).
     splat_merge: Option<ComputePipeline>,
-    /// GPU milliseconds of the passes observed so far: (light passes, camera or per-pixel
-    /// passes), reported in `details`.
-    pass_ms: (f64, f64),
+    /// GPU milliseconds of the passes observed since the session's start or reset: (light
+    /// passes, camera or per-pixel passes, any other dispatch), reported in `details`.
+    pass_ms: (f64, f64, f64),
 }
 
 pub fn new(o: &BdptOptions, scene_max_depth: Option<i32>) -> BdptIntegrator {
@@ -136,7 +141,7 @@ pub fn new(o: &BdptOptions, scene_max_depth: Option<i32>) -> BdptIntegrator {
         light_pass: None,
         light_buffer_bytes: LIGHT_BUFFER_BYTES / LIGHT_BUFFER_SHARE,
         splat_merge: None,
-        pass_ms: (0.0, 0.0),
+        pass_ms: (0.0, 0.0, 0.0),
     }
 }
 
@@ -211,7 +216,7 @@ impl Integrator for BdptIntegrator {
         push.rr_depth = self.rr_depth;
         push.flags |= self.flags();
         match &self.light_pass {
-            None => rec.dispatch(pipeline, bytemuck::bytes_of(&push), groups, "bdpt pass")?,
+            None => rec.dispatch(pipeline, bytemuck::bytes_of(&push), groups, PASS_LABEL)?,
             Some(light) => {
                 // Split: per sample, the band's light subpaths, then its camera subpaths.
                 let (base, spp) = (push.sample_base, push.spp);
@@ -223,7 +228,7 @@ impl Integrator for BdptIntegrator {
                         pipeline,
                         bytemuck::bytes_of(&push),
                         groups,
-                        "bdpt camera pass",
+                        CAMERA_PASS_LABEL,
                     )?;
                 }
             }
@@ -350,12 +355,15 @@ impl Integrator for BdptIntegrator {
     }
     fn observe_timings(&mut self, timings: &[DispatchTiming]) {
         for t in timings {
-            if t.label == LIGHT_PASS_LABEL || t.label == SPLAT_MERGE_LABEL {
-                self.pass_ms.0 += t.gpu_ms;
-            } else {
-                self.pass_ms.1 += t.gpu_ms;
+            match t.label.as_str() {
+                LIGHT_PASS_LABEL | SPLAT_MERGE_LABEL => self.pass_ms.0 += t.gpu_ms,
+                CAMERA_PASS_LABEL | PASS_LABEL => self.pass_ms.1 += t.gpu_ms,
+                _ => self.pass_ms.2 += t.gpu_ms,
             }
         }
+    }
+    fn reset_timings(&mut self) {
+        self.pass_ms = (0.0, 0.0, 0.0);
     }
     fn details(&self) -> Option<serde_json::Value> {
         let design = match self.design {
@@ -364,7 +372,11 @@ impl Integrator for BdptIntegrator {
         };
         Some(serde_json::json!({
             "design": design,
-            "timings_ms": { "light_passes": self.pass_ms.0, "camera_passes": self.pass_ms.1 },
+            "timings_ms": {
+                "light_passes": self.pass_ms.0,
+                "camera_passes": self.pass_ms.1,
+                "other": self.pass_ms.2,
+            },
         }))
     }
     fn extra_buffers(&self) -> Vec<ExtraBuffer> {

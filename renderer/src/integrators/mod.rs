@@ -298,6 +298,9 @@ pub trait Integrator: Send {
     /// so that integrators with several stages can report per-stage times in
     /// [`Integrator::details`]. Default: ignored.
     fn observe_timings(&mut self, _timings: &[DispatchTiming]) {}
+    /// Forgets what [`Integrator::observe_timings`] gathered: the session was reset or restored
+    /// from a checkpoint, and `details` speak of the passes from then on. Default: nothing.
+    fn reset_timings(&mut self) {}
     /// Integrator-specific statistics reported with the render's (a JSON object: stage
     /// timings, memory, options in effect). Default: none.
     fn details(&self) -> Option<serde_json::Value> {

@@ -174,7 +174,23 @@ impl RenderSession {
         ctx.compile_kernels(&list)?;
         let (w, h) = (scene.width, scene.height);
         let pixels = w as u64 * h as u64;
-        // Step 1: scene buffers, each at its named binding.
+        // Step 1: the scene's buffers and the session's own (the film's, the integrator's
+        // scratch and per-pixel buffers) checked against the device's limits before anything is
+        // allocated; then the scene's uploaded, each at its named binding.
+        let (scratch_list, extra_list) =
+            (integrator.scratch_buffers(w, h), integrator.extra_buffers());
+        let mut needed = crate::memory::scene_buffers(scene);
+        needed.extend([
+            ("accumulation", pixels * 16),
+            ("accumulation (odd)", pixels * 16),
+        ]);
+        needed.extend(scratch_list.iter().map(|b| (b.name, b.bytes)));
+        needed.extend(
+            extra_list
+                .iter()
+                .map(|e| (e.name, pixels * 16 * e.entries_per_pixel as u64)),
+        );
+        crate::memory::check_fits(&needed, &ctx.limits)?;
         let scene_buffers = upload_scene(ctx, scene)?;
         // Step 2: accumulation (rgb sum, sample count per pixel) and counters, zeroed.
         let accum = Buffer::new(ctx, "accumulation", pixels * 16, BufferUsage::Storage)?;
@@ -189,13 +205,13 @@ impl RenderSession {
         )?;
         ctx.fill_zero(&stats_buf)?;
         let mut scratch = Vec::new();
-        for b in integrator.scratch_buffers(w, h) {
+        for b in scratch_list {
             let buf = Buffer::new(ctx, b.name, b.bytes, BufferUsage::Storage)?;
             ctx.fill_zero(&buf)?;
             scratch.push((b, buf));
         }
         let mut extra = Vec::new();
-        for e in integrator.extra_buffers() {
+        for e in extra_list {
             let bytes = pixels * 16 * e.entries_per_pixel as u64;
             let b = Buffer::new(ctx, e.name, bytes, BufferUsage::Storage)?;
             ctx.fill_zero(&b)?;
@@ -428,6 +444,7 @@ impl RenderSession {
         self.elapsed = Duration::ZERO;
         self.gpu_time = Duration::ZERO;
         self.estimates.reset_counts();
+        self.integrator.reset_timings();
         Ok(())
     }
 
@@ -686,6 +703,7 @@ impl RenderSession {
         self.dropped = progress.dropped_samples;
         self.elapsed = Duration::from_secs_f64(progress.time_s.max(0.0));
         self.gpu_time = Duration::from_secs_f64(progress.gpu_time_s.max(0.0));
+        self.integrator.reset_timings();
         Ok(())
     }
 

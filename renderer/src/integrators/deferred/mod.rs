@@ -361,6 +361,10 @@ impl Integrator for DeferredIntegrator {
         }
     }
 
+    fn reset_timings(&mut self) {
+        self.times = StageTimes::default();
+    }
+
     fn details(&self) -> Option<serde_json::Value> {
         let t = &self.times;
         // (The counters since the stages were made; a read waits for the queued passes.)

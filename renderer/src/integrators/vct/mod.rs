@@ -217,6 +217,11 @@ impl Integrator for VctIntegrator {
         self.trace_passes += 1;
     }
 
+    fn reset_timings(&mut self) {
+        self.trace_ms = 0.0;
+        self.trace_passes = 0;
+    }
+
     fn details(&self) -> Option<serde_json::Value> {
         let s = self.settings?;
         let Some(st) = &self.state else {

@@ -6,6 +6,7 @@
 use std::time::{Duration, Instant};
 
 use super::{charge, RenderSession};
+use crate::render::estimate_gpu::ESTIMATE_LABELS;
 use crate::render::inflight::CompletedPass;
 use crate::render::{PassStats, RenderError};
 
@@ -41,7 +42,14 @@ impl RenderSession {
                 return Err(e.into());
             }
         };
-        self.integrator.observe_timings(&timings);
+        // The integrator sees its own dispatches only (the error estimate's are the checks'
+        // cost, counted in `estimates`).
+        let own: Vec<_> = timings
+            .iter()
+            .filter(|t| !ESTIMATE_LABELS.contains(&t.label.as_str()))
+            .cloned()
+            .collect();
+        self.integrator.observe_timings(&own);
         let estimate = p
             .estimate
             .as_ref()
