@@ -4,9 +4,10 @@
 //! stack of node groups.
 //!
 //! obvhs builds it: PLOC (Meister & Bittner 2018) with reinsertion gives a binary BVH of one
-//! primitive per leaf, and obvhs's converter collapses it into the wide tree by the paper's
-//! SAH-cost dynamic programme (leaves of at most 3 primitives), ordering each node's children
-//! by octant. Two guards are ours:
+//! primitive per leaf, and obvhs's converter, run on every core (cwbvh_convert.rs: the same tree
+//! bit for bit), collapses it into the wide tree by the paper's SAH-cost dynamic programme
+//! (leaves of at most 3 primitives), ordering each node's children by octant. Three guards are
+//! ours:
 //!
 //! 0. PLOC merges one pair per pass among identical boxes (quadratic: a million copies of one
 //!    triangle would take hours), so it runs over the distinct boxes and each leaf is then
@@ -31,9 +32,9 @@ use obvhs::aabb::Aabb;
 use obvhs::bvh2::node::Bvh2Node;
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::bvh2::Bvh2;
-use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
 use obvhs::BvhBuildParams;
 
+use super::cwbvh_convert::bvh2_to_cwbvh;
 use super::flatten::heights;
 use super::{Phases, PrimBounds};
 use crate::layout::GpuCwbvhNode;
@@ -130,7 +131,7 @@ pub fn build(prims: &[PrimBounds]) -> Built {
 }
 
 fn convert(bvh2: &Bvh2, ph: &mut Phases) -> Built {
-    let mut cw = ph.time("convert", || bvh2_to_cwbvh(bvh2, MAX_LEAF, true, false));
+    let mut cw = bvh2_to_cwbvh(bvh2, MAX_LEAF, ph);
     let (nodes, depth) = ph.time("nodes", || {
         let nodes: Vec<GpuCwbvhNode> = bytemuck::cast_vec(std::mem::take(&mut cw.nodes));
         let depth = depth_of(&nodes).expect("obvhs builds a tree");
@@ -282,6 +283,41 @@ fn expand_copies(bvh: Bvh2, prims: &[PrimBounds], copies: &Copies) -> Bvh2 {
     }
 }
 
+/// Inner levels of `bvh` (its longest root-to-leaf path; 0 for a lone leaf), without per-node
+/// arrays: subtrees near the root in parallel, each walked with an explicit stack (chains may be
+/// deep).
+fn height_of(bvh: &Bvh2) -> usize {
+    fn walk(nodes: &[Bvh2Node], root: usize, level: usize) -> usize {
+        let n = &nodes[root];
+        let f = n.first_index as usize;
+        if n.prim_count > 0 {
+            return level;
+        }
+        if level < 12 {
+            let (a, b) = rayon::join(
+                || walk(nodes, f, level + 1),
+                || walk(nodes, f + 1, level + 1),
+            );
+            return a.max(b);
+        }
+        let (mut most, mut stack) = (level, vec![(root, level)]);
+        while let Some((i, d)) = stack.pop() {
+            let n = &nodes[i];
+            if n.prim_count > 0 {
+                most = most.max(d);
+            } else {
+                let f = n.first_index as usize;
+                stack.extend([(f, d + 1), (f + 1, d + 1)]);
+            }
+        }
+        most
+    }
+    if bvh.nodes.is_empty() {
+        return 0;
+    }
+    walk(&bvh.nodes, 0, 0)
+}
+
 /// Inner levels of a balanced tree over `n` single-primitive leaves: ⌈log2 n⌉.
 fn balanced_height(n: u64) -> usize {
     (n.max(1).next_power_of_two().trailing_zeros()) as usize
@@ -293,10 +329,11 @@ fn balanced_height(n: u64) -> usize {
 /// one level further down, and otherwise rebuilt balanced (object median along the longest
 /// centroid axis), whose height ⌈log2 n⌉ fits whenever n ≤ 2^limit.
 fn bound_height(bvh: &Bvh2, prims: &[PrimBounds], limit: usize) -> Option<Bvh2> {
-    let (height, count) = heights(bvh);
-    if height[0] as usize <= limit {
+    // The usual tree fits: found without the per-node arrays (a second of a 30M build).
+    if height_of(bvh) <= limit {
         return None;
     }
+    let (height, count) = heights(bvh);
     let src = &bvh.nodes;
     enum Task {
         Copy {

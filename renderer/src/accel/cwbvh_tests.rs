@@ -2,7 +2,8 @@
 //! exactly one leaf whose decoded box contains it, chains far deeper than the stack bounded
 //! within it (and a bounded binary tree converted no deeper), `depth_of` rejecting what is not a
 //! tree, the empty scene, copies of one box grouped (`distinct_boxes`) and expanded in place as
-//! the top-down copy would (`expanding_copies_in_place_matches_the_top_down_copy`).
+//! the top-down copy would (`expanding_copies_in_place_matches_the_top_down_copy`), and the
+//! parallel conversion giving obvhs's serial tree bit for bit (`parallel_conversion_is_obvhs_s`).
 use super::*;
 
 fn unit_boxes(n: usize) -> Vec<PrimBounds> {
@@ -249,5 +250,73 @@ fn expanding_copies_in_place_matches_the_top_down_copy() {
         let mut sorted = b.order.clone();
         sorted.sort_unstable();
         assert!(sorted.iter().enumerate().all(|(i, &p)| p as usize == i));
+    }
+}
+
+/// Boxes of pseudo-random size and place (a fixed LCG), overlapping and of every aspect.
+fn scattered_boxes(n: usize, seed: u64) -> Vec<PrimBounds> {
+    let mut x = seed;
+    let mut next = || {
+        x = x
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (x >> 40) as f32 / (1u64 << 24) as f32
+    };
+    (0..n)
+        .map(|_| {
+            let c = [next() * 100.0, next() * 10.0, next() * 1000.0];
+            let h = [next().powi(3) * 5.0, next() * 0.01, next().powi(2) * 30.0];
+            PrimBounds {
+                min: [0, 1, 2].map(|a| c[a] - h[a]),
+                max: [0, 1, 2].map(|a| c[a] + h[a]),
+            }
+        })
+        .collect()
+}
+
+/// The parallel conversion (cwbvh_convert.rs) is obvhs's serial one, node for node and bit for
+/// bit, over trees large enough to take its parallel paths (3 wide levels, 14 binary ones), with
+/// copies expanded and a nested chain bounded as `build` does.
+#[test]
+fn parallel_conversion_is_obvhs_s() {
+    let params = obvhs::BvhBuildParams::medium_build();
+    let nested = nested_boxes(3000);
+    let mut chain = super::super::ploc(&nested, &params);
+    if let Some(b) = bound_height(&chain, &nested, BINARY_LIMIT) {
+        chain = b;
+    }
+    let mut cases = vec![("nested", chain)];
+    for (name, prims) in [
+        ("scattered", scattered_boxes(40_000, 7)),
+        ("grid", unit_boxes(30_000)),
+        ("few", scattered_boxes(5, 3)),
+        ("one", scattered_boxes(1, 3)),
+    ] {
+        let mut bvh = super::super::ploc(&prims, &params);
+        ReinsertionOptimizer::default().run(&mut bvh, params.reinsertion_batch_ratio, None);
+        cases.push((name, bvh));
+    }
+    // (And the height check that skips bounding: the post-order arrays' height.)
+    for (name, bvh) in &cases {
+        assert_eq!(height_of(bvh), heights(bvh).0[0] as usize, "{name}");
+    }
+    let unbounded = super::super::ploc(&nested, &params);
+    assert!(height_of(&unbounded) > BINARY_LIMIT);
+    assert_eq!(height_of(&unbounded), heights(&unbounded).0[0] as usize);
+    for (name, bvh) in &cases {
+        let want = obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh(bvh, MAX_LEAF, true, false);
+        let got = bvh2_to_cwbvh(bvh, MAX_LEAF, &mut Phases::default());
+        let slots = (got.primitive_indices.len(), want.primitive_indices.len());
+        assert_eq!(slots.0, slots.1, "{name}: leaf slots");
+        let differ = (0..slots.0).find(|&i| got.primitive_indices[i] != want.primitive_indices[i]);
+        assert_eq!(differ, None, "{name}: first differing leaf slot");
+        assert_eq!(got.nodes.len(), want.nodes.len(), "{name}");
+        let differ = got
+            .nodes
+            .iter()
+            .zip(&want.nodes)
+            .position(|(a, b)| bytemuck::bytes_of(a) != bytemuck::bytes_of(b));
+        assert_eq!(differ, None, "{name}: first differing node");
+        println!("{name}: {} wide nodes, the same", got.nodes.len());
     }
 }

@@ -19,6 +19,7 @@
 
 pub mod cache;
 pub mod cwbvh;
+mod cwbvh_convert;
 mod flatten;
 pub mod grid;
 mod select;
