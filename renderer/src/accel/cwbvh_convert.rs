@@ -218,6 +218,19 @@ fn append(to: &mut Vec<CwBvhNode>, from: &[CwBvhNode], dn: u32, dp: u32) {
     });
 }
 
+/// A wide node's internal children, in slot order (no allocation per node).
+#[derive(Default)]
+struct Children {
+    slot: [u32; 8],
+    len: usize,
+}
+
+impl Children {
+    fn as_slice(&self) -> &[u32] {
+        &self.slot[..self.len]
+    }
+}
+
 /// What a subtree adds below its wide root: nodes and leaf primitives, indices relative to them.
 #[derive(Default)]
 struct Below {
@@ -241,6 +254,7 @@ impl Converter<'_> {
         }
         let (mut head, internal) = self.head(n, &mut out);
         let subs: Vec<(CwBvhNode, Below)> = internal
+            .as_slice()
             .par_iter()
             .map(|&c| self.subtree(c as usize, level + 1))
             .collect();
@@ -264,9 +278,8 @@ impl Converter<'_> {
         let (mut head, internal) = self.head(n, out);
         let base = out.nodes.len();
         head.child_base_idx = base as u32;
-        out.nodes
-            .resize(base + internal.len(), CwBvhNode::default());
-        for (k, &c) in internal.iter().enumerate() {
+        out.nodes.resize(base + internal.len, CwBvhNode::default());
+        for (k, &c) in internal.as_slice().iter().enumerate() {
             out.nodes[base + k] = self.visit(c as usize, out);
         }
         head
@@ -274,7 +287,7 @@ impl Converter<'_> {
 
     /// The wide node over binary node `n` (child_base_idx left for the caller) with its leaf
     /// children's primitives appended to `out`, and its internal children in slot order.
-    fn head(&self, n: usize, out: &mut Below) -> (CwBvhNode, Vec<u32>) {
+    fn head(&self, n: usize, out: &mut Below) -> (CwBvhNode, Children) {
         let aabb = *self.bvh2.nodes[n].aabb();
         let mut node = CwBvhNode {
             p: aabb.min.into(),
@@ -295,7 +308,7 @@ impl Converter<'_> {
         node.imask = 0;
         node.primitive_base_idx = out.prims.len() as u32;
         let mut prims = 0u32;
-        let mut internal = Vec::with_capacity(8);
+        let mut internal = Children::default();
         for (i, &c) in children.iter().enumerate() {
             if c == NO_CHILD {
                 continue;
@@ -331,7 +344,8 @@ impl Converter<'_> {
                 Kind::Internal => {
                     node.imask |= 1 << i;
                     node.child_meta[i] = (24 + i as u8) | 0b0010_0000;
-                    internal.push(c);
+                    internal.slot[internal.len] = c;
+                    internal.len += 1;
                 }
                 Kind::Distribute => unreachable!("a distributed slot is not a child"),
             }
