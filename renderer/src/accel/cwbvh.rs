@@ -160,69 +160,54 @@ impl Copies {
     }
 }
 
-/// Groups `prims` by identical boxes with a parallel sort of (box hash, index) pairs (no hash
-/// map: one allocation, sequential memory; a hash map of 30M boxes cost seconds, and sorting the
-/// 24-byte boxes themselves twice as long as their 8-byte hashes).
+/// Groups `prims` by identical boxes with a parallel sort of (box bits, index) pairs (no hash
+/// map: one allocation, sequential memory; a hash map of 30M boxes cost seconds).
 fn distinct_boxes(prims: &[PrimBounds]) -> Copies {
-    group_boxes(prims, box_hash)
-}
-
-/// [`distinct_boxes`] with the hash given (tests force collisions with a poor one).
-fn group_boxes(prims: &[PrimBounds], hash: impl Fn([u32; 6]) -> u64 + Sync) -> Copies {
     use rayon::prelude::*;
-    let bits = |i: u32| {
-        let b = &prims[i as usize];
-        let (lo, hi) = (b.min.map(f32::to_bits), b.max.map(f32::to_bits));
-        [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]]
-    };
-    let identity = || Copies {
-        reps: (0..prims.len() as u32).collect(),
-        start: Vec::new(),
-        members: Vec::new(),
-    };
-    // Step 1: every primitive's box hash beside its index, sorted: equal boxes form runs, each
-    // in input order. No two equal neighbours: every box distinct (the common case).
-    let mut keyed: Vec<(u64, u32)> = (0..prims.len() as u32)
-        .into_par_iter()
-        .map(|i| (hash(bits(i)), i))
+    // Step 1: every primitive's box bits beside its index, sorted: equal boxes form runs, each
+    // in input order.
+    let mut keyed: Vec<([u32; 6], u32)> = prims
+        .par_iter()
+        .enumerate()
+        .map(|(i, b)| {
+            let (lo, hi) = (b.min.map(f32::to_bits), b.max.map(f32::to_bits));
+            ([lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]], i as u32)
+        })
         .collect();
     keyed.par_sort_unstable();
+    // No two equal neighbours: every box distinct (the common case), nothing to group.
     if keyed.par_windows(2).all(|w| w[0].0 != w[1].0) {
-        return identity();
+        return Copies {
+            reps: (0..prims.len() as u32).collect(),
+            start: Vec::new(),
+            members: Vec::new(),
+        };
     }
-    // Step 2: a run of one hash that holds distinct boxes (a collision) sorted by the boxes, so
-    // that equal boxes are contiguous, each still in input order.
-    let mut k = 0;
-    while k < keyed.len() {
-        let e = k + keyed[k..].iter().take_while(|w| w.0 == keyed[k].0).count();
-        let first = bits(keyed[k].1);
-        if keyed[k + 1..e].iter().any(|w| bits(w.1) != first) {
-            keyed[k..e].sort_unstable_by_key(|w| (bits(w.1), w.1));
-        }
-        k = e;
-    }
-    let same = |a: &(u64, u32), b: &(u64, u32)| a.0 == b.0 && bits(a.1) == bits(b.1);
-    // Step 3: the runs, numbered by their first primitive.
+    // Step 2: the runs, numbered by their first primitive.
     let mut runs: Vec<(u32, u32)> = Vec::new(); // (first primitive, start in `keyed`)
     for (k, w) in keyed.iter().enumerate() {
-        if k == 0 || !same(&keyed[k - 1], w) {
+        if k == 0 || keyed[k - 1].0 != w.0 {
             runs.push((w.1, k as u32));
         }
     }
     if runs.len() == prims.len() {
-        return identity();
+        return Copies {
+            reps: (0..prims.len() as u32).collect(),
+            start: Vec::new(),
+            members: Vec::new(),
+        };
     }
     runs.par_sort_unstable();
-    // Step 4: members of each run, concatenated in that order.
+    // Step 3: members of each run, concatenated in that order.
     let (mut start, mut members) = (Vec::with_capacity(runs.len() + 1), Vec::new());
     members.reserve(prims.len());
     for &(_, from) in &runs {
         start.push(members.len() as u32);
-        let head = keyed[from as usize];
+        let key = keyed[from as usize].0;
         members.extend(
             keyed[from as usize..]
                 .iter()
-                .take_while(|w| same(&head, w))
+                .take_while(|w| w.0 == key)
                 .map(|w| w.1),
         );
     }
@@ -232,21 +217,6 @@ fn group_boxes(prims: &[PrimBounds], hash: impl Fn([u32; 6]) -> u64 + Sync) -> C
         start,
         members,
     }
-}
-
-/// A 64-bit hash of a box's bits (a multiply-rotate mix per word, then splitmix64's finaliser):
-/// equal boxes hash alike; distinct ones collide rarely, and a collision only costs the exact
-/// grouping's sort.
-fn box_hash(words: [u32; 6]) -> u64 {
-    let mut h: u64 = 0x9e37_79b9_7f4a_7c15;
-    for w in words {
-        h = (h ^ w as u64)
-            .wrapping_mul(0xff51_afd7_ed55_8ccd)
-            .rotate_left(29);
-    }
-    h ^= h >> 33;
-    h = h.wrapping_mul(0xc4ce_b9fe_1a85_ec53);
-    h ^ (h >> 33)
 }
 
 /// `bvh`, built over the distinct boxes, with each leaf (one distinct box) replaced by a

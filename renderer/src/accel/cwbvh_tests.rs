@@ -164,22 +164,6 @@ fn copies_are_grouped_in_order_of_first_appearance() {
     assert!(d.members.is_empty());
     // The tree over the copies still holds every primitive once.
     check(&prims, &build(&prims));
-    // Hash collisions (every box, or some, under one hash) group the same way.
-    let many: Vec<PrimBounds> = (0..200)
-        .map(|i| b[(i * 7 + i / 3) % 3])
-        .chain(unit_boxes(50))
-        .collect();
-    let want = distinct_boxes(&many);
-    assert_eq!(want.reps.len(), 50);
-    for poor in [|_: [u32; 6]| 0u64, |w: [u32; 6]| (w[0] % 2) as u64] {
-        let got = group_boxes(&many, poor);
-        assert_eq!(
-            (&got.reps, &got.start, &got.members),
-            (&want.reps, &want.start, &want.members)
-        );
-    }
-    let distinct = unit_boxes(40);
-    assert!(group_boxes(&distinct, |_| 7).members.is_empty());
 }
 
 /// The reference for `expand_copies` (its former, serial form): `bvh`, built over the distinct boxes, with each leaf (one distinct box) replaced by a
