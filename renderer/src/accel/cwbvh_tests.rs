@@ -5,6 +5,7 @@
 //! the top-down copy would (`expanding_copies_in_place_matches_the_top_down_copy`), and the
 //! parallel conversion giving obvhs's serial tree bit for bit (`parallel_conversion_is_obvhs_s`).
 use super::*;
+use crate::accel::tests::random_boxes;
 
 fn unit_boxes(n: usize) -> Vec<PrimBounds> {
     (0..n)
@@ -253,27 +254,6 @@ fn expanding_copies_in_place_matches_the_top_down_copy() {
     }
 }
 
-/// Boxes of pseudo-random size and place (a fixed LCG), overlapping and of every aspect.
-fn scattered_boxes(n: usize, seed: u64) -> Vec<PrimBounds> {
-    let mut x = seed;
-    let mut next = || {
-        x = x
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (x >> 40) as f32 / (1u64 << 24) as f32
-    };
-    (0..n)
-        .map(|_| {
-            let c = [next() * 100.0, next() * 10.0, next() * 1000.0];
-            let h = [next().powi(3) * 5.0, next() * 0.01, next().powi(2) * 30.0];
-            PrimBounds {
-                min: [0, 1, 2].map(|a| c[a] - h[a]),
-                max: [0, 1, 2].map(|a| c[a] + h[a]),
-            }
-        })
-        .collect()
-}
-
 /// The parallel conversion (cwbvh_convert.rs) is obvhs's serial one, node for node and bit for
 /// bit, over trees large enough to take its parallel paths (3 wide levels, 14 binary ones), with
 /// copies expanded and a nested chain bounded as `build` does.
@@ -287,10 +267,10 @@ fn parallel_conversion_is_obvhs_s() {
     }
     let mut cases = vec![("nested", chain)];
     for (name, prims) in [
-        ("scattered", scattered_boxes(40_000, 7)),
+        ("scattered", random_boxes(40_000, 7)),
         ("grid", unit_boxes(30_000)),
-        ("few", scattered_boxes(5, 3)),
-        ("one", scattered_boxes(1, 3)),
+        ("few", random_boxes(5, 3)),
+        ("one", random_boxes(1, 3)),
     ] {
         let mut bvh = super::super::ploc(&prims, &params);
         ReinsertionOptimizer::default().run(&mut bvh, params.reinsertion_batch_ratio, None);

@@ -250,7 +250,7 @@ mod tests {
     }
 
     /// Pseudo-random small boxes (a fixed LCG), a mix of sizes so PLOC's tree is irregular.
-    fn random_boxes(n: usize, seed: u64) -> Vec<PrimBounds> {
+    pub(crate) fn random_boxes(n: usize, seed: u64) -> Vec<PrimBounds> {
         let mut x = seed;
         let mut next = move || {
             x = x
