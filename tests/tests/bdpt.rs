@@ -414,10 +414,6 @@ fn white_furnace_is_exactly_one() {
     assert_eq!(stats.dropped_samples, 0);
 }
 
-/// Pass splits and checkpoints. With fixed-point splats the image is bit-identical whatever the
-/// split and after a checkpoint/restore; with float atomics the camera-side accumulation is
-/// bit-identical and the splats (summed in a varying order) agree to rounding; the two splat
-/// encodings agree to rounding.
 /// The split design's report: its light and camera passes' GPU time (and `other`, none) add up
 /// to the session's GPU time less `excluded_s` seconds, and both kernels ran.
 fn pass_split_adds_up(s: &RenderSession, excluded_s: f64) {
@@ -438,6 +434,10 @@ fn pass_split_adds_up(s: &RenderSession, excluded_s: f64) {
     }
 }
 
+/// Pass splits and checkpoints. With fixed-point splats the image is bit-identical whatever the
+/// split and after a checkpoint/restore; with float atomics the camera-side accumulation is
+/// bit-identical and the splats (summed in a varying order) agree to rounding; the two splat
+/// encodings agree to rounding.
 #[test]
 fn pass_split_and_checkpoint() {
     let scene = load("cornell.json");

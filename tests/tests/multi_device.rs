@@ -69,6 +69,7 @@ fn split_equals_single(integrator: &str, options: &str) -> std::path::PathBuf {
     if single.get("details").is_some() {
         assert!(split.get("details").is_none(), "{split}");
         for d in split["devices"].as_array().unwrap() {
+            assert!(d["details"].is_object(), "{d}");
             assert_eq!(d["details"]["design"], single["details"]["design"], "{d}");
         }
     }

@@ -90,27 +90,51 @@ fn a_scene_too_large_for_the_device_names_the_limit() {
     );
 }
 
-/// The check counts the session's buffers too: a limit the scene's buffers fit but not with
-/// the film's and bdpt's light vertices is refused before anything is allocated.
-#[test]
-fn the_memory_check_counts_the_film_and_integrator_buffers() {
-    let o = render(&[], &["--json", "--integrator", "bdpt"]);
+/// The scene's GPU bytes as `candela render --json --integrator <integrator>` reports them.
+fn scene_gpu_bytes(integrator: &str) -> u64 {
+    let o = render(&[], &["--json", "--integrator", integrator]);
     assert!(o.status.success(), "{}", text(&o.stderr));
     let v: Value = serde_json::from_slice(&o.stdout).unwrap();
-    let scene = v["scene_gpu_bytes"].as_u64().expect("scene_gpu_bytes");
-    // The 8×8 film's two accumulations alone are 2 KiB more than the scene.
-    let limit = (scene + 1024).to_string();
+    v["scene_gpu_bytes"].as_u64().expect("scene_gpu_bytes")
+}
+
+/// The check counts the session's buffers too: a limit the scene's buffers fit but not with
+/// the film's, or not with bdpt's splats and light vertices, is refused before anything is
+/// allocated.
+#[test]
+fn the_memory_check_counts_the_film_and_integrator_buffers() {
+    let refused = |integrator: &str, limit: u64| {
+        let limit = limit.to_string();
+        let o = render(
+            &[("CANDELA_GPU_MEMORY_LIMIT", &limit)],
+            &["--integrator", integrator],
+        );
+        assert!(!o.status.success(), "{integrator} fitted in {limit} bytes");
+        let err = text(&o.stderr);
+        println!("{err}");
+        assert!(
+            err.contains("does not fit the device") && err.contains(&format!("{limit} bytes")),
+            "{err}"
+        );
+    };
+    // The 8×8 film's two accumulations (16 bytes per pixel each) and the counters' buffer.
+    let film = 2 * 8 * 8 * 16 + 16;
+    let (nee, bdpt) = (scene_gpu_bytes("nee"), scene_gpu_bytes("bdpt"));
+    refused("nee", nee + film - 16);
+    // Room for the scene and the film: nee renders; bdpt, whose splats and light vertices do
+    // not fit, does not.
     let o = render(
-        &[("CANDELA_GPU_MEMORY_LIMIT", &limit)],
-        &["--integrator", "bdpt"],
+        &[("CANDELA_GPU_MEMORY_LIMIT", &(nee + film).to_string())],
+        &["--integrator", "nee"],
     );
-    assert!(!o.status.success(), "fitted in {limit} bytes");
-    let err = text(&o.stderr);
-    println!("{err}");
     assert!(
-        err.contains("does not fit the device") && err.contains(&format!("{limit} bytes")),
-        "{err}"
+        o.status.success(),
+        "nee in {} bytes: {}",
+        nee + film,
+        text(&o.stderr)
     );
+    assert_eq!(nee, bdpt, "one scene");
+    refused("bdpt", bdpt + film);
 }
 
 #[test]

@@ -1,7 +1,8 @@
 //! The binary BVH collapsed into the compressed 8-wide tree on every core: the same tree, node
 //! for node and bit for bit, as obvhs's serial `bvh2_to_cwbvh(bvh2, max_leaf, true, false)`
 //! (Ylitie et al. 2017's SAH-cost dynamic programme after jan-van-bergen's GPU-Raytracer, children
-//! ordered by octant), which took 8.9 of a 30M-triangle build's 17.3 s on one core.
+//! ordered by octant), which took 11.6 of a 30M-triangle build's 22.5 s on one core of an H100
+//! host (bench/RESULTS.md, "Cold builds on every core").
 //!
 //! 1. Costs: bottom-up, each binary node's seven decisions (make a leaf, an internal wide node,
 //!    or distribute i+1 slots between its two children) from its children's. Subtrees near the
@@ -49,12 +50,15 @@ struct Decision {
 }
 
 /// The decisions, written by disjoint tasks (each node's seven slots by the task that visits
-/// the node, after its children's tasks are joined).
+/// the node, after its children's tasks are joined). Disjoint because the binary BVH is a tree:
+/// every node is reached once from the root (checked after the fact: the primitives counted
+/// equal the tree's; a node reached twice would count its primitives twice).
 struct Decisions {
     ptr: *mut Decision,
     len: usize,
 }
-// SAFETY: tasks write disjoint slots and read only slots written by tasks they joined.
+// SAFETY: tasks write disjoint slots (the tree's nodes are reached once each, see above) and read
+// only slots written by tasks they joined.
 unsafe impl Sync for Decisions {}
 
 impl Decisions {
@@ -97,7 +101,12 @@ pub fn bvh2_to_cwbvh(bvh2: &Bvh2, max_prims_per_leaf: u32, ph: &mut Phases) -> C
             ptr: decisions.as_mut_ptr(),
             len: decisions.len(),
         };
-        cost(bvh2, &shared, 0, max_prims_per_leaf, 0);
+        let counted = cost(bvh2, &shared, 0, max_prims_per_leaf, 0);
+        assert_eq!(
+            counted as usize,
+            bvh2.primitive_indices.len(),
+            "the binary BVH is not a tree over its primitives"
+        );
         decisions
     });
     // Step 2: the root (index 0) and everything below it (from index 1).

@@ -276,6 +276,16 @@ fn parallel_conversion_is_obvhs_s() {
         ReinsertionOptimizer::default().run(&mut bvh, params.reinsertion_batch_ratio, None);
         cases.push((name, bvh));
     }
+    // Copies of boxes (1 to many of each), as `build` makes their tree: PLOC over the distinct
+    // boxes, then each leaf expanded into a subtree over its copies (exact cost ties).
+    let base = unit_boxes(300);
+    let copied: Vec<PrimBounds> = (0..3000).map(|i| base[(i * i + 3 * i) % 300]).collect();
+    let copies = distinct_boxes(&copied);
+    assert!(copies.reps.len() < copied.len(), "copies to expand");
+    let reps: Vec<PrimBounds> = copies.reps.iter().map(|&r| copied[r as usize]).collect();
+    let mut bvh = super::super::ploc(&reps, &params);
+    ReinsertionOptimizer::default().run(&mut bvh, params.reinsertion_batch_ratio, None);
+    cases.push(("copies", expand_copies(bvh, &copied, &copies)));
     // (And the height check that skips bounding: the post-order arrays' height.)
     for (name, bvh) in &cases {
         assert_eq!(height_of(bvh), heights(bvh).0[0] as usize, "{name}");

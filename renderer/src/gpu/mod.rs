@@ -52,9 +52,10 @@ pub enum GpuError {
     Alloc { name: String, message: String },
     #[error("shader {name} failed to compile: {log}")]
     Shader { name: String, log: String },
-    /// A scene larger than the device allows (renderer::memory::check_fits), found before
-    /// anything was allocated; the message names the buffer or total and the limit.
-    #[error("scene does not fit the device: {0}")]
+    /// A render larger than the device allows (renderer::memory::check_fits: the scene's
+    /// buffers with the film's and the integrator's), found before anything was allocated; the
+    /// message names the buffer or total and the limit.
+    #[error("render does not fit the device: {0}")]
     TooLarge(String),
     #[error("validation layer reported: {0}")]
     Validation(String),

@@ -55,10 +55,11 @@
 //!
 //! # Report
 //! `details`: `{"design", "timings_ms": {"light_passes", "camera_passes", "other"}}`, the GPU
-//! time of the split design's two kernels summed over the render since its start or last reset
-//! (per_pixel: its kernel in `camera_passes`); the float splats' merge counts with the light
-//! passes; `other` is any dispatch of the pass not named here (0 today), so that the three add up
-//! to the session's GPU time less the error estimate's.
+//! time of the split design's two kernels summed over the session's passes since its start,
+//! `reset()` or `restore()` (per_pixel: its kernel in `camera_passes`); the float splats' merge
+//! counts with the light passes; `other` is any dispatch of the pass not named here (0 today).
+//! The three add up to those passes' GPU time less the error estimate's (after a restore the
+//! session's `gpu_time_s` also holds the checkpoint's).
 
 use std::sync::Arc;
 
@@ -123,7 +124,7 @@ pub struct BdptIntegrator {
     light_buffer_bytes: u64,
     /// Float splats: the end-of-pass merge of the odd samples' splats (made in `setup`).
     splat_merge: Option<ComputePipeline>,
-    /// GPU milliseconds of the passes observed since the session's start or reset: (light
+    /// GPU milliseconds of the passes observed since the session's start, reset or restore: (light
     /// passes, camera or per-pixel passes, any other dispatch), reported in `details`.
     pass_ms: (f64, f64, f64),
 }

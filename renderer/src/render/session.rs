@@ -166,23 +166,18 @@ impl RenderSession {
         let kernels_before = kernel_stats();
         let mut integrator = options.build(scene_max_depth);
         integrator.prepare(ctx);
-        // Step 0: every kernel the session will build (specialised for the scene's features,
-        // or generic, and the integrator's own defines), compiled in parallel where not cached.
-        let defines = Self::defines(scene, options.info(), integrator.as_ref(), kernels);
-        let mut list = vec![(options.info().kernel.to_string(), defines.clone())];
-        list.extend(integrator.kernels(&defines));
-        ctx.compile_kernels(&list)?;
+        // Step 0: the scene's buffers and the session's own (the film's, the counters', the
+        // integrator's scratch and per-pixel buffers) checked against the device's limits before
+        // anything is compiled or allocated.
         let (w, h) = (scene.width, scene.height);
         let pixels = w as u64 * h as u64;
-        // Step 1: the scene's buffers and the session's own (the film's, the integrator's
-        // scratch and per-pixel buffers) checked against the device's limits before anything is
-        // allocated; then the scene's uploaded, each at its named binding.
         let (scratch_list, extra_list) =
             (integrator.scratch_buffers(w, h), integrator.extra_buffers());
         let mut needed = crate::memory::scene_buffers(scene);
         needed.extend([
             ("accumulation", pixels * 16),
             ("accumulation (odd)", pixels * 16),
+            ("stats", std::mem::size_of::<GpuStats>() as u64),
         ]);
         needed.extend(scratch_list.iter().map(|b| (b.name, b.bytes)));
         needed.extend(
@@ -191,8 +186,15 @@ impl RenderSession {
                 .map(|e| (e.name, pixels * 16 * e.entries_per_pixel as u64)),
         );
         crate::memory::check_fits(&needed, &ctx.limits)?;
+        // Step 1: every kernel the session will build (specialised for the scene's features,
+        // or generic, and the integrator's own defines), compiled in parallel where not cached.
+        let defines = Self::defines(scene, options.info(), integrator.as_ref(), kernels);
+        let mut list = vec![(options.info().kernel.to_string(), defines.clone())];
+        list.extend(integrator.kernels(&defines));
+        ctx.compile_kernels(&list)?;
+        // Step 2: the scene's buffers, each at its named binding.
         let scene_buffers = upload_scene(ctx, scene)?;
-        // Step 2: accumulation (rgb sum, sample count per pixel) and counters, zeroed.
+        // Step 3: accumulation (rgb sum, sample count per pixel) and counters, zeroed.
         let accum = Buffer::new(ctx, "accumulation", pixels * 16, BufferUsage::Storage)?;
         ctx.fill_zero(&accum)?;
         let accum_odd = Buffer::new(ctx, "accumulation (odd)", pixels * 16, BufferUsage::Storage)?;
@@ -217,7 +219,7 @@ impl RenderSession {
             ctx.fill_zero(&b)?;
             extra.push((e, b));
         }
-        // Step 3: the pass kernel.
+        // Step 4: the pass kernel.
         let features = scene.features.for_mode(kernels);
         let kernel_start = Instant::now();
         let spirv = ctx.kernel(options.info().kernel, &defines)?;
@@ -254,7 +256,7 @@ impl RenderSession {
             std::mem::size_of::<GpuPush>() as u32,
         )?;
         let kernel_time = kernel_start.elapsed();
-        // Step 4: the integrator's own stages (buffers, pipelines, scene-only work).
+        // Step 5: the integrator's own stages (buffers, pipelines, scene-only work).
         integrator.setup(ctx, scene, &bindings, &defines)?;
         drop(bindings);
         ctx.check_validation()?;

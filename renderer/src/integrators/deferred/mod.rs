@@ -188,6 +188,9 @@ pub struct DeferredIntegrator {
     stages: Option<Stages>,
     lights: LightSet,
     times: StageTimes,
+    /// The shading counters (which the GPU never clears) at the last `reset_timings`: the
+    /// details report the counts since, like the stage times.
+    counters_base: [u64; 3],
 }
 
 pub fn new(o: &DeferredOptions, scene_max_depth: Option<i32>) -> DeferredIntegrator {
@@ -198,6 +201,7 @@ pub fn new(o: &DeferredOptions, scene_max_depth: Option<i32>) -> DeferredIntegra
         stages: None,
         lights: LightSet::default(),
         times: StageTimes::default(),
+        counters_base: [0; 3],
     }
 }
 
@@ -363,16 +367,19 @@ impl Integrator for DeferredIntegrator {
 
     fn reset_timings(&mut self) {
         self.times = StageTimes::default();
+        // (The session has drained: the read waits for nothing.)
+        if let Some(c) = self.stages.as_ref().and_then(|s| s.counters().ok()) {
+            self.counters_base = c;
+        }
     }
 
     fn details(&self) -> Option<serde_json::Value> {
         let t = &self.times;
-        // (The counters since the stages were made; a read waits for the queued passes.)
-        let [tested, shaded, lit] = self
-            .stages
-            .as_ref()
+        // (The counters since the last reset_timings; a read waits for the queued passes.)
+        let now = (self.stages.as_ref())
             .and_then(|s| s.counters().ok())
             .unwrap_or_default();
+        let [tested, shaded, lit] = [0, 1, 2].map(|i| now[i].saturating_sub(self.counters_base[i]));
         let per = |ms: f64| {
             if t.samples > 0 {
                 ms / t.samples as f64
