@@ -8,9 +8,9 @@
 //!   /proc/self/status; None where there is no /proc);
 //! - [`check_fits`]: every buffer within the device's `maxStorageBufferRange` and all of them
 //!   (a render session checks the scene's with its film's and its integrator's scratch and
-//!   per-pixel buffers) within its largest device-local heap, else an error naming the buffer, its size and the
-//!   limit (a scene too large for the device is refused with that message instead of failing in
-//!   the driver). The limits can be lowered for tests and for sharing a GPU with
+//!   per-pixel buffers) within its largest device-local heap, else an error naming the buffer,
+//!   its size and the limit (a render too large for the device is refused with that message
+//!   instead of failing in the driver). The limits can be lowered for tests and for sharing a GPU with
 //!   `CANDELA_GPU_MEMORY_LIMIT` and `CANDELA_GPU_BUFFER_LIMIT` (bytes; see `gpu::DeviceLimits`).
 
 use serde::Serialize;

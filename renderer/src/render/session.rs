@@ -171,19 +171,21 @@ impl RenderSession {
         // anything is compiled or allocated.
         let (w, h) = (scene.width, scene.height);
         let pixels = w as u64 * h as u64;
+        // Bytes of a film-sized buffer of `entries` vec4 per pixel (check and allocation alike).
+        let film_bytes = |entries: u32| pixels * 16 * entries as u64;
         let (scratch_list, extra_list) =
             (integrator.scratch_buffers(w, h), integrator.extra_buffers());
         let mut needed = crate::memory::scene_buffers(scene);
         needed.extend([
-            ("accumulation", pixels * 16),
-            ("accumulation (odd)", pixels * 16),
+            ("accumulation", film_bytes(1)),
+            ("accumulation (odd)", film_bytes(1)),
             ("stats", std::mem::size_of::<GpuStats>() as u64),
         ]);
         needed.extend(scratch_list.iter().map(|b| (b.name, b.bytes)));
         needed.extend(
             extra_list
                 .iter()
-                .map(|e| (e.name, pixels * 16 * e.entries_per_pixel as u64)),
+                .map(|e| (e.name, film_bytes(e.entries_per_pixel))),
         );
         crate::memory::check_fits(&needed, &ctx.limits)?;
         // Step 1: every kernel the session will build (specialised for the scene's features,
@@ -195,9 +197,14 @@ impl RenderSession {
         // Step 2: the scene's buffers, each at its named binding.
         let scene_buffers = upload_scene(ctx, scene)?;
         // Step 3: accumulation (rgb sum, sample count per pixel) and counters, zeroed.
-        let accum = Buffer::new(ctx, "accumulation", pixels * 16, BufferUsage::Storage)?;
+        let accum = Buffer::new(ctx, "accumulation", film_bytes(1), BufferUsage::Storage)?;
         ctx.fill_zero(&accum)?;
-        let accum_odd = Buffer::new(ctx, "accumulation (odd)", pixels * 16, BufferUsage::Storage)?;
+        let accum_odd = Buffer::new(
+            ctx,
+            "accumulation (odd)",
+            film_bytes(1),
+            BufferUsage::Storage,
+        )?;
         ctx.fill_zero(&accum_odd)?;
         let stats_buf = Buffer::new(
             ctx,
@@ -214,7 +221,7 @@ impl RenderSession {
         }
         let mut extra = Vec::new();
         for e in extra_list {
-            let bytes = pixels * 16 * e.entries_per_pixel as u64;
+            let bytes = film_bytes(e.entries_per_pixel);
             let b = Buffer::new(ctx, e.name, bytes, BufferUsage::Storage)?;
             ctx.fill_zero(&b)?;
             extra.push((e, b));
