@@ -35,6 +35,7 @@ use obvhs::bvh2::Bvh2;
 use obvhs::BvhBuildParams;
 
 use super::cwbvh_convert::bvh2_to_cwbvh;
+use super::distinct::{distinct_boxes, Copies};
 use super::flatten::heights;
 use super::{Phases, PrimBounds};
 use crate::layout::GpuCwbvhNode;
@@ -95,7 +96,8 @@ pub fn build(prims: &[PrimBounds]) -> Built {
     // Without copies the distinct boxes are the input itself.
     let copied: Vec<PrimBounds> = if reps.len() < prims.len() {
         ph.time("rep_bounds", || {
-            reps.iter().map(|&i| prims[i as usize]).collect()
+            use rayon::prelude::*;
+            reps.par_iter().map(|&i| prims[i as usize]).collect()
         })
     } else {
         Vec::new()
@@ -142,80 +144,6 @@ fn convert(bvh2: &Bvh2, ph: &mut Phases) -> Built {
         order: cw.primitive_indices,
         depth,
         phases: Phases::default(),
-    }
-}
-
-/// Primitives grouped by identical boxes: distinct box `r` (numbered by first appearance) has
-/// `reps[r]`, its first primitive in input order, and `members(r)`, every primitive with that
-/// box. Without copies `reps[i] == i` and nothing else is kept.
-struct Copies {
-    reps: Vec<u32>,
-    start: Vec<u32>,
-    members: Vec<u32>,
-}
-
-impl Copies {
-    fn members(&self, r: u32) -> &[u32] {
-        &self.members[self.start[r as usize] as usize..self.start[r as usize + 1] as usize]
-    }
-}
-
-/// Groups `prims` by identical boxes with a parallel sort of (box bits, index) pairs (no hash
-/// map: one allocation, sequential memory; a hash map of 30M boxes cost seconds).
-fn distinct_boxes(prims: &[PrimBounds]) -> Copies {
-    use rayon::prelude::*;
-    // Step 1: every primitive's box bits beside its index, sorted: equal boxes form runs, each
-    // in input order.
-    let mut keyed: Vec<([u32; 6], u32)> = prims
-        .par_iter()
-        .enumerate()
-        .map(|(i, b)| {
-            let (lo, hi) = (b.min.map(f32::to_bits), b.max.map(f32::to_bits));
-            ([lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]], i as u32)
-        })
-        .collect();
-    keyed.par_sort_unstable();
-    // No two equal neighbours: every box distinct (the common case), nothing to group.
-    if keyed.par_windows(2).all(|w| w[0].0 != w[1].0) {
-        return Copies {
-            reps: (0..prims.len() as u32).collect(),
-            start: Vec::new(),
-            members: Vec::new(),
-        };
-    }
-    // Step 2: the runs, numbered by their first primitive.
-    let mut runs: Vec<(u32, u32)> = Vec::new(); // (first primitive, start in `keyed`)
-    for (k, w) in keyed.iter().enumerate() {
-        if k == 0 || keyed[k - 1].0 != w.0 {
-            runs.push((w.1, k as u32));
-        }
-    }
-    if runs.len() == prims.len() {
-        return Copies {
-            reps: (0..prims.len() as u32).collect(),
-            start: Vec::new(),
-            members: Vec::new(),
-        };
-    }
-    runs.par_sort_unstable();
-    // Step 3: members of each run, concatenated in that order.
-    let (mut start, mut members) = (Vec::with_capacity(runs.len() + 1), Vec::new());
-    members.reserve(prims.len());
-    for &(_, from) in &runs {
-        start.push(members.len() as u32);
-        let key = keyed[from as usize].0;
-        members.extend(
-            keyed[from as usize..]
-                .iter()
-                .take_while(|w| w.0 == key)
-                .map(|w| w.1),
-        );
-    }
-    start.push(members.len() as u32);
-    Copies {
-        reps: runs.iter().map(|r| r.0).collect(),
-        start,
-        members,
     }
 }
 

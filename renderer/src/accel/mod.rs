@@ -20,6 +20,7 @@
 pub mod cache;
 pub mod cwbvh;
 mod cwbvh_convert;
+mod distinct;
 mod flatten;
 pub mod grid;
 mod select;
@@ -40,9 +41,16 @@ use obvhs::{Boundable, BvhBuildParams};
 use crate::layout::GpuBvhNode;
 
 /// obvhs's PLOC build of a binary tree over `prims` (leaf i is primitive i) with `params`.
+/// `CANDELA_PLOC_SEARCH` (1, 2, 6, 14, 24 or 32) overrides the search distance: a knob for
+/// measuring build time against tree quality (bench/RESULTS.md), not part of the cache's key.
 pub(crate) fn ploc(prims: &[PrimBounds], params: &BvhBuildParams) -> obvhs::bvh2::Bvh2 {
+    let search = std::env::var("CANDELA_PLOC_SEARCH")
+        .ok()
+        .and_then(|v| v.parse::<u32>().ok())
+        .filter(|v| [1, 2, 6, 14, 24, 32].contains(v))
+        .map_or(params.ploc_search_distance, Into::into);
     PlocBuilder::with_capacity(prims.len()).build(
-        params.ploc_search_distance,
+        search,
         prims,
         (0..prims.len() as u32).collect::<Vec<_>>(),
         params.sort_precision,
