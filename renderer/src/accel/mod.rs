@@ -23,6 +23,7 @@ mod cwbvh_convert;
 mod distinct;
 mod flatten;
 pub mod grid;
+mod ploc;
 mod select;
 
 pub use flatten::{parents, MAX_LEAF, STACK_DEPTH};
@@ -35,27 +36,33 @@ use std::time::{Duration, Instant};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::leaf_collapser::collapse;
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
-use obvhs::ploc::PlocBuilder;
 use obvhs::{Boundable, BvhBuildParams};
 
 use crate::layout::GpuBvhNode;
 
-/// obvhs's PLOC build of a binary tree over `prims` (leaf i is primitive i) with `params`.
+/// The PLOC build of a binary tree over `prims` (leaf i is primitive i) with `params`' search
+/// distance and narrow first passes (ploc.rs: obvhs's tree, built on every core).
 /// `CANDELA_PLOC_SEARCH` (1, 2, 6, 14, 24 or 32) overrides the search distance: a knob for
 /// measuring build time against tree quality (bench/RESULTS.md), not part of the cache's key.
 pub(crate) fn ploc(prims: &[PrimBounds], params: &BvhBuildParams) -> obvhs::bvh2::Bvh2 {
+    use obvhs::ploc::PlocSearchDistance as D;
+    assert!(
+        matches!(params.sort_precision, obvhs::ploc::SortPrecision::U64),
+        "PLOC sorts 64-bit Morton codes"
+    );
     let search = std::env::var("CANDELA_PLOC_SEARCH")
         .ok()
-        .and_then(|v| v.parse::<u32>().ok())
+        .and_then(|v| v.parse::<usize>().ok())
         .filter(|v| [1, 2, 6, 14, 24, 32].contains(v))
-        .map_or(params.ploc_search_distance, Into::into);
-    PlocBuilder::with_capacity(prims.len()).build(
-        search,
-        prims,
-        (0..prims.len() as u32).collect::<Vec<_>>(),
-        params.sort_precision,
-        params.search_depth_threshold,
-    )
+        .unwrap_or(match params.ploc_search_distance {
+            D::Minimum => 1,
+            D::VeryLow => 2,
+            D::Low => 6,
+            D::Medium => 14,
+            D::High => 24,
+            D::VeryHigh => 32,
+        });
+    ploc::build(prims, search, params.search_depth_threshold)
 }
 
 /// A primitive's bounds for the builder.
