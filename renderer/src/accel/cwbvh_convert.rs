@@ -26,8 +26,8 @@ use super::Phases;
 
 /// Binary levels whose two subtrees' costs are computed in parallel.
 const PARALLEL_COST_LEVELS: u32 = 14;
-/// Wide levels whose children's subtrees are converted in parallel (8³ = 512 tasks at most).
-const PARALLEL_LEVELS: u32 = 3;
+/// Wide levels whose children's subtrees are converted in parallel (8⁴ = 4096 tasks at most).
+const PARALLEL_LEVELS: u32 = 4;
 /// obvhs's leaf cost factor and quantisation denominator (1 / 255).
 const PRIM_COST: f32 = 0.3;
 const DENOM: f32 = 1.0 / 255.0;

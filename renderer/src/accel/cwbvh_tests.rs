@@ -4,6 +4,8 @@
 //! tree, the empty scene, copies of one box grouped (`distinct_boxes`) and expanded in place as
 //! the top-down copy would (`expanding_copies_in_place_matches_the_top_down_copy`), and the
 //! parallel conversion giving obvhs's serial tree bit for bit (`parallel_conversion_is_obvhs_s`).
+use obvhs::BvhBuildParams;
+
 use super::*;
 use crate::accel::tests::random_boxes;
 
@@ -255,7 +257,7 @@ fn expanding_copies_in_place_matches_the_top_down_copy() {
 }
 
 /// The parallel conversion (cwbvh_convert.rs) is obvhs's serial one, node for node and bit for
-/// bit, over trees large enough to take its parallel paths (3 wide levels, 14 binary ones), with
+/// bit, over trees large enough to take its parallel paths (4 wide levels, 14 binary ones), with
 /// copies expanded and a nested chain bounded as `build` does.
 #[test]
 fn parallel_conversion_is_obvhs_s() {

@@ -40,28 +40,41 @@ use obvhs::{Boundable, BvhBuildParams};
 
 use crate::layout::GpuBvhNode;
 
+/// The builds' parameters: obvhs's medium preset with `reinsertion` as the reinsertion batch
+/// ratio. Two knobs for measuring build time against tree quality (bench/RESULTS.md), not part
+/// of the cache's key: `CANDELA_PLOC_SEARCH` (1, 2, 6, 14, 24 or 32) sets PLOC's search
+/// distance, `CANDELA_REINSERTION` the reinsertion batch ratio (0: no reinsertion).
+pub(crate) fn build_params(reinsertion: f32) -> BvhBuildParams {
+    let mut params = BvhBuildParams::medium_build();
+    params.reinsertion_batch_ratio = reinsertion;
+    let var = |name: &str| std::env::var(name).ok();
+    if let Some(v) = var("CANDELA_PLOC_SEARCH").and_then(|v| v.parse::<u32>().ok()) {
+        if [1, 2, 6, 14, 24, 32].contains(&v) {
+            params.ploc_search_distance = v.into();
+        }
+    }
+    if let Some(r) = var("CANDELA_REINSERTION").and_then(|v| v.parse::<f32>().ok()) {
+        params.reinsertion_batch_ratio = r.clamp(0.0, 1.0);
+    }
+    params
+}
+
 /// The PLOC build of a binary tree over `prims` (leaf i is primitive i) with `params`' search
 /// distance and narrow first passes (ploc.rs: obvhs's tree, built on every core).
-/// `CANDELA_PLOC_SEARCH` (1, 2, 6, 14, 24 or 32) overrides the search distance: a knob for
-/// measuring build time against tree quality (bench/RESULTS.md), not part of the cache's key.
 pub(crate) fn ploc(prims: &[PrimBounds], params: &BvhBuildParams) -> obvhs::bvh2::Bvh2 {
     use obvhs::ploc::PlocSearchDistance as D;
     assert!(
         matches!(params.sort_precision, obvhs::ploc::SortPrecision::U64),
         "PLOC sorts 64-bit Morton codes"
     );
-    let search = std::env::var("CANDELA_PLOC_SEARCH")
-        .ok()
-        .and_then(|v| v.parse::<usize>().ok())
-        .filter(|v| [1, 2, 6, 14, 24, 32].contains(v))
-        .unwrap_or(match params.ploc_search_distance {
-            D::Minimum => 1,
-            D::VeryLow => 2,
-            D::Low => 6,
-            D::Medium => 14,
-            D::High => 24,
-            D::VeryHigh => 32,
-        });
+    let search = match params.ploc_search_distance {
+        D::Minimum => 1,
+        D::VeryLow => 2,
+        D::Low => 6,
+        D::Medium => 14,
+        D::High => 24,
+        D::VeryHigh => 32,
+    };
     ploc::build(prims, search, params.search_depth_threshold)
 }
 
@@ -121,7 +134,7 @@ pub fn build(prims: &[PrimBounds], keep_deep: bool) -> Bvh {
     }
     // obvhs's `build_bvh2` (medium preset, our leaf size), its steps timed apart: PLOC,
     // reinsertion, leaf collapsing, reinsertion again.
-    let mut params = BvhBuildParams::medium_build();
+    let mut params = build_params(BvhBuildParams::medium_build().reinsertion_batch_ratio);
     params.max_prims_per_leaf = MAX_LEAF as u32;
     let mut ph = Phases::default();
     let mut bvh = ph.time("ploc", || ploc(prims, &params));

@@ -2,6 +2,7 @@
 //! cache key) does not follow the camera; boxes move between frames in f64 and round outwards.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::accel::PrimBounds;
 use crate::layout::{GpuBvhNode, GpuCwbvhNode};
@@ -68,10 +69,10 @@ pub(super) fn place_nodes(nodes: &mut [GpuBvhNode], offset: DVec3) {
         let b = outward(lo - slack, hi + slack);
         (*mn, *mx) = (b.min, b.max);
     };
-    for n in nodes {
+    nodes.par_iter_mut().for_each(|n| {
         place(&mut n.l_min, &mut n.l_max);
         place(&mut n.r_min, &mut n.r_max);
-    }
+    });
 }
 
 /// Moves CWBVH nodes from the scene frame to the camera frame. Quantised boxes cannot simply be
@@ -82,7 +83,7 @@ pub(super) fn place_nodes(nodes: &mut [GpuBvhNode], offset: DVec3) {
 /// the shader's f32 decoding `p + e·q` (one rounding: e·q is exact) contains the box. Slots,
 /// metadata and indices are unchanged.
 pub(super) fn place_cwbvh(nodes: &mut [GpuCwbvhNode], offset: DVec3) {
-    for n in nodes {
+    nodes.par_iter_mut().for_each(|n| {
         let scale = |byte: u8| f32::from_bits((byte as u32) << 23) as f64;
         let e_old = [
             scale(n.e_imask[0]),
@@ -106,7 +107,7 @@ pub(super) fn place_cwbvh(nodes: &mut [GpuCwbvhNode], offset: DVec3) {
             *b = Some((bmin, bmax));
         }
         if lo.x > hi.x {
-            continue; // no children: the empty scene's root
+            return; // no children: the empty scene's root
         }
         // Step 2: per axis, the new origin and scale, then each child's planes.
         for a in 0..3 {
@@ -134,5 +135,5 @@ pub(super) fn place_cwbvh(nodes: &mut [GpuCwbvhNode], offset: DVec3) {
             n.p[a] = p;
             n.e_imask[a] = (k + 127) as u8;
         }
-    }
+    });
 }
