@@ -329,6 +329,42 @@ mod tests {
         }
     }
 
+    /// The subtree sizes (computed in parallel near the root) equal a plain recursion's, on a
+    /// reinserted tree (children not stored after their parents) and a chain deeper than the
+    /// parallel levels.
+    #[test]
+    fn subtree_sizes_match_a_recursion() {
+        fn reference(b: &obvhs::bvh2::Bvh2, i: usize, s: &mut flatten::Sizes) {
+            let n = &b.nodes[i];
+            if n.prim_count > 0 {
+                s.count[i] = n.prim_count as u64;
+                return;
+            }
+            let (l, r) = (n.first_index as usize, n.first_index as usize + 1);
+            reference(b, l, s);
+            reference(b, r, s);
+            s.height[i] = 1 + s.height[l].max(s.height[r]);
+            s.count[i] = s.count[l] + s.count[r];
+            s.inner[i] = 1 + s.inner[l] + s.inner[r];
+        }
+        let params = BvhBuildParams::medium_build();
+        for prims in [random_boxes(30_000, 9), nested_boxes(400)] {
+            let mut b = ploc(&prims, &params);
+            ReinsertionOptimizer::default().run(&mut b, 0.05, None);
+            let got = flatten::sizes(&b);
+            let n = b.nodes.len();
+            let mut want = flatten::Sizes {
+                height: vec![0; n],
+                count: vec![0; n],
+                inner: vec![0; n],
+            };
+            reference(&b, 0, &mut want);
+            assert!(got.height == want.height && got.count == want.count);
+            assert!(got.inner == want.inner);
+            assert!(want.height[0] > 12, "{}", want.height[0]);
+        }
+    }
+
     #[test]
     fn depth_of_rejects_what_is_not_a_tree() {
         let mut bvh = build(&unit_boxes(100), false);
