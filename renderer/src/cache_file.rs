@@ -36,7 +36,8 @@ impl Default for Hasher128 {
     }
 }
 
-fn mix64(mut x: u64) -> u64 {
+/// splitmix64's finaliser: a 64-bit word's bits mixed.
+pub(crate) fn mix64(mut x: u64) -> u64 {
     // splitmix64's finaliser.
     x ^= x >> 30;
     x = x.wrapping_mul(0xbf58_476d_1ce4_e5b9);

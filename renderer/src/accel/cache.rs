@@ -1,5 +1,6 @@
 //! On-disk cache of built acceleration structures, keyed by scene content: a 128-bit hash of what
-//! the builder reads, the accel kind, its parameters and [`FORMAT_VERSION`]. The BVH reads the
+//! the builder reads, the accel kind, its parameters (the measuring knobs' included:
+//! `accel::knobs`) and [`FORMAT_VERSION`]. The BVH reads the
 //! primitives' boxes in the scene frame (relative to the centre of the scene's bounds, not to
 //! the camera: `compile` moves the built nodes to the camera afterwards), so a camera move keeps
 //! the key (the compressed wide BVH is built from the same boxes, and keyed with its own kind);
@@ -23,7 +24,7 @@ use super::{AccelKind, AccelOptions, PrimBounds};
 use crate::layout::{GpuBvhNode, GpuCwbvhNode, GpuGridInfo, GpuPrim, PRIM_SPHERE};
 
 /// Bumped whenever a builder or the file layout changes, so old files are never reused.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 const MAGIC: &[u8; 8] = b"CNDLACCL";
 
 /// The file header's identity for structures of `kind`.
@@ -69,6 +70,7 @@ pub fn bvh_key(opts: &AccelOptions, bounds: &[PrimBounds]) -> [u64; 2] {
         AccelKind::Cwbvh => h.update(&[opts.cwbvh_bvh_order as u8]),
         _ => h.update(&[opts.bvh_keep_deep as u8]),
     }
+    h.update(super::knobs().as_bytes());
     h.update(&(bounds.len() as u64).to_le_bytes());
     h.update(bytemuck::cast_slice(bounds_words(bounds).as_slice()));
     h.finish()

@@ -13,7 +13,7 @@
 //!    convert their children's subtrees in parallel into buffers of their own (indices relative
 //!    to them); the serial order's offsets are then laid out from their sizes and every buffer
 //!    is copied into its place in the final arrays at once, its indices shifted (no appends
-//!    level by level: those cost 1.6 s of copies at 30M triangles).
+//!    level by level: with them this step took 1.65 s at 30M triangles, 0.98 s without).
 //!
 //! Nothing here is used by anything but `cwbvh::build`; `cwbvh_tests` checks it against obvhs.
 

@@ -59,11 +59,7 @@ fn hash(b: &PrimBounds) -> u64 {
         h = (h ^ w as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
         h ^= h >> 32;
     }
-    h ^= h >> 30;
-    h = h.wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    h ^= h >> 27;
-    h = h.wrapping_mul(0x94D0_49BB_1331_11EB);
-    h ^ (h >> 31)
+    crate::cache_file::mix64(h)
 }
 
 /// One bucket's distinct boxes: first primitive of each (increasing) and members grouped by box,
@@ -139,6 +135,7 @@ pub(super) fn distinct_boxes(prims: &[PrimBounds]) -> Copies {
         })
         .collect();
     drop(scattered);
+    drop(hashes);
     let distinct: usize = groups.iter().map(|g| g.firsts.len()).sum();
     if distinct == n {
         return Copies::identity(n);

@@ -43,7 +43,8 @@ use crate::layout::GpuBvhNode;
 /// The builds' parameters: obvhs's medium preset with `reinsertion` as the reinsertion batch
 /// ratio. Two knobs for measuring build time against tree quality (bench/RESULTS.md), not part
 /// of the cache's key: `CANDELA_PLOC_SEARCH` (1, 2, 6, 14, 24 or 32) sets PLOC's search
-/// distance, `CANDELA_REINSERTION` the reinsertion batch ratio (0: no reinsertion).
+/// distance, `CANDELA_REINSERTION` the reinsertion batch ratio (0: no reinsertion). The cache
+/// key includes them as set ([`knobs`]), so a measuring run never serves its trees to others.
 pub(crate) fn build_params(reinsertion: f32) -> BvhBuildParams {
     let mut params = BvhBuildParams::medium_build();
     params.reinsertion_batch_ratio = reinsertion;
@@ -57,6 +58,13 @@ pub(crate) fn build_params(reinsertion: f32) -> BvhBuildParams {
         params.reinsertion_batch_ratio = r.clamp(0.0, 1.0);
     }
     params
+}
+
+/// The build knobs as set in the environment (see [`build_params`]), for the cache key.
+pub(crate) fn knobs() -> String {
+    ["CANDELA_PLOC_SEARCH", "CANDELA_REINSERTION"]
+        .map(|name| format!("{name}={:?};", std::env::var(name).ok()))
+        .concat()
 }
 
 /// The PLOC build of a binary tree over `prims` (leaf i is primitive i) with `params`' search

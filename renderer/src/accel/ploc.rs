@@ -106,8 +106,15 @@ pub fn build(prims: &[PrimBounds], search: usize, narrow_passes: usize) -> Bvh2 
     bvh
 }
 
+/// The surface area (half) of the union of two clusters' boxes. (NaN, which only boxes beyond
+/// the scene's f32 range could give, counts as infinite, so every pass still merges.)
 fn area(a: &Bvh2Node, b: &Bvh2Node) -> f32 {
-    a.aabb().union(b.aabb()).half_area()
+    let area = a.aabb().union(b.aabb()).half_area();
+    if area.is_nan() {
+        f32::INFINITY
+    } else {
+        area
+    }
 }
 
 /// Each cluster's choice as an offset to its partner: the nearest within `search` either side
@@ -132,68 +139,67 @@ fn chunk_of(count: usize) -> usize {
         .max(MIN_CHUNK)
 }
 
+/// `f(first, choices)` on every core over chunks of the choices (`first`: the chunk's first
+/// cluster).
+fn per_chunk(merge: &mut [i8], f: impl Fn(usize, &mut [i8]) + Sync) {
+    let chunk = chunk_of(merge.len());
+    (merge.par_chunks_mut(chunk).enumerate()).for_each(|(c, out)| f(c * chunk, out));
+}
+
 /// Search distance 1: the cheaper of a cluster's two adjacent pairs.
 fn adjacent(clusters: &[Bvh2Node], merge: &mut [i8]) {
     let count = clusters.len();
-    let chunk = chunk_of(count);
-    merge
-        .par_chunks_mut(chunk)
-        .enumerate()
-        .for_each(|(c, out)| {
-            for (k, m) in out.iter_mut().enumerate() {
-                let i = c * chunk + k;
-                *m = if i + 1 == count {
+    per_chunk(merge, |first, out| {
+        for (k, m) in out.iter_mut().enumerate() {
+            let i = first + k;
+            *m = if i + 1 == count {
+                -1
+            } else {
+                let before = if i == 0 {
+                    f32::INFINITY
+                } else {
+                    area(&clusters[i - 1], &clusters[i])
+                };
+                if before < area(&clusters[i], &clusters[i + 1]) {
                     -1
                 } else {
-                    let before = if i == 0 {
-                        f32::INFINITY
-                    } else {
-                        area(&clusters[i - 1], &clusters[i])
-                    };
-                    if before < area(&clusters[i], &clusters[i + 1]) {
-                        -1
-                    } else {
-                        1
-                    }
-                };
-            }
-        });
+                    1
+                }
+            };
+        }
+    });
 }
 
 /// The nearest of the `S` clusters either side. Cluster j's costs to the clusters after it are
 /// kept (in row j mod S) for when those look back: each pair's union is measured once per chunk.
 fn nearest<const S: usize>(clusters: &[Bvh2Node], merge: &mut [i8]) {
     let count = clusters.len();
-    let chunk = chunk_of(count);
-    merge
-        .par_chunks_mut(chunk)
-        .enumerate()
-        .for_each(|(c, out)| {
-            let mut ahead = [[0f32; S]; S];
-            for (k, m) in out.iter_mut().enumerate() {
-                let i = c * chunk + k;
-                let (mut best, mut cost) = (i, f32::INFINITY);
-                for other in i - S.min(i)..i {
-                    // Measured by `other` if this chunk visited it.
-                    let a = if k >= i - other {
-                        ahead[other % S][i % S]
-                    } else {
-                        area(&clusters[i], &clusters[other])
-                    };
-                    if a <= cost {
-                        (best, cost) = (other, a);
-                    }
+    per_chunk(merge, |first, out| {
+        let mut ahead = [[0f32; S]; S];
+        for (k, m) in out.iter_mut().enumerate() {
+            let i = first + k;
+            let (mut best, mut cost) = (i, f32::INFINITY);
+            for other in i - S.min(i)..i {
+                // Measured by `other` if this chunk visited it.
+                let a = if k >= i - other {
+                    ahead[other % S][i % S]
+                } else {
+                    area(&clusters[i], &clusters[other])
+                };
+                if a <= cost {
+                    (best, cost) = (other, a);
                 }
-                for other in i + 1..(i + S + 1).min(count) {
-                    let a = area(&clusters[i], &clusters[other]);
-                    ahead[i % S][other % S] = a;
-                    if a <= cost {
-                        (best, cost) = (other, a);
-                    }
-                }
-                *m = (best as i64 - i as i64) as i8;
             }
-        });
+            for other in i + 1..(i + S + 1).min(count) {
+                let a = area(&clusters[i], &clusters[other]);
+                ahead[i % S][other % S] = a;
+                if a <= cost {
+                    (best, cost) = (other, a);
+                }
+            }
+            *m = (best as i64 - i as i64) as i8;
+        }
+    });
 }
 
 /// Cluster i's fate by its and its partner's choices.
@@ -302,7 +308,7 @@ mod tests {
             Vec::new(),
         ];
         for prims in &cases {
-            for (search, narrow) in [(14, 3), (14, 0), (2, 0), (6, 2), (1, 0)] {
+            for (search, narrow) in [(14, 3), (14, 0), (2, 0), (6, 2), (1, 0), (24, 3), (32, 0)] {
                 let want = PlocBuilder::with_capacity(prims.len()).build(
                     PlocSearchDistance::from(search as u32),
                     prims,

@@ -11,7 +11,7 @@ use super::error::{from_json_error, index_path, join_path, key_path, SceneError}
 use super::mesh::{to_world, FileError, Materials, RawMesh, Shading};
 use super::paths::AssetRoot;
 use super::texture::TextureCache;
-use super::transform::{box_corners, Transform};
+use super::transform::{box_corners, in_f32_range, Transform};
 use super::validate::{f32_of, non_negative, non_negative3, positive};
 use super::{materials, obj, paths, ply, shapes, validate};
 use super::{Environment, Instance, Limits, Scene, Sphere, TriangleMesh};
@@ -221,10 +221,7 @@ impl Objects<'_> {
         let facts = &self.prototype_facts[prototype as usize];
         // The placed box must stay within f32 (the GPU's frame), checked on the prototype's
         // box corners: O(1) per instance.
-        let inside = box_corners(facts.lo, facts.hi).all(|c| {
-            let w = transform.point(c);
-            w.is_finite() && w.abs().max_element() < f32::MAX as f64 / 4.0
-        });
+        let inside = box_corners(facts.lo, facts.hi).all(|c| in_f32_range(transform.point(c)));
         if !inside {
             return Err(SceneError::invalid(
                 join_path(path, "transform"),
@@ -285,6 +282,12 @@ impl Objects<'_> {
                     return Err(SceneError::invalid(
                         transform_path,
                         "the transform produces a non-finite sphere",
+                    ));
+                }
+                if !(in_f32_range(center + radius) && in_f32_range(center - radius)) {
+                    return Err(SceneError::invalid(
+                        transform_path,
+                        "places the sphere beyond the range of 32-bit floats",
                     ));
                 }
                 self.spheres.push(Sphere {

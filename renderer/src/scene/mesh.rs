@@ -9,7 +9,7 @@
 use glam::{DVec3, Vec2, Vec3};
 
 use super::error::SceneError;
-use super::transform::Transform;
+use super::transform::{in_f32_range, Transform};
 use super::TriangleMesh;
 
 /// An error inside a mesh file, at a line (`None` inside binary data or when unknown).
@@ -142,6 +142,12 @@ pub(crate) fn to_world(
         return Err(SceneError::invalid(
             path,
             "the transform produces non-finite positions",
+        ));
+    }
+    if !positions.iter().all(|&p| in_f32_range(p)) {
+        return Err(SceneError::invalid(
+            path,
+            "a position lies beyond the range of 32-bit floats",
         ));
     }
     // Step 2: a mirroring transform reverses the winding; swap two indices to keep facing.

@@ -130,6 +130,21 @@ fn errors_name_the_json_path() {
         &|v| v["objects"][4]["transform"]["scale"] = json!([1, 2, 1]),
         "objects[4].transform: spheres accept only uniform scale",
     );
+    // Beyond the GPU's floats (finite in f64): refused, not built into a broken tree.
+    let (m, _) = error_with(&dir, |v| {
+        v["objects"][3]["positions"][1] = json!([1e39, 0, 0])
+    });
+    assert!(
+        m.ends_with("a position lies beyond the range of 32-bit floats"),
+        "{m}"
+    );
+    let (m, _) = error_with(&dir, |v| {
+        v["objects"][4]["transform"]["scale"] = json!(1e38)
+    });
+    assert!(
+        m.ends_with("places the sphere beyond the range of 32-bit floats"),
+        "{m}"
+    );
     exact(
         &|v| {
             v["objects"][4]
