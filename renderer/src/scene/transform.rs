@@ -229,13 +229,13 @@ pub(crate) fn affine_rows_f32(m: DMat4) -> [[f32; 4]; 3] {
     })
 }
 
-/// The eight corners of the box `lo`..`hi`.
 /// Whether a world-space point stays within the GPU's 32-bit floats with room for the frame
 /// changes that subtract two such points (a quarter of f32's range).
 pub(crate) fn in_f32_range(p: DVec3) -> bool {
     p.is_finite() && p.abs().max_element() < f32::MAX as f64 / 4.0
 }
 
+/// The eight corners of the box `lo`..`hi`.
 pub(crate) fn box_corners(lo: DVec3, hi: DVec3) -> impl Iterator<Item = DVec3> {
     (0..8).map(move |k| {
         DVec3::new(
