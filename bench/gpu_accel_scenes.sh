@@ -7,12 +7,14 @@ set -u
 cd "$(dirname "$0")/.."
 . bench/gpu_env.sh
 out=$1; bin=${BIN:-.carry/main/candela}
+: > "$out"
+tmp=$(mktemp -d)
 for s in scenes/*.json; do
   for i in pt nee bdpt whitted deferred vct; do
     for a in bvh cwbvh; do
-      "$bin" render "$s" -o /tmp/x.exr --integrator $i --accel $a --width 1280 --height 720 \
-        --time ${TIME:-1} --warmup 0.5 --json > /tmp/r.json 2>/tmp/r.err || { echo "FAIL $s $i $a: $(tail -2 /tmp/r.err)"; continue; }
-      python3 -c "import json,sys; d=json.load(open('/tmp/r.json')); print(json.dumps({'scene':sys.argv[1],'integrator':sys.argv[2],'accel':sys.argv[3],'msamples_per_s':d.get('msamples_per_s'),'compile_s':d.get('compile_s')}))" "$s" $i $a >> $out
+      "$bin" render "$s" -o $tmp/x.exr --integrator $i --accel $a --width 1280 --height 720 \
+        --time ${TIME:-1} --warmup 0.5 --json > $tmp/r.json 2>$tmp/r.err || { echo "FAIL $s $i $a: $(tail -2 $tmp/r.err)"; continue; }
+      python3 -c "import json,sys; d=json.load(open('$tmp/r.json')); print(json.dumps({'scene':sys.argv[1],'integrator':sys.argv[2],'accel':sys.argv[3],'msamples_per_s':d.get('msamples_per_s'),'compile_s':d.get('compile_s')}))" "$s" $i $a "$tmp/r.json" >> "$out"
     done
   done
 done

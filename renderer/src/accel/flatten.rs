@@ -91,6 +91,8 @@ pub(super) struct Sizes {
 /// iteratively in post-order (chains may be deep). (Serial, it took about a second of a
 /// 30M-triangle build.)
 pub(super) fn sizes(bvh: &Bvh2) -> Sizes {
+    /// Levels whose two subtrees are walked in parallel (4096 tasks).
+    const PARALLEL_SIZE_LEVELS: u32 = 12;
     use rayon::prelude::*;
     use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
     struct Out {
@@ -98,7 +100,7 @@ pub(super) fn sizes(bvh: &Bvh2) -> Sizes {
         count: Vec<AtomicU64>,
         inner: Vec<AtomicU32>,
     }
-    // A node's sizes from its children's (already stored), stored and returned.
+    // A node's sizes from its children's (already stored), stored.
     fn finish(src: &[Bvh2Node], o: &Out, i: usize) {
         let n = &src[i];
         if n.prim_count > 0 {
@@ -116,7 +118,7 @@ pub(super) fn sizes(bvh: &Bvh2) -> Sizes {
     }
     fn walk(src: &[Bvh2Node], o: &Out, root: usize, level: u32) {
         let n = &src[root];
-        if n.prim_count == 0 && level < 12 {
+        if n.prim_count == 0 && level < PARALLEL_SIZE_LEVELS {
             let f = n.first_index as usize;
             rayon::join(
                 || walk(src, o, f, level + 1),

@@ -40,6 +40,9 @@ use obvhs::{Boundable, BvhBuildParams};
 
 use crate::layout::GpuBvhNode;
 
+/// PLOC's search distances (obvhs's `PlocSearchDistance`).
+const SEARCH_DISTANCES: [usize; 6] = [1, 2, 6, 14, 24, 32];
+
 /// The builds' parameters: obvhs's medium preset with `reinsertion` as the reinsertion batch
 /// ratio. Two knobs for measuring build time against tree quality (bench/RESULTS.md), not part
 /// of the cache's key: `CANDELA_PLOC_SEARCH` (1, 2, 6, 14, 24 or 32) sets PLOC's search
@@ -50,7 +53,7 @@ pub(crate) fn build_params(reinsertion: f32) -> BvhBuildParams {
     params.reinsertion_batch_ratio = reinsertion;
     let var = |name: &str| std::env::var(name).ok();
     if let Some(v) = var("CANDELA_PLOC_SEARCH").and_then(|v| v.parse::<u32>().ok()) {
-        if [1, 2, 6, 14, 24, 32].contains(&v) {
+        if SEARCH_DISTANCES.contains(&(v as usize)) {
             params.ploc_search_distance = v.into();
         }
     }

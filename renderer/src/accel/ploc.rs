@@ -2,8 +2,9 @@
 //! Hierarchy Construction") on every core: the same binary tree, node for node and bit for bit,
 //! as obvhs 0.4's `PlocBuilder::build` with 64-bit Morton codes, whose pass that merges the
 //! agreeing pairs is serial (it walks every cluster of every pass on one core, and writes the
-//! tree's nodes into freshly allocated pages there): about 3.6 s of a 30M-triangle build on an
-//! H100 host's 16 cores, and poorly scaling (bench/RESULTS.md).
+//! tree's nodes into freshly allocated pages there); its whole PLOC took 3.6–4.7 s of a
+//! 30M-triangle build on an H100 host's 16 cores, 1.4–1.9 s with this one (bench/RESULTS.md,
+//! "Cold builds on every core, session of 2026-11-27").
 //!
 //! 1. Leaves: one per primitive, the scene's box; Morton codes of their centres (21 bits per
 //!    axis, in the scene's box), sorted (the same comparison sort as obvhs, so ties fall the same).
@@ -42,10 +43,14 @@ enum Fate {
 /// side (1 to 32) after `narrow_passes` passes of adjacent pairs only.
 pub fn build(prims: &[PrimBounds], search: usize, narrow_passes: usize) -> Bvh2 {
     assert!(
-        [1, 2, 6, 14, 24, 32].contains(&search),
+        super::SEARCH_DISTANCES.contains(&search),
         "PLOC search distance {search}"
     );
     let n = prims.len();
+    assert!(
+        n < 1 << 31,
+        "PLOC over {n} primitives: node indices are 32-bit"
+    );
     let mut bvh = Bvh2 {
         primitive_indices: (0..n as u32).into_par_iter().collect(),
         ..Default::default()
