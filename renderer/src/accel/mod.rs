@@ -44,10 +44,10 @@ use crate::layout::GpuBvhNode;
 const SEARCH_DISTANCES: [usize; 6] = [1, 2, 6, 14, 24, 32];
 
 /// The builds' parameters: obvhs's medium preset with `reinsertion` as the reinsertion batch
-/// ratio. Two knobs for measuring build time against tree quality (bench/RESULTS.md), not part
-/// of the cache's key: `CANDELA_PLOC_SEARCH` (1, 2, 6, 14, 24 or 32) sets PLOC's search
-/// distance, `CANDELA_REINSERTION` the reinsertion batch ratio (0: no reinsertion). The cache
-/// key includes them as set ([`knobs`]), so a measuring run never serves its trees to others.
+/// ratio. Two knobs for measuring build time against tree quality (bench/RESULTS.md):
+/// `CANDELA_PLOC_SEARCH` (1, 2, 6, 14, 24 or 32) sets PLOC's search distance,
+/// `CANDELA_REINSERTION` the reinsertion batch ratio (0: no reinsertion). The cache key
+/// includes them as set ([`knobs`]), so a measuring run never serves its trees to others.
 pub(crate) fn build_params(reinsertion: f32) -> BvhBuildParams {
     let mut params = BvhBuildParams::medium_build();
     params.reinsertion_batch_ratio = reinsertion;
