@@ -1,29 +1,48 @@
 #!/usr/bin/env bash
-# Issue 12 on the NVIDIA GPU machine (../shared/gpu/README.md): every integrator on every project
-# scene with --accel bvh and cwbvh (1280x720, the scene's max_depth, TIME seconds (default 1)
-# after a 0.5 s warm-up). Usage: bash bench/gpu_accel_scenes.sh OUT.jsonl (BIN: the binary,
-# default .carry/main/candela). Writes one JSON line per run to OUT.jsonl; prints cwbvh / bvh.
+# Issue 12 on the NVIDIA GPU machine (../shared/gpu/README.md): every integrator (INTEGRATORS,
+# default all six) on every project scene with each --accel of ACCELS (default "bvh cwbvh") and
+# each binary of BINS (default .carry/main/candela; a second one, e.g. .carry/base/candela, gives
+# a before/after in the same call), 1280x720, the scene's max_depth, TIME seconds (default 1)
+# after a WARMUP (default 0.5) s warm-up. Usage: bash bench/gpu_accel_scenes.sh OUT.jsonl.
+# Writes one JSON line per run to OUT.jsonl; prints cwbvh / bvh per binary and, with two
+# binaries, first / second per accel.
 set -u
 cd "$(dirname "$0")/.."
 . bench/gpu_env.sh
-out=$1; bin=${BIN:-.carry/main/candela}
+nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
+out=$1; bins=${BINS:-${BIN:-.carry/main/candela}}
 : > "$out"
 tmp=$(mktemp -d)
 for s in scenes/*.json; do
-  for i in pt nee bdpt whitted deferred vct; do
-    for a in bvh cwbvh; do
-      "$bin" render "$s" -o $tmp/x.exr --integrator $i --accel $a --width 1280 --height 720 \
-        --time ${TIME:-1} --warmup 0.5 --json > $tmp/r.json 2>$tmp/r.err || { echo "FAIL $s $i $a: $(tail -2 $tmp/r.err)"; continue; }
-      python3 -c "import json,sys; d=json.load(open('$tmp/r.json')); print(json.dumps({'scene':sys.argv[1],'integrator':sys.argv[2],'accel':sys.argv[3],'msamples_per_s':d.get('msamples_per_s'),'compile_s':d.get('compile_s')}))" "$s" $i $a "$tmp/r.json" >> "$out"
+  for i in ${INTEGRATORS:-pt nee bdpt whitted deferred vct}; do
+    for a in ${ACCELS:-bvh cwbvh}; do
+      for bin in $bins; do
+        "$bin" render "$s" -o $tmp/x.exr --integrator $i --accel $a --width 1280 --height 720 \
+          --time ${TIME:-1} --warmup ${WARMUP:-0.5} --json > $tmp/r.json 2>$tmp/r.err \
+          || { echo "FAIL $bin $s $i $a: $(tail -2 $tmp/r.err)"; continue; }
+        python3 -c "import json,sys; d=json.load(open(sys.argv[5])); print(json.dumps({'bin':sys.argv[4],'scene':sys.argv[1],'integrator':sys.argv[2],'accel':sys.argv[3],'msamples_per_s':d.get('msamples_per_s'),'compile_s':d.get('compile_s')}))" "$s" $i $a "$bin" "$tmp/r.json" >> "$out"
+      done
     done
   done
 done
-python3 - "$out" <<'PY'
+python3 - "$out" $bins <<'PY'
 import json, sys, collections
+bins = sys.argv[2:]
 r = collections.defaultdict(dict)
 for l in open(sys.argv[1]):
-    d = json.loads(l); r[(d['scene'], d['integrator'])][d['accel']] = d['msamples_per_s']
+    d = json.loads(l); r[(d['scene'][7:-5], d['integrator'])][(d['bin'], d['accel'])] = d['msamples_per_s']
+cols = [(b, a) for b in bins for a in ('bvh', 'cwbvh')]
+print('| scene | integrator | ' + ' | '.join(f'{a} {b}' for b, a in cols) + ' | cwbvh / bvh | '
+      + (' | '.join(f'{a}: first / second' for a in ('bvh', 'cwbvh')) if len(bins) > 1 else '') + ' |')
 for k, v in r.items():
-    if 'bvh' in v and 'cwbvh' in v:
-        print(k[0][7:], k[1], round(v['bvh'], 1), round(v['cwbvh'], 1), round(v['cwbvh'] / v['bvh'], 3))
+    cells = [f"{v[c]:.1f}" if c in v else '' for c in cols]
+    b0 = bins[0]
+    ratio = f"{v[(b0, 'cwbvh')] / v[(b0, 'bvh')]:.3f}" if (b0, 'cwbvh') in v and (b0, 'bvh') in v else ''
+    ab = []
+    if len(bins) > 1:
+        for a in ('bvh', 'cwbvh'):
+            p, q = (bins[0], a), (bins[1], a)
+            ab.append(f"{v[p] / v[q]:.3f}" if p in v and q in v else '')
+    print(f"| {k[0]} | {k[1]} | " + ' | '.join(cells) + f" | {ratio} | " + ' | '.join(ab) + ' |')
 PY
+rm -rf "$tmp"

@@ -4,7 +4,10 @@
 #include "common/types.glsl"
 
 layout(set = 0, binding = B_GLOBALS, scalar) readonly buffer Globals { GpuGlobals g; };
-layout(set = 0, binding = B_BVH_NODES, scalar) readonly buffer BvhNodes { GpuBvhNode nodes[]; };
+// BVH nodes (GpuBvhNode) as four 16-byte words each, so that a node is fetched with four wide
+// loads (`bvh_node` in common/traverse.glsl); the struct over a scalar-layout buffer was read in
+// narrower pieces, 5-10% slower (bench/RESULTS.md, "The CWBVH node test and wide BVH loads").
+layout(set = 0, binding = B_BVH_NODES, std430) readonly buffer BvhNodes { vec4 node_words[]; };
 layout(set = 0, binding = B_PRIMS, scalar) readonly buffer Prims { GpuPrim prims[]; };
 layout(set = 0, binding = B_TRI_SHADING, scalar) readonly buffer TriShading { GpuTriShading tri_shading[]; };
 layout(set = 0, binding = B_MATERIALS, scalar) readonly buffer Materials { GpuMaterial materials[]; };

@@ -43,7 +43,7 @@ struct Hit {
 #error "instances are traversed with the binary BVH only"
 #endif
 layout(set = 0, binding = B_INSTANCES, scalar) readonly buffer Instances { GpuInstance instances[]; };
-layout(set = 0, binding = B_TLAS_NODES, scalar) readonly buffer TlasNodes { GpuBvhNode tlas_nodes[]; };
+layout(set = 0, binding = B_TLAS_NODES, std430) readonly buffer TlasNodes { vec4 tlas_words[]; };
 #endif
 
 #ifdef HAS_ALPHA
@@ -92,6 +92,30 @@ bool intersect_prim(inout Ray r, RayPre pre, uint i, uint inst, inout Hit hit) {
     return true;
 }
 
+// A node from its four 16-byte words (the layout of GpuBvhNode, renderer/src/layout.rs).
+GpuBvhNode bvh_node_of(vec4 w0, vec4 w1, vec4 w2, vec4 w3) {
+    GpuBvhNode n;
+    n.l_min = w0.xyz; n.left = floatBitsToUint(w0.w);
+    n.l_max = w1.xyz; n.right = floatBitsToUint(w1.w);
+    n.r_min = w2.xyz; n.l_count = floatBitsToUint(w2.w);
+    n.r_max = w3.xyz; n.r_count = floatBitsToUint(w3.w);
+    return n;
+}
+
+// Node i of the scene's BVH (prototypes' trees included).
+GpuBvhNode bvh_node(uint i) {
+    return bvh_node_of(node_words[4u * i], node_words[4u * i + 1u], node_words[4u * i + 2u],
+                       node_words[4u * i + 3u]);
+}
+
+#ifdef HAS_INSTANCES
+// Node i of the top-level BVH over the instances.
+GpuBvhNode tlas_node(uint i) {
+    return bvh_node_of(tlas_words[4u * i], tlas_words[4u * i + 1u], tlas_words[4u * i + 2u],
+                       tlas_words[4u * i + 3u]);
+}
+#endif
+
 // Whether the stackless walk visits node n's left child first: the child whose box centre comes
 // first along the ray (a choice made from the node and the direction alone, so the walk can
 // tell on the way up which child it came from and whether the other is still to visit).
@@ -111,13 +135,13 @@ bool traverse_stackless(inout Ray r, RayPre pre, uint root, uint inst, bool any_
             // Up: from the near child the far one is next; from the far child, up again.
             uint parent = bvh_parents[node];
             if (parent == NONE) return false;
-            GpuBvhNode p = nodes[parent];
+            GpuBvhNode p = bvh_node(parent);
             bool from_left = p.l_count == 0u && p.left == node;
             phase = from_left == stackless_left_first(p, r.d) ? 1u : 2u;
             node = parent;
             continue;
         }
-        GpuBvhNode n = nodes[node];
+        GpuBvhNode n = bvh_node(node);
         bool left = (phase == 0u) == stackless_left_first(n, r.d);
         phase += 1u;
         float t = left ? intersect_box(r.o, pre, n.l_min, n.l_max, r.tmin, r.tmax)
@@ -136,18 +160,18 @@ bool traverse_stackless(inout Ray r, RayPre pre, uint root, uint inst, bool any_
     return false;
 }
 
-// The nearest-first walk of a binary BVH (GpuBvhNode array NODES, from node ROOT, a stack of
+// The nearest-first walk of a binary BVH (node i read by NODE(i), from node ROOT, a stack of
 // STACK entries), shared by the scene's and prototypes' trees and the top-level one (GLSL has
 // no recursion, and a prototype's walk runs inside the top-level one, hence a macro). LEAF(i)
 // tests leaf entry i, shortening r.tmax (true: any_hit may stop); OVERFLOW runs when a push
 // would overflow the stack. Leaves are intersected at once; inner children are visited
 // nearest first.
-#define BVH_WALK(NODES, ROOT, STACK, LEAF, OVERFLOW)                                      \
+#define BVH_WALK(NODE, ROOT, STACK, LEAF, OVERFLOW)                                        \
     uint stack[STACK];                                                                  \
     int sp = 0;                                                                         \
     uint node = ROOT;                                                                   \
     while (true) {                                                                      \
-        GpuBvhNode n = NODES[node];                                                     \
+        GpuBvhNode n = NODE(node);                                                      \
         float tl = intersect_box(r.o, pre, n.l_min, n.l_max, r.tmin, r.tmax);           \
         float tr = intersect_box(r.o, pre, n.r_min, n.r_max, r.tmin, r.tmax);           \
         bool hl = !isinf(tl), hr = !isinf(tr);                                          \
@@ -185,7 +209,7 @@ bool traverse_tree(inout Ray r, RayPre pre, uint root, uint inst, bool any_hit, 
 #define TREE_LEAF(i) intersect_prim(r, pre, i, inst, hit)
     // The tree is deeper than the stack: finish without one (see the top).
 #define TREE_OVERFLOW return traverse_stackless(r, pre, root, inst, any_hit, hit)
-    BVH_WALK(nodes, root, STACK_ENTRIES, TREE_LEAF, TREE_OVERFLOW)
+    BVH_WALK(bvh_node, root, STACK_ENTRIES, TREE_LEAF, TREE_OVERFLOW)
 #undef TREE_LEAF
 #undef TREE_OVERFLOW
     return false;
@@ -232,7 +256,7 @@ bool traverse_instances(Ray r, bool any_hit, inout Hit hit) {
     RayPre pre = ray_precompute(r.d);
 #define TLAS_LEAF(i) intersect_instance(r, i, any_hit, hit)
 #define TLAS_OVERFLOW return false /* unreachable: the host bounds the depth */
-    BVH_WALK(tlas_nodes, 0u, BVH_STACK, TLAS_LEAF, TLAS_OVERFLOW)
+    BVH_WALK(tlas_node, 0u, BVH_STACK, TLAS_LEAF, TLAS_OVERFLOW)
 #undef TLAS_LEAF
 #undef TLAS_OVERFLOW
     return false;

@@ -357,6 +357,7 @@ impl RenderSession {
             defines.push(("LIGHT_BVH".to_string(), "1".to_string()));
         }
         defines.extend(integrator.defines());
+        defines.extend(extra_defines());
         defines
     }
 
@@ -779,4 +780,17 @@ impl Drop for RenderSession {
             let _ = p.slot.frame.wait();
         }
     }
+}
+
+/// Measuring knob: `CANDELA_SHADER_DEFINES="NAME[=VALUE] ..."` adds defines to every kernel of a
+/// session (they are part of the kernel cache's key), so that one binary can time shader
+/// variants side by side (bench/RESULTS.md). Not for production use.
+fn extra_defines() -> ShaderDefines {
+    let v = std::env::var("CANDELA_SHADER_DEFINES").unwrap_or_default();
+    v.split_whitespace()
+        .map(|d| match d.split_once('=') {
+            Some((k, v)) => (k.to_string(), v.to_string()),
+            None => (d.to_string(), "1".to_string()),
+        })
+        .collect()
 }
