@@ -47,6 +47,13 @@ pub const BINARY_LIMIT: usize = 256;
 /// Most primitives in one wide leaf (the node format's limit).
 pub const MAX_LEAF: u32 = 3;
 
+/// Below this many non-empty children per node the kernels skip empty slots ([`Cwbvh::sparse`]).
+/// Measured on an H100 (bench/RESULTS.md, "The CWBVH node test and wide BVH loads"): skipping
+/// made the one-sphere furnace (1 child a node) 1.28-1.47× and the three-sphere envmap scene (3)
+/// 1.12× faster, but the Cornell box (8), textured_mesh (7.7) and a 2M-triangle mesh (7.6)
+/// 0.90-0.92× slower; lights (5) gained 1-7% from the branchless test.
+pub const SPARSE_CHILDREN: f64 = 4.0;
+
 /// A built CWBVH: nodes (in the frame of the bounds given), `order[slot]` = the input index of
 /// the primitive at leaf slot `slot`, and the depth in wide levels.
 #[derive(Debug, Clone)]
@@ -69,6 +76,24 @@ pub struct Cwbvh {
 }
 
 impl Cwbvh {
+    /// Non-empty child slots per node (0 to 8).
+    pub fn mean_children(&self) -> f64 {
+        let slots: usize = self
+            .nodes
+            .iter()
+            .map(|n| n.meta.iter().filter(|&&m| m != 0).count())
+            .sum();
+        slots as f64 / self.nodes.len().max(1) as f64
+    }
+
+    /// Whether the kernels should skip empty child slots one by one (`CWBVH_SPARSE`): trees of
+    /// mostly empty nodes, fewer than [`SPARSE_CHILDREN`] children a node (a scene of a sphere or
+    /// three). Fuller trees test all eight slots without a branch, which lets the compiler
+    /// overlap the children's tests (shaders/common/traverse_cwbvh.glsl).
+    pub fn sparse(&self) -> bool {
+        self.mean_children() < SPARSE_CHILDREN
+    }
+
     /// Bytes of both buffers.
     pub fn bytes(&self) -> u64 {
         (std::mem::size_of_val(self.nodes.as_slice())

@@ -321,3 +321,22 @@ fn parallel_conversion_is_obvhs_s() {
         );
     }
 }
+
+/// Trees of a few primitives are sparse (one or three children at the root), meshes are not.
+#[test]
+fn few_primitives_make_a_sparse_tree() {
+    let tree = |prims: &[PrimBounds]| Cwbvh {
+        nodes: build(prims).nodes,
+        prims: Vec::new(),
+    };
+    let one = tree(&unit_boxes(1));
+    assert_eq!(one.mean_children(), 1.0);
+    assert!(one.sparse());
+    let three = tree(&unit_boxes(3));
+    assert_eq!(three.mean_children(), 3.0);
+    assert!(three.sparse());
+    let mesh = tree(&random_boxes(5000, 3));
+    assert!(mesh.mean_children() > 6.0, "{}", mesh.mean_children());
+    assert!(!mesh.sparse());
+    assert!(tree(&[]).sparse());
+}

@@ -348,6 +348,9 @@ impl RenderSession {
             if !c.prims.is_empty() {
                 defines.push(("CWBVH_INDIRECT".to_string(), "1".to_string()));
             }
+            if c.sparse() {
+                defines.push(("CWBVH_SPARSE".to_string(), "1".to_string()));
+            }
         }
         if scene.traversal_stack < crate::accel::STACK_DEPTH {
             let n = scene.traversal_stack.to_string();
