@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # Issue 12 on the NVIDIA GPU machine (../shared/gpu/README.md): every integrator (INTEGRATORS,
 # default all six) on every project scene with each --accel of ACCELS (default "bvh cwbvh") and
-# each binary of BINS (default .carry/main/candela; a second one, e.g. .carry/base/candela, gives
-# a before/after in the same call), 1280x720, the scene's max_depth, TIME seconds (default 1)
-# after a WARMUP (default 0.5) s warm-up. Usage: bash bench/gpu_accel_scenes.sh OUT.jsonl.
-# Writes one JSON line per run to OUT.jsonl; prints cwbvh / bvh per binary and, with two
-# binaries, first / second per accel.
+# each binary of BINS (default $BIN, else .carry/main/candela; a second one, e.g.
+# .carry/base/candela, gives a before/after in the same call), 1280x720, the scene's max_depth,
+# TIME seconds (default 1) after a WARMUP (default 0.5) s warm-up. Usage: bash
+# bench/gpu_accel_scenes.sh OUT.jsonl. Writes one JSON line per run to OUT.jsonl; prints a
+# markdown table: Msamples/s, cwbvh / bvh of the first binary and, with two binaries, first /
+# second per accel.
 set -u
 cd "$(dirname "$0")/.."
 . bench/gpu_env.sh
@@ -13,6 +14,7 @@ nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
 out=$1; bins=${BINS:-${BIN:-.carry/main/candela}}
 : > "$out"
 tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
 for s in scenes/*.json; do
   for i in ${INTEGRATORS:-pt nee bdpt whitted deferred vct}; do
     for a in ${ACCELS:-bvh cwbvh}; do
@@ -32,8 +34,11 @@ r = collections.defaultdict(dict)
 for l in open(sys.argv[1]):
     d = json.loads(l); r[(d['scene'][7:-5], d['integrator'])][(d['bin'], d['accel'])] = d['msamples_per_s']
 cols = [(b, a) for b in bins for a in ('bvh', 'cwbvh')]
-print('| scene | integrator | ' + ' | '.join(f'{a} {b}' for b, a in cols) + ' | cwbvh / bvh | '
-      + (' | '.join(f'{a}: first / second' for a in ('bvh', 'cwbvh')) if len(bins) > 1 else '') + ' |')
+head = ['scene', 'integrator'] + [f'{a} {b}' for b, a in cols] + ['cwbvh / bvh']
+if len(bins) > 1:
+    head += [f'{a}: first / second' for a in ('bvh', 'cwbvh')]
+print('| ' + ' | '.join(head) + ' |')
+print('|' + '---|' * len(head))
 for k, v in r.items():
     cells = [f"{v[c]:.1f}" if c in v else '' for c in cols]
     b0 = bins[0]
@@ -43,6 +48,5 @@ for k, v in r.items():
         for a in ('bvh', 'cwbvh'):
             p, q = (bins[0], a), (bins[1], a)
             ab.append(f"{v[p] / v[q]:.3f}" if p in v and q in v else '')
-    print(f"| {k[0]} | {k[1]} | " + ' | '.join(cells) + f" | {ratio} | " + ' | '.join(ab) + ' |')
+    print('| ' + ' | '.join([k[0], k[1]] + cells + [ratio] + ab) + ' |')
 PY
-rm -rf "$tmp"

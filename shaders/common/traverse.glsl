@@ -12,8 +12,9 @@
 // Instances (HAS_INSTANCES, renderer/src/compile/instances.rs): after the scene's own BVH, rays
 // walk a top-level BVH whose leaves are instances; at each, the ray is moved into the
 // instance's frame (its direction not renormalised, so distances t are the same in both
-// frames) and walks the prototype's BVH, rooted inside `nodes`, with the same code as the
-// scene's. Hits record the instance; common/surface.glsl moves them back to the world.
+// frames) and walks the prototype's BVH, rooted inside the scene's node buffer (read by
+// `bvh_node`), with the same code as the scene's. Hits record the instance;
+// common/surface.glsl moves them back to the world.
 #ifndef COMMON_TRAVERSE_GLSL
 #define COMMON_TRAVERSE_GLSL
 #include "common/bindings.glsl"

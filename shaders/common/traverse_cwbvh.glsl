@@ -9,9 +9,11 @@
 // base leaf slot (the primitive's index; with CWBVH_INDIRECT an index into cwbvh_prims) and a
 // 24-bit mask of leaf slots hit. The walk takes the highest
 // node of the current group, pushes the rest of the group, and intersects the node's eight
-// quantised child boxes at once; leaves' primitives are tested right away (Ylitie et al.'s
-// triangle postponing, a shared-memory stack and int-free byte decoding were measured slower
-// here: bench/RESULTS.md, "The CWBVH node test", 2026-11-27).
+// quantised child boxes at once (all eight without a branch; kernels for trees of mostly empty
+// nodes, built with CWBVH_SPARSE, skip empty slots); leaves' primitives are tested right away.
+// Measured slower here and not used: Ylitie et al.'s triangle postponing, a stack partly in
+// shared memory, and conversion-free byte decoding through 2^23's mantissa (bench/RESULTS.md,
+// "The CWBVH node test and wide BVH loads", 2026-11-27).
 //
 // Child boxes are tested against the ray transformed into each node's quantised frame (one
 // multiply-add per plane; intervals widened by a bound on its rounding). The host quantises them
@@ -78,8 +80,8 @@ uint cw_intersect_node(GpuCwbvhNode n, Ray r, RayPre pre, uint oct_inv) {
     // leaves to their first primitive's slot (the low five bits). The bits themselves (5..7)
     // are 1 for an inner child, the leaf's primitives in unary, and 0 for an empty slot, which
     // therefore adds nothing whatever its box: no branch per child, so the compiler overlaps
-    // the eight tests (8-16% faster than a branch per child on the Cornell box and large
-    // meshes; trees of mostly empty nodes keep the branch: CWBVH_SPARSE). bench/RESULTS.md.
+    // the eight tests (7-16% faster than a branch per child for nee on the Cornell box and
+    // large meshes; trees of mostly empty nodes keep the branch: CWBVH_SPARSE).
     uint inner_lo = (n.meta.x & (n.meta.x << 1u)) & 0x10101010u;
     uint inner_hi = (n.meta.y & (n.meta.y << 1u)) & 0x10101010u;
     uvec2 index = uvec2((n.meta.x ^ ((inner_lo >> 4u) * oct_inv)) & 0x1f1f1f1fu,
@@ -96,7 +98,8 @@ uint cw_intersect_node(GpuCwbvhNode n, Ray r, RayPre pre, uint oct_inv) {
         vec3 tf = vec3(cw_byte(far_x, c), cw_byte(far_y, c), cw_byte(far_z, c)) * scale + shift_far;
         float enter = max(max(tn.x, tn.y), max(tn.z, r.tmin));
         float leave = min(min(tf.x, tf.y), min(tf.z, r.tmax));
-        hitmask |= (enter <= leave ? cw_byte(bits, c) : 0u) << cw_byte(index, c);
+        // A NaN interval counts as a hit (the conservative side).
+        hitmask |= (!(enter > leave) ? cw_byte(bits, c) : 0u) << cw_byte(index, c);
     }
     return hitmask;
 }

@@ -27,6 +27,10 @@
 //! stores them in the binary BVH's order instead, so images of both structures number
 //! primitives (and lights) alike; the leaves then reach them through an index per slot
 //! (`prims`, binding CWBVH_PRIMS, kernels built with `CWBVH_INDIRECT`).
+//!
+//! Trees of mostly empty nodes (fewer than [`SPARSE_CHILDREN`] children a node: scenes of one to
+//! three spheres) are walked by kernels built with `CWBVH_SPARSE` ([`Cwbvh::sparse`]), which skip
+//! empty slots; fuller trees test all eight without a branch.
 
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::node::Bvh2Node;
@@ -48,10 +52,11 @@ pub const BINARY_LIMIT: usize = 256;
 pub const MAX_LEAF: u32 = 3;
 
 /// Below this many non-empty children per node the kernels skip empty slots ([`Cwbvh::sparse`]).
-/// Measured on an H100 (bench/RESULTS.md, "The CWBVH node test and wide BVH loads"): skipping
-/// made the one-sphere furnace (1 child a node) 1.28-1.47× and the three-sphere envmap scene (3)
-/// 1.12× faster, but the Cornell box (8), textured_mesh (7.7) and a 2M-triangle mesh (7.6)
-/// 0.90-0.92× slower; lights (5) gained 1-7% from the branchless test.
+/// Measured on an H100 (bench/RESULTS.md, "The CWBVH node test and wide BVH loads", call 5):
+/// skipping made the one-sphere furnace (1 child a node) 1.24-1.47× and the three-sphere envmap
+/// scene (3) 1.09-1.12× faster than the branchless test, but the Cornell box (8 children a
+/// node), textured_mesh (7.7) and meshes of 2M and 8M triangles 0.90-0.93× as fast; lights (5)
+/// measured −1 to +7% with the branchless test (call 4). A mesh of 100k triangles has 7.6.
 pub const SPARSE_CHILDREN: f64 = 4.0;
 
 /// A built CWBVH: nodes (in the frame of the bounds given), `order[slot]` = the input index of

@@ -3,7 +3,8 @@
 //! within it (and a bounded binary tree converted no deeper), `depth_of` rejecting what is not a
 //! tree, the empty scene, copies of one box grouped (`distinct_boxes`) and expanded in place as
 //! the top-down copy would (`expanding_copies_in_place_matches_the_top_down_copy`), and the
-//! parallel conversion giving obvhs's serial tree bit for bit (`parallel_conversion_is_obvhs_s`).
+//! parallel conversion giving obvhs's serial tree bit for bit (`parallel_conversion_is_obvhs_s`),
+//! and which trees are sparse (`few_primitives_make_a_sparse_tree`).
 use obvhs::BvhBuildParams;
 
 use super::*;

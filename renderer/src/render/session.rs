@@ -331,8 +331,10 @@ impl RenderSession {
     }
 
     /// The defines of the session's kernels: the scene's feature set (for `mode`), the accel
-    /// kind, the light sampler (the light BVH where the scene has one and the integrator's
-    /// registry entry takes it) and the integrator's own.
+    /// kind and its variants (`CWBVH_INDIRECT`, `CWBVH_SPARSE`), the light sampler (the light
+    /// BVH where the scene has one and the integrator's registry entry takes it), the
+    /// integrator's own, and the measuring knob's (`CANDELA_SHADER_DEFINES`, which replace
+    /// defines of the same name).
     fn defines(
         scene: &CompiledScene,
         entry: &IntegratorInfo,
@@ -360,7 +362,9 @@ impl RenderSession {
             defines.push(("LIGHT_BVH".to_string(), "1".to_string()));
         }
         defines.extend(integrator.defines());
-        defines.extend(extra_defines());
+        let extra = parse_defines(&std::env::var("CANDELA_SHADER_DEFINES").unwrap_or_default());
+        defines.retain(|(name, _)| extra.iter().all(|(n, _)| n != name));
+        defines.extend(extra);
         defines
     }
 
@@ -785,15 +789,31 @@ impl Drop for RenderSession {
     }
 }
 
-/// Measuring knob: `CANDELA_SHADER_DEFINES="NAME[=VALUE] ..."` adds defines to every kernel of a
-/// session (they are part of the kernel cache's key), so that one binary can time shader
-/// variants side by side (bench/RESULTS.md). Not for production use.
-fn extra_defines() -> ShaderDefines {
-    let v = std::env::var("CANDELA_SHADER_DEFINES").unwrap_or_default();
+/// The measuring knob `CANDELA_SHADER_DEFINES="NAME[=VALUE] ..."` (whitespace-separated; VALUE
+/// defaults to 1): defines added to every kernel of a session, replacing any the session sets
+/// under the same name (a define cannot be removed), and part of the kernel cache's key, so that
+/// one binary can time shader variants side by side (bench/RESULTS.md). Not for production use.
+fn parse_defines(v: &str) -> ShaderDefines {
     v.split_whitespace()
         .map(|d| match d.split_once('=') {
             Some((k, v)) => (k.to_string(), v.to_string()),
             None => (d.to_string(), "1".to_string()),
         })
         .collect()
+}
+
+#[cfg(test)]
+mod knob_tests {
+    use super::parse_defines;
+
+    #[test]
+    fn shader_defines_knob_parses_names_and_values() {
+        let d = |n: &str, v: &str| (n.to_string(), v.to_string());
+        assert!(parse_defines("").is_empty());
+        assert!(parse_defines("   ").is_empty());
+        assert_eq!(parse_defines("A"), vec![d("A", "1")]);
+        assert_eq!(parse_defines("A="), vec![d("A", "")]);
+        assert_eq!(parse_defines("A=B=C"), vec![d("A", "B=C")]);
+        assert_eq!(parse_defines("  X=8\tY  "), vec![d("X", "8"), d("Y", "1")]);
+    }
 }
