@@ -504,6 +504,73 @@ fn textures_channels_masks_and_inline_meshes_survive_the_round_trip() {
     Pair { a: &a, b: &b }.check();
 }
 
+/// `s` with every instance written out as a mesh, the meshes in a fixed order (by their first
+/// position): a round trip keeps what is rendered, not whether an emitting instance stays one.
+fn flattened(s: &Scene) -> Scene {
+    use renderer::scene::expand::{expand_instances, Expand};
+    let mut f = expand_instances(s, Expand::All, "test", u64::MAX)
+        .unwrap()
+        .unwrap_or_else(|| s.clone());
+    let key = |m: &renderer::scene::TriangleMesh| {
+        let p = m.positions[0];
+        [p.x, p.y, p.z].map(|x| (x * 1e4).round() as i64)
+    };
+    f.meshes.sort_by_key(key);
+    f
+}
+
+#[test]
+fn instances_survive_the_round_trip_as_shape_groups() {
+    let dir = scratch("round_trip_instances");
+    std::fs::copy(
+        repo().join("tests/import/mitsuba/quad_uv.ply"),
+        dir.join("quad_uv.ply"),
+    )
+    .unwrap();
+    let scene = serde_json::json!({
+        "version": 1,
+        "camera": {"position": [0, 1, 6], "look_at": [0, 0.5, 0]},
+        "film": {"width": 32, "height": 24, "filter": "box"},
+        "materials": {
+            "white": {"type": "diffuse", "reflectance": 0.8},
+            "blue": {"type": "diffuse", "reflectance": [0.1, 0.2, 0.6]},
+            "lamp": {"type": "diffuse", "reflectance": 0, "emission": [5, 4, 3]}
+        },
+        "definitions": {
+            "rock": {"type": "triangles", "positions": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]],
+                     "indices": [0, 1, 2, 0, 2, 3, 0, 3, 1], "material": "white",
+                     "transform": {"scale": 0.5}},
+            "tile": {"type": "mesh", "file": "quad_uv.ply", "material": "white"},
+            "light": {"type": "quad", "origin": [-0.5, 0, -0.5], "edge_u": [1, 0, 0], "edge_v": [0, 0, 1],
+                      "material": "lamp"}
+        },
+        "objects": [
+            {"type": "box", "min": [-3, -0.1, -3], "max": [3, 0, 3], "material": "white"},
+            {"type": "instance", "definition": "rock", "transform": {"translate": [-1, 0, 0]}},
+            {"type": "instance", "definition": "rock", "material": "blue",
+             "transform": {"scale": [-1, 1.5, 1], "translate": [1, 0, 0]}},
+            {"type": "instance", "definition": "rock", "transform": {"rotate": {"axis": [0, 1, 0], "angle": 40}}},
+            {"type": "instance", "definition": "tile", "transform": {"translate": [0, 2, -1]}},
+            {"type": "instance", "definition": "tile", "transform": {"translate": [1, 2, -1]}},
+            {"type": "instance", "definition": "light", "transform": {"translate": [0, 3, 0]}}
+        ],
+        "render": {"max_depth": 5, "spp": 16}
+    });
+    std::fs::write(dir.join("inst.json"), scene.to_string()).unwrap();
+    let (a, b) = round_trip(&dir.join("inst.json"), &dir);
+    // Mitsuba's side: a group per (definition, material) placed, the emitting one in place.
+    let xml = std::fs::read_to_string(dir.join("scene.xml")).unwrap();
+    assert_eq!(xml.matches(r#"type="shapegroup""#).count(), 3, "{xml}");
+    assert_eq!(xml.matches(r#"type="instance""#).count(), 5, "{xml}");
+    // Back in candela: the groups placed twice are definitions again; the blue rock's group,
+    // placed once, and the light are meshes of their own.
+    assert_eq!((b.prototypes.len(), b.instances.len()), (2, 4));
+    assert_eq!((a.prototypes.len(), a.instances.len()), (3, 6));
+    let (fa, fb) = (flattened(&a), flattened(&b));
+    assert_eq!(fa.meshes.len(), 7);
+    Pair { a: &fa, b: &fb }.check();
+}
+
 #[test]
 fn what_mitsuba_cannot_express_is_refused_with_its_json_path() {
     let dir = scratch("round_trip_refused");

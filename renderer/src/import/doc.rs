@@ -5,11 +5,13 @@
 
 use std::collections::{BTreeMap, HashMap, HashSet};
 
+use glam::DMat4;
 use serde_json::{json, Map, Value};
 
 use super::derived;
 use super::diag::Loc;
 use super::meshes;
+use super::xform::{object_matrix, place, transform_value};
 use crate::film::Image;
 use crate::scene::mesh::RawMesh;
 use crate::scene::paths::AssetRoot;
@@ -31,6 +33,9 @@ pub(crate) struct Doc {
     by_content: HashMap<String, String>,
     names: HashSet<String>,
     objects: Vec<Value>,
+    /// Definitions (placed by `instance` objects, groups.rs) and their names.
+    definitions: Vec<(String, Value)>,
+    definition_names: HashSet<String>,
     lights: Vec<Value>,
     pub assets: MemoryAssets,
     /// (JSON path prefix, source place) of what was added.
@@ -48,13 +53,7 @@ impl Doc {
         if let Some(name) = self.by_content.get(&key) {
             return name.clone();
         }
-        let base = clean_name(hint);
-        let mut name = base.clone();
-        let mut n = 2;
-        while self.names.contains(&name) {
-            name = format!("{base}_{n}");
-            n += 1;
-        }
+        let name = unique(clean_name(hint), |n| self.names.contains(n));
         self.names.insert(name.clone());
         self.by_content.insert(key, name.clone());
         self.origins
@@ -68,6 +67,26 @@ impl Doc {
         self.origins
             .push((format!("objects[{}]", self.objects.len()), loc.clone()));
         self.objects.push(o);
+    }
+
+    /// Adds a definition (an object rendered only where `instance` objects place it) under a
+    /// name derived from `hint`; returns the name.
+    pub fn definition(&mut self, hint: &str, o: Value, loc: &Loc) -> String {
+        let name = unique(clean_name(hint), |n| self.definition_names.contains(n));
+        self.definition_names.insert(name.clone());
+        self.origins
+            .push((format!("definitions.{name}"), loc.clone()));
+        self.definitions.push((name.clone(), o));
+        name
+    }
+
+    /// Adds an `instance` object placing definition `name` by `to_world`.
+    pub fn instance(&mut self, name: &str, to_world: &DMat4, loc: &Loc) {
+        let mut o = json!({"type": "instance", "definition": name});
+        if let Some(t) = transform_value(to_world) {
+            o["transform"] = t;
+        }
+        self.object(o, loc);
     }
 
     /// Adds a light.
@@ -121,8 +140,32 @@ impl Doc {
         Ok(self.file(hint, "exr", bytes))
     }
 
-    /// The finished document and its files.
-    pub fn finish(self) -> (Value, MemoryAssets, Vec<(String, Loc)>) {
+    /// The finished document and its files. A definition placed once is written in place
+    /// (groups.rs): an instance only pays where geometry repeats.
+    pub fn finish(mut self) -> (Value, MemoryAssets, Vec<(String, Loc)>) {
+        // Step 1: definitions placed at most once leave; their instance becomes the object.
+        let mut uses: HashMap<String, usize> = HashMap::new();
+        for o in self.objects.iter().filter(|o| o["type"] == "instance") {
+            let name = o["definition"].as_str().unwrap_or_default();
+            *uses.entry(name.to_string()).or_default() += 1;
+        }
+        let once = |name: &str| uses.get(name).copied().unwrap_or(0) <= 1;
+        let defs: HashMap<&str, &Value> = self
+            .definitions
+            .iter()
+            .map(|(n, o)| (n.as_str(), o))
+            .collect();
+        for o in self.objects.iter_mut() {
+            let name = o["definition"].as_str().unwrap_or_default();
+            if o["type"] == "instance" && once(name) {
+                if let Some(def) = defs.get(name) {
+                    *o = place(def, &object_matrix(o));
+                }
+            }
+        }
+        self.definitions.retain(|(n, _)| !once(n));
+        self.origins
+            .retain(|(path, _)| path.strip_prefix("definitions.").is_none_or(|n| !once(n)));
         let mut doc = Map::new();
         doc.insert("version".into(), json!(1));
         doc.insert("camera".into(), Value::Object(self.camera));
@@ -131,6 +174,10 @@ impl Doc {
         }
         let materials: Map<String, Value> = self.materials.into_iter().collect();
         doc.insert("materials".into(), Value::Object(materials));
+        if !self.definitions.is_empty() {
+            let defs: Map<String, Value> = self.definitions.into_iter().collect();
+            doc.insert("definitions".into(), Value::Object(defs));
+        }
         doc.insert("objects".into(), Value::Array(self.objects));
         if !self.lights.is_empty() {
             doc.insert("lights".into(), Value::Array(self.lights));
@@ -143,6 +190,17 @@ impl Doc {
         }
         (Value::Object(doc), self.assets, self.origins)
     }
+}
+
+/// `base`, or `base_2`, `base_3`, … : the first that `taken` does not hold.
+fn unique(base: String, taken: impl Fn(&str) -> bool) -> String {
+    let mut name = base.clone();
+    let mut n = 2;
+    while taken(&name) {
+        name = format!("{base}_{n}");
+        n += 1;
+    }
+    name
 }
 
 /// A name usable as a material name and a file name: letters, digits, `_` and `-`.

@@ -20,6 +20,7 @@ mod diag;
 mod doc;
 mod files;
 pub mod gltf;
+mod groups;
 mod meshes;
 pub mod mitsuba;
 pub mod pbrt;

@@ -2,7 +2,8 @@
 //! equivalent). Exact where the data allows: materials by content per triangle and sphere (an
 //! importer's names and the JSON map's order differ), texels bit for bit, positions to 1e-12;
 //! cameras by position, view direction and up (an importer keeps the view direction, not the
-//! look-at distance).
+//! look-at distance). Instances are compared as the meshes they place (an importer defines
+//! repeated geometry once, a hand-written equivalent may write it out).
 
 use crate::scene::{ColorParam, Material, MaterialKind, ScalarParam, Scene};
 
@@ -100,6 +101,17 @@ fn resolved(s: &Scene, m: &Material) -> String {
 
 /// Asserts that `a` and `b` are the same scene (see the module docs).
 pub(crate) fn assert_same_scene(a: &Scene, b: &Scene) {
+    let flat = |s: &Scene| {
+        crate::scene::expand::expand_instances(
+            s,
+            crate::scene::expand::Expand::All,
+            "test",
+            u64::MAX,
+        )
+        .unwrap()
+    };
+    let (fa, fb) = (flat(a), flat(b));
+    let (a, b) = (fa.as_ref().unwrap_or(a), fb.as_ref().unwrap_or(b));
     let (c, d) = (&a.camera, &b.camera);
     assert!(
         (c.position - d.position).length() < 1e-12,

@@ -1,5 +1,5 @@
 //! Transforms shared by the importers: 4×4 f64 matrices (glam `DMat4`, column vectors) written
-//! as candela's `{"matrix": [16 numbers, row-major]}`, composed onto objects (instancing), and a
+//! as candela's `{"matrix": [16 numbers, row-major]}`, composed onto objects (groups.rs places them), and a
 //! source camera's camera-to-world matrix turned into candela's position / look_at / up.
 
 use glam::{DMat4, DVec3, DVec4};
@@ -21,7 +21,7 @@ pub fn transform_value(m: &DMat4) -> Option<Value> {
 }
 
 /// The matrix of an object's `"transform"` as the importers write it (`matrix` or absent).
-fn object_matrix(o: &Value) -> DMat4 {
+pub fn object_matrix(o: &Value) -> DMat4 {
     o.get("transform")
         .and_then(|t| t.get("matrix"))
         .and_then(Value::as_array)
@@ -44,16 +44,6 @@ pub fn place(o: &Value, to_world: &DMat4) -> Value {
         };
     }
     o
-}
-
-/// The objects of an instanced group placed by one instance's `to_world`.
-///
-/// Instancing is flattened here, and only here: one copy of each object per instance, with the
-/// instance's transform composed onto the object's. When candela's scene format gains `"groups"`
-/// and `{"type": "instance"}` objects, this is the one function to replace (emit the group once
-/// and one instance object per call).
-pub fn instance(group: &[Value], to_world: &DMat4) -> Vec<Value> {
-    group.iter().map(|o| place(o, to_world)).collect()
 }
 
 /// A camera in candela's terms.
@@ -122,7 +112,7 @@ mod tests {
         assert_eq!(transform_value(&DMat4::IDENTITY), None);
         let o = json!({"type": "sphere", "center": [0, 0, 0], "radius": 1,
                        "transform": {"matrix": row_major(&DMat4::from_scale(DVec3::splat(2.0)))}});
-        let placed = instance(&[o], &m);
+        let placed = [place(&o, &m)];
         let got = object_matrix(&placed[0]);
         assert_eq!(got, m * DMat4::from_scale(DVec3::splat(2.0)));
         let back = place(&placed[0], &m.inverse());

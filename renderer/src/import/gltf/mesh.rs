@@ -1,30 +1,37 @@
-//! A glTF mesh primitive → a candela `mesh` object over a PLY held in memory (one per
-//! primitive, shared by every node that instances its mesh). Triangle strips and fans become
+//! A glTF mesh primitive → a candela `mesh` over a PLY held in memory (one per primitive: a
+//! definition placed by an `instance` object per node that uses its mesh, written in place when
+//! one node does, import/groups.rs). Triangle strips and fans become
 //! triangles; texture v is flipped (glTF puts v = 0 on the top row, candela v = 1); without
 //! normals the mesh is flat-shaded, as glTF requires. Vertex colours other than white and points
 //! or lines are unsupported.
 
-use glam::{DVec3, Vec2};
+use glam::{DMat4, DVec3, Vec2};
 use serde_json::Value;
 
 use super::{materials, Ctx};
+use crate::import::groups::Group;
 use crate::scene::mesh::RawMesh;
 use crate::scene::SceneError;
 
-/// The object of `prim` (without transform), or None when skipped under --lenient.
-pub(super) fn primitive(
+/// Places `prim` by the node's transform `m` (its mesh defined at the first placement);
+/// nothing when it is skipped under --lenient.
+pub(super) fn place_primitive(
     ctx: &mut Ctx,
     mesh: &::gltf::Mesh,
     prim: &::gltf::Primitive,
-) -> Result<Option<Value>, SceneError> {
+    m: &DMat4,
+) -> Result<(), SceneError> {
     let key = (mesh.index(), prim.index());
-    if let Some(v) = ctx.primitives.get(&key) {
-        return Ok(v.clone());
-    }
     let path = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
-    let v = build(ctx, mesh, prim, &path)?;
-    ctx.primitives.insert(key, v.clone());
-    Ok(v)
+    if !ctx.primitives.contains_key(&key) {
+        let group = build(ctx, mesh, prim, &path)?.map(|(hint, o)| Group::new(&hint, vec![o]));
+        ctx.primitives.insert(key, group);
+    }
+    let loc = ctx.at(&path);
+    if let Some(Some(group)) = ctx.primitives.get_mut(&key) {
+        group.place(&mut ctx.doc, m, &loc);
+    }
+    Ok(())
 }
 
 fn build(
@@ -32,7 +39,7 @@ fn build(
     mesh: &::gltf::Mesh,
     prim: &::gltf::Primitive,
     path: &str,
-) -> Result<Option<Value>, SceneError> {
+) -> Result<Option<(String, Value)>, SceneError> {
     use ::gltf::mesh::Mode;
     let at = ctx.at(path);
     let mode = prim.mode();
@@ -113,7 +120,7 @@ fn build(
         .unwrap_or_else(|| format!("mesh{}_{}", mesh.index(), prim.index()));
     let mut o = ctx.doc.mesh_object(&hint, &raw);
     o["material"] = Value::from(material);
-    Ok(Some(o))
+    Ok(Some((hint, o)))
 }
 
 /// Triangles of an index list in `mode` (strips alternate winding; fans share the first vertex).

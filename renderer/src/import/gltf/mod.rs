@@ -26,7 +26,7 @@ use serde_json::{json, Value};
 use super::diag::{Loc, Report};
 use super::doc::Doc;
 use super::files::resolve_in;
-use super::xform::{camera_frame, camera_value, mirrors_image, transform_value};
+use super::xform::{camera_frame, camera_value, mirrors_image};
 use super::{ImportOptions, ImportResult};
 use crate::scene::{Limits, SceneError};
 
@@ -60,8 +60,8 @@ pub(crate) struct Ctx {
     pub materials: HashMap<Option<usize>, String>,
     /// Converted images → their file (on disk or in memory).
     pub images: HashMap<usize, Option<String>>,
-    /// (mesh, primitive) → the `mesh` object of its PLY (None: skipped).
-    pub primitives: HashMap<(usize, usize), Option<Value>>,
+    /// (mesh, primitive) → the group of its one `mesh` object over its PLY (None: skipped).
+    pub primitives: HashMap<(usize, usize), Option<crate::import::groups::Group>>,
 }
 
 impl Ctx {
@@ -322,19 +322,8 @@ impl Walk {
         }
         if let Some(mesh) = node.mesh() {
             for prim in mesh.primitives() {
-                let Some(mut o) = mesh::primitive(ctx, &mesh, &prim)? else {
-                    continue;
-                };
-                if let Some(t) = transform_value(&m) {
-                    o["transform"] = t;
-                }
+                mesh::place_primitive(ctx, &mesh, &prim, &m)?;
                 self.grow(ctx, &mesh, &prim, &m);
-                let loc = ctx.at(&format!(
-                    "meshes[{}].primitives[{}]",
-                    mesh.index(),
-                    prim.index()
-                ));
-                ctx.doc.object(o, &loc);
             }
         }
         if let Some(cam) = node.camera() {

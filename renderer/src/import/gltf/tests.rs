@@ -387,3 +387,36 @@ fn the_committed_example_loads_to_its_json_equivalent() {
     let reference = crate::scene::load_file(&dir.join("scene.json")).unwrap();
     assert_same_scene(&loaded.scene, &reference);
 }
+
+#[test]
+fn a_mesh_under_several_nodes_is_defined_once() {
+    // The example's mesh (two primitives) sits under two nodes: each primitive is one
+    // definition, placed by one `instance` object per node.
+    let (dir, _) = write_forms();
+    let imp = import_file(&dir.join("external.gltf"), &ImportOptions::default()).unwrap();
+    let defs = imp.doc["definitions"].as_object().unwrap();
+    assert_eq!(defs.len(), 2, "{defs:?}");
+    let objects = imp.doc["objects"].as_array().unwrap();
+    assert_eq!(objects.len(), 4);
+    assert!(objects.iter().all(|o| o["type"] == "instance"));
+    let scene = imp.load(&Default::default()).unwrap();
+    assert_eq!(
+        (
+            scene.prototypes.len(),
+            scene.instances.len(),
+            scene.meshes.len()
+        ),
+        (2, 4, 0)
+    );
+    // Under one node, the mesh is written in place: no definitions.
+    let mut j: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("external.gltf")).unwrap()).unwrap();
+    j["scenes"][0]["nodes"] = json!([0, 2, 3]);
+    j["nodes"][1] = json!({"translation": [0.0, -1.0, 0.0]});
+    std::fs::write(dir.join("single.gltf"), j.to_string()).unwrap();
+    let imp = import_file(&dir.join("single.gltf"), &ImportOptions::default()).unwrap();
+    assert!(imp.doc.get("definitions").is_none());
+    let objects = imp.doc["objects"].as_array().unwrap();
+    assert_eq!(objects.len(), 2);
+    assert!(objects.iter().all(|o| o["type"] == "mesh"), "{objects:?}");
+}

@@ -46,6 +46,10 @@ impl El {
         self.attrs.push((k.into(), v.to_string()));
         self
     }
+    /// Whether a child element has tag `tag`.
+    pub fn has_child(&self, tag: &str) -> bool {
+        self.children.iter().any(|c| c.tag == tag)
+    }
     pub fn child(mut self, c: El) -> Self {
         self.children.push(c);
         self
@@ -224,9 +228,13 @@ pub(crate) fn to_xml(ex: &mut Export) -> Result<String, SceneError> {
         .boolean("hide_emitters", false),
     );
     root.push(sensor(ex, spp)?);
-    // Step 3: materials (defined once, referenced by id), shapes, lights, environment.
+    // Step 3: materials (defined once, referenced by id), shape groups, shapes, lights,
+    // environment.
     for b in parts.take_bsdfs() {
         root.push(b);
+    }
+    for g in parts.take_groups() {
+        root.push(g);
     }
     for s in shapes {
         root.push(s);

@@ -21,6 +21,9 @@ use crate::scene::{obj, ply, shapes, SceneError};
 pub(crate) struct Parts {
     bsdfs: Vec<El>,
     defined: HashSet<String>,
+    /// `<shape type="shapegroup">`s for instances (export_instances.rs) and their ids.
+    pub(super) groups: Vec<El>,
+    pub(super) group_ids: HashSet<String>,
     /// Some material has an alpha mask (Mitsuba then needs `volpath`).
     pub uses_mask: bool,
 }
@@ -33,6 +36,8 @@ impl Parts {
         Parts {
             bsdfs: Vec::new(),
             defined: HashSet::new(),
+            groups: Vec::new(),
+            group_ids: HashSet::new(),
             uses_mask: false,
         }
     }
@@ -42,9 +47,29 @@ impl Parts {
         std::mem::take(&mut self.bsdfs)
     }
 
-    /// `objects[i]` as a `<shape>`.
+    /// The shape groups the instances refer to (after the BSDFs, before the shapes).
+    pub fn take_groups(&mut self) -> Vec<El> {
+        std::mem::take(&mut self.groups)
+    }
+
+    /// `objects[i]` as a `<shape>` (an instance as export_instances.rs writes it).
     pub fn shape(&mut self, ex: &mut Export, i: usize, o: &Value) -> Result<El, SceneError> {
         let path = format!("objects[{i}]");
+        if o["type"] == "instance" {
+            return self.instance(ex, &path, o);
+        }
+        self.shape_at(ex, &path, &i.to_string(), o)
+    }
+
+    /// Object `o` (at JSON path `path`) as a `<shape>`; files it needs are named after `stem`.
+    pub(super) fn shape_at(
+        &mut self,
+        ex: &mut Export,
+        path: &str,
+        stem: &str,
+        o: &Value,
+    ) -> Result<El, SceneError> {
+        let path = path.to_string();
         let kind = o["type"].as_str().unwrap_or("");
         let desc: Option<TransformDesc> = serde_json::from_value(o["transform"].clone()).ok();
         let xf = Transform::from_desc(desc.as_ref(), &format!("{path}.transform"))?.matrix;
@@ -79,7 +104,7 @@ impl Parts {
                     // Mitsuba reads a PLY's v = 0 on the top texel row, candela on the bottom.
                     let mut raw = ply::parse(&bytes, usize::MAX).map_err(|e| parse_err(e.msg))?;
                     flip_v(&mut raw);
-                    let name = format!("mesh_{i}.ply");
+                    let name = format!("mesh_{stem}.ply");
                     let rel = ex.file(&name, to_ply(&raw));
                     el = el.string("filename", &rel);
                 } else {
@@ -94,7 +119,7 @@ impl Parts {
                 let mut raw = shapes::triangles(&t, &path, usize::MAX)?;
                 flip_v(&mut raw);
                 let has_normals = raw.normals.is_some();
-                let rel = ex.file(&format!("triangles_{i}.ply"), to_ply(&raw));
+                let rel = ex.file(&format!("triangles_{stem}.ply"), to_ply(&raw));
                 // Without normals: flat shading, not Mitsuba's computed vertex normals.
                 El::plugin("shape", "ply")
                     .string("filename", &rel)
@@ -492,7 +517,7 @@ fn bitmap(name: &str, file: &str, raw: bool, filter: &str, scale: Option<[f64; 2
     b
 }
 
-fn clean(s: &str) -> String {
+pub(super) fn clean(s: &str) -> String {
     s.chars()
         .map(|c| {
             if c.is_ascii_alphanumeric() || c == '_' || c == '-' {

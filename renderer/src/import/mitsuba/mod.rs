@@ -12,6 +12,7 @@
 
 mod bsdfs;
 pub mod export;
+mod export_instances;
 mod export_parts;
 mod props;
 mod scene;
@@ -61,8 +62,8 @@ pub(crate) struct Ctx<'t> {
     pub world: DMat4,
     /// Converted BSDFs by node.
     pub materials: HashMap<usize, Mat>,
-    /// Shape groups (by node) as candela objects in the group's space.
-    pub groups: HashMap<usize, Vec<Value>>,
+    /// Shape groups (by node): candela objects in the group's space, defined once.
+    pub groups: HashMap<usize, crate::import::groups::Group>,
 }
 
 impl Ctx<'_> {

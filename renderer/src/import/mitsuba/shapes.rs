@@ -1,7 +1,8 @@
 //! Mitsuba shapes → candela objects: obj / ply (`mesh`), serialized (a mesh held in memory),
 //! rectangle (`quad` [-1,1]² at z = 0 under the same transform), cube (`box` [-1,1]³), sphere,
-//! disk (a polygon of equal area: an approximation, warned), shapegroup + instance (flattened by
-//! `xform::instance`), each with its BSDF and, through an `area` emitter, its emission.
+//! disk (a polygon of equal area: an approximation, warned), shapegroup + instance (candela
+//! definitions and `instance` objects, import/groups.rs), each with its BSDF and, through an
+//! `area` emitter, its emission.
 //!
 //! Mesh files are referenced as they are unless candela would read them differently from Mitsuba:
 //! `flip_normals`, OBJ with `flip_tex_coords` false, and PLY (Mitsuba puts v = 0 on a PLY's
@@ -14,8 +15,9 @@ use super::props::{ColorSrc, Plugin};
 use super::scene::rgb_value;
 use super::{serialized, Ctx, Mat};
 use crate::import::diag::Loc;
+use crate::import::groups::Group;
 use crate::import::meshes::{file_error, flip_orientation, flip_v, read_file};
-use crate::import::xform::{instance, transform_value};
+use crate::import::xform::transform_value;
 use crate::scene::desc::BoxDesc;
 use crate::scene::mesh::{FileError, RawMesh};
 use crate::scene::{obj, ply, shapes, SceneError};
@@ -26,6 +28,10 @@ const DISK_SIDES: usize = 256;
 /// A top-level `<shape>`: its objects are added to the scene.
 pub(crate) fn shape(ctx: &mut Ctx, node: usize) -> Result<(), SceneError> {
     let world = ctx.world;
+    if ctx.tree.nodes[node].attr("type") == Some("instance") {
+        let p = Plugin::new(ctx.tree, node)?;
+        return place_instance(ctx, &p, &world);
+    }
     for (o, loc) in objects(ctx, node, &world)? {
         ctx.doc.object(o, &loc);
     }
@@ -36,9 +42,6 @@ pub(crate) fn shape(ctx: &mut Ctx, node: usize) -> Result<(), SceneError> {
 fn objects(ctx: &mut Ctx, node: usize, outer: &DMat4) -> Result<Vec<(Value, Loc)>, SceneError> {
     let p = Plugin::new(ctx.tree, node)?;
     let loc = p.loc.clone();
-    if p.ty == "instance" {
-        return instance_objects(ctx, &p, outer);
-    }
     let known = [
         "obj",
         "ply",
@@ -329,12 +332,9 @@ fn disk_mesh() -> RawMesh {
     m
 }
 
-/// `instance`: the referenced shapegroup's objects placed by the instance's transform.
-fn instance_objects(
-    ctx: &mut Ctx,
-    p: &Plugin,
-    outer: &DMat4,
-) -> Result<Vec<(Value, Loc)>, SceneError> {
+/// `instance`: the referenced shapegroup placed by the instance's transform (its members
+/// defined once, groups.rs).
+fn place_instance(ctx: &mut Ctx, p: &Plugin, outer: &DMat4) -> Result<(), SceneError> {
     let mut refs = p.children("shape");
     refs.extend(p.object("shapegroup")?);
     let [group] = refs.as_slice() else {
@@ -364,15 +364,15 @@ fn instance_objects(
             );
         }
         gp.finish(&mut ctx.report)?;
-        ctx.groups.insert(g, members);
+        let name = ctx.tree.nodes[g].attr("id").unwrap_or("shapegroup");
+        ctx.groups.insert(g, Group::new(name, members));
     }
     let to_world = *outer * p.transform("to_world")?;
     p.finish(&mut ctx.report)?;
-    let loc = p.loc.clone();
-    Ok(instance(&ctx.groups[&g], &to_world)
-        .into_iter()
-        .map(|o| (o, loc.clone()))
-        .collect())
+    if let Some(group) = ctx.groups.get_mut(&g) {
+        group.place(&mut ctx.doc, &to_world, &p.loc);
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -84,13 +84,22 @@ fn cornell_imports_as_expected_and_loads() {
     assert!(
         (material(&imp, "dielectric")["ior"].as_f64().unwrap() - 1.5046 / 1.000277).abs() < 1e-9
     );
-    // 6 rectangles, a cube, two spheres, and 2 instances × 2 shapes.
+    // 6 rectangles, a cube, two spheres, and 2 instances × 2 shapes: the group's cube is
+    // defined once and placed by two `instance` objects, its sphere copied into place.
     let objects = d["objects"].as_array().unwrap();
     assert_eq!(objects.len(), 13);
+    let defs = d["definitions"].as_object().unwrap();
+    assert_eq!(defs.keys().collect::<Vec<_>>(), ["pebbles_1"]);
+    assert_eq!(defs["pebbles_1"]["type"], "box");
+    let placed: Vec<&Value> = objects.iter().filter(|o| o["type"] == "instance").collect();
+    assert_eq!(placed.len(), 2);
+    assert!(placed.iter().all(|o| o["definition"] == "pebbles_1"));
+    assert_ne!(placed[0]["transform"], placed[1]["transform"]);
     assert_eq!(objects[0]["type"], "quad");
     assert_eq!(objects[0]["origin"], json!([-1, -1, 0]));
     let scene = imp.load(&Default::default()).unwrap();
     assert_eq!((scene.film.width, scene.spheres.len()), (128, 4));
+    assert_eq!((scene.prototypes.len(), scene.instances.len()), (1, 2));
 }
 
 #[test]

@@ -3,8 +3,8 @@
 //! The directives are run as pbrt runs them (`BasicSceneBuilder`): a current transformation
 //! matrix post-multiplied by each transform directive, named coordinate systems ("camera",
 //! "world"), a graphics state (CTM, material, area light, ReverseOrientation) pushed by
-//! AttributeBegin, named materials and textures, object instancing (flattened through
-//! `xform::instance`), Include / Import (names relative to the main file's folder, which they
+//! AttributeBegin, named materials and textures, object instancing (candela definitions and
+//! `instance` objects, import/groups.rs), Include / Import (names relative to the main file's folder, which they
 //! may not leave). Camera, Film, Sampler, PixelFilter and Integrator are read before WorldBegin.
 //!
 //! pbrt's camera space is left-handed (+x is the image's right while looking down +z with +y
@@ -74,8 +74,9 @@ pub(crate) struct Ctx {
     named_cs: HashMap<String, DMat4>,
     pub named_materials: HashMap<String, Mat>,
     pub textures: HashMap<String, Tex>,
-    /// Object instancing: finished objects, and the one being defined.
-    pub instances: HashMap<String, Vec<Value>>,
+    /// Object instancing: finished objects (defined once, import/groups.rs), and the one being
+    /// defined.
+    pub instances: HashMap<String, crate::import::groups::Group>,
     pub defining: Option<(String, Vec<Value>, Loc)>,
     in_world: bool,
     camera: Option<(String, Params, Loc, DMat4)>,
@@ -364,7 +365,8 @@ impl Ctx {
                     .defining
                     .take()
                     .ok_or_else(|| loc.error("ObjectEnd without ObjectBegin"))?;
-                self.instances.insert(n, objects);
+                let group = crate::import::groups::Group::new(&n, objects);
+                self.instances.insert(n, group);
                 let (saved, _, _) = self
                     .stack
                     .pop()
@@ -375,12 +377,9 @@ impl Ctx {
                 let n = string(t, loc)?;
                 let group = self
                     .instances
-                    .get(&n)
+                    .get_mut(&n)
                     .ok_or_else(|| loc.error(format!("ObjectInstance: no object \"{n}\"")))?;
-                let placed = super::xform::instance(group, &(self.world * ctm));
-                for o in placed {
-                    self.doc.object(o, loc);
-                }
+                group.place(&mut self.doc, &(self.world * ctm), loc);
             }
             other => return Err(loc.error(format!("unknown directive \"{other}\""))),
         }

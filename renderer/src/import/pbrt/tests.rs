@@ -35,6 +35,44 @@ fn import_text(text: &str, lenient: bool) -> Result<crate::import::Imported, Str
 }
 
 #[test]
+fn object_instances_define_their_meshes_once() {
+    // A group of a mesh and a sphere placed three times, another placed once.
+    let imp = import_text(
+        "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"perspective\"\nWorldBegin\n\
+         ObjectBegin \"rock\"\n\
+           Shape \"trianglemesh\" \"point3 P\" [0 0 0  1 0 0  0 1 0] \"integer indices\" [0 1 2]\n\
+           Shape \"sphere\" \"float radius\" [0.1]\n\
+         ObjectEnd\n\
+         ObjectBegin \"lone\"\n\
+           Shape \"trianglemesh\" \"point3 P\" [0 0 0  2 0 0  0 2 0] \"integer indices\" [0 1 2]\n\
+         ObjectEnd\n\
+         AttributeBegin\nTranslate 1 0 0\nObjectInstance \"rock\"\nAttributeEnd\n\
+         AttributeBegin\nTranslate 2 0 0\nObjectInstance \"rock\"\nAttributeEnd\n\
+         AttributeBegin\nScale 2 2 2\nObjectInstance \"rock\"\nAttributeEnd\n\
+         AttributeBegin\nTranslate 0 3 0\nObjectInstance \"lone\"\nAttributeEnd\n",
+        false,
+    )
+    .unwrap();
+    let d = &imp.doc;
+    let defs = d["definitions"].as_object().unwrap();
+    assert_eq!(defs.keys().collect::<Vec<_>>(), ["rock_0"], "{defs:?}");
+    let objects = d["objects"].as_array().unwrap();
+    let kinds: Vec<&str> = objects
+        .iter()
+        .map(|o| o["type"].as_str().unwrap())
+        .collect();
+    let placed = ["instance", "sphere"];
+    assert_eq!(kinds[..6], [placed, placed, placed].concat(), "{kinds:?}");
+    // The group placed once is written in place, with its transform.
+    assert_eq!(kinds.len(), 7);
+    assert_ne!(kinds[6], "instance");
+    assert!(objects[6].get("transform").is_some());
+    let scene = imp.load(&Default::default()).unwrap();
+    assert_eq!((scene.prototypes.len(), scene.instances.len()), (1, 3));
+    assert_eq!((scene.meshes.len(), scene.spheres.len()), (1, 3));
+}
+
+#[test]
 fn a_standard_pbrt_camera_mirrors_the_scene() {
     let imp = import_text(
         "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 30\nFilm \"rgb\" \"integer xresolution\" 32 \"integer yresolution\" 64\nWorldBegin\nLightSource \"point\" \"point3 from\" [2 0 0]\nShape \"sphere\"\n",
