@@ -4,7 +4,9 @@
 # (1) issue 12, side by side (bench/vs_mitsuba.py): candela nee and Mitsuba 3 cuda `path` on the
 #     same scene, film 1280x720, box filter, max_depth 6, SPP (default 256) spp: the Cornell box and
 #     bench/make_big_scene.py meshes of TRIS (default 2M 8M 30M) triangles; ACCELS (default "bvh")
-#     lists candela's --accel values to run;
+#     lists candela's --accel values to run; then each instanced scene of INSTANCED (default
+#     "2000000:500", TRIANGLES:INSTANCES, bench/make_instanced_scene.py: ~1e9 triangles) with the
+#     bvh (the one structure with a second level) at INSTANCED_SPP (default 64) spp;
 # (2) issue 14 item 6, time to relMSE 0.01 (`candela bench`, budgets TIMES (0.01 to 1 s), one run each)
 #     for every integrator on every project scene (SCENES) with its film SCALE (3) times larger,
 #     against a Mitsuba 3 cuda reference of REF_SPP (default 4096) spp when `candela convert` can
@@ -34,13 +36,19 @@ if has mitsuba; then
         >> "$out/vs_mitsuba.jsonl" || echo "vs_mitsuba failed on $s ($acc)"
     done
   done
+  for ti in ${INSTANCED-2000000:500}; do
+    d=/tmp/inst_${ti/:/x}
+    python3 bench/make_instanced_scene.py $d --triangles ${ti%%:*} --instances ${ti##*:} > /dev/null
+    python3 bench/vs_mitsuba.py $d/instanced.json --candela "$bin" --spp ${INSTANCED_SPP:-64} \
+      --candela-args "--accel bvh --no-accel-cache" >> "$out/vs_mitsuba.jsonl" || echo "vs_mitsuba failed on $d"
+  done
   python3 - "$out/vs_mitsuba.jsonl" <<'PY'
 import json, sys
-print("| scene | triangles | accel | candela Msamples/s | Mitsuba 3 Msamples/s | ratio | images relMSE |")
-print("|---|---|---|---|---|---|---|")
+print("| scene | triangles | instanced triangles | accel | spp | candela Msamples/s | Mitsuba 3 Msamples/s | ratio | images relMSE |")
+print("|---|---|---|---|---|---|---|---|---|")
 for l in open(sys.argv[1]):
     d = json.loads(l); c = d["candela"]
-    print(f"| {d['scene']} | {c.get('triangles')} | {c.get('accel')} | {c['msamples_per_s']:.1f} | "
+    print(f"| {d['scene']} | {c.get('triangles')} | {c.get('instanced_triangles', '')} | {c.get('accel')} | {d['spp']} | {c['msamples_per_s']:.1f} | "
           f"{d['mitsuba']['msamples_per_s']:.1f} | {d['ratio_candela_over_mitsuba']:.2f} | {d['images_rel_mse']:.3g} |")
 PY
 fi

@@ -93,8 +93,9 @@ def main():
     # Both images at the same spp: their relMSE is noise only when the scenes agree (a sanity check).
     cmp = subprocess.run([a.candela, "compare", CANDELA_EXR, MITSUBA_EXR, "--json"], check=True,
                          capture_output=True, text=True).stdout
-    keep = ("triangles", "bvh_depth", "accel", "time_s", "spp", "msamples_per_s", "bvh_build_s",
-            "gpu_bytes_per_triangle", "scene_gpu_bytes", "peak_rss_bytes", "load_s", "device")
+    keep = ("triangles", "instances", "instanced_triangles", "bvh_depth", "accel", "time_s", "spp",
+            "msamples_per_s", "bvh_build_s", "gpu_bytes_per_triangle", "gpu_bytes_per_instance",
+            "scene_gpu_bytes", "peak_rss_bytes", "load_s", "device")
     print(json.dumps({
         "scene": a.scene, "width": a.width, "height": a.height, "max_depth": a.max_depth,
         "spp": a.spp, "filter": a.filter, "integrator": a.integrator, "mitsuba_integrator": "path",
