@@ -194,31 +194,58 @@ fn cwbvh_cache_and_memory_figures() {
     assert!((stats.gpu_bytes_per_triangle - per_tri).abs() < 1e-6 * per_tri);
 }
 
-/// "cwbvh" is spelled the same by scenes, the CLI and jobs.
+/// "cwbvh" is spelled the same by scenes, the CLI and jobs; "auto" (the default) picks it for
+/// large meshes without instances, else the binary BVH.
 #[test]
-fn cwbvh_is_selectable_by_name() {
-    let o = AccelOptions::resolve(
-        AccelRequest {
-            kind: Some("cwbvh"),
-            grid_resolution: None,
-        },
-        AccelRequest::default(),
-    )
-    .unwrap();
-    assert_eq!(o.kind, AccelKind::Cwbvh);
-    assert_eq!(
-        AccelOptions::resolve(AccelRequest::default(), AccelRequest::default())
-            .unwrap()
-            .kind,
-        AccelKind::Bvh,
-        "the default is unchanged"
-    );
+fn cwbvh_is_selectable_by_name_and_auto_picks_it_for_large_meshes() {
     let text = std::fs::read_to_string(scene_path("cornell.json")).unwrap();
     let mut v: Value = serde_json::from_str(&text).unwrap();
+    let cornell = load_str(&text, Some(&scene_path(""))).unwrap();
+    let named = |name: &str, s: &Scene| {
+        let request = AccelRequest {
+            kind: Some(name),
+            grid_resolution: None,
+        };
+        AccelOptions::resolve(request, s).unwrap().kind
+    };
+    assert_eq!(named("cwbvh", &cornell), AccelKind::Cwbvh);
+    let default = |s: &Scene| {
+        AccelOptions::resolve(AccelRequest::default(), s)
+            .unwrap()
+            .kind
+    };
+    assert_eq!(
+        default(&cornell),
+        AccelKind::Bvh,
+        "36 triangles: auto is bvh"
+    );
+    assert_eq!(named("auto", &cornell), AccelKind::Bvh);
     v["render"]["accel"] = json!("cwbvh");
     let s = load_str(&v.to_string(), Some(&scene_path(""))).unwrap();
-    let o = AccelOptions::resolve(AccelRequest::default(), s.render.accel_request()).unwrap();
-    assert_eq!(o.kind, AccelKind::Cwbvh);
+    assert_eq!(default(&s), AccelKind::Cwbvh, "the scene's render.accel");
+    assert_eq!(named("bvh", &s), AccelKind::Bvh, "the request wins");
+    // The same box with AUTO_CWBVH_TRIANGLES triangles (one mesh's repeated): auto takes the
+    // CWBVH; one triangle fewer, or an instance, keeps the binary BVH.
+    let mut big = cornell.clone();
+    let mesh = &mut big.meshes[0];
+    let n = renderer::accel::AUTO_CWBVH_TRIANGLES as usize;
+    let rest: usize = cornell.meshes[1..].iter().map(|m| m.indices.len()).sum();
+    let first = mesh.indices[0];
+    mesh.indices.resize(n - rest, first);
+    mesh.materials.resize(n - rest, mesh.materials[0]);
+    assert_eq!(default(&big), AccelKind::Cwbvh);
+    let mut fewer = big.clone();
+    fewer.meshes[0].indices.pop();
+    fewer.meshes[0].materials.pop();
+    assert_eq!(default(&fewer), AccelKind::Bvh);
+    let mut instanced = big.clone();
+    instanced.prototypes.push(cornell.meshes[0].clone());
+    instanced.instances.push(renderer::scene::Instance {
+        prototype: 0,
+        to_world: glam::DMat4::IDENTITY,
+        material: None,
+    });
+    assert_eq!(default(&instanced), AccelKind::Bvh);
 }
 
 // Pathological meshes (as in accel_deep.rs): each has an analytic twin that must render the

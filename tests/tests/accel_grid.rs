@@ -228,7 +228,7 @@ fn scene_render_block_selects_and_checks_the_accel() {
         renderer::scene::load_str(&v.to_string(), Some(&scene_path("")))
     };
     let s = with(serde_json::json!({"accel": "grid", "grid_resolution": 12})).unwrap();
-    let o = AccelOptions::resolve(AccelRequest::default(), s.render.accel_request()).unwrap();
+    let o = AccelOptions::resolve(AccelRequest::default(), &s).unwrap();
     assert_eq!((o.kind, o.grid_resolution), (AccelKind::Grid, Some(12)));
     // Overrides win.
     let o = AccelOptions::resolve(
@@ -236,7 +236,7 @@ fn scene_render_block_selects_and_checks_the_accel() {
             kind: Some("bvh"),
             grid_resolution: None,
         },
-        s.render.accel_request(),
+        &s,
     )
     .unwrap();
     assert_eq!(o.kind, AccelKind::Bvh);
@@ -246,7 +246,7 @@ fn scene_render_block_selects_and_checks_the_accel() {
                 kind: None,
                 grid_resolution: Some(3),
             },
-            s.render.accel_request(),
+            &s,
         )
         .unwrap()
         .grid_resolution,

@@ -28,7 +28,8 @@ mod select;
 
 pub use flatten::{parents, MAX_LEAF, STACK_DEPTH};
 pub use select::{
-    build_accel, Accel, AccelInfo, AccelKind, AccelOptions, AccelRequest, CacheStatus,
+    auto_kind, build_accel, is_request_name, Accel, AccelInfo, AccelKind, AccelOptions,
+    AccelRequest, CacheStatus, AUTO_CWBVH_TRIANGLES, REQUEST_NAMES,
 };
 
 use std::time::{Duration, Instant};

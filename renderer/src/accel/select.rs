@@ -360,6 +360,33 @@ fn from_entry(opts: &AccelOptions, mut e: cache::Entry, n: usize) -> Option<Acce
     }
 }
 
+/// What a request may name: a structure of [`AccelKind::NAMES`], or "auto", the default, which
+/// [`auto_kind`] turns into one from the scene.
+pub const REQUEST_NAMES: [&str; 4] = ["auto", "bvh", "cwbvh", "grid"];
+
+/// Whether `name` is one of [`REQUEST_NAMES`].
+pub fn is_request_name(name: &str) -> bool {
+    REQUEST_NAMES.contains(&name)
+}
+
+/// Scenes of at least this many triangles of their own (no instances) get the CWBVH under
+/// "auto". Measured (bench/RESULTS.md, "accel auto"; nee / pt / whitted / deferred, cwbvh
+/// against bvh): ×1.12 / 1.04 / 1.67 / 0.95 at 1M triangles, ×1.15 / 1.04 / 1.74 / 1.00 at 2M,
+/// nee ×1.15–1.17 at 8M and 30M; below 1M pt and deferred lose up to 3% and the project scenes
+/// are mixed (the binary BVH is faster for some integrators on five of nine).
+pub const AUTO_CWBVH_TRIANGLES: u64 = 1_000_000;
+
+/// The structure "auto" picks for `scene`: the CWBVH for large meshes, else the binary BVH (which
+/// alone traces instances through a second level).
+pub fn auto_kind(scene: &crate::scene::Scene) -> AccelKind {
+    let triangles: u64 = scene.meshes.iter().map(|m| m.indices.len() as u64).sum();
+    if scene.instances.is_empty() && triangles >= AUTO_CWBVH_TRIANGLES {
+        AccelKind::Cwbvh
+    } else {
+        AccelKind::Bvh
+    }
+}
+
 /// An acceleration-structure request as written in one place (a scene's `render` block, CLI
 /// flags, a job's settings): a kind name and a grid resolution, each optional.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -370,19 +397,25 @@ pub struct AccelRequest<'a> {
 
 impl AccelOptions {
     /// The options of `request` (a CLI flag, a job's settings) falling back, field by field, on
-    /// the scene's `render` block (already validated), then on the defaults (BVH; automatic
-    /// resolution). Unknown names are an error naming the value.
+    /// `scene`'s `render` block (already validated), then on the defaults ("auto": [`auto_kind`];
+    /// automatic grid resolution). Unknown names are an error naming the value.
     pub fn resolve(
         request: AccelRequest<'_>,
-        scene: AccelRequest<'_>,
+        scene: &crate::scene::Scene,
     ) -> Result<AccelOptions, String> {
-        let name = request.kind.or(scene.kind).unwrap_or("bvh");
-        let kind = AccelKind::from_name(name).ok_or_else(|| {
-            format!(
-                "unknown acceleration structure \"{name}\", expected one of {}",
-                AccelKind::NAMES.join(", ")
-            )
-        })?;
+        let name = (request.kind)
+            .or(scene.render.accel_request().kind)
+            .unwrap_or("auto");
+        let kind = match name {
+            "auto" => auto_kind(scene),
+            _ => AccelKind::from_name(name).ok_or_else(|| {
+                format!(
+                    "unknown acceleration structure \"{name}\", expected one of {}",
+                    REQUEST_NAMES.join(", ")
+                )
+            })?,
+        };
+        let scene = scene.render.accel_request();
         let res = request.grid_resolution.or(scene.grid_resolution);
         if let Some(r) = res {
             if !(1..=grid::MAX_AXIS).contains(&r) {

@@ -275,14 +275,14 @@ pub(crate) fn render(d: Option<&RenderDesc>) -> Result<RenderDefaults, SceneErro
 
 /// `render.accel` and `render.grid_resolution` (docs/accel.md).
 fn accel(d: &RenderDesc) -> Result<(Option<String>, Option<u32>), SceneError> {
-    use crate::accel::{grid::MAX_AXIS, AccelKind};
+    use crate::accel::{grid::MAX_AXIS, is_request_name, REQUEST_NAMES};
     if let Some(name) = &d.accel {
-        if AccelKind::from_name(name).is_none() {
+        if !is_request_name(name) {
             return Err(SceneError::invalid(
                 "render.accel",
                 format!(
                     "unknown acceleration structure \"{name}\", expected one of {}",
-                    AccelKind::NAMES.join(", ")
+                    REQUEST_NAMES.join(", ")
                 ),
             ));
         }

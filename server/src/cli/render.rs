@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use renderer::accel::{AccelKind, AccelRequest};
+use renderer::accel::AccelRequest;
 use renderer::compile::KernelMode;
 use renderer::integrators::{IntegratorOptions, DEFAULT_INTEGRATOR};
 use renderer::prepare::expands_instances;
@@ -72,8 +72,9 @@ pub struct RenderArgs {
     /// Print the report as one JSON object.
     #[arg(long)]
     pub json: bool,
-    /// Acceleration structure: bvh, cwbvh (compressed 8-wide BVH) or grid (default: the scene's
-    /// render.accel, else bvh).
+    /// Acceleration structure: auto (cwbvh for meshes of 1M triangles or more without instances,
+    /// else bvh), bvh, cwbvh (compressed 8-wide BVH) or grid (default: the scene's render.accel,
+    /// else auto).
     #[arg(long, value_name = "KIND")]
     pub accel: Option<String>,
     /// Grid cells along the scene's longest axis, 1..=512 (default: the scene's
@@ -147,10 +148,10 @@ fn check_args(a: &RenderArgs) -> Result<(), CliError> {
         }
     }
     if let Some(k) = &a.accel {
-        if AccelKind::from_name(k).is_none() {
+        if !renderer::accel::is_request_name(k) {
             return Err(CliError::input(format!(
                 "--accel: unknown acceleration structure \"{k}\", expected one of {}",
-                AccelKind::NAMES.join(", ")
+                renderer::accel::REQUEST_NAMES.join(", ")
             )));
         }
     }

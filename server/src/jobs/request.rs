@@ -178,7 +178,7 @@ fn integrator_options(
 
 /// The request's `accel` field: a name or `{"type", "grid_resolution"}`, checked.
 fn accel_setting(v: Option<&Value>) -> Result<Option<AccelSetting>, ApiError> {
-    use renderer::accel::{grid::MAX_AXIS, AccelKind};
+    use renderer::accel::{grid::MAX_AXIS, is_request_name, REQUEST_NAMES};
     let setting: AccelSetting = match v {
         None | Some(Value::Null) => return Ok(None),
         Some(Value::String(name)) => AccelSetting {
@@ -195,13 +195,13 @@ fn accel_setting(v: Option<&Value>) -> Result<Option<AccelSetting>, ApiError> {
             ))
         }
     };
-    if AccelKind::from_name(&setting.kind).is_none() {
+    if !is_request_name(&setting.kind) {
         return Err(ApiError::invalid(
             "accel.type",
             format!(
                 "accel.type: unknown acceleration structure \"{}\", expected one of {}",
                 setting.kind,
-                AccelKind::NAMES.join(", ")
+                REQUEST_NAMES.join(", ")
             ),
         ));
     }
