@@ -121,7 +121,8 @@ pub fn prepare(scene: &Scene, o: &PrepareOptions<'_>) -> Result<PreparedScene, P
     let height = o.height.unwrap_or(scene.film.height);
     o.limits.check(width, height)?;
     // Step 2: which acceleration structure, from the request, else the scene.
-    let accel = AccelOptions::resolve(o.accel, scene).map_err(PrepareError::Accel)?;
+    let accel = AccelOptions::resolve(o.accel, scene.render.accel_request(), scene.accel_size())
+        .map_err(PrepareError::Accel)?;
     // Step 3: compile (the structure is built here, or read from the cache).
     let mut compiled = compile_with(
         scene,

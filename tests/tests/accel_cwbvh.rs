@@ -206,13 +206,19 @@ fn cwbvh_is_selectable_by_name_and_auto_picks_it_for_large_meshes() {
             kind: Some(name),
             grid_resolution: None,
         };
-        AccelOptions::resolve(request, s).unwrap().kind
+        AccelOptions::resolve(request, s.render.accel_request(), s.accel_size())
+            .unwrap()
+            .kind
     };
     assert_eq!(named("cwbvh", &cornell), AccelKind::Cwbvh);
     let default = |s: &Scene| {
-        AccelOptions::resolve(AccelRequest::default(), s)
-            .unwrap()
-            .kind
+        AccelOptions::resolve(
+            AccelRequest::default(),
+            s.render.accel_request(),
+            s.accel_size(),
+        )
+        .unwrap()
+        .kind
     };
     assert_eq!(
         default(&cornell),

@@ -228,7 +228,12 @@ fn scene_render_block_selects_and_checks_the_accel() {
         renderer::scene::load_str(&v.to_string(), Some(&scene_path("")))
     };
     let s = with(serde_json::json!({"accel": "grid", "grid_resolution": 12})).unwrap();
-    let o = AccelOptions::resolve(AccelRequest::default(), &s).unwrap();
+    let o = AccelOptions::resolve(
+        AccelRequest::default(),
+        s.render.accel_request(),
+        s.accel_size(),
+    )
+    .unwrap();
     assert_eq!((o.kind, o.grid_resolution), (AccelKind::Grid, Some(12)));
     // Overrides win.
     let o = AccelOptions::resolve(
@@ -236,7 +241,8 @@ fn scene_render_block_selects_and_checks_the_accel() {
             kind: Some("bvh"),
             grid_resolution: None,
         },
-        &s,
+        s.render.accel_request(),
+        s.accel_size(),
     )
     .unwrap();
     assert_eq!(o.kind, AccelKind::Bvh);
@@ -246,7 +252,8 @@ fn scene_render_block_selects_and_checks_the_accel() {
                 kind: None,
                 grid_resolution: Some(3),
             },
-            &s,
+            s.render.accel_request(),
+            s.accel_size(),
         )
         .unwrap()
         .grid_resolution,

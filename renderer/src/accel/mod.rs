@@ -29,7 +29,7 @@ mod select;
 pub use flatten::{parents, MAX_LEAF, STACK_DEPTH};
 pub use select::{
     auto_kind, build_accel, is_request_name, Accel, AccelInfo, AccelKind, AccelOptions,
-    AccelRequest, CacheStatus, AUTO_CWBVH_TRIANGLES, REQUEST_NAMES,
+    AccelRequest, CacheStatus, SceneSize, AUTO_CWBVH_TRIANGLES, REQUEST_NAMES,
 };
 
 use std::time::{Duration, Instant};

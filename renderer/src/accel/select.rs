@@ -376,11 +376,18 @@ pub fn is_request_name(name: &str) -> bool {
 /// are mixed (the binary BVH is faster for some integrators on five of nine).
 pub const AUTO_CWBVH_TRIANGLES: u64 = 1_000_000;
 
-/// The structure "auto" picks for `scene`: the CWBVH for large meshes, else the binary BVH (which
-/// alone traces instances through a second level).
-pub fn auto_kind(scene: &crate::scene::Scene) -> AccelKind {
-    let triangles: u64 = scene.meshes.iter().map(|m| m.indices.len() as u64).sum();
-    if scene.instances.is_empty() && triangles >= AUTO_CWBVH_TRIANGLES {
+/// What "auto" looks at in a scene (`Scene::accel_size`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SceneSize {
+    /// Triangles of the scene's own meshes (instances' not counted).
+    pub triangles: u64,
+    pub instances: usize,
+}
+
+/// The structure "auto" picks for a scene of `size`: the CWBVH for large meshes, else the
+/// binary BVH (which alone traces instances through a second level).
+pub fn auto_kind(size: SceneSize) -> AccelKind {
+    if size.instances == 0 && size.triangles >= AUTO_CWBVH_TRIANGLES {
         AccelKind::Cwbvh
     } else {
         AccelKind::Bvh
@@ -397,17 +404,17 @@ pub struct AccelRequest<'a> {
 
 impl AccelOptions {
     /// The options of `request` (a CLI flag, a job's settings) falling back, field by field, on
-    /// `scene`'s `render` block (already validated), then on the defaults ("auto": [`auto_kind`];
-    /// automatic grid resolution). Unknown names are an error naming the value.
+    /// the scene's `render` block (already validated), then on the defaults ("auto":
+    /// [`auto_kind`] of the scene's `size`; automatic grid resolution). Unknown names are an
+    /// error naming the value.
     pub fn resolve(
         request: AccelRequest<'_>,
-        scene: &crate::scene::Scene,
+        scene: AccelRequest<'_>,
+        size: SceneSize,
     ) -> Result<AccelOptions, String> {
-        let name = (request.kind)
-            .or(scene.render.accel_request().kind)
-            .unwrap_or("auto");
+        let name = request.kind.or(scene.kind).unwrap_or("auto");
         let kind = match name {
-            "auto" => auto_kind(scene),
+            "auto" => auto_kind(size),
             _ => AccelKind::from_name(name).ok_or_else(|| {
                 format!(
                     "unknown acceleration structure \"{name}\", expected one of {}",
@@ -415,7 +422,6 @@ impl AccelOptions {
                 )
             })?,
         };
-        let scene = scene.render.accel_request();
         let res = request.grid_resolution.or(scene.grid_resolution);
         if let Some(r) = res {
             if !(1..=grid::MAX_AXIS).contains(&r) {

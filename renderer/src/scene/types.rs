@@ -41,6 +41,14 @@ pub struct Instance {
 }
 
 impl Scene {
+    /// What accel "auto" looks at ([`crate::accel::auto_kind`]).
+    pub fn accel_size(&self) -> crate::accel::SceneSize {
+        crate::accel::SceneSize {
+            triangles: self.meshes.iter().map(|m| m.indices.len() as u64).sum(),
+            instances: self.instances.len(),
+        }
+    }
+
     /// Triangles as rendered: the meshes' plus every instance's copy of its prototype's.
     pub fn instanced_triangles(&self) -> u64 {
         self.instances
