@@ -26,7 +26,7 @@ nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee "$out/gpu
 if has mitsuba; then
   : > "$out/vs_mitsuba.jsonl"
   scenes="scenes/cornell.json"
-  for n in ${TRIS:-2000000 8000000 30000000}; do
+  for n in ${TRIS-2000000 8000000 30000000}; do
     python3 bench/make_big_scene.py /tmp/big$n --triangles $n > /dev/null
     scenes="$scenes /tmp/big$n/big.json"
   done

@@ -79,6 +79,10 @@ pub const BVH_STACK_DEPTH: u32 = 64;
 /// which pushes at most one group per level, never overflows it.
 pub const CWBVH_STACK_DEPTH: u32 = 32;
 
+/// Instances a scene may have: the two-level walk's stack entries hold an instance index in 28
+/// bits (`TL_LEAF` in shaders/common/traverse.glsl).
+pub const MAX_INSTANCES: u32 = 1 << 28;
+
 /// Marks "none" in u32 index fields.
 pub const NONE: u32 = u32::MAX;
 

@@ -13,8 +13,8 @@
 // walk a top-level BVH whose leaves are instances; at each, the ray is moved into the
 // instance's frame (its direction not renormalised, so distances t are the same in both
 // frames) and walks the prototype's BVH, rooted inside the scene's node buffer (read by
-// `bvh_node`), with the same code as the scene's. Hits record the instance;
-// common/surface.glsl moves them back to the world.
+// `bvh_node`), in the same loop as the top level (`traverse_instances`). Hits record the
+// instance; common/surface.glsl moves them back to the world.
 #ifndef COMMON_TRAVERSE_GLSL
 #define COMMON_TRAVERSE_GLSL
 #include "common/bindings.glsl"
@@ -228,38 +228,109 @@ bool traverse(Ray r, bool any_hit, out Hit hit) {
 }
 
 #ifdef HAS_INSTANCES
-// Tests instance k: the ray moved into its frame walks its prototype's BVH; r.tmax follows the
-// nearest hit (the same t in both frames).
-bool intersect_instance(inout Ray r, uint k, bool any_hit, inout Hit hit) {
-    GpuInstance inst = instances[k];
-    Ray ro;
-    ro.o = vec3(dot(inst.world_to_object[0].xyz, r.o) + inst.world_to_object[0].w,
-                dot(inst.world_to_object[1].xyz, r.o) + inst.world_to_object[1].w,
-                dot(inst.world_to_object[2].xyz, r.o) + inst.world_to_object[2].w);
-    ro.d = vec3(dot(inst.world_to_object[0].xyz, r.d),
-                dot(inst.world_to_object[1].xyz, r.d),
-                dot(inst.world_to_object[2].xyz, r.d));
-    ro.tmin = r.tmin;
-    ro.tmax = r.tmax;
-    RayPre pre = ray_precompute(ro.d);
-    bool found = traverse_tree(ro, pre, inst.root, k, any_hit, hit);
-    r.tmax = ro.tmax;
-    return found;
-}
+// Top-level stack entries besides inner nodes: a leaf's instances still to enter (TL_LEAF, the
+// count in bits 28..30, the first instance below; the host keeps instances below MAX_INSTANCES
+// = 2^28 and leaves at ≤ 4), and the mark below an instance's own entries (TL_EXIT).
+#define TL_LEAF 0x80000000u
+#define TL_EXIT 0xffffffffu
+uint tl_leaf(uint first, uint count) { return TL_LEAF | (count << 28) | first; }
 
-// Walks the top-level BVH over the instances (leaves index instances), continuing from the
-// nearest hit so far (r.tmax, hit). Returns true when any_hit found an intersection. The host
-// builds the top-level BVH within BVH_STACK levels whatever the boxes (renderer/src/accel/
-// flatten.rs rebuilds too-deep subtrees balanced, and compile/instances.rs asserts it), so its
-// full stack cannot overflow and needs no fallback; it is not shortened by TEST_BVH_STACK.
+// Walks the top-level BVH over the instances and, inside each instance it reaches, the
+// prototype's BVH with the ray moved into the instance's frame (its direction not
+// renormalised, so t is the same in both frames), continuing from the nearest hit so far
+// (r.tmax, hit). Returns true when any_hit found an intersection.
+//
+// Both levels run in one loop over one stack (the top level's entries, then TL_EXIT, then the
+// instance's), so that a warp's lanes take their node steps together whichever level each is
+// in; a walk of the prototype's tree nested in the top level's (Aila & Laine's while-while
+// inside a while) would idle every lane outside an instance while the others are inside one.
+// The top level is built within BVH_STACK levels whatever the boxes (renderer/src/accel/
+// flatten.rs, asserted by compile/instances.rs), so its part of the stack (one entry a level,
+// plus a leaf's rest and the mark) cannot overflow; a prototype's tree deeper than its
+// STACK_ENTRIES finishes that instance with the stackless walk.
 bool traverse_instances(Ray r, bool any_hit, inout Hit hit) {
     if (g.instances.x == 0u) return false;
-    RayPre pre = ray_precompute(r.d);
-#define TLAS_LEAF(i) intersect_instance(r, i, any_hit, hit)
-#define TLAS_OVERFLOW return false /* unreachable: the host bounds the depth */
-    BVH_WALK(tlas_node, 0u, BVH_STACK, TLAS_LEAF, TLAS_OVERFLOW)
-#undef TLAS_LEAF
-#undef TLAS_OVERFLOW
+    RayPre pre_w = ray_precompute(r.d);
+    Ray cur = r;
+    RayPre pre = pre_w;
+    uint stack[BVH_STACK + 2 + STACK_ENTRIES];
+    int sp = 0;
+    int base = 0;      // where the current instance's entries start
+    uint inst = NONE;  // the instance the walk is in, NONE at the top level
+    uint entry = 0u;   // the top level's root
+    while (true) {
+        // Step 1: a top-level leaf's next instance: keep the rest, move the ray into its frame.
+        if ((entry & TL_LEAF) != 0u && inst == NONE) {
+            uint k = entry & 0x0fffffffu, count = (entry >> 28) & 7u;
+            if (count > 1u) stack[sp++] = tl_leaf(k + 1u, count - 1u);
+            stack[sp++] = TL_EXIT;
+            base = sp;
+            GpuInstance gi = instances[k];
+            cur.o = vec3(dot(gi.world_to_object[0].xyz, r.o) + gi.world_to_object[0].w,
+                         dot(gi.world_to_object[1].xyz, r.o) + gi.world_to_object[1].w,
+                         dot(gi.world_to_object[2].xyz, r.o) + gi.world_to_object[2].w);
+            cur.d = vec3(dot(gi.world_to_object[0].xyz, r.d),
+                         dot(gi.world_to_object[1].xyz, r.d),
+                         dot(gi.world_to_object[2].xyz, r.d));
+            pre = ray_precompute(cur.d);
+            inst = k;
+            entry = gi.root;
+        }
+        // Step 2: the node's two children, at either level.
+        GpuBvhNode n = inst == NONE ? tlas_node(entry) : bvh_node(entry);
+        float tl = intersect_box(cur.o, pre, n.l_min, n.l_max, cur.tmin, cur.tmax);
+        float tr = intersect_box(cur.o, pre, n.r_min, n.r_max, cur.tmin, cur.tmax);
+        bool hl = !isinf(tl), hr = !isinf(tr);
+        uint left = n.left, right = n.right;
+        if (inst != NONE) {
+            // Step 3a: in a prototype, leaves' primitives are tested at once.
+            if (hl && n.l_count > 0u) {
+                for (uint i = n.left; i < n.left + n.l_count; ++i)
+                    if (intersect_prim(cur, pre, i, inst, hit) && any_hit) return true;
+                hl = false;
+                tr = intersect_box(cur.o, pre, n.r_min, n.r_max, cur.tmin, cur.tmax);
+                hr = !isinf(tr);
+            }
+            if (hr && n.r_count > 0u) {
+                for (uint i = n.right; i < n.right + n.r_count; ++i)
+                    if (intersect_prim(cur, pre, i, inst, hit) && any_hit) return true;
+                hr = false;
+            }
+        } else {
+            // Step 3b: at the top level a leaf is visited like a node, its instances entered
+            // in step 1.
+            if (n.l_count > 0u) left = tl_leaf(n.left, n.l_count);
+            if (n.r_count > 0u) right = tl_leaf(n.right, n.r_count);
+        }
+        // Step 4: the nearer child next, the farther pushed; else the next entry.
+        if (hl && hr) {
+            if (inst != NONE && sp - base == STACK_ENTRIES) {
+                // The prototype's tree is deeper than its stack: finish this instance without
+                // one (see the top), then leave it.
+                if (traverse_stackless(cur, pre, instances[inst].root, inst, any_hit, hit)) return true;
+                sp = base;
+            } else {
+                bool left_first = tl <= tr;
+                stack[sp++] = left_first ? right : left;
+                entry = left_first ? left : right;
+                continue;
+            }
+        } else if (hl || hr) {
+            entry = hl ? left : right;
+            continue;
+        }
+        // Step 5: pop; the mark takes the walk back to the top level, with the world ray
+        // shortened to the nearest hit.
+        while (true) {
+            if (sp == 0) return false;
+            entry = stack[--sp];
+            if (entry != TL_EXIT) break;
+            r.tmax = cur.tmax;
+            cur = r;
+            pre = pre_w;
+            inst = NONE;
+        }
+    }
     return false;
 }
 #endif

@@ -171,8 +171,8 @@ pub enum CompileError {
     /// Instances to write out as meshes would make too large a scene (scene/expand.rs).
     #[error("instances: {0}")]
     Expand(String),
-    /// Instance indices are u32, and u32::MAX marks "none".
-    #[error("scene has {0} instances; at most {max} are supported", max = NONE - 1)]
+    /// Instance indices have 28 bits in the traversal's stack (`MAX_INSTANCES`).
+    #[error("scene has {0} instances; at most {max} are supported", max = MAX_INSTANCES - 1)]
     TooManyInstances(usize),
 }
 
@@ -213,7 +213,7 @@ pub fn compile_with(
     let origin = scene.camera.position;
     let features = FeatureSet::detect(scene);
     if !scene.instances.is_empty() {
-        if scene.instances.len() >= NONE as usize {
+        if scene.instances.len() >= MAX_INSTANCES as usize {
             return Err(CompileError::TooManyInstances(scene.instances.len()));
         }
     }
