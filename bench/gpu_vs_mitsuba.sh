@@ -6,7 +6,8 @@
 #     bench/make_big_scene.py meshes of TRIS (default 2M 8M 30M) triangles; ACCELS (default "bvh")
 #     lists candela's --accel values to run; then each instanced scene of INSTANCED (default
 #     "2000000:500", TRIANGLES:INSTANCES, bench/make_instanced_scene.py: ~1e9 triangles) with the
-#     bvh (the one structure with a second level) at INSTANCED_SPP (default 64) spp;
+#     bvh (the one structure with a second level) at INSTANCED_SPP (default 64) spp (an empty
+#     TRIS or INSTANCED runs none);
 # (2) issue 14 item 6, time to relMSE 0.01 (`candela bench`, budgets TIMES (0.01 to 1 s), one run each)
 #     for every integrator on every project scene (SCENES) with its film SCALE (3) times larger,
 #     against a Mitsuba 3 cuda reference of REF_SPP (default 4096) spp when `candela convert` can

@@ -79,9 +79,12 @@ pub const BVH_STACK_DEPTH: u32 = 64;
 /// which pushes at most one group per level, never overflows it.
 pub const CWBVH_STACK_DEPTH: u32 = 32;
 
-/// Instances a scene may have: the two-level walk's stack entries hold an instance index in 28
-/// bits (`TL_LEAF` in shaders/common/traverse.glsl).
-pub const MAX_INSTANCES: u32 = 1 << 28;
+/// Bits of an instance index in the two-level walk's stack entries (`TL_LEAF` in
+/// shaders/common/traverse.glsl: the leaf's instance count above them, below the tag bit).
+pub const TL_COUNT_SHIFT: u32 = 28;
+
+/// Instances a scene may have (see [`TL_COUNT_SHIFT`]).
+pub const MAX_INSTANCES: u32 = 1 << TL_COUNT_SHIFT;
 
 /// Marks "none" in u32 index fields.
 pub const NONE: u32 = u32::MAX;
@@ -410,6 +413,7 @@ pub fn glsl_constants() -> String {
         ("B_CWBVH_NODES", binding::CWBVH_NODES),
         ("B_CWBVH_PRIMS", binding::CWBVH_PRIMS),
         ("CWBVH_STACK", CWBVH_STACK_DEPTH),
+        ("TL_COUNT_SHIFT", TL_COUNT_SHIFT),
         ("B_SPLAT_ODD", binding::SPLAT_ODD),
         ("B_ESTIMATE_PARTIALS", binding::ESTIMATE_PARTIALS),
         ("B_ESTIMATE_RESULT", binding::ESTIMATE_RESULT),

@@ -534,7 +534,8 @@ fn instances_survive_the_round_trip_as_shape_groups() {
         "materials": {
             "white": {"type": "diffuse", "reflectance": 0.8},
             "blue": {"type": "diffuse", "reflectance": [0.1, 0.2, 0.6]},
-            "lamp": {"type": "diffuse", "reflectance": 0, "emission": [5, 4, 3]}
+            "lamp": {"type": "diffuse", "reflectance": 0, "emission": [5, 4, 3]},
+            "group_a_b__white": {"type": "diffuse", "reflectance": [0.7, 0.3, 0.3]}
         },
         "definitions": {
             "rock": {"type": "triangles", "positions": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]],
@@ -542,32 +543,52 @@ fn instances_survive_the_round_trip_as_shape_groups() {
                      "transform": {"scale": 0.5}},
             "tile": {"type": "mesh", "file": "quad_uv.ply", "material": "white"},
             "light": {"type": "quad", "origin": [-0.5, 0, -0.5], "edge_u": [1, 0, 0], "edge_v": [0, 0, 1],
-                      "material": "lamp"}
+                      "material": "lamp"},
+            "a.b": {"type": "box", "min": [0, 0, 0], "max": [0.2, 0.2, 0.2], "material": "white"},
+            "a_b": {"type": "quad", "origin": [0, 0, 0], "edge_u": [0.3, 0, 0], "edge_v": [0, 0.3, 0],
+                    "material": "white"}
         },
         "objects": [
-            {"type": "box", "min": [-3, -0.1, -3], "max": [3, 0, 3], "material": "white"},
+            {"type": "box", "min": [-3, -0.1, -3], "max": [3, 0, 3], "material": "group_a_b__white"},
             {"type": "instance", "definition": "rock", "transform": {"translate": [-1, 0, 0]}},
             {"type": "instance", "definition": "rock", "material": "blue",
              "transform": {"scale": [-1, 1.5, 1], "translate": [1, 0, 0]}},
             {"type": "instance", "definition": "rock", "transform": {"rotate": {"axis": [0, 1, 0], "angle": 40}}},
             {"type": "instance", "definition": "tile", "transform": {"translate": [0, 2, -1]}},
             {"type": "instance", "definition": "tile", "transform": {"translate": [1, 2, -1]}},
-            {"type": "instance", "definition": "light", "transform": {"translate": [0, 3, 0]}}
+            {"type": "instance", "definition": "light", "transform": {"translate": [0, 3, 0]}},
+            {"type": "instance", "definition": "a.b", "transform": {"translate": [-2, 0, 1]}},
+            {"type": "instance", "definition": "a.b", "transform": {"translate": [-2.5, 0, 1]}},
+            {"type": "instance", "definition": "a_b", "transform": {"translate": [2, 0, 1]}},
+            {"type": "instance", "definition": "a_b", "transform": {"translate": [2.5, 0, 1]}}
         ],
         "render": {"max_depth": 5, "spp": 16}
     });
     std::fs::write(dir.join("inst.json"), scene.to_string()).unwrap();
     let (a, b) = round_trip(&dir.join("inst.json"), &dir);
-    // Mitsuba's side: a group per (definition, material) placed, the emitting one in place.
+    // Mitsuba's side: a group per (definition, material) placed, the emitting one in place;
+    // "a.b" and "a_b" (alike once cleaned, and "group_a_b__white" a material's id) get groups
+    // of their own.
     let xml = std::fs::read_to_string(dir.join("scene.xml")).unwrap();
-    assert_eq!(xml.matches(r#"type="shapegroup""#).count(), 3, "{xml}");
-    assert_eq!(xml.matches(r#"type="instance""#).count(), 5, "{xml}");
+    assert_eq!(xml.matches(r#"type="shapegroup""#).count(), 5, "{xml}");
+    assert_eq!(xml.matches(r#"type="instance""#).count(), 9, "{xml}");
+    let ids: Vec<&str> = (xml.split('<'))
+        .filter(|tag| !tag.starts_with("ref "))
+        .filter_map(|tag| tag.split(" id=\"").nth(1))
+        .map(|t| &t[..t.find('"').unwrap()])
+        .collect();
+    assert!(
+        ids.contains(&"group_a_b__white_2") && ids.contains(&"group_a_b__white_3"),
+        "{ids:?}"
+    );
+    let unique: std::collections::HashSet<&&str> = ids.iter().collect();
+    assert_eq!(unique.len(), ids.len(), "ids {ids:?}");
     // Back in candela: the groups placed twice are definitions again; the blue rock's group,
     // placed once, and the light are meshes of their own.
-    assert_eq!((b.prototypes.len(), b.instances.len()), (2, 4));
-    assert_eq!((a.prototypes.len(), a.instances.len()), (3, 6));
+    assert_eq!((b.prototypes.len(), b.instances.len()), (4, 8));
+    assert_eq!((a.prototypes.len(), a.instances.len()), (5, 10));
     let (fa, fb) = (flattened(&a), flattened(&b));
-    assert_eq!(fa.meshes.len(), 7);
+    assert_eq!(fa.meshes.len(), 11);
     Pair { a: &fa, b: &fb }.check();
 }
 

@@ -162,8 +162,8 @@ bool traverse_stackless(inout Ray r, RayPre pre, uint root, uint inst, bool any_
 }
 
 // The nearest-first walk of a binary BVH (node i read by NODE(i), from node ROOT, a stack of
-// STACK entries), shared by the scene's and prototypes' trees and the top-level one (GLSL has
-// no recursion, and a prototype's walk runs inside the top-level one, hence a macro). LEAF(i)
+// STACK entries), for the scene's own tree (`traverse_tree`; instances have their own loop over
+// both levels, `traverse_instances`, whose step 3a does what this does at a leaf). LEAF(i)
 // tests leaf entry i, shortening r.tmax (true: any_hit may stop); OVERFLOW runs when a push
 // would overflow the stack. Leaves are intersected at once; inner children are visited
 // nearest first.
@@ -203,9 +203,8 @@ bool traverse_stackless(inout Ray r, RayPre pre, uint root, uint inst, bool any_
         }                                                                               \
     }
 
-// Walks the BVH rooted at `root` (the scene's at 0, or an instance's prototype's, the ray then
-// in the instance's frame), shortening r.tmax and updating hit at each nearer hit. Returns true
-// when any_hit found an intersection.
+// Walks the BVH rooted at `root` (the scene's own tree at 0; `inst` NONE), shortening r.tmax
+// and updating hit at each nearer hit. Returns true when any_hit found an intersection.
 bool traverse_tree(inout Ray r, RayPre pre, uint root, uint inst, bool any_hit, inout Hit hit) {
 #define TREE_LEAF(i) intersect_prim(r, pre, i, inst, hit)
     // The tree is deeper than the stack: finish without one (see the top).
@@ -229,11 +228,12 @@ bool traverse(Ray r, bool any_hit, out Hit hit) {
 
 #ifdef HAS_INSTANCES
 // Top-level stack entries besides inner nodes: a leaf's instances still to enter (TL_LEAF, the
-// count in bits 28..30, the first instance below; the host keeps instances below MAX_INSTANCES
-// = 2^28 and leaves at ≤ 4), and the mark below an instance's own entries (TL_EXIT).
+// count from bit TL_COUNT_SHIFT up, the first instance below it; the host keeps instances below
+// 2^TL_COUNT_SHIFT and leaves below 8: renderer/src/layout.rs, compile/instances.rs), and the
+// mark below an instance's own entries (TL_EXIT).
 #define TL_LEAF 0x80000000u
 #define TL_EXIT 0xffffffffu
-uint tl_leaf(uint first, uint count) { return TL_LEAF | (count << 28) | first; }
+uint tl_leaf(uint first, uint count) { return TL_LEAF | (count << TL_COUNT_SHIFT) | first; }
 
 // Walks the top-level BVH over the instances and, inside each instance it reaches, the
 // prototype's BVH with the ray moved into the instance's frame (its direction not
@@ -261,7 +261,7 @@ bool traverse_instances(Ray r, bool any_hit, inout Hit hit) {
     while (true) {
         // Step 1: a top-level leaf's next instance: keep the rest, move the ray into its frame.
         if ((entry & TL_LEAF) != 0u && inst == NONE) {
-            uint k = entry & 0x0fffffffu, count = (entry >> 28) & 7u;
+            uint k = entry & ((1u << TL_COUNT_SHIFT) - 1u), count = (entry >> TL_COUNT_SHIFT) & 7u;
             if (count > 1u) stack[sp++] = tl_leaf(k + 1u, count - 1u);
             stack[sp++] = TL_EXIT;
             base = sp;
@@ -301,6 +301,8 @@ bool traverse_instances(Ray r, bool any_hit, inout Hit hit) {
             // in step 1.
             if (n.l_count > 0u) left = tl_leaf(n.left, n.l_count);
             if (n.r_count > 0u) right = tl_leaf(n.right, n.r_count);
+            // A tree that is one leaf (≤ 4 instances) has it in both slots (flatten.rs): once.
+            if (right == left) hr = false;
         }
         // Step 4: the nearer child next, the farther pushed; else the next entry.
         if (hl && hr) {

@@ -313,7 +313,7 @@ fn cli_accel_flags() {
     };
     assert_bad_input(
         &run(&["--accel", "octree"]),
-        &["--accel", "octree", "bvh, grid"],
+        &["--accel", "octree", "auto, bvh, cwbvh, grid"],
     );
     assert_bad_input(
         &run(&["--accel", "grid", "--grid-resolution", "0"]),

@@ -28,8 +28,8 @@ mod select;
 
 pub use flatten::{parents, MAX_LEAF, STACK_DEPTH};
 pub use select::{
-    auto_kind, build_accel, is_request_name, Accel, AccelInfo, AccelKind, AccelOptions,
-    AccelRequest, CacheStatus, SceneSize, AUTO_CWBVH_TRIANGLES, REQUEST_NAMES,
+    auto_kind, build_accel, parse_request, Accel, AccelInfo, AccelKind, AccelOptions, AccelRequest,
+    CacheStatus, SceneSize, AUTO_CWBVH_TRIANGLES, REQUEST_NAMES,
 };
 
 use std::time::{Duration, Instant};

@@ -364,9 +364,18 @@ fn from_entry(opts: &AccelOptions, mut e: cache::Entry, n: usize) -> Option<Acce
 /// [`auto_kind`] turns into one from the scene.
 pub const REQUEST_NAMES: [&str; 4] = ["auto", "bvh", "cwbvh", "grid"];
 
-/// Whether `name` is one of [`REQUEST_NAMES`].
-pub fn is_request_name(name: &str) -> bool {
-    REQUEST_NAMES.contains(&name)
+/// A request's structure name: None for "auto", else the structure; Err names the value and
+/// every accepted name (the one check for scenes, the CLI and jobs).
+pub fn parse_request(name: &str) -> Result<Option<AccelKind>, String> {
+    if name == "auto" {
+        return Ok(None);
+    }
+    AccelKind::from_name(name).map(Some).ok_or_else(|| {
+        format!(
+            "unknown acceleration structure \"{name}\", expected one of {}",
+            REQUEST_NAMES.join(", ")
+        )
+    })
 }
 
 /// Scenes of at least this many triangles of their own (no instances) get the CWBVH under
@@ -413,15 +422,7 @@ impl AccelOptions {
         size: SceneSize,
     ) -> Result<AccelOptions, String> {
         let name = request.kind.or(scene.kind).unwrap_or("auto");
-        let kind = match name {
-            "auto" => auto_kind(size),
-            _ => AccelKind::from_name(name).ok_or_else(|| {
-                format!(
-                    "unknown acceleration structure \"{name}\", expected one of {}",
-                    REQUEST_NAMES.join(", ")
-                )
-            })?,
-        };
+        let kind = parse_request(name)?.unwrap_or_else(|| auto_kind(size));
         let res = request.grid_resolution.or(scene.grid_resolution);
         if let Some(r) = res {
             if !(1..=grid::MAX_AXIS).contains(&r) {
@@ -438,5 +439,29 @@ impl AccelOptions {
             bvh_keep_deep: false,
             cwbvh_bvh_order: false,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn request_names_are_auto_and_every_structure() {
+        let mut names: Vec<&str> = AccelKind::NAMES.to_vec();
+        names.push("auto");
+        names.sort();
+        let mut request = REQUEST_NAMES.to_vec();
+        request.sort();
+        assert_eq!(names, request);
+        for n in REQUEST_NAMES {
+            assert!(parse_request(n).is_ok(), "{n}");
+        }
+        assert_eq!(parse_request("auto"), Ok(None));
+        let e = parse_request("kd-tree").unwrap_err();
+        assert!(
+            e.contains("\"kd-tree\"") && e.contains("auto, bvh, cwbvh, grid"),
+            "{e}"
+        );
     }
 }

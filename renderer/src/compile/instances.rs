@@ -25,6 +25,10 @@ use crate::layout::*;
 use crate::scene::transform::{affine_rows_f32 as rows, box_corners};
 use crate::scene::Scene;
 
+// The two-level walk's leaf entries (shaders/common/traverse.glsl, `tl_leaf`): a top-level
+// leaf's count in three bits from TL_COUNT_SHIFT, below the tag bit 31.
+const _: () = assert!(accel::MAX_LEAF < 8 && TL_COUNT_SHIFT <= 28);
+
 /// The instanced part of a compiled scene, to append to the scene's own arrays.
 #[derive(Default)]
 pub(super) struct Instanced {
@@ -204,7 +208,7 @@ pub(super) fn build(
     // Its depth is bounded whatever the boxes (thousands of coincident instances included):
     // the shader's walk of it has no fallback for a deeper tree.
     let tlas = accel::build(&out.bounds, false);
-    debug_assert!(
+    assert!(
         tlas.depth <= accel::STACK_DEPTH,
         "TLAS depth {}",
         tlas.depth

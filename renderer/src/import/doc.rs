@@ -159,7 +159,12 @@ impl Doc {
             let name = o["definition"].as_str().unwrap_or_default();
             if o["type"] == "instance" && once(name) {
                 if let Some(def) = defs.get(name) {
-                    *o = place(def, &object_matrix(o));
+                    // An instance's material replaces the definition's (scene-format.md).
+                    let mut placed = place(def, &object_matrix(o));
+                    if let Some(m) = o.get("material") {
+                        placed["material"] = m.clone();
+                    }
+                    *o = placed;
                 }
             }
         }

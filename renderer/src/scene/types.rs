@@ -233,7 +233,7 @@ pub struct RenderDefaults {
     pub integrator: Option<String>,
     pub max_depth: Option<i32>,
     pub spp: Option<u32>,
-    /// Acceleration structure: "bvh", "cwbvh" or "grid" (None: bvh); see docs/accel.md.
+    /// Acceleration structure: "auto", "bvh", "cwbvh" or "grid" (None: auto); see docs/accel.md.
     pub accel: Option<String>,
     /// Grid cells along the longest axis of the scene box (None: automatic).
     pub grid_resolution: Option<u32>,

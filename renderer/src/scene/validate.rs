@@ -275,17 +275,9 @@ pub(crate) fn render(d: Option<&RenderDesc>) -> Result<RenderDefaults, SceneErro
 
 /// `render.accel` and `render.grid_resolution` (docs/accel.md).
 fn accel(d: &RenderDesc) -> Result<(Option<String>, Option<u32>), SceneError> {
-    use crate::accel::{grid::MAX_AXIS, is_request_name, REQUEST_NAMES};
+    use crate::accel::{grid::MAX_AXIS, parse_request};
     if let Some(name) = &d.accel {
-        if !is_request_name(name) {
-            return Err(SceneError::invalid(
-                "render.accel",
-                format!(
-                    "unknown acceleration structure \"{name}\", expected one of {}",
-                    REQUEST_NAMES.join(", ")
-                ),
-            ));
-        }
+        parse_request(name).map_err(|e| SceneError::invalid("render.accel", e))?;
     }
     let res = match d.grid_resolution {
         None => None,

@@ -148,12 +148,7 @@ fn check_args(a: &RenderArgs) -> Result<(), CliError> {
         }
     }
     if let Some(k) = &a.accel {
-        if !renderer::accel::is_request_name(k) {
-            return Err(CliError::input(format!(
-                "--accel: unknown acceleration structure \"{k}\", expected one of {}",
-                renderer::accel::REQUEST_NAMES.join(", ")
-            )));
-        }
+        renderer::accel::parse_request(k).map_err(|e| CliError::input(format!("--accel: {e}")))?;
     }
     if let Some(r) = a.grid_resolution {
         let max = renderer::accel::grid::MAX_AXIS;

@@ -137,7 +137,7 @@ pub struct JobSettings {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AccelSetting {
-    /// "bvh", "cwbvh" or "grid".
+    /// "auto", "bvh", "cwbvh" or "grid".
     #[serde(rename = "type")]
     pub kind: String,
     /// Grid cells along the scene's longest axis (None: the scene's, else automatic).

@@ -46,7 +46,7 @@ pub struct JobRequest {
     /// progress metrics against.
     pub reference: Option<ReferenceSpec>,
     /// `"grid"` or `{"type": "grid", "grid_resolution": 64}` (default: the scene's
-    /// `render.accel`, else `"bvh"`).
+    /// `render.accel`, else `"auto"`).
     pub accel: Option<Value>,
     /// `"specialized"` (default: kernels compiled for what the scene uses) or `"generic"`.
     pub kernels: Option<renderer::compile::KernelMode>,
@@ -178,7 +178,7 @@ fn integrator_options(
 
 /// The request's `accel` field: a name or `{"type", "grid_resolution"}`, checked.
 fn accel_setting(v: Option<&Value>) -> Result<Option<AccelSetting>, ApiError> {
-    use renderer::accel::{grid::MAX_AXIS, is_request_name, REQUEST_NAMES};
+    use renderer::accel::{grid::MAX_AXIS, parse_request};
     let setting: AccelSetting = match v {
         None | Some(Value::Null) => return Ok(None),
         Some(Value::String(name)) => AccelSetting {
@@ -195,16 +195,8 @@ fn accel_setting(v: Option<&Value>) -> Result<Option<AccelSetting>, ApiError> {
             ))
         }
     };
-    if !is_request_name(&setting.kind) {
-        return Err(ApiError::invalid(
-            "accel.type",
-            format!(
-                "accel.type: unknown acceleration structure \"{}\", expected one of {}",
-                setting.kind,
-                REQUEST_NAMES.join(", ")
-            ),
-        ));
-    }
+    parse_request(&setting.kind)
+        .map_err(|e| ApiError::invalid("accel.type", format!("accel.type: {e}")))?;
     if let Some(r) = setting.grid_resolution {
         if r == 0 || r > MAX_AXIS {
             return Err(ApiError::invalid(

@@ -14,13 +14,13 @@ use crate::scene::mesh::RawMesh;
 use crate::scene::SceneError;
 
 /// Places `prim` by the node's transform `m` (its mesh defined at the first placement);
-/// nothing when it is skipped under --lenient.
+/// false (nothing placed) when it is skipped under --lenient.
 pub(super) fn place_primitive(
     ctx: &mut Ctx,
     mesh: &::gltf::Mesh,
     prim: &::gltf::Primitive,
     m: &DMat4,
-) -> Result<(), SceneError> {
+) -> Result<bool, SceneError> {
     let key = (mesh.index(), prim.index());
     let path = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
     if !ctx.primitives.contains_key(&key) {
@@ -28,10 +28,11 @@ pub(super) fn place_primitive(
         ctx.primitives.insert(key, group);
     }
     let loc = ctx.at(&path);
-    if let Some(Some(group)) = ctx.primitives.get_mut(&key) {
-        group.place(&mut ctx.doc, m, &loc);
-    }
-    Ok(())
+    let Some(Some(group)) = ctx.primitives.get_mut(&key) else {
+        return Ok(false);
+    };
+    group.place(&mut ctx.doc, m, &loc);
+    Ok(true)
 }
 
 fn build(

@@ -322,8 +322,9 @@ impl Walk {
         }
         if let Some(mesh) = node.mesh() {
             for prim in mesh.primitives() {
-                mesh::place_primitive(ctx, &mesh, &prim, &m)?;
-                self.grow(ctx, &mesh, &prim, &m);
+                if mesh::place_primitive(ctx, &mesh, &prim, &m)? {
+                    self.grow(ctx, &mesh, &prim, &m);
+                }
             }
         }
         if let Some(cam) = node.camera() {

@@ -315,6 +315,31 @@ fn scene_far(scene: &Scene, eye: DVec3) -> f64 {
         lo = lo.min(s.center - s.radius);
         hi = hi.max(s.center + s.radius);
     }
+    // Instances: the corners of their prototype's box, placed.
+    let boxes: Vec<(DVec3, DVec3)> = (scene.prototypes.iter())
+        .map(|p| {
+            p.positions.iter().fold(
+                (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+                |(a, b), q| (a.min(*q), b.max(*q)),
+            )
+        })
+        .collect();
+    for i in &scene.instances {
+        let (plo, phi) = boxes[i.prototype as usize];
+        if plo.x > phi.x {
+            continue;
+        }
+        for k in 0..8 {
+            let c = DVec3::new(
+                if k & 1 == 0 { plo.x } else { phi.x },
+                if k & 2 == 0 { plo.y } else { phi.y },
+                if k & 4 == 0 { plo.z } else { phi.z },
+            );
+            let w = i.to_world.transform_point3(c);
+            lo = lo.min(w);
+            hi = hi.max(w);
+        }
+    }
     if lo.x > hi.x {
         return 0.0;
     }

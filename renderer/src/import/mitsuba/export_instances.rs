@@ -39,26 +39,37 @@ impl Parts {
             ));
         };
         let mut member = def.clone();
-        let material = o["material"].as_str();
-        if let Some(m) = material {
+        if let Some(m) = o["material"].as_str() {
             member["material"] = json!(m);
         }
-        let stem = match material {
-            Some(m) => format!("{}__{}", clean(name), clean(m)),
-            None => clean(name),
-        };
-        let id = format!("group_{stem}");
         let to_world = transform_of(o, path)?;
-        // Step 2: the group, once per (definition, material).
-        if !self.group_ids.contains(&id) {
-            let inner = self.shape_at(ex, &def_path, &format!("def_{stem}"), &member)?;
+        // Step 2: emitting (a named material with emission): this instance written out in
+        // place, the transforms composed.
+        let key = (
+            name.to_string(),
+            member["material"].as_str().map(String::from),
+        );
+        let emits = match &key.1 {
+            Some(m) => self.define(ex, m)?.is_some(),
+            None => false,
+        };
+        let stem = format!("def_{}", self.group_stem(ex, &key));
+        if emits {
+            let own = transform_of(def, &def_path)?;
+            member["transform"] = json!({"matrix": row_major(&(to_world * own)).to_vec()});
+            return self.shape_at(ex, path, &stem, &member);
+        }
+        // Step 3: the group, once per (definition, material).
+        let id = format!("group_{}", self.group_stem(ex, &key));
+        if !self.group_defined.contains(&key) {
+            let inner = self.shape_at(ex, &def_path, &stem, &member)?;
             if inner.has_child("emitter") {
-                // Step 3: emitting: this instance written out in place.
+                // A mesh whose material comes from its file (OBJ usemtl) and emits: in place.
                 let own = transform_of(def, &def_path)?;
                 member["transform"] = json!({"matrix": row_major(&(to_world * own)).to_vec()});
-                return self.shape_at(ex, path, &format!("def_{stem}"), &member);
+                return self.shape_at(ex, path, &stem, &member);
             }
-            self.group_ids.insert(id.clone());
+            self.group_defined.insert(key);
             self.groups.push(
                 El::plugin("shape", "shapegroup")
                     .attr("id", &id)
@@ -68,5 +79,29 @@ impl Parts {
         Ok(El::plugin("shape", "instance")
             .child(El::new("ref").attr("id", &id))
             .matrix("to_world", &to_world))
+    }
+
+    /// A name for the group of (definition, material) `key`, unique among the groups and the
+    /// materials (which are ids too): the names cleaned, numbered where two clean alike.
+    fn group_stem(&mut self, ex: &Export, key: &(String, Option<String>)) -> String {
+        if let Some(s) = self.group_stems.get(key) {
+            return s.clone();
+        }
+        let base = match &key.1 {
+            Some(m) => format!("{}__{}", clean(&key.0), clean(m)),
+            None => clean(&key.0),
+        };
+        let taken = |s: &str, stems: &std::collections::HashMap<_, String>| {
+            stems.values().any(|v| v == s)
+                || ex.doc["materials"].get(format!("group_{s}")).is_some()
+        };
+        let mut stem = base.clone();
+        let mut n = 2;
+        while taken(&stem, &self.group_stems) {
+            stem = format!("{base}_{n}");
+            n += 1;
+        }
+        self.group_stems.insert(key.clone(), stem.clone());
+        stem
     }
 }

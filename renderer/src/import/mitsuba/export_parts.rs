@@ -3,7 +3,7 @@
 //! `two_sided` is false or it transmits; `mask` around it for an alpha mask), each object as a
 //! shape referring to it, with an `area` emitter when the material emits.
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 
 use glam::{DMat4, DVec3};
 use serde_json::Value;
@@ -21,9 +21,11 @@ use crate::scene::{obj, ply, shapes, SceneError};
 pub(crate) struct Parts {
     bsdfs: Vec<El>,
     defined: HashSet<String>,
-    /// `<shape type="shapegroup">`s for instances (export_instances.rs) and their ids.
+    /// `<shape type="shapegroup">`s for instances (export_instances.rs), the (definition,
+    /// material) pairs they hold, and each pair's unique name.
     pub(super) groups: Vec<El>,
-    pub(super) group_ids: HashSet<String>,
+    pub(super) group_defined: HashSet<(String, Option<String>)>,
+    pub(super) group_stems: HashMap<(String, Option<String>), String>,
     /// Some material has an alpha mask (Mitsuba then needs `volpath`).
     pub uses_mask: bool,
 }
@@ -37,7 +39,8 @@ impl Parts {
             bsdfs: Vec::new(),
             defined: HashSet::new(),
             groups: Vec::new(),
-            group_ids: HashSet::new(),
+            group_defined: HashSet::new(),
+            group_stems: HashMap::new(),
             uses_mask: false,
         }
     }
@@ -174,7 +177,11 @@ impl Parts {
     }
 
     /// Defines material `name` once; returns its emission.
-    fn define(&mut self, ex: &mut Export, name: &str) -> Result<Option<[f64; 3]>, SceneError> {
+    pub(super) fn define(
+        &mut self,
+        ex: &mut Export,
+        name: &str,
+    ) -> Result<Option<[f64; 3]>, SceneError> {
         let m = ex.doc["materials"][name].clone();
         let path = crate::scene::key_path("materials", name);
         let emission = m

@@ -375,6 +375,10 @@ impl Ctx {
             }
             "ObjectInstance" => {
                 let n = string(t, loc)?;
+                if self.defining.is_some() {
+                    // pbrt-v4 refuses it too: instances do not nest.
+                    return Err(loc.error("ObjectInstance inside ObjectBegin"));
+                }
                 let group = self
                     .instances
                     .get_mut(&n)

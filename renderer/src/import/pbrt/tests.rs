@@ -70,6 +70,14 @@ fn object_instances_define_their_meshes_once() {
     let scene = imp.load(&Default::default()).unwrap();
     assert_eq!((scene.prototypes.len(), scene.instances.len()), (1, 3));
     assert_eq!((scene.meshes.len(), scene.spheres.len()), (1, 3));
+    // Instances do not nest (pbrt-v4 refuses it too).
+    let e = import_text(
+        "Camera \"perspective\"\nWorldBegin\nObjectBegin \"a\"\nShape \"sphere\"\nObjectEnd\n\
+         ObjectBegin \"b\"\nObjectInstance \"a\"\nObjectEnd\n",
+        false,
+    )
+    .unwrap_err();
+    assert!(e.contains("ObjectInstance inside ObjectBegin") && e.contains(":7"), "{e}");
 }
 
 #[test]
