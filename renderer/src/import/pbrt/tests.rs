@@ -77,7 +77,10 @@ fn object_instances_define_their_meshes_once() {
         false,
     )
     .unwrap_err();
-    assert!(e.contains("ObjectInstance inside ObjectBegin") && e.contains(":7"), "{e}");
+    assert!(
+        e.contains("ObjectInstance inside ObjectBegin") && e.contains(":7"),
+        "{e}"
+    );
 }
 
 #[test]
