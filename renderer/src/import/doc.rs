@@ -3,7 +3,7 @@
 //! material, object and light, the place in the source it came from, so that an error the loader
 //! finds later can still name the source file and line.
 
-use std::collections::{BTreeMap, HashMap, HashSet};
+use std::collections::{BTreeMap, HashMap};
 
 use glam::DMat4;
 use serde_json::{json, Map, Value};
@@ -28,14 +28,13 @@ pub(crate) struct Doc {
     pub film: Map<String, Value>,
     pub render: Map<String, Value>,
     pub environment: Option<Value>,
-    materials: Vec<(String, Value)>,
+    /// Materials by name (the document's `materials`, whose order JSON objects do not keep).
+    materials: BTreeMap<String, Value>,
     /// Serialised material → its name (identical materials are shared).
     by_content: HashMap<String, String>,
-    names: HashSet<String>,
     objects: Vec<Value>,
-    /// Definitions (placed by `instance` objects, groups.rs) and their names.
-    definitions: Vec<(String, Value)>,
-    definition_names: HashSet<String>,
+    /// Definitions by name (placed by `instance` objects, groups.rs).
+    definitions: BTreeMap<String, Value>,
     lights: Vec<Value>,
     pub assets: MemoryAssets,
     /// (JSON path prefix, source place) of what was added.
@@ -53,12 +52,11 @@ impl Doc {
         if let Some(name) = self.by_content.get(&key) {
             return name.clone();
         }
-        let name = unique(clean_name(hint), |n| self.names.contains(n));
-        self.names.insert(name.clone());
+        let name = first_free(&clean_name(hint), |n| self.materials.contains_key(n));
         self.by_content.insert(key, name.clone());
         self.origins
             .push((format!("materials.{name}"), loc.clone()));
-        self.materials.push((name.clone(), m));
+        self.materials.insert(name.clone(), m);
         name
     }
 
@@ -72,11 +70,10 @@ impl Doc {
     /// Adds a definition (an object rendered only where `instance` objects place it) under a
     /// name derived from `hint`; returns the name.
     pub fn definition(&mut self, hint: &str, o: Value, loc: &Loc) -> String {
-        let name = unique(clean_name(hint), |n| self.definition_names.contains(n));
-        self.definition_names.insert(name.clone());
+        let name = first_free(&clean_name(hint), |n| self.definitions.contains_key(n));
         self.origins
             .push((format!("definitions.{name}"), loc.clone()));
-        self.definitions.push((name.clone(), o));
+        self.definitions.insert(name.clone(), o);
         name
     }
 
@@ -98,13 +95,9 @@ impl Doc {
 
     /// Holds a file in memory under `_imported/<hint>.<ext>` (made unique); returns that path.
     pub fn file(&mut self, hint: &str, ext: &str, bytes: Vec<u8>) -> String {
-        let base = clean_name(hint);
-        let mut name = format!("{MEMORY_DIR}/{base}.{ext}");
-        let mut n = 2;
-        while self.assets.contains_key(&name) {
-            name = format!("{MEMORY_DIR}/{base}_{n}.{ext}");
-            n += 1;
-        }
+        let path = |stem: &str| format!("{MEMORY_DIR}/{stem}.{ext}");
+        let stem = first_free(&clean_name(hint), |s| self.assets.contains_key(&path(s)));
+        let name = path(&stem);
         self.assets.insert(name.clone(), bytes);
         name
     }
@@ -150,15 +143,10 @@ impl Doc {
             *uses.entry(name.to_string()).or_default() += 1;
         }
         let once = |name: &str| uses.get(name).copied().unwrap_or(0) <= 1;
-        let defs: HashMap<&str, &Value> = self
-            .definitions
-            .iter()
-            .map(|(n, o)| (n.as_str(), o))
-            .collect();
         for o in self.objects.iter_mut() {
             let name = o["definition"].as_str().unwrap_or_default();
             if o["type"] == "instance" && once(name) {
-                if let Some(def) = defs.get(name) {
+                if let Some(def) = self.definitions.get(name) {
                     // An instance's material replaces the definition's (scene-format.md).
                     let mut placed = place(def, &object_matrix(o));
                     if let Some(m) = o.get("material") {
@@ -168,7 +156,7 @@ impl Doc {
                 }
             }
         }
-        self.definitions.retain(|(n, _)| !once(n));
+        self.definitions.retain(|n, _| !once(n));
         self.origins
             .retain(|(path, _)| path.strip_prefix("definitions.").is_none_or(|n| !once(n)));
         let mut doc = Map::new();
@@ -198,8 +186,8 @@ impl Doc {
 }
 
 /// `base`, or `base_2`, `base_3`, … : the first that `taken` does not hold.
-fn unique(base: String, taken: impl Fn(&str) -> bool) -> String {
-    let mut name = base.clone();
+pub(crate) fn first_free(base: &str, taken: impl Fn(&str) -> bool) -> String {
+    let mut name = base.to_string();
     let mut n = 2;
     while taken(&name) {
         name = format!("{base}_{n}");

@@ -24,13 +24,14 @@ pub const DEFINABLE: [&str; 4] = ["mesh", "triangles", "quad", "box"];
 pub struct Group {
     /// The name definitions are derived from (the source's group name).
     name: String,
-    members: Vec<Value>,
+    /// Each member and where the source wrote it (what errors in its definition point at).
+    members: Vec<(Value, Loc)>,
     /// Per member, its definition's name (None: copied into place); set at the first placement.
     defined: Option<Vec<Option<String>>>,
 }
 
 impl Group {
-    pub fn new(name: &str, members: Vec<Value>) -> Self {
+    pub fn new(name: &str, members: Vec<(Value, Loc)>) -> Self {
         Group {
             name: name.to_string(),
             members,
@@ -39,11 +40,12 @@ impl Group {
     }
 
     /// Places the group by `to_world` (after each member's own transform): an `instance` object
-    /// per definable member, a copy of each other member.
+    /// per definable member, a copy of each other member. Instances point at `loc` (the
+    /// placement), definitions and copies at the member's own place in the source.
     pub fn place(&mut self, doc: &mut Doc, to_world: &DMat4, loc: &Loc) {
         let defined = self.defined.get_or_insert_with(|| {
             (self.members.iter().enumerate())
-                .map(|(k, o)| {
+                .map(|(k, (o, member_loc))| {
                     let kind = o["type"].as_str().unwrap_or("");
                     DEFINABLE.contains(&kind).then(|| {
                         let hint = if self.members.len() == 1 {
@@ -51,15 +53,15 @@ impl Group {
                         } else {
                             format!("{}_{k}", self.name)
                         };
-                        doc.definition(&hint, o.clone(), loc)
+                        doc.definition(&hint, o.clone(), member_loc)
                     })
                 })
                 .collect()
         });
-        for (o, def) in self.members.iter().zip(defined.iter()) {
+        for ((o, member_loc), def) in self.members.iter().zip(defined.iter()) {
             match def {
                 Some(name) => doc.instance(name, to_world, loc),
-                None => doc.object(place(o, to_world), loc),
+                None => doc.object(place(o, to_world), member_loc),
             }
         }
     }

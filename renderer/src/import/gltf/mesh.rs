@@ -23,11 +23,12 @@ pub(super) fn place_primitive(
 ) -> Result<bool, SceneError> {
     let key = (mesh.index(), prim.index());
     let path = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
+    let loc = ctx.at(&path);
     if !ctx.primitives.contains_key(&key) {
-        let group = build(ctx, mesh, prim, &path)?.map(|(hint, o)| Group::new(&hint, vec![o]));
+        let group = build(ctx, mesh, prim, &path)?
+            .map(|(hint, o)| Group::new(&hint, vec![(o, loc.clone())]));
         ctx.primitives.insert(key, group);
     }
-    let loc = ctx.at(&path);
     let Some(Some(group)) = ctx.primitives.get_mut(&key) else {
         return Ok(false);
     };

@@ -10,6 +10,7 @@ use serde_json::{json, Value};
 
 use super::export::{El, Export};
 use super::export_parts::{clean, Parts};
+use crate::import::doc::first_free;
 use crate::import::xform::row_major;
 use crate::scene::desc::TransformDesc;
 use crate::scene::transform::Transform;
@@ -54,10 +55,13 @@ impl Parts {
             None => false,
         };
         let stem = format!("def_{}", self.group_stem(ex, &key));
-        if emits {
+        let in_place = |parts: &mut Parts, ex: &mut Export, mut member: Value| {
             let own = transform_of(def, &def_path)?;
             member["transform"] = json!({"matrix": row_major(&(to_world * own)).to_vec()});
-            return self.shape_at(ex, path, &stem, &member);
+            parts.shape_at(ex, path, &stem, &member)
+        };
+        if emits {
+            return in_place(self, ex, member);
         }
         // Step 3: the group, once per (definition, material).
         let id = format!("group_{}", self.group_stem(ex, &key));
@@ -65,9 +69,7 @@ impl Parts {
             let inner = self.shape_at(ex, &def_path, &stem, &member)?;
             if inner.has_child("emitter") {
                 // A mesh whose material comes from its file (OBJ usemtl) and emits: in place.
-                let own = transform_of(def, &def_path)?;
-                member["transform"] = json!({"matrix": row_major(&(to_world * own)).to_vec()});
-                return self.shape_at(ex, path, &stem, &member);
+                return in_place(self, ex, member);
             }
             self.group_defined.insert(key);
             self.groups.push(
@@ -91,16 +93,10 @@ impl Parts {
             Some(m) => format!("{}__{}", clean(&key.0), clean(m)),
             None => clean(&key.0),
         };
-        let taken = |s: &str, stems: &std::collections::HashMap<_, String>| {
-            stems.values().any(|v| v == s)
+        let stem = first_free(&base, |s| {
+            self.group_stems.values().any(|v| v == s)
                 || ex.doc["materials"].get(format!("group_{s}")).is_some()
-        };
-        let mut stem = base.clone();
-        let mut n = 2;
-        while taken(&stem, &self.group_stems) {
-            stem = format!("{base}_{n}");
-            n += 1;
-        }
+        });
         self.group_stems.insert(key.clone(), stem.clone());
         stem
     }

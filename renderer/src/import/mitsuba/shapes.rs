@@ -357,11 +357,7 @@ fn place_instance(ctx: &mut Ctx, p: &Plugin, outer: &DMat4) -> Result<(), SceneE
                     .loc
                     .error("a shapegroup cannot contain instances"));
             }
-            members.extend(
-                objects(ctx, s, &DMat4::IDENTITY)?
-                    .into_iter()
-                    .map(|(o, _)| o),
-            );
+            members.extend(objects(ctx, s, &DMat4::IDENTITY)?);
         }
         gp.finish(&mut ctx.report)?;
         let name = ctx.tree.nodes[g].attr("id").unwrap_or("shapegroup");

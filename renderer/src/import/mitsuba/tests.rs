@@ -316,3 +316,31 @@ fn missing_sensor_and_old_versions() {
     );
     imp.load(&Default::default()).unwrap();
 }
+
+#[test]
+fn an_error_in_a_shapegroup_member_names_the_member_line() {
+    // The group's PLY is missing: the loader's error (at definitions.g.file) must point at the
+    // member's line (4), not at the instance placing it (6 or 7). A sphere member, copied into
+    // place, keeps its own line too (5).
+    let body = "<bsdf type=\"diffuse\" id=\"w\"/>
+<shape type=\"shapegroup\" id=\"g\">
+<shape type=\"ply\"><string name=\"filename\" value=\"nope.ply\"/><ref id=\"w\"/></shape>
+<shape type=\"sphere\"><float name=\"radius\" value=\"0.5\"/><ref id=\"w\"/></shape>
+</shape>
+<shape type=\"instance\"><ref id=\"g\"/></shape>
+<shape type=\"instance\"><ref id=\"g\"/><transform name=\"to_world\"><translate x=\"2\"/></transform></shape>";
+    let imp = import_body(body, false).unwrap();
+    let e = imp.load(&Default::default()).unwrap_err().to_string();
+    assert!(e.contains("s.xml:4: "), "{e}");
+    assert!(e.contains("nope.ply"), "{e}");
+    let copies: Vec<_> = (imp.origins.iter())
+        .filter(|(path, _)| path.starts_with("objects["))
+        .filter(|(path, _)| {
+            let k: usize = path["objects[".len()..path.len() - 1].parse().unwrap();
+            imp.doc["objects"][k]["type"] == "sphere"
+        })
+        .map(|(_, loc)| loc.to_string())
+        .collect();
+    assert_eq!(copies.len(), 2, "{copies:?}");
+    assert!(copies.iter().all(|l| l.ends_with("s.xml:5")), "{copies:?}");
+}

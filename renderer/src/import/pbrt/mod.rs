@@ -77,7 +77,7 @@ pub(crate) struct Ctx {
     /// Object instancing: finished objects (defined once, import/groups.rs), and the one being
     /// defined.
     pub instances: HashMap<String, crate::import::groups::Group>,
-    pub defining: Option<(String, Vec<Value>, Loc)>,
+    pub defining: Option<(String, Vec<(Value, Loc)>, Loc)>,
     in_world: bool,
     camera: Option<(String, Params, Loc, DMat4)>,
     film: (f64, f64),

@@ -101,7 +101,7 @@ pub(super) fn shape(ctx: &mut Ctx, ty: &str, p: &Params, loc: &Loc) -> Result<()
         o["transform"] = t;
     }
     match &mut ctx.defining {
-        Some((_, objects, _)) => objects.push(o),
+        Some((_, objects, _)) => objects.push((o, loc.clone())),
         None => ctx.doc.object(o, loc),
     }
     Ok(())
