@@ -343,6 +343,8 @@ pub const PUSH_FLAG_BDPT_STRATEGY: u32 = 1 << 2;
 pub const PUSH_FLAG_BDPT_UNWEIGHTED: u32 = 1 << 3;
 pub const PUSH_FLAG_BDPT_S_SHIFT: u32 = 8;
 pub const PUSH_FLAG_BDPT_T_SHIFT: u32 = 16;
+/// bdpt, split design: log2 of the pixels sharing one light subpath (bits 24–27).
+pub const PUSH_FLAG_BDPT_SHARE_SHIFT: u32 = 24;
 
 /// Counters the kernels bump (binding STATS).
 #[repr(C)]
@@ -448,6 +450,7 @@ pub fn glsl_constants() -> String {
         ("PUSH_FLAG_BDPT_UNWEIGHTED", PUSH_FLAG_BDPT_UNWEIGHTED),
         ("PUSH_FLAG_BDPT_S_SHIFT", PUSH_FLAG_BDPT_S_SHIFT),
         ("PUSH_FLAG_BDPT_T_SHIFT", PUSH_FLAG_BDPT_T_SHIFT),
+        ("PUSH_FLAG_BDPT_SHARE_SHIFT", PUSH_FLAG_BDPT_SHARE_SHIFT),
     ];
     let mut s = String::from(
         "// Generated from renderer/src/layout.rs (glsl_constants): edit the Rust side.\n\

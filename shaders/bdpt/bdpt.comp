@@ -41,8 +41,9 @@ void main() {
     int max_depth = bdpt_max_depth();
     bdpt_mis = (pc.flags & PUSH_FLAG_BDPT_NO_MIS) == 0u;
 #ifdef BDPT_CAMERA_PASS
-    // This pixel's light subpath, traced by the light pass of this band and sample.
-    bdpt_path = (t.px.y - (pc.dispatch >> 8)) * g.film.x + t.px.x;
+    // The light subpath of this band and sample that this pixel joins.
+    // This pixel's light subpath (shared by the pixels of its block: store.glsl).
+    bdpt_path = (t.px.y - (pc.dispatch >> 8)) * lv_cols() + lv_block(t.px.x);
 #endif
     vec4 acc = film_load(t);
     uint rays = 0u, dropped = 0u;

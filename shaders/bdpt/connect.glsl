@@ -49,8 +49,10 @@ float mis_sq(float ri) { return bdpt_mis ? ri * ri : 1.0; }
 // below them the ratios and the delta tests are the subpath's own. So the terms of every
 // hypothetical strategy that moves the join further than two vertices down one subpath are the
 // product of the two changed ratios with a sum fixed per subpath, kept at each vertex:
-//   camera, m ≥ 1:  A_m = sq(R_m) · (valid_m + A_{m−1}),  A_0 = 0,
-//                   R_m = pdf_rev(c_m) / pdf_fwd(c_m), valid_m = neither c_m nor c_{m−1} is δ;
+//   camera, m ≥ 1:  A_m = sq(R_m) · (valid_m · e_m + A_{m−1}),  A_0 = 0,
+//                   R_m = pdf_rev(c_m) / pdf_fwd(c_m), valid_m = neither c_m nor c_{m−1} is δ,
+//                   e_1 = sq(1/K) (the t = 1 term: light tracing has 1/K light subpaths per
+//                   camera sample when K pixels share one, paths.glsl), e = 1 elsewhere;
 //   light, m ≥ 0:   B_m = sq(R_m) · (valid_m · f_m + B_{m−1}),  B_{−1} = 0,
 //                   R_m = pdf_rev(l_m) / pdf_fwd(l_m), valid_m = l_m not δ and l_{m−1} not δ
 //                   (m = 0: not a delta light), f_1 = nee_ratio² (the s = 1 term sees NEE's
@@ -61,10 +63,11 @@ float mis_sq(float ri) { return bdpt_mis ? ri * ri : 1.0; }
 void mis_running_sums(int nc, int nl, float nee_ratio_light) {
 #ifndef BDPT_LIGHT_PASS
     float a = 0.0;
+    float e1 = mis_sq(1.0 / bdpt_share());
     for (int m = 1; m < nc; ++m) {
         Vertex c = vtx[CAM(m)];
         float valid = vertex_is_delta(c) || vertex_is_delta(vtx[CAM(m - 1)]) ? 0.0 : 1.0;
-        a = mis_sq(remap0(c.pdf_rev) / remap0(c.pdf_fwd)) * (valid + a);
+        a = mis_sq(remap0(c.pdf_rev) / remap0(c.pdf_fwd)) * (valid * (m == 1 ? e1 : 1.0) + a);
         vtx[CAM(m)].mis_acc = a;
     }
 #endif
@@ -83,6 +86,9 @@ void mis_running_sums(int nc, int nl, float nee_ratio_light) {
 
 // Weight of strategy (s, t) for the current subpaths (pbrt-v3 MISWeight): the terms of the two
 // vertices at each end that the strategy changes one by one, the rest from the running sums.
+// Light tracing's density counts 1/K times when K pixels share a light subpath (paths.glsl):
+// the term of a hypothetical t = 1 strategy by sq(1/K), every other term of t = 1's own weight
+// by sq(K).
 float mis_weight(int s, int t, MisInputs mi) {
     if (s + t == 2) return 1.0;
     float sum_ri = 0.0;
@@ -94,7 +100,9 @@ float mis_weight(int s, int t, MisInputs mi) {
         float rev = i == t - 1 ? mi.pt_rev : mi.ptm_rev;
         ri *= remap0(rev) / remap0(c.pdf_fwd);
         bool delta = i == t - 1 ? false : vertex_is_delta(c);
-        if (!delta && !vertex_is_delta(CAMV(i - 1))) sum_ri += mis_term(ri, s + t - i, s, mi.nee_ratio);
+        if (!delta && !vertex_is_delta(CAMV(i - 1))) {
+            sum_ri += mis_term(ri, s + t - i, s, mi.nee_ratio) * (i == 1 ? mis_sq(1.0 / bdpt_share()) : 1.0);
+        }
     }
     if (t >= 4) {
         // (Both factors checked: a product of 0 and inf is no term, as in the walk.)
@@ -117,6 +125,8 @@ float mis_weight(int s, int t, MisInputs mi) {
         float x = mis_sq(ri), acc = LGTV(s - 3).mis_acc;
         if (x > 0.0 && acc > 0.0) sum_ri += x * acc;
     }
+    // (t = 1 has no camera-side terms: every term above is of a strategy with t ≥ 2.)
+    if (t == 1) sum_ri *= mis_sq(bdpt_share());
     return 1.0 / (1.0 + sum_ri);
 }
 

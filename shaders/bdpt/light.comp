@@ -19,11 +19,17 @@
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 void main() {
+    // Threads cover the band's light subpaths: lv_cols() per row, block t.px.x of row t.px.y,
+    // traced with the random numbers of the block's first pixel.
     FilmTask t = film_task();
-    if (!t.valid) return;
+    uint block = t.px.x;
+    if (t.px.y >= g.film.y || !lv_block_used(block)) return;
+    t.px.x = lv_block_pixel(block);
+    bdpt_light_weight = float(lv_block_pixels(block));
+    t.pixel = t.px.y * g.film.x + t.px.x;
     int max_depth = pc.max_depth < 0 ? BDPT_DEPTH_CAP : min(pc.max_depth, BDPT_DEPTH_CAP);
     bdpt_mis = (pc.flags & PUSH_FLAG_BDPT_NO_MIS) == 0u;
-    bdpt_path = (t.px.y - (pc.dispatch >> 8)) * g.film.x + t.px.x;
+    bdpt_path = (t.px.y - (pc.dispatch >> 8)) * lv_cols() + block;
     uint rays = 0u, dropped = 0u;
     // Step 1: the light subpath.
     Rng rng = rng_init(t.pixel, pc.sample_base, pc.seed_lo, pc.seed_hi);

@@ -17,6 +17,28 @@ layout(set = 0, binding = B_BDPT_LIGHT_COUNTS, scalar) buffer LightCounts { uint
 // The path (within the band) this thread reads or writes; set by main.
 uint bdpt_path = 0u;
 
+// Light subpaths per row of the band (renderer/src/integrators/bdpt.rs, `light_cols`): one per
+// pixel, or with K pixels sharing one (paths.glsl) one per block: block b of a row holds pixels
+// [bK − o, bK − o + K), shifted by o = the sample index mod K so that the blocks' edges move
+// from sample to sample; ⌊(width + K − 2) / K⌋ + 1 blocks cover the row whatever o is.
+uint lv_cols() {
+    uint k = 1u << bdpt_share_log2();
+    return k == 1u ? g.film.x : (max(g.film.x, 1u) + k - 2u) / k + 1u;
+}
+uint lv_shift() { return pc.sample_base & ((1u << bdpt_share_log2()) - 1u); }
+// The block of pixel column x.
+uint lv_block(uint x) { return (x + lv_shift()) >> bdpt_share_log2(); }
+// The pixel column whose random numbers block b's light subpath uses (its first pixel).
+uint lv_block_pixel(uint b) { return max(b << bdpt_share_log2(), lv_shift()) - lv_shift(); }
+// The pixels of block b within the row (K but at the row's ends).
+uint lv_block_pixels(uint b) {
+    uint k = 1u << bdpt_share_log2();
+    uint lo = lv_block_pixel(b), hi = min((b << bdpt_share_log2()) + k - lv_shift(), g.film.x);
+    return hi - lo;
+}
+// Whether block b holds a pixel of the row.
+bool lv_block_used(uint b) { return b <= (g.film.x - 1u + lv_shift()) >> bdpt_share_log2(); }
+
 uint lv_paths() { return uint(light_vertices.length()) / (LV_WORDS * uint(BDPT_MAX_LIGHT)); }
 uint lv_at(int v, uint k) { return (uint(v) * LV_WORDS + k) * lv_paths() + bdpt_path; }
 

@@ -45,6 +45,8 @@ vec3 bdpt_strategies(int nc, int nl, int t_first, int max_depth, inout Rng rng, 
             vec3 c = connect(s, t, rng_next4(rng), mi, rays, film, w);
             c *= strategy_weight(w);
             if (t == 1) {
+                // A light subpath shared by several pixels counts for each (paths.glsl).
+                c *= bdpt_light_weight;
                 if (!is_finite(c)) {
                     dropped += 1u;
                 } else if (any(greaterThan(c, vec3(0.0)))) {

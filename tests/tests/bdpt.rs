@@ -179,15 +179,27 @@ fn agree(name: &str, spp_bdpt: u32, spp_nee: u32, spp_pt: Option<u32>) {
 
 /// `agree` on a film of `size` pixels.
 fn agree_on(name: &str, size: (u32, u32), spp_bdpt: u32, spp_nee: u32, spp_pt: Option<u32>) {
+    agree_with(name, r#"{"type":"bdpt"}"#, size, spp_bdpt, spp_nee, spp_pt)
+}
+
+/// `agree_on` with bdpt's options given as JSON.
+fn agree_with(
+    name: &str,
+    bdpt_json: &str,
+    size: (u32, u32),
+    spp_bdpt: u32,
+    spp_nee: u32,
+    spp_pt: Option<u32>,
+) {
     let scene = load(&format!("{name}.json"));
     let (w, h) = size;
-    let bdpt = estimate_at(&scene, r#"{"type":"bdpt"}"#, spp_bdpt, size, 1, 0);
+    let bdpt = estimate_at(&scene, bdpt_json, spp_bdpt, size, 1, 0);
     let nee = estimate_at(&scene, r#"{"type":"nee"}"#, spp_nee, size, 2, 0);
     let e = blocks(&bdpt.img, &nee.img);
     let expected = bdpt.noise + nee.noise;
     let stats = bdpt.stats.as_ref().expect("stats");
     println!(
-        "{name} {w}x{h}: bdpt {spp_bdpt} spp ({:.3} Msamples/s) vs nee {spp_nee} spp: 4x4-block \
+        "{name} {w}x{h}: bdpt {bdpt_json} {spp_bdpt} spp ({:.3} Msamples/s) vs nee {spp_nee} spp: 4x4-block \
          relMSE {e:.3e}, expected noise {expected:.3e} (bdpt {:.3e}, nee {:.3e}); {}",
         stats.msamples_per_s,
         bdpt.noise,
@@ -216,6 +228,17 @@ fn agree_on(name: &str, size: (u32, u32), spp_bdpt: u32, spp_nee: u32, spp_pt: O
         e < 3.0 * expected + 1e-4,
         "{name}: bdpt vs pt {e:.3e}, noise {expected:.3e}"
     );
+}
+
+/// Light subpaths shared by 4 pixels (`light_share`: light tracing's splats count for their
+/// block's pixels, its MIS density 1/4) converge to the same image: on the Cornell box, where
+/// light tracing carries part of every path length, and on a film whose width (18) leaves
+/// partial blocks at the rows' ends.
+#[test]
+fn shared_light_subpaths_agree_with_nee_and_pt() {
+    let json = r#"{"type":"bdpt","light_share":4}"#;
+    agree_with("cornell", json, (W, W), 256, 512, Some(2048));
+    agree_with("mirror_glass", json, (18, 16), 128, 512, None);
 }
 
 #[test]
@@ -282,7 +305,8 @@ fn cornell_box_matches_mitsuba() {
 /// (1, 1)) rendered alone, unweighted, is an unbiased estimate of the image made by paths of
 /// exactly k segments; so is their average. The reference is independent: nee at max_depth k
 /// minus max_depth k − 1. The Cornell box has no delta lights or specular surfaces, so every
-/// strategy can make every path.
+/// strategy can make every path. Light tracing (t = 1) is also checked with light subpaths
+/// shared by 4 pixels (`light_share`), whose splats must count for their block's pixels.
 #[test]
 fn each_strategy_alone_is_unbiased() {
     let scene = load("cornell.json");
@@ -302,26 +326,33 @@ fn each_strategy_alone_is_unbiased() {
         let n_exact = upper.noise + lower.noise;
         let strategies: Vec<(i32, i32)> = (1..=k + 1).map(|t| (k + 1 - t, t)).collect();
         let (mut sum, mut n_sum) = (Image::new(W, W), 0.0);
-        for &(s, t) in &strategies {
+        let shared = strategies
+            .iter()
+            .filter(|st| st.1 == 1)
+            .map(|&(s, t)| (s, t, 4));
+        for (s, t, share) in strategies.iter().map(|&(s, t)| (s, t, 1)).chain(shared) {
             let json = format!(
-                r#"{{"type":"bdpt","max_depth":{k},"mis":false,"strategy":[{s},{t}],"weighted":false}}"#
+                r#"{{"type":"bdpt","max_depth":{k},"mis":false,"strategy":[{s},{t}],"weighted":false,"light_share":{share}}}"#
             );
             let Estimate { img, noise: n, .. } = estimate(&scene, &json, spp, 31 + t as u64);
             let e = blocks(&img, &exact);
             println!(
-                "k = {k}: strategy ({s},{t}) alone, unweighted, {spp} spp: 4x4-block relMSE \
-                 {e:.3e} against exactly-{k} nee, expected noise {:.3e}; means {:.4?} vs {:.4?}",
+                "k = {k}: strategy ({s},{t}) alone, unweighted, light_share {share}, {spp} spp: \
+                 4x4-block relMSE {e:.3e} against exactly-{k} nee, expected noise {:.3e}; means \
+                 {:.4?} vs {:.4?}",
                 n + n_exact,
                 img.mean(),
                 exact.mean()
             );
             assert!(
                 e < 3.0 * (n + n_exact) + 1e-4,
-                "k = {k}, ({s},{t}): {e:.3e} vs noise {:.3e}",
+                "k = {k}, ({s},{t}), light_share {share}: {e:.3e} vs noise {:.3e}",
                 n + n_exact
             );
-            sum = combine(&sum, &img, 1.0, 1.0);
-            n_sum += n;
+            if share == 1 {
+                sum = combine(&sum, &img, 1.0, 1.0);
+                n_sum += n;
+            }
         }
         let count = strategies.len() as f32;
         let average = combine(&sum, &sum, 0.5 / count, 0.5 / count);
@@ -345,13 +376,15 @@ fn each_strategy_alone_is_unbiased() {
 /// The MIS-weighted strategies of one path length add up to the full image of that length, to
 /// rounding: same seed, same subpaths, only the bookkeeping differs. k = 5 exercises the running
 /// sums of both subpaths (connect.glsl: strategies moving the join three or more vertices), on
-/// the Cornell box (split design), mirror and glass (specular vertices; per-pixel design) and
-/// point, spot and directional lights (delta lights; uniform weights, `mis: false`).
+/// the Cornell box (split design; also with light subpaths shared by 4 pixels, whose t = 1
+/// weights differ), mirror and glass (specular vertices; per-pixel design) and point, spot and
+/// directional lights (delta lights; uniform weights, `mis: false`).
 #[test]
 fn weighted_strategies_add_up_to_the_full_image() {
     for (name, extra, k) in [
         ("cornell.json", "", 3),
         ("cornell.json", "", 5),
+        ("cornell.json", r#","light_share":4"#, 4),
         ("mirror_glass.json", r#","design":"per_pixel""#, 5),
         ("lights.json", r#","mis":false"#, 5),
     ] {

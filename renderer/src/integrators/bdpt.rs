@@ -26,6 +26,20 @@
 //!   1280×720, max_depth 6) it renders about 1.3× the per-pixel design's samples per second
 //!   (bench/RESULTS.md).
 //!
+//! # Shared light subpaths (option `light_share`, split design)
+//! With `light_share` K > 1 the light pass traces one light subpath per block of K neighbouring
+//! pixels of a row (the blocks shifted by the sample index mod K, so their edges move from
+//! sample to sample), and each pixel of the block joins its camera subpath to that one light
+//! subpath: the light pass costs about 1/K, the camera pass the same. Per camera sample there
+//! are then 1/K light subpaths, which the estimator counts (as a light-vertex cache does,
+//! Davidovič et al. 2014): a light subpath's light-tracing splats count for its block's pixels
+//! (K, fewer at a row's ends), and light tracing's density enters the MIS weights 1/K times
+//! (shaders/bdpt/connect.glsl), so the image converges to the same one. Light tracing gets 1/K
+//! of its samples, so its paths (caustics seen through a diffuse bounce, small lights) turn
+//! noisier. Measured on an H200 at 1280×720 (bench/RESULTS.md): K = 4 renders 1.28–1.72× the
+//! samples per second, and the error at equal time is lower on mirror_glass (−18% relMSE at 1
+//! s), higher on the Cornell box (+24%), shade (+10%) and lights (+3%); so the default stays 1.
+//!
 //! Per-thread state is bounded by the array's capacity, compiled in as `BDPT_DEPTH_CAP`:
 //! [`SMALL_DEPTH_CAP`] segments for max_depth up to that (one kernel for the usual depths), else
 //! [`DEPTH_CAP`]. max_depth −1 and larger values are capped at [`DEPTH_CAP`] segments, so an
@@ -40,21 +54,22 @@
 //! part of the image is reproducible only to rounding), else — or with the debug option
 //! `fixed_point_splats` — as 64-bit fixed point from 32-bit integer atomics, which is exact and
 //! order-independent. The image is accum.rgb / accum.w + splat / (pixels · spp): one light path
-//! is traced per pixel and sample. Splats of odd sample index are also added to a second buffer
+//! is traced per pixel and sample (or one per K pixels, each counting K times: `light_share`). Splats of odd sample index are also added to a second buffer
 //! (binding SPLAT_ODD, same format), so that both halves of the error estimate carry their own
 //! light tracing (render/halves.rs). Checkpoints carry both splat buffers after the
 //! accumulation.
 //!
 //! # Options
 //! `{"type": "bdpt", "max_depth", "rr_depth", "mis": true|false, "strategy": [s, t],
-//! "weighted": true|false, "fixed_point_splats": true|false, "design": "split"|"per_pixel"}`. `mis: false` gives every strategy
+//! "weighted": true|false, "fixed_point_splats": true|false, "design": "split"|"per_pixel",
+//! "light_share": 1|2|4|8}`. `mis: false` gives every strategy
 //! that could make a path the same weight. `strategy` renders one technique alone (the Veach
 //! pyramid), multiplied by its MIS weight unless `weighted` is false; unweighted, each technique
 //! of a path length is an unbiased estimate of that length's image wherever it can sample every
 //! path (no delta lights or specular connections).
 //!
 //! # Report
-//! `details`: `{"design", "timings_ms": {"light_passes", "camera_passes", "other"}}`, the GPU
+//! `details`: `{"design", "light_share", "timings_ms": {"light_passes", "camera_passes", "other"}}`, the GPU
 //! time of the split design's two kernels summed over the session's passes since its start,
 //! `reset()` or `restore()` (per_pixel: its kernel in `camera_passes`); the float splats' merge
 //! counts with the light passes; `other` is any dispatch of the pass not named here (0 today).
@@ -72,8 +87,8 @@ use crate::gpu::{
     Binding, ComputePipeline, DispatchTiming, GpuContext, GpuResult, Recorder, ShaderDefines,
 };
 use crate::layout::{
-    binding, GpuPush, PUSH_FLAG_BDPT_NO_MIS, PUSH_FLAG_BDPT_STRATEGY, PUSH_FLAG_BDPT_S_SHIFT,
-    PUSH_FLAG_BDPT_T_SHIFT, PUSH_FLAG_BDPT_UNWEIGHTED,
+    binding, GpuPush, PUSH_FLAG_BDPT_NO_MIS, PUSH_FLAG_BDPT_SHARE_SHIFT, PUSH_FLAG_BDPT_STRATEGY,
+    PUSH_FLAG_BDPT_S_SHIFT, PUSH_FLAG_BDPT_T_SHIFT, PUSH_FLAG_BDPT_UNWEIGHTED,
 };
 
 /// Most segments a bdpt path may have: the private vertex arrays hold 2·DEPTH_CAP + 1 vertices
@@ -105,6 +120,11 @@ const SPLAT_MERGE_LABEL: &str = "bdpt splat merge";
 const SPLAT_MERGE_KERNEL: &str = "bdpt/splat_merge.comp";
 const SPLAT_MERGE_GROUPS: u32 = 1024;
 
+/// The values of the option `light_share` (pixels sharing one light subpath per sample, split
+/// design), and its default.
+pub const LIGHT_SHARES: [u32; 4] = [1, 2, 4, 8];
+pub const DEFAULT_LIGHT_SHARE: u32 = 1;
+
 /// Fractional bits of the fixed-point splats (mirrors SPLAT_FRAC_BITS in shaders/bdpt/splat.glsl).
 const SPLAT_FRAC_BITS: i32 = 20;
 
@@ -116,6 +136,8 @@ pub struct BdptIntegrator {
     weighted: bool,
     force_fixed_point: bool,
     design: BdptDesign,
+    /// Pixels sharing one light subpath per sample (1 in the per-pixel design).
+    light_share: u32,
     /// Decided in `prepare` from the device.
     float_splats: bool,
     /// Split design: the light pass (made in `setup`).
@@ -138,6 +160,10 @@ pub fn new(o: &BdptOptions, scene_max_depth: Option<i32>) -> BdptIntegrator {
         weighted: o.weighted.unwrap_or(true),
         force_fixed_point: o.fixed_point_splats.unwrap_or(false),
         design: o.design.unwrap_or_default(),
+        light_share: match o.design.unwrap_or_default() {
+            BdptDesign::Split => o.light_share.unwrap_or(DEFAULT_LIGHT_SHARE),
+            BdptDesign::PerPixel => 1,
+        },
         float_splats: false,
         light_pass: None,
         light_buffer_bytes: LIGHT_BUFFER_BYTES / LIGHT_BUFFER_SHARE,
@@ -177,19 +203,36 @@ impl BdptIntegrator {
                 f |= PUSH_FLAG_BDPT_UNWEIGHTED;
             }
         }
-        f
+        f | (self.light_share.trailing_zeros() << PUSH_FLAG_BDPT_SHARE_SHIFT)
     }
 }
 
 impl BdptIntegrator {
-    /// Pixels (paths) per band of the split design: what the light-vertex buffer holds, at
-    /// least 8 rows, at most the film.
-    fn band_paths(&self, width: u32, height: u32) -> u64 {
+    /// Light subpaths per row of a band in the split design: one per pixel, or with
+    /// `light_share` K > 1 one per block of K pixels, the blocks shifted by the sample index
+    /// mod K (so their edges move from sample to sample): ⌊(width − 1 + K − 1) / K⌋ + 1 blocks
+    /// cover a row whatever the shift (shaders/bdpt/store.glsl, `lv_cols`).
+    fn light_cols(&self, width: u32) -> u64 {
+        let (w, k) = (width as u64, self.light_share as u64);
+        if k == 1 {
+            w
+        } else {
+            (w.max(1) + k - 2) / k + 1
+        }
+    }
+
+    /// Rows per band of the split design: what the light-vertex buffer holds, at least 8 rows,
+    /// at most the film.
+    fn band_rows(&self, width: u32, height: u32) -> u64 {
         let per_path = self.light_capacity() * LIGHT_VERTEX_BYTES;
-        let film = width as u64 * height as u64;
-        (self.light_buffer_bytes / per_path)
-            .max(8 * width as u64)
-            .min(film)
+        (self.light_buffer_bytes / per_path / self.light_cols(width))
+            .max(8)
+            .min(height as u64)
+    }
+
+    /// Light subpaths per band (the light-vertex buffer's capacity in paths).
+    fn band_paths(&self, width: u32, height: u32) -> u64 {
+        self.band_rows(width, height) * self.light_cols(width)
     }
 
     /// The light pass's defines: the session's, without the camera pass's BDPT_SPLIT.
@@ -220,11 +263,20 @@ impl Integrator for BdptIntegrator {
             None => rec.dispatch(pipeline, bytemuck::bytes_of(&push), groups, PASS_LABEL)?,
             Some(light) => {
                 // Split: per sample, the band's light subpaths, then its camera subpaths.
+                // The light pass covers the band's light subpaths: `light_cols` per row (the
+                // groups' columns cover at least the film's width).
+                let cols = self.light_cols(groups[0] * 8) as u32;
+                let light_groups = [cols.div_ceil(8), groups[1], groups[2]];
                 let (base, spp) = (push.sample_base, push.spp);
                 for i in 0..spp {
                     push.sample_base = base + i;
                     push.spp = 1;
-                    rec.dispatch(light, bytemuck::bytes_of(&push), groups, LIGHT_PASS_LABEL)?;
+                    rec.dispatch(
+                        light,
+                        bytemuck::bytes_of(&push),
+                        light_groups,
+                        LIGHT_PASS_LABEL,
+                    )?;
                     rec.dispatch(
                         pipeline,
                         bytemuck::bytes_of(&push),
@@ -264,7 +316,7 @@ impl Integrator for BdptIntegrator {
     }
     fn max_band_pixels(&self, width: u32, height: u32) -> u64 {
         match self.design {
-            BdptDesign::Split => self.band_paths(width, height),
+            BdptDesign::Split => self.band_rows(width, height) * width as u64,
             BdptDesign::PerPixel => u64::MAX,
         }
     }
@@ -373,6 +425,7 @@ impl Integrator for BdptIntegrator {
         };
         Some(serde_json::json!({
             "design": design,
+            "light_share": self.light_share,
             "timings_ms": {
                 "light_passes": self.pass_ms.0,
                 "camera_passes": self.pass_ms.1,
