@@ -36,9 +36,9 @@
 //! (K, fewer at a row's ends), and light tracing's density enters the MIS weights 1/K times
 //! (shaders/bdpt/connect.glsl), so the image converges to the same one. Light tracing gets 1/K
 //! of its samples, so its paths (caustics seen through a diffuse bounce, small lights) turn
-//! noisier. Measured on an H200 at 1280×720 (bench/RESULTS.md): K = 4 renders 1.28–1.72× the
-//! samples per second, and the error at equal time is lower on mirror_glass (−18% relMSE at 1
-//! s), higher on the Cornell box (+24%), shade (+10%) and lights (+3%); so the default stays 1.
+//! noisier. Measured on an H200 at 1280×720 (bench/RESULTS.md): K = 4 renders 1.28–1.71× the
+//! samples per second, and the error at equal time is lower on mirror_glass (−17% relMSE at 1
+//! s), higher on the Cornell box (+21%), shade (+11%) and lights (+4%); so the default stays 1.
 //!
 //! Per-thread state is bounded by the array's capacity, compiled in as `BDPT_DEPTH_CAP`:
 //! [`SMALL_DEPTH_CAP`] segments for max_depth up to that (one kernel for the usual depths), else
