@@ -11,7 +11,8 @@
 //   - split (BDPT_SPLIT: this file is the camera pass): light.comp first traces every pixel's
 //     light subpath of the band into a buffer (store.glsl) and splats its light tracing; then
 //     one thread per pixel traces the camera subpath alone and joins it to its pixel's light
-//     vertices read from that buffer (t ≥ 2). Each pass holds one subpath, about half the
+//     vertices read from that buffer (t ≥ 2). With `light_share` K the light pass traces one
+//     light subpath per block of K pixels, which they all join (paths.glsl). Each pass holds one subpath, about half the
 //     per-thread state, and the light walks run apart from the camera walks.
 // Defines: BDPT_DEPTH_CAP, BDPT_FLOAT_SPLATS, BDPT_SPLIT. The options mis / strategy / weighted
 // travel in GpuPush::flags, so they share one compiled kernel.
@@ -41,8 +42,8 @@ void main() {
     int max_depth = bdpt_max_depth();
     bdpt_mis = (pc.flags & PUSH_FLAG_BDPT_NO_MIS) == 0u;
 #ifdef BDPT_CAMERA_PASS
-    // The light subpath of this band and sample that this pixel joins.
-    // This pixel's light subpath (shared by the pixels of its block: store.glsl).
+    // The light subpath of this band and sample that this pixel joins (its own, or its
+    // block's with `light_share`: store.glsl).
     bdpt_path = (t.px.y - (pc.dispatch >> 8)) * lv_cols() + lv_block(t.px.x);
 #endif
     vec4 acc = film_load(t);

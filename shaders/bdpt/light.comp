@@ -1,7 +1,9 @@
-// `bdpt`, split design, light pass (renderer/src/integrators/bdpt.rs): one thread per pixel of
-// the band traces the pixel's light subpath of sample pc.sample_base (the same subpath the
-// per-pixel design traces: dimensions 256 on), evaluates its light-tracing strategies (t = 1,
-// splatted) and stores the vertices for the camera pass (bdpt.comp with BDPT_SPLIT) to join.
+// `bdpt`, split design, light pass (renderer/src/integrators/bdpt.rs): one thread per light
+// subpath of the band — one per pixel, or one per block of K pixels with `light_share` K
+// (store.glsl) — traces it for sample pc.sample_base with the random numbers of its (block's
+// first) pixel (the same subpath the per-pixel design traces there: dimensions 256 on),
+// evaluates its light-tracing strategies (t = 1, splatted, counting for the block's pixels) and
+// stores the vertices for the camera pass (bdpt.comp with BDPT_SPLIT) to join.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #ifdef BDPT_FLOAT_SPLATS

@@ -232,13 +232,32 @@ fn agree_with(
 
 /// Light subpaths shared by 4 pixels (`light_share`: light tracing's splats count for their
 /// block's pixels, its MIS density 1/4) converge to the same image: on the Cornell box, where
-/// light tracing carries part of every path length, and on a film whose width (18) leaves
-/// partial blocks at the rows' ends.
+/// light tracing carries part of every path length, on a film whose width (18) leaves partial
+/// blocks at the rows' ends, and with blocks of 8 on a film 4 pixels wide.
 #[test]
 fn shared_light_subpaths_agree_with_nee_and_pt() {
     let json = r#"{"type":"bdpt","light_share":4}"#;
     agree_with("cornell", json, (W, W), 256, 512, Some(2048));
     agree_with("mirror_glass", json, (18, 16), 128, 512, None);
+    let json = r#"{"type":"bdpt","light_share":8}"#;
+    agree_with("cornell", json, (4, W), 256, 512, None);
+}
+
+/// Options that skipped `IntegratorOptions::parse` (read with serde alone) are still checked
+/// when a session starts: a light_share the kernels cannot run is refused, naming the field.
+#[test]
+fn unchecked_options_are_refused_by_the_session() {
+    let scene = load("cornell.json");
+    let compiled = compile(&scene, W, W).expect("compile");
+    let o = options(r#"{"type":"bdpt","light_share":3}"#);
+    let e = RenderSession::new(&gpu(), &compiled, &o, None, 1)
+        .err()
+        .expect("light_share 3 accepted")
+        .to_string();
+    assert!(
+        e.contains("light_share: must be one of [1, 2, 4, 8], got 3"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -306,7 +325,8 @@ fn cornell_box_matches_mitsuba() {
 /// exactly k segments; so is their average. The reference is independent: nee at max_depth k
 /// minus max_depth k − 1. The Cornell box has no delta lights or specular surfaces, so every
 /// strategy can make every path. Light tracing (t = 1) is also checked with light subpaths
-/// shared by 4 pixels (`light_share`), whose splats must count for their block's pixels.
+/// shared by 2 and 8 pixels (`light_share`), whose splats must count for their block's pixels
+/// (blocks of 8 on a 16-pixel row leave partial blocks whenever the shift is not 0).
 #[test]
 fn each_strategy_alone_is_unbiased() {
     let scene = load("cornell.json");
@@ -326,10 +346,8 @@ fn each_strategy_alone_is_unbiased() {
         let n_exact = upper.noise + lower.noise;
         let strategies: Vec<(i32, i32)> = (1..=k + 1).map(|t| (k + 1 - t, t)).collect();
         let (mut sum, mut n_sum) = (Image::new(W, W), 0.0);
-        let shared = strategies
-            .iter()
-            .filter(|st| st.1 == 1)
-            .map(|&(s, t)| (s, t, 4));
+        let shared = (strategies.iter().filter(|st| st.1 == 1))
+            .flat_map(|&(s, t)| [2, 8].map(|share| (s, t, share)));
         for (s, t, share) in strategies.iter().map(|&(s, t)| (s, t, 1)).chain(shared) {
             let json = format!(
                 r#"{{"type":"bdpt","max_depth":{k},"mis":false,"strategy":[{s},{t}],"weighted":false,"light_share":{share}}}"#

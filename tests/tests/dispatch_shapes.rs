@@ -3,8 +3,9 @@
 //! pixel in one dispatch is compared with the same render cut into passes of 1, 2 and 3 samples
 //! queued back to back (two in flight), with 2, 4 or 8 threads per pixel (lanes) and bands of 8
 //! rows. pt, nee, whitted, deferred and vct must match bit for bit; bdpt too with fixed-point
-//! splats (float splats are added in a different order, so to rounding), and its split design
-//! must match its per-pixel design bit for bit. The film (20×13) is not a multiple of the
+//! splats (float splats are added in a different order, so to rounding; also with light
+//! subpaths shared by 4 and 8 pixels), and its split design must match its per-pixel design
+//! bit for bit. The film (20×13) is not a multiple of the
 //! workgroup tile, so the edges are exercised.
 
 use candela_tests::{gpu, scene_path};
@@ -70,6 +71,16 @@ fn every_integrator_gives_the_same_image_whatever_the_split_and_shape() {
         (r#"{"type": "deferred"}"#, 8),
         (r#"{"type": "vct", "resolution": 64}"#, 8),
         (r#"{"type": "bdpt", "fixed_point_splats": true}"#, 1),
+        // Light subpaths shared by 4 and 8 pixels: 20 columns leave partial blocks, the bands
+        // of 8 rows hold 13 rows in two.
+        (
+            r#"{"type": "bdpt", "fixed_point_splats": true, "light_share": 4}"#,
+            1,
+        ),
+        (
+            r#"{"type": "bdpt", "fixed_point_splats": true, "light_share": 8}"#,
+            1,
+        ),
         (
             r#"{"type": "bdpt", "design": "per_pixel", "fixed_point_splats": true}"#,
             4,

@@ -143,10 +143,20 @@ impl Doc {
             *uses.entry(name.to_string()).or_default() += 1;
         }
         let once = |name: &str| uses.get(name).copied().unwrap_or(0) <= 1;
-        for o in self.objects.iter_mut() {
+        // (An object written in place points at the definition's source place, the member's.)
+        let def_locs: HashMap<String, Loc> = (self.origins.iter())
+            .filter_map(|(path, loc)| {
+                Some((path.strip_prefix("definitions.")?.into(), loc.clone()))
+            })
+            .collect();
+        let mut moved = HashMap::new();
+        for (i, o) in self.objects.iter_mut().enumerate() {
             let name = o["definition"].as_str().unwrap_or_default();
             if o["type"] == "instance" && once(name) {
                 if let Some(def) = self.definitions.get(name) {
+                    if let Some(loc) = def_locs.get(name) {
+                        moved.insert(format!("objects[{i}]"), loc.clone());
+                    }
                     // An instance's material replaces the definition's (scene-format.md).
                     let mut placed = place(def, &object_matrix(o));
                     if let Some(m) = o.get("material") {
@@ -154,6 +164,11 @@ impl Doc {
                     }
                     *o = placed;
                 }
+            }
+        }
+        for (path, loc) in self.origins.iter_mut() {
+            if let Some(l) = moved.get(path.as_str()) {
+                *loc = l.clone();
             }
         }
         self.definitions.retain(|n, _| !once(n));

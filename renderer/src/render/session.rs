@@ -149,6 +149,9 @@ impl RenderSession {
         kernels: KernelMode,
     ) -> Result<Self, RenderError> {
         let start = Instant::now();
+        // Options built without `IntegratorOptions::parse` (a library caller's struct, JSON read
+        // with serde alone) are checked here too.
+        options.validate()?;
         if !scene.instances.is_empty() && !options.info().instances {
             return Err(RenderError::Invalid(format!(
                 "integrator \"{}\" does not trace instances (objects of type \"instance\"): \

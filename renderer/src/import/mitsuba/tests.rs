@@ -319,9 +319,9 @@ fn missing_sensor_and_old_versions() {
 
 #[test]
 fn an_error_in_a_shapegroup_member_names_the_member_line() {
-    // The group's PLY is missing: the loader's error (at definitions.g.file) must point at the
-    // member's line (4), not at the instance placing it (6 or 7). A sphere member, copied into
-    // place, keeps its own line too (5).
+    // The group's PLY is missing: the loader's error (at definitions.g_0.file) must point at
+    // the member's line (4), not at the instance placing it (7 or 8). A sphere member, copied
+    // into place, keeps its own line too (5).
     let body = "<bsdf type=\"diffuse\" id=\"w\"/>
 <shape type=\"shapegroup\" id=\"g\">
 <shape type=\"ply\"><string name=\"filename\" value=\"nope.ply\"/><ref id=\"w\"/></shape>
@@ -343,4 +343,10 @@ fn an_error_in_a_shapegroup_member_names_the_member_line() {
         .collect();
     assert_eq!(copies.len(), 2, "{copies:?}");
     assert!(copies.iter().all(|l| l.ends_with("s.xml:5")), "{copies:?}");
+    // Placed once, the group's mesh is written in place: its error still names line 4.
+    let once = body.rsplit_once('\n').unwrap().0;
+    let imp = import_body(once, false).unwrap();
+    assert!(imp.doc.get("definitions").is_none(), "{}", imp.json_text());
+    let e = imp.load(&Default::default()).unwrap_err().to_string();
+    assert!(e.contains("s.xml:4: "), "{e}");
 }
