@@ -21,6 +21,7 @@ use serde_json::Value;
 use super::export_parts::Parts;
 use crate::film::Image;
 use crate::import::Imported;
+use crate::scene::transform::box_corners;
 use crate::scene::{Environment, Scene, SceneError};
 
 /// An XML element being written.
@@ -304,54 +305,35 @@ pub(crate) fn vec3(v: DVec3) -> String {
 
 /// The distance from `eye` to the farthest corner of the scene's bounds.
 fn scene_far(scene: &Scene, eye: DVec3) -> f64 {
-    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for m in &scene.meshes {
-        for p in &m.positions {
-            lo = lo.min(*p);
-            hi = hi.max(*p);
-        }
-    }
+    type Bounds = (DVec3, DVec3);
+    let empty: Bounds = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    let grow = |(lo, hi): Bounds, p: DVec3| (lo.min(p), hi.max(p));
+    let points = |ps: &[DVec3]| ps.iter().copied().fold(empty, grow);
+    let mut b = (scene.meshes.iter()).fold(empty, |b, m| {
+        let (lo, hi) = points(&m.positions);
+        grow(grow(b, lo), hi)
+    });
     for s in &scene.spheres {
-        lo = lo.min(s.center - s.radius);
-        hi = hi.max(s.center + s.radius);
+        b = grow(grow(b, s.center - s.radius), s.center + s.radius);
     }
     // Instances: the corners of their prototype's box, placed.
-    let boxes: Vec<(DVec3, DVec3)> = (scene.prototypes.iter())
-        .map(|p| {
-            p.positions.iter().fold(
-                (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-                |(a, b), q| (a.min(*q), b.max(*q)),
-            )
-        })
+    let prototypes: Vec<Bounds> = scene
+        .prototypes
+        .iter()
+        .map(|p| points(&p.positions))
         .collect();
     for i in &scene.instances {
-        let (plo, phi) = boxes[i.prototype as usize];
-        if plo.x > phi.x {
-            continue;
-        }
-        for k in 0..8 {
-            let c = DVec3::new(
-                if k & 1 == 0 { plo.x } else { phi.x },
-                if k & 2 == 0 { plo.y } else { phi.y },
-                if k & 4 == 0 { plo.z } else { phi.z },
-            );
-            let w = i.to_world.transform_point3(c);
-            lo = lo.min(w);
-            hi = hi.max(w);
+        let (plo, phi) = prototypes[i.prototype as usize];
+        if plo.x <= phi.x {
+            b = box_corners(plo, phi).fold(b, |b, c| grow(b, i.to_world.transform_point3(c)));
         }
     }
+    let (lo, hi) = b;
     if lo.x > hi.x {
         return 0.0;
     }
-    (0..8)
-        .map(|k| {
-            let c = DVec3::new(
-                if k & 1 == 0 { lo.x } else { hi.x },
-                if k & 2 == 0 { lo.y } else { hi.y },
-                if k & 4 == 0 { lo.z } else { hi.z },
-            );
-            (c - eye).length()
-        })
+    box_corners(lo, hi)
+        .map(|c| (c - eye).length())
         .fold(0.0, f64::max)
 }
 
@@ -446,5 +428,36 @@ fn environment(ex: &mut Export, env: &Environment) -> Result<El, SceneError> {
                     ),
                 ))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The far distance covers spheres, meshes and instances placed far from the definition.
+    #[test]
+    fn scene_far_covers_instances() {
+        let scene = crate::scene::load_str(
+            r#"{"version": 1, "camera": {"position": [0, 0, 0], "look_at": [0, 0, -1]},
+                "materials": {"m": {"type": "diffuse"}},
+                "definitions": {"t": {"type": "triangles", "positions": [[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+                                      "indices": [0, 1, 2], "material": "m"}},
+                "objects": [
+                    {"type": "sphere", "center": [0, 0, -3], "radius": 1, "material": "m"},
+                    {"type": "instance", "definition": "t", "transform": {"translate": [0, 0, -50000]}},
+                    {"type": "instance", "definition": "t", "transform": {"translate": [0, 0, -50000]}}
+                ]}"#,
+            None,
+        )
+        .unwrap();
+        assert_eq!(scene.instances.len(), 2);
+        let far = scene_far(&scene, DVec3::ZERO);
+        // The box spans x, y ∈ [−1, 1], z ∈ [−50000, −2]: its farthest corner from the origin.
+        let expected = DVec3::new(1.0, 1.0, -50000.0).length();
+        assert!(
+            (far - expected).abs() < 1e-6 * expected,
+            "{far} vs {expected}"
+        );
     }
 }
