@@ -294,7 +294,8 @@ pub struct GpuGlobals {
     pub lens: [f32; 4],
     /// (width, height, filter kind 0 box / 1 gaussian, number of lights)
     pub film: [u32; 4],
-    /// (gaussian stddev, filter radius, 0, 0)
+    /// (gaussian stddev σ, radius 4σ, the width r/31 of a step of its table, 0):
+    /// shaders/common/filter.glsl, with `filter_c` and `filter_alias`
     pub filter: [f32; 4],
     /// Scene bounding sphere, camera-relative (centre, radius).
     pub scene_sphere: [f32; 4],
@@ -308,6 +309,10 @@ pub struct GpuGlobals {
     pub counts: [u32; 4],
     /// (number of instances, top-level BVH nodes, 0, 0): zero without instances.
     pub instances: [u32; 4],
+    /// The Gaussian filter's running sums C_k of its steps, and an alias table of the steps
+    /// (shaders/common/filter.glsl); zero for the box filter.
+    pub filter_c: [f32; 32],
+    pub filter_alias: [u32; 32],
 }
 
 /// Per-dispatch constants (push constants, 32 bytes).
@@ -482,7 +487,7 @@ mod tests {
         assert_eq!(size_of::<GpuLight>(), 80);
         assert_eq!(size_of::<GpuAlias>(), 8);
         assert_eq!(size_of::<GpuLightNode>(), 64);
-        assert_eq!(size_of::<GpuGlobals>(), 176);
+        assert_eq!(size_of::<GpuGlobals>(), 176 + 256);
         assert_eq!(size_of::<GpuInstance>(), 112);
         assert_eq!(size_of::<GpuPush>(), 32);
         assert_eq!(size_of::<GpuStats>(), 16);

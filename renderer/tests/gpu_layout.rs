@@ -47,58 +47,58 @@ fn glsl_mirror_matches_rust_layout() {
             1,
             buffer::<GpuBvhNode>(&ctx, "node", 2000),
             size_of::<GpuBvhNode>() / 4,
-            64,
+            128,
         ),
         (
             2,
             buffer::<GpuPrim>(&ctx, "prim", 3000),
             size_of::<GpuPrim>() / 4,
-            128,
+            192,
         ),
         (
             3,
             buffer::<GpuTriShading>(&ctx, "shading", 4000),
             size_of::<GpuTriShading>() / 4,
-            192,
+            256,
         ),
         (
             4,
             buffer::<GpuMaterial>(&ctx, "material", 5000),
             size_of::<GpuMaterial>() / 4,
-            256,
+            320,
         ),
         (
             5,
             buffer::<GpuTexture>(&ctx, "texture", 6000),
             size_of::<GpuTexture>() / 4,
-            320,
+            384,
         ),
         (
             6,
             buffer::<GpuLight>(&ctx, "light", 7000),
             size_of::<GpuLight>() / 4,
-            384,
+            448,
         ),
         (
             7,
             buffer::<GpuAlias>(&ctx, "alias", 8000),
             size_of::<GpuAlias>() / 4,
-            448,
+            512,
         ),
         (
             8,
             buffer::<GpuStats>(&ctx, "stats", 9000),
             size_of::<GpuStats>() / 4,
-            512,
+            576,
         ),
         (
             10,
             buffer::<GpuInstance>(&ctx, "instance", 11000),
             size_of::<GpuInstance>() / 4,
-            640,
+            704,
         ),
     ];
-    let out = Buffer::new(&ctx, "out", 704 * 4, BufferUsage::Storage).unwrap();
+    let out = Buffer::new(&ctx, "out", 768 * 4, BufferUsage::Storage).unwrap();
     ctx.fill_zero(&out).unwrap();
     let mut bindings: Vec<Binding<'_>> = structs
         .iter()
@@ -129,15 +129,16 @@ fn glsl_mirror_matches_rust_layout() {
         )
     })
     .unwrap();
-    let words: Vec<u32> = ctx.download_vec(&out, 704).unwrap();
+    let words: Vec<u32> = ctx.download_vec(&out, 768).unwrap();
     let mut checks = structs
         .iter()
-        .map(|(_, b, n, at)| (b.name.clone(), *n, *at, 1000 * (*at as u32 / 64 + 1)))
+        // Globals (1000) take words 0..128; every other struct starts at 1000 × its 64-word slot.
+        .map(|(_, b, n, at)| (b.name.clone(), *n, *at, 1000 * (*at as u32 / 64).max(1)))
         .collect::<Vec<_>>();
     checks.push((
         "push constants".into(),
         size_of::<GpuPush>() / 4,
-        576,
+        640,
         10000,
     ));
     for (name, n, at, start) in checks {

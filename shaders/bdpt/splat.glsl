@@ -78,7 +78,7 @@ void splat_film(vec2 film, vec3 L, bool odd) {
         ivec2 hi = min(ivec2(floor(film - 0.5 + r)), res - 1);
         for (int y = lo.y; y <= hi.y; ++y) {
             for (int x = lo.x; x <= hi.x; ++x) {
-                float wf = camera_filter_eval(film - (vec2(x, y) + 0.5));
+                float wf = filter_eval(film - (vec2(x, y) + 0.5), uvec2(x, y));
                 if (wf > 0.0) splat_add(uint(y * res.x + x), L * wf, odd);
             }
         }

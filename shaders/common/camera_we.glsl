@@ -3,6 +3,7 @@
 // with the pixel filter made explicit.
 //
 // camera_ray draws a film position x (in pixels) from pixel j's normalised filter p_f(x − c_j)
+// (common/filter.glsl's filter_eval: cut at the film's edge, so x always lies on the film)
 // and a lens point uniformly, and traces towards the focus point of x. A direction ω leaving lens
 // point pl at angle θ to the view axis therefore carries the importance, per unit lens area and
 // solid angle,
@@ -14,36 +15,20 @@
 // and the image is Σ splats / (number of light paths) — one per pixel and sample.
 // For MIS, the camera's directional density is pbrt's: uniform over the whole film,
 // 1 / (A cos³θ) with A = width · height · s², independent of the filter; it is nonzero on the
-// film grown by the filter radius, where some pixel's filter still sees the direction.
+// film.
 #ifndef COMMON_CAMERA_WE_GLSL
 #define COMMON_CAMERA_WE_GLSL
 #include "common/bindings.glsl"
 #include "common/math.glsl"
 #include "common/sampling.glsl"
+#include "common/filter.glsl"
 
 // Pixel size at unit distance from the pinhole (square pixels: aspect = width / height).
 float camera_pixel_size() { return 2.0 * g.lens.x / float(g.film.y); }
 
-// How far outside the film a filter sample can land, in pixels (box: 0, the sample stays in
-// its pixel; gaussian: the truncation radius).
-float camera_filter_margin() { return g.film.z == 1u ? g.filter_params.y : 0.0; }
-
-// The normalised pixel filter at offset o (pixels) from a pixel centre: the density that
-// camera.glsl's sample_filter draws from.
-float camera_filter_eval(vec2 o) {
-    if (g.film.z == 1u) {
-        float sigma = g.filter_params.x, radius = g.filter_params.y;
-        float r2 = dot(o, o);
-        if (r2 >= radius * radius) return 0.0;
-        float norm = 2.0 * PI * sigma * sigma * (1.0 - exp(-0.5 * radius * radius / (sigma * sigma)));
-        return exp(-0.5 * r2 / (sigma * sigma)) / norm;
-    }
-    return (o.x >= -0.5 && o.x < 0.5 && o.y >= -0.5 && o.y < 0.5) ? 1.0 : 0.0;
-}
-
 // Film position (pixels, row 0 at the top) that the ray from lens point pl in direction w
-// (unit) comes from, and cos θ to the view axis. False behind the camera or off the film grown
-// by the filter margin.
+// (unit) comes from, and cos θ to the view axis. False behind the camera or off the film (no
+// filter sample lands off it: common/filter.glsl).
 bool camera_film_position(vec3 pl, vec3 w, out vec2 film, out float cos_theta) {
     film = vec2(-1.0);
     cos_theta = dot(w, g.cam_forward.xyz);
@@ -56,8 +41,7 @@ bool camera_film_position(vec3 pl, vec3 w, out vec2 film, out float cos_theta) {
     vec2 res = vec2(g.film.xy);
     float tan_half = g.lens.x, aspect = g.lens.y;
     film = vec2((sx / (tan_half * aspect) + 1.0) * 0.5 * res.x, (1.0 - sy / tan_half) * 0.5 * res.y);
-    float m = camera_filter_margin();
-    return film.x >= -m && film.x <= res.x + m && film.y >= -m && film.y <= res.y + m;
+    return film.x >= 0.0 && film.x <= res.x && film.y >= 0.0 && film.y <= res.y;
 }
 
 // pbrt's Pdf_We directional density for a direction at cos θ to the view axis: 1 / (A cos³θ).

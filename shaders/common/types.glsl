@@ -53,6 +53,8 @@ struct GpuGlobals {
     vec4 env_params;
     uvec4 counts;
     uvec4 instances;
+    float filter_c[32];
+    uint filter_alias[32];
 };
 struct GpuInstance {
     vec4 world_to_object[3];

@@ -28,37 +28,40 @@ void p4(vec4 v) { pf(v.x); pf(v.y); pf(v.z); pf(v.w); }
 void u4(uvec4 v) { pu(v.x); pu(v.y); pu(v.z); pu(v.w); }
 
 void main() {
-    // Each struct starts at a fixed word offset (multiples of 64) so one mismatch cannot hide another.
+    // Each struct starts at a fixed word offset (multiples of 64; the globals take two slots) so
+    // one mismatch cannot hide another.
     k = 0u;
     p4(v_globals.cam_forward); p4(v_globals.cam_right); p4(v_globals.cam_up); p4(v_globals.lens);
     u4(v_globals.film); p4(v_globals.filter_params); p4(v_globals.scene_sphere); u4(v_globals.env);
     p4(v_globals.env_params); u4(v_globals.counts); u4(v_globals.instances);
-    k = 64u;
+    for (int i = 0; i < 32; ++i) pf(v_globals.filter_c[i]);
+    for (int i = 0; i < 32; ++i) pu(v_globals.filter_alias[i]);
+    k = 128u;
     p3(v_node.l_min); pu(v_node.left); p3(v_node.l_max); pu(v_node.right);
     p3(v_node.r_min); pu(v_node.l_count); p3(v_node.r_max); pu(v_node.r_count);
-    k = 128u;
-    p4(v_prim.a); p4(v_prim.b); p4(v_prim.c);
     k = 192u;
-    p4(v_shading.n0); p4(v_shading.n1); p4(v_shading.n2); p4(v_shading.uv_v);
+    p4(v_prim.a); p4(v_prim.b); p4(v_prim.c);
     k = 256u;
+    p4(v_shading.n0); p4(v_shading.n1); p4(v_shading.n2); p4(v_shading.uv_v);
+    k = 320u;
     u4(v_material.header); p4(v_material.emission);
     for (int i = 0; i < 3; ++i) p4(v_material.colors[i]);
     for (int i = 0; i < 12; ++i) pf(v_material.scalars[i]);
     for (int i = 0; i < 12; ++i) pu(v_material.scalar_tex[i]);
-    k = 320u;
+    k = 384u;
     pu(v_texture.offset); pu(v_texture.width); pu(v_texture.height); pu(v_texture.flags);
     pf(v_texture.scale.x); pf(v_texture.scale.y); pf(v_texture.pad.x); pf(v_texture.pad.y);
-    k = 384u;
+    k = 448u;
     pu(v_light.kind); pu(v_light.prim); pf(v_light.pick_pdf); pu(v_light.bvh_trail);
     p4(v_light.p0); p4(v_light.p1); p4(v_light.p2); p4(v_light.radiance);
-    k = 448u;
-    pf(v_alias.prob); pu(v_alias.alias);
     k = 512u;
-    pu(v_stats.dropped_samples); pu(v_stats.rays_lo); pu(v_stats.rays_hi); pu(v_stats.pad);
+    pf(v_alias.prob); pu(v_alias.alias);
     k = 576u;
+    pu(v_stats.dropped_samples); pu(v_stats.rays_lo); pu(v_stats.rays_hi); pu(v_stats.pad);
+    k = 640u;
     pu(pc.seed_lo); pu(pc.seed_hi); pu(pc.sample_base); pu(pc.spp);
     pi(pc.max_depth); pi(pc.rr_depth); pu(pc.flags); pu(pc.dispatch);
-    k = 640u;
+    k = 704u;
     for (int i = 0; i < 3; ++i) p4(v_instance.world_to_object[i]);
     for (int i = 0; i < 3; ++i) p4(v_instance.object_to_world[i]);
     pu(v_instance.root); pu(v_instance.material); pu(v_instance.flags); pu(v_instance.pad);

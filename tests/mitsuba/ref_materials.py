@@ -43,7 +43,10 @@ class Textures:
         channel = t.get("channel")
         if channel not in (None, "r", "g", "b", "a", "luminance"):
             raise SceneError(f"{path}.channel: expected r, g, b, a or luminance")
-        return full, srgb, mi.ScalarTransform3f().scale([su, sv]), channel
+        # Mitsuba's uv has v = 0 on the top row (candela's 1 − v): candela's row 1 − sv·v is
+        # Mitsuba's sv·(1 − v) shifted by 1 − sv.
+        to_uv = mi.ScalarTransform3f().translate([0.0, 1.0 - sv]) @ mi.ScalarTransform3f().scale([su, sv])
+        return full, srgb, to_uv, channel
 
     def color(self, v, path):
         """Colour field: number / [r,g,b] → `rgb`; texture → `bitmap` (bilinear, repeat); a

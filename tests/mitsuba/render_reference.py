@@ -2,7 +2,7 @@
 """Render a candela scene with Mitsuba 3 as an independent reference (see README.md).
 
     render_reference.py SCENE.json OUT.exr [--spp N] [--seed K] [--max-depth D] [--rr-depth R]
-                        [--width W --height H] [--variant scalar_rgb] [--env-mitsuba-rows]
+                        [--width W --height H] [--variant scalar_rgb|llvm_ad_rgb|cuda_ad_rgb] [--env-mitsuba-rows]
 
 Translates the scene (ref_scene.py), renders it with Mitsuba's `path` integrator (`volpath` when
 alpha masks are present), writes a linear float32 RGB EXR and prints one JSON line. Exit codes:
@@ -28,7 +28,7 @@ def parse_args(argv):
     p.add_argument("--rr-depth", type=int, default=5)
     p.add_argument("--width", type=int)
     p.add_argument("--height", type=int)
-    p.add_argument("--variant", default="scalar_rgb", choices=["scalar_rgb", "llvm_ad_rgb"])
+    p.add_argument("--variant", default="scalar_rgb", choices=["scalar_rgb", "llvm_ad_rgb", "cuda_ad_rgb"])
     p.add_argument("--env-mitsuba-rows", action="store_true",
                    help="use the env map as-is (Mitsuba's row convention v*(H-1)) instead of "
                         "resampling it to candela's v*H-0.5")

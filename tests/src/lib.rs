@@ -323,3 +323,41 @@ pub fn seed_average(parts: &[Image], block: u32) -> (Image, f64) {
     }
     (img, sum / count as f64)
 }
+
+/// Renders `compiled` with integrator `name` (its cheapest settings: vct at its smallest volume;
+/// 2 spp, seed 3) with the specialised and then the generic kernels, and returns the largest
+/// relative difference between the two images (per channel, dark pixels compared absolutely
+/// below 1e-3) and the tolerance it must meet (bdpt's splats add with float atomics in any
+/// order). Used by the kernel audits (tests/tests/kernels.rs, random_scenes.rs).
+pub fn specialised_vs_generic(
+    scene: &renderer::scene::Scene,
+    compiled: &CompiledScene,
+    name: &str,
+) -> anyhow::Result<(f32, f32)> {
+    use renderer::compile::KernelMode;
+    let spec = match name {
+        "vct" => serde_json::json!({"type": "vct", "resolution": 64}),
+        _ => serde_json::Value::String(name.into()),
+    };
+    let options = IntegratorOptions::parse(&spec, name)?;
+    let ctx = gpu();
+    let image = |kernels| -> anyhow::Result<Image> {
+        let mut s = RenderSession::with_kernels(
+            &ctx,
+            compiled,
+            &options,
+            scene.render.max_depth,
+            3,
+            kernels,
+        )?;
+        Ok(render(&mut s, Budget::Spp(2))?.0)
+    };
+    let (a, b) = (image(KernelMode::Specialized)?, image(KernelMode::Generic)?);
+    let d = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs() / p[c].abs().max(1e-3)))
+        .fold(0.0f32, f32::max);
+    Ok((d, if name == "bdpt" { 1e-3 } else { 1e-5 }))
+}

@@ -10,10 +10,9 @@
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
-use candela_tests::{gpu, repo_root};
-use renderer::compile::{compile, FeatureSet, KernelMode};
-use renderer::integrators::{names, IntegratorOptions};
-use renderer::render::{render, Budget, RenderSession};
+use candela_tests::{gpu, repo_root, specialised_vs_generic};
+use renderer::compile::{compile, FeatureSet};
+use renderer::integrators::names;
 use serde_json::Value;
 
 /// The project's scenes.
@@ -170,16 +169,6 @@ fn detected_features_are_exactly_the_used_ones() {
     }
 }
 
-/// Largest relative difference between two images, per channel, with a floor of 1e-3 on the
-/// denominator (dark pixels compare absolutely).
-fn max_rel_diff(a: &renderer::film::Image, b: &renderer::film::Image) -> f32 {
-    a.pixels
-        .iter()
-        .zip(&b.pixels)
-        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs() / p[c].abs().max(1e-3)))
-        .fold(0.0, f32::max)
-}
-
 #[test]
 fn specialised_and_generic_kernels_render_the_same_image() {
     let ctx = gpu();
@@ -188,30 +177,9 @@ fn specialised_and_generic_kernels_render_the_same_image() {
         let scene = renderer::scene::load_file(&path).unwrap();
         let compiled = compile(&scene, 8, 8).unwrap();
         for name in names() {
-            // The cheapest settings of each integrator: vct at its smallest volume.
-            let spec = match name {
-                "vct" => serde_json::json!({"type": "vct", "resolution": 64}),
-                _ => Value::String(name.into()),
-            };
-            let options = IntegratorOptions::parse(&spec, name).unwrap();
-            let image = |kernels| {
-                let mut s = RenderSession::with_kernels(
-                    &ctx,
-                    &compiled,
-                    &options,
-                    scene.render.max_depth,
-                    3,
-                    kernels,
-                )
+            let (d, tol) = specialised_vs_generic(&scene, &compiled, name)
                 .unwrap_or_else(|e| panic!("{} {name}: {e}", path.display()));
-                render(&mut s, Budget::Spp(2)).unwrap().0
-            };
-            let specialised = image(KernelMode::Specialized);
-            let generic = image(KernelMode::Generic);
-            let d = max_rel_diff(&specialised, &generic);
             worst = worst.max(d);
-            // bdpt's light-tracing splats add with float atomics in any order.
-            let tol = if name == "bdpt" { 1e-3 } else { 1e-5 };
             assert!(
                 d <= tol,
                 "{} {name}: specialised vs generic differ by {d:e} (relative)",

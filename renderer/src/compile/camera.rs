@@ -33,6 +33,10 @@ pub(super) fn globals(scene: &Scene, width: u32, height: u32, facts: SceneFacts)
         Filter::Box => (0, 0.5),
         Filter::Gaussian { stddev } => (1, stddev),
     };
+    let tables = match scene.film.filter {
+        Filter::Box => ([0.0; 32], [0; 32]),
+        Filter::Gaussian { .. } => gaussian_filter_tables(),
+    };
     let v4 = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
     let c = facts.center;
     GpuGlobals {
@@ -46,7 +50,9 @@ pub(super) fn globals(scene: &Scene, width: u32, height: u32, facts: SceneFacts)
             cam.focus_distance as f32,
         ],
         film: [width, height, filter_kind, facts.light_count],
-        filter: [stddev, 4.0 * stddev, 0.0, 0.0],
+        filter: gaussian_filter_params(stddev),
+        filter_c: tables.0,
+        filter_alias: tables.1,
         scene_sphere: [c.x as f32, c.y as f32, c.z as f32, facts.radius as f32],
         env: facts.env,
         env_params: facts.env_params,
@@ -57,5 +63,86 @@ pub(super) fn globals(scene: &Scene, width: u32, height: u32, facts: SceneFacts)
             facts.light_nodes[1],
         ],
         instances: [facts.instances[0], facts.instances[1], 0, 0],
+    }
+}
+
+/// The Gaussian filter's parameters as shaders/common/filter.glsl reads them: σ, the radius
+/// r = 4σ (Mitsuba's) and the width r/31 of one step of Mitsuba's discretised filter. The box
+/// filter reads none of them.
+fn gaussian_filter_params(stddev: f32) -> [f32; 4] {
+    let r = 4.0 * stddev;
+    [stddev, r, r / 31.0, 0.0]
+}
+
+/// The value of Mitsuba's discretised Gaussian on step k (rfilter.h `init_discretization`: the
+/// filter at r·k/31, k = 0..30, then 0), which does not depend on σ once r = 4σ:
+/// v_k = max(0, e^{−8k²/961} − e^{−8}). shaders/common/filter.glsl computes the same.
+fn filter_step(k: usize) -> f64 {
+    if k >= 31 {
+        return 0.0;
+    }
+    let x = 4.0 * k as f64 / 31.0;
+    ((-0.5 * x * x).exp() - (-8.0f64).exp()).max(0.0)
+}
+
+/// The tables of shaders/common/filter.glsl: the running sums C_k = Σ_{i<k} v_i (C_31: one side's
+/// mass, in steps) and an alias table (Walker / Vose) over the 31 steps of one side, each entry
+/// the probability of keeping its own step in 27-bit fixed point (bits 0..26) and the step it
+/// otherwise takes (bits 27..31).
+fn gaussian_filter_tables() -> ([f32; 32], [u32; 32]) {
+    let mut c = [0.0f32; 32];
+    let mut sum = 0.0f64;
+    for (k, ck) in c.iter_mut().enumerate() {
+        *ck = sum as f32;
+        sum += filter_step(k);
+    }
+    // Vose's method: scaled probabilities, small ones paired with large ones.
+    let n = 31;
+    let mut p: Vec<f64> = (0..n).map(|k| filter_step(k) * n as f64 / sum).collect();
+    let mut alias: Vec<usize> = (0..n).collect();
+    let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&k| p[k] < 1.0);
+    while let (Some(s), Some(&l)) = (small.pop(), large.last()) {
+        alias[s] = l;
+        p[l] -= 1.0 - p[s];
+        if p[l] < 1.0 {
+            large.pop();
+            small.push(l);
+        }
+    }
+    for k in large.into_iter().chain(small) {
+        p[k] = 1.0; // rounding leftovers keep their own step
+    }
+    let mut packed = [0u32; 32];
+    for k in 0..n {
+        let fixed = (p[k].clamp(0.0, 1.0) * (1u32 << 26) as f64).round() as u32;
+        packed[k] = fixed | (alias[k] as u32) << 27;
+    }
+    (c, packed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{filter_step, gaussian_filter_tables};
+
+    #[test]
+    fn gaussian_filter_tables_are_mitsubas_steps() {
+        // Mitsuba 3.9.1 scalar_rgb, gaussian stddev 0.5: eval_discretized(0.3) = 0.87498 (step 4),
+        // eval_discretized(1.9) = 0.000575 (step 29), and nothing past the radius.
+        assert!((filter_step(4) - 0.87498).abs() < 1e-4);
+        assert!((filter_step(29) - 0.000575).abs() < 2e-6 && filter_step(31) == 0.0);
+        let (c, alias) = gaussian_filter_tables();
+        assert_eq!(c[0], 0.0);
+        assert!((c[31] - 10.201988).abs() < 1e-5, "{}", c[31]);
+        // The alias table reproduces each step's probability v_k / C_31.
+        let mut mass = [0.0f64; 31];
+        for (k, &e) in alias[..31].iter().enumerate() {
+            let keep = (e & ((1 << 27) - 1)) as f64 / (1u32 << 26) as f64;
+            mass[k] += keep / 31.0;
+            mass[(e >> 27) as usize] += (1.0 - keep) / 31.0;
+        }
+        for (k, m) in mass.iter().enumerate() {
+            let want = filter_step(k) / c[31] as f64;
+            assert!((m - want).abs() < 1e-7, "step {k}: {m} vs {want}");
+        }
     }
 }

@@ -564,20 +564,22 @@ impl Ctx<'_> {
         }
         let to_uv = p.transform("to_uv")?;
         let (su, sv) = (to_uv.x_axis.x, to_uv.y_axis.y);
-        let pure_scale = to_uv.x_axis.y == 0.0
-            && to_uv.y_axis.x == 0.0
-            && to_uv.w_axis.x == 0.0
-            && to_uv.w_axis.y == 0.0;
+        let (tu, tv) = (to_uv.w_axis.x, to_uv.w_axis.y);
+        let scale_and_shift = to_uv.x_axis.y == 0.0 && to_uv.y_axis.x == 0.0;
         let (su, sv) = (
             su * p.float("uscale")?.unwrap_or(1.0),
             sv * p.float("vscale")?.unwrap_or(1.0),
         );
         let offset =
             p.float("uoffset")?.unwrap_or(0.0) != 0.0 || p.float("voffset")?.unwrap_or(0.0) != 0.0;
-        if !pure_scale || offset {
+        // Mitsuba's uv has v = 0 on the top row (candela's v flipped), so its row is sv·(1 − v)
+        // + tv where candela's `scale` gives 1 − sv·v: the same texel rows (repeat) exactly when
+        // tv ≡ 1 − sv and tu ≡ 0 modulo 1 (what candela's exporter writes).
+        let whole = |x: f64| (x - x.round()).abs() < 1e-6;
+        if !scale_and_shift || offset || !whole(tu) || !whole(tv - (1.0 - sv)) {
             self.report.unsupported(
                 &p.loc_of("to_uv"),
-                "texture \"bitmap\": a to_uv other than a scale is not supported",
+                "texture \"bitmap\": a to_uv other than a scale (with a v shift of 1 − scale, or a whole v scale) is not supported",
                 "its scale is kept",
             )?;
         }

@@ -515,11 +515,16 @@ fn bitmap(name: &str, file: &str, raw: bool, filter: &str, scale: Option<[f64; 2
         .string("filter_type", filter)
         .string("wrap_mode", "repeat");
     if let Some([su, sv]) = scale.filter(|s| *s != [1.0, 1.0]) {
-        b = b.child(
-            El::new("transform")
-                .attr("name", "to_uv")
-                .child(El::new("scale").attr("x", num(su)).attr("y", num(sv))),
-        );
+        // Mitsuba's v runs from the top row (candela's 1 − v): candela's row 1 − sv·v is Mitsuba's
+        // sv·(1 − v) shifted by 1 − sv (a whole number of rows when sv is whole).
+        let mut xf = El::new("transform")
+            .attr("name", "to_uv")
+            .child(El::new("scale").attr("x", num(su)).attr("y", num(sv)));
+        let shift = (1.0 - sv).rem_euclid(1.0);
+        if shift != 0.0 {
+            xf = xf.child(El::new("translate").attr("x", "0").attr("y", num(shift)));
+        }
+        b = b.child(xf);
     }
     b
 }
