@@ -29,10 +29,11 @@ class Textures:
     def __init__(self, scene_dir):
         self.scene_dir = scene_dir
 
-    def _tex(self, t, path, default_srgb):
+    def _tex(self, t, path):
         check_fields(t, path, {"texture", "srgb", "scale", "channel"}, required=("texture",))
         full = resolve(self.scene_dir, t["texture"], f"{path}.texture")
-        srgb = t.get("srgb", default_srgb)
+        # candela's default, for colour and scalar fields alike: sRGB for 8-bit formats only.
+        srgb = t.get("srgb", full.lower().endswith((".png", ".jpg", ".jpeg")))
         if not isinstance(srgb, bool):
             raise SceneError(f"{path}.srgb: expected true or false")
         s = t.get("scale", [1.0, 1.0])
@@ -53,18 +54,18 @@ class Textures:
         texture with a `channel` → a one-channel bitmap of that channel (grey)."""
         if not is_texture(v):
             return {"type": "rgb", "value": rgb(v, path)}
-        full, srgb, to_uv, channel = self._tex(v, path, True)
+        full, srgb, to_uv, channel = self._tex(v, path)
         if channel is not None:
-            r, w, h, to_uv = self.red(v, path, default_srgb=True)
+            r, w, h, to_uv = self.red(v, path)
             return {"type": "bitmap", "bitmap": mi.Bitmap(dr.scalar.TensorXf(r, (h, w, 1))),
                     "raw": True, "filter_type": "bilinear", "wrap_mode": "repeat", "to_uv": to_uv}
         return {"type": "bitmap", "filename": full, "raw": not srgb, "filter_type": "bilinear",
                 "wrap_mode": "repeat", "to_uv": to_uv}
 
-    def red(self, v, path, default_srgb=False):
+    def red(self, v, path):
         """The channel a scalar reads (`channel`, default red), linear →
         (drjit.scalar.ArrayXf, width, height, to_uv)."""
-        full, srgb, to_uv, channel = self._tex(v, path, default_srgb)
+        full, srgb, to_uv, channel = self._tex(v, path)
         bmp = mi.Bitmap(full)
         if not srgb:
             bmp.set_srgb_gamma(False)  # raw: take stored values as they are
