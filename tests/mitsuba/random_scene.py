@@ -16,7 +16,8 @@ line of facts the generator knows independently of candela's loader:
 
 A scene: an optional room or floor, one to four objects (spheres, boxes, quads, inline triangle
 meshes with or without normals and uvs, the uv sphere OBJ and, without --mitsuba, instances of it),
-materials drawn from every model and parameter the scene format has (textures included), and
+materials drawn from every model with random parameters (colour and roughness textures
+included; not alpha masks, texture channels or explicit srgb), and
 lights drawn from area quads and spheres, point, spot and directional lights, a constant or
 mapped environment; a pinhole or thin-lens camera, a box or Gaussian filter, max_depth 2..8 or
 unbounded. Same seed, same scene. With --mitsuba only translatable content is drawn.

@@ -1,4 +1,4 @@
-//! Random scenes (tests/mitsuba/random_scene.py: every material model and parameter, textures,
+//! Random scenes (tests/mitsuba/random_scene.py: every material model with random parameters, textures,
 //! meshes, instances, every light type, thin lens, Gaussian filter, max_depth 2..8 and unbounded)
 //! audited three ways, so that what holds on the project's scenes also holds on scenes nobody
 //! wrote by hand:
