@@ -467,7 +467,7 @@ fn textures_channels_masks_and_inline_meshes_survive_the_round_trip() {
         "camera": {"position": [0, 1, 5], "look_at": [0, 0.5, 0], "up": [0.1, 1, 0], "fov_y": 35, "aperture_radius": 0.05, "focus_distance": 4.5},
         "film": {"width": 40, "height": 30, "filter": "box"},
         "materials": {
-            "tex": {"type": "diffuse", "reflectance": {"texture": "grad.png", "scale": [2, 3]}, "two_sided": false},
+            "tex": {"type": "diffuse", "reflectance": {"texture": "grad.png", "scale": [0.5, 1.3]}, "two_sided": false},
             "rough": {"type": "conductor", "roughness": {"texture": "grad.png", "channel": "g"}, "eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.1]},
             "aniso": {"type": "conductor", "roughness": 0.4, "anisotropy": 0.5, "reflectance": [0.9, 0.8, 0.7]},
             "glass": {"type": "dielectric", "ior": 1.33, "roughness": 0.2, "transmittance": [0.9, 1, 0.9]},

@@ -29,12 +29,13 @@
 //!   (seed_lo and seed_hi); each pairing uses at least 1e5 pairs.
 
 mod common;
-use common::context;
+use common::stats::{chi_square, Chi2, SplitMix64};
+use common::{context, run_check_kernel};
 
 use std::f64::consts::PI;
 use std::sync::Arc;
 
-use renderer::gpu::{compile_glsl, Binding, Buffer, BufferUsage, ComputePipeline, GpuContext};
+use renderer::gpu::GpuContext;
 
 const MODE_COSINE_HEMISPHERE: u32 = 0;
 const MODE_UNIFORM_SPHERE: u32 = 1;
@@ -72,51 +73,17 @@ struct Push {
 /// Runs one mode of sampling_check.comp over `inputs` (or `count` RNG keys) and reads back
 /// `out_count` vec4s.
 fn run(ctx: &Arc<GpuContext>, push: Push, inputs: &[[f32; 4]], out_count: usize) -> Vec<[f32; 4]> {
-    let spirv = compile_glsl("tests/sampling_check.comp", &Vec::new()).expect("compile");
-    let placeholder = [[0.0f32; 4]];
-    let in_data = if inputs.is_empty() {
-        &placeholder[..]
-    } else {
-        inputs
-    };
-    let in_buf = Buffer::from_slice(ctx, "sampling inputs", in_data).expect("inputs");
-    let out_buf = Buffer::new(
+    run_check_kernel(
         ctx,
-        "sampling outputs",
-        (out_count * 16) as u64,
-        BufferUsage::Storage,
-    )
-    .expect("outputs");
-    ctx.fill_zero(&out_buf).expect("fill");
-    let pipeline = ComputePipeline::new(
-        ctx,
-        "sampling_check",
-        &spirv,
-        &[
-            Binding {
-                index: BINDING_INPUTS,
-                buffer: &in_buf,
-            },
-            Binding {
-                index: BINDING_OUTPUTS,
-                buffer: &out_buf,
-            },
-        ],
+        "tests/sampling_check.comp",
+        [BINDING_INPUTS, BINDING_OUTPUTS],
+        &[],
+        bytemuck::bytes_of(&push),
         std::mem::size_of::<Push>() as u32,
+        push.count,
+        inputs,
+        out_count,
     )
-    .expect("pipeline");
-    let groups = push.count.div_ceil(64);
-    ctx.record(1, |rec| {
-        rec.dispatch(
-            &pipeline,
-            bytemuck::bytes_of(&push),
-            [groups, 1, 1],
-            "sampling_check",
-        )
-    })
-    .expect("dispatch");
-    ctx.download_vec::<[f32; 4]>(&out_buf, out_count)
-        .expect("download")
 }
 
 fn push(mode: u32, count: usize, param: f32) -> Push {
@@ -143,24 +110,6 @@ fn finish(ctx: &Arc<GpuContext>) {
     }
 }
 
-/// SplitMix64 (Steele et al. 2014): the host-side source of the uniforms fed to the warps.
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// A uniform in [0, 1) with 24 bits, exactly representable in f32 (as the GPU RNG makes).
-    fn next_f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 * (1.0 / 16_777_216.0)
-    }
-}
-
 /// N_WARP uniform 2D points (z, w = 0) from a fixed seed.
 fn uniforms(seed: u64) -> Vec<[f32; 4]> {
     let mut rng = SplitMix64(seed);
@@ -175,121 +124,6 @@ fn edge_inputs() -> Vec<[f32; 4]> {
     v.iter()
         .flat_map(|&x| v.iter().map(move |&y| [x, y, 0.0, 0.0]))
         .collect()
-}
-
-// ---- chi-square machinery -----------------------------------------------------------------
-
-/// ln Γ(x) for x > 0 (Lanczos, g = 7, n = 9; ~1e-15 relative).
-fn ln_gamma(x: f64) -> f64 {
-    const G: [f64; 9] = [
-        0.999_999_999_999_809_9,
-        676.520_368_121_885_1,
-        -1_259.139_216_722_402_8,
-        771.323_428_777_653_1,
-        -176.615_029_162_140_6,
-        12.507_343_278_686_905,
-        -0.138_571_095_265_720_12,
-        9.984_369_578_019_572e-6,
-        1.505_632_735_149_311_6e-7,
-    ];
-    if x < 0.5 {
-        return (PI / (PI * x).sin()).ln() - ln_gamma(1.0 - x);
-    }
-    let x = x - 1.0;
-    let mut a = G[0];
-    let t = x + 7.5;
-    for (i, g) in G.iter().enumerate().skip(1) {
-        a += g / (x + i as f64);
-    }
-    0.5 * (2.0 * PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
-}
-
-/// Regularised upper incomplete gamma Q(a, x) (Numerical Recipes §6.2: series below a + 1,
-/// Lentz's continued fraction above).
-fn gamma_q(a: f64, x: f64) -> f64 {
-    if x <= 0.0 {
-        return 1.0;
-    }
-    let ln_prefactor = -x + a * x.ln() - ln_gamma(a);
-    if x < a + 1.0 {
-        let (mut ap, mut sum, mut del) = (a, 1.0 / a, 1.0 / a);
-        for _ in 0..10_000 {
-            ap += 1.0;
-            del *= x / ap;
-            sum += del;
-            if del.abs() < sum.abs() * 1e-15 {
-                break;
-            }
-        }
-        1.0 - sum * ln_prefactor.exp()
-    } else {
-        let tiny = 1e-300;
-        let mut b = x + 1.0 - a;
-        let mut c = 1.0 / tiny;
-        let mut d = 1.0 / b;
-        let mut h = d;
-        for i in 1..10_000 {
-            let an = -(i as f64) * (i as f64 - a);
-            b += 2.0;
-            d = an * d + b;
-            if d.abs() < tiny {
-                d = tiny;
-            }
-            c = b + an / c;
-            if c.abs() < tiny {
-                c = tiny;
-            }
-            d = 1.0 / d;
-            let del = d * c;
-            h *= del;
-            if (del - 1.0).abs() < 1e-15 {
-                break;
-            }
-        }
-        ln_prefactor.exp() * h
-    }
-}
-
-/// Outcome of a chi-square test.
-struct Chi2 {
-    chi2: f64,
-    dof: usize,
-    p: f64,
-    /// Points in bins whose expected count is 0 (each is a hard failure).
-    impossible: u64,
-}
-
-/// Pearson's chi-square of `observed` counts against `prob` (bin probabilities, summing to ~1)
-/// for `n` points; bins expected below 5 are pooled into one (Mitsuba 3's `ChiSquareTest`).
-fn chi_square(observed: &[u64], prob: &[f64], n: u64) -> Chi2 {
-    let mut order: Vec<usize> = (0..observed.len()).collect();
-    order.sort_by(|&i, &j| prob[i].total_cmp(&prob[j]));
-    let (mut chi2, mut dof, mut impossible) = (0.0, 0usize, 0u64);
-    let (mut pool_obs, mut pool_exp) = (0.0f64, 0.0f64);
-    for &i in &order {
-        let expected = prob[i] * n as f64;
-        let obs = observed[i] as f64;
-        if expected <= 0.0 {
-            impossible += observed[i];
-        } else if expected < 5.0 {
-            pool_obs += obs;
-            pool_exp += expected;
-        } else {
-            chi2 += (obs - expected).powi(2) / expected;
-            dof += 1;
-        }
-    }
-    if pool_exp > 0.0 {
-        chi2 += (pool_obs - pool_exp).powi(2) / pool_exp;
-        dof += 1;
-    }
-    let dof = dof.saturating_sub(1).max(1);
-    Chi2 {
-        chi2,
-        dof,
-        p: gamma_q(dof as f64 / 2.0, chi2 / 2.0),
-        impossible,
-    }
 }
 
 /// Bins (x, y) ∈ [0, 1)² on a BINS × BINS grid (values at or past 1 go to the last bin; values

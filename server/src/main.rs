@@ -35,6 +35,17 @@ use clap::Parser;
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
+    if quiet_on_closed_pipe(&args.command) {
+        // A reader that stops early (`candela compare … | head`) ends the process as it ends
+        // other Unix tools, instead of a write error that `println!` turns into a panic. Rust
+        // ignores SIGPIPE by default; the commands that hold network connections (serve, worker,
+        // and gc / users with a PostgreSQL store) keep that, so a broken socket is an error.
+        // SAFETY: setting a signal's disposition before any thread starts.
+        #[cfg(unix)]
+        unsafe {
+            libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+        }
+    }
     // The server logs what it does (info); the one-shot commands only warnings.
     let default_filter = match args.command {
         cli::Command::Serve(_) | cli::Command::Worker(_) => "warn,candela=info",
@@ -55,4 +66,13 @@ fn main() -> ExitCode {
             ExitCode::from(e.code)
         }
     }
+}
+
+/// The commands that only read and write local files and standard output.
+fn quiet_on_closed_pipe(command: &cli::Command) -> bool {
+    use cli::Command::*;
+    matches!(
+        command,
+        Render(_) | Bench(_) | Compare(_) | Convert(_) | Devices { .. }
+    )
 }

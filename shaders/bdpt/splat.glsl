@@ -76,9 +76,12 @@ void splat_film(vec2 film, vec3 L, bool odd) {
         float r = g.filter_params.y;
         ivec2 lo = max(ivec2(ceil(film - 0.5 - r)), ivec2(0));
         ivec2 hi = min(ivec2(floor(film - 0.5 + r)), res - 1);
+        // The filter is separable: each row's weight once, then each pixel's along the row.
         for (int y = lo.y; y <= hi.y; ++y) {
+            float wy = filter_eval_axis(film.y - (float(y) + 0.5), float(y) + 0.5, float(res.y));
+            if (wy <= 0.0) continue;
             for (int x = lo.x; x <= hi.x; ++x) {
-                float wf = filter_eval(film - (vec2(x, y) + 0.5), uvec2(x, y));
+                float wf = wy * filter_eval_axis(film.x - (float(x) + 0.5), float(x) + 0.5, float(res.x));
                 if (wf > 0.0) splat_add(uint(y * res.x + x), L * wf, odd);
             }
         }

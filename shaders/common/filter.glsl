@@ -31,8 +31,8 @@ float filter_p(float q) {
     return g.filter_c[k] + (q - float(k)) * filter_v(k);
 }
 
-// The mass of [−31, z], z in steps.
-float filter_mass(float z) { return g.filter_c[31] + sign(z) * filter_p(abs(z)); }
+// The signed mass of [0, z], z in steps (negative for z < 0).
+float filter_mass(float z) { return sign(z) * filter_p(abs(z)); }
 
 // P⁻¹(s), s ∈ [0, C_31]: the step k with C_k ≤ s < C_{k+1} (binary search), then linear in it.
 float filter_p_inv(float s) {
@@ -44,20 +44,29 @@ float filter_p_inv(float s) {
     return float(lo) + (s - g.filter_c[lo]) / filter_v(lo);
 }
 
+// Whether the filter of a pixel centred at c lies wholly on an axis of n pixels (its radius r
+// from both edges): the test that picks the alias table, without a division.
+bool filter_whole(float c, float n) {
+    float r = g.filter_params.y;
+    return c >= r && n - c >= r;
+}
+
 // The interval (in steps) that the filter of a pixel centred at c keeps on an axis of n pixels.
 vec2 filter_interval(float c, float n) {
+    if (filter_whole(c, n)) return vec2(-31.0, 31.0);
     float h = g.filter_params.z;
     return vec2(max(-31.0, -c / h), min(31.0, (n - c) / h));
 }
 
-// The mass of interval iv (in steps): both sides' whole mass for a pixel away from the edges.
+// The signed masses of interval iv's ends (in steps): ±C_31 for a pixel away from the edges.
 vec2 filter_masses(vec2 iv) {
-    if (iv.x == -31.0 && iv.y == 31.0) return vec2(0.0, 2.0 * g.filter_c[31]);
+    if (iv.x == -31.0 && iv.y == 31.0) return vec2(-g.filter_c[31], g.filter_c[31]);
     return vec2(filter_mass(iv.x), filter_mass(iv.y));
 }
 
 // An offset (in steps) drawn from the whole filter: a side from u's first half or second, a step
-// from the alias table (bits 0..26: the probability of keeping it, 27..31: the other step), and a
+// from the alias table (bits 0..26: the probability of keeping it, times 2^24; 27..31: the other
+// step), and a
 // point uniform in it, from what is left of u (Vose's method reuses the fraction).
 float filter_sample_whole(float u) {
     float side = u < 0.5 ? -1.0 : 1.0;
@@ -65,7 +74,7 @@ float filter_sample_whole(float u) {
     int j = min(int(x), 30);
     float f = x - float(j);
     uint e = g.filter_alias[j];
-    float keep = float(e & 0x7ffffffu) * (1.0 / 67108864.0);
+    float keep = float(e & 0x7ffffffu) * (1.0 / 16777216.0);
     float q = f < keep ? float(j) + f / keep : float(e >> 27) + (f - keep) / (1.0 - keep);
     return side * min(q, 31.0);
 }
@@ -73,19 +82,21 @@ float filter_sample_whole(float u) {
 // An offset (pixels) drawn from the cut filter of the pixel centred at c on an axis of n pixels:
 // the alias table away from the edges, P inverted on the kept interval near them.
 float filter_sample_axis(float u, float c, float n) {
+    if (filter_whole(c, n)) return filter_sample_whole(u) * g.filter_params.z;
     vec2 iv = filter_interval(c, n);
-    if (iv.x == -31.0 && iv.y == 31.0) return filter_sample_whole(u) * g.filter_params.z;
-    float t = mix(filter_mass(iv.x), filter_mass(iv.y), u) - g.filter_c[31];
+    float t = mix(filter_mass(iv.x), filter_mass(iv.y), u);
     float z = t >= 0.0 ? filter_p_inv(t) : -filter_p_inv(-t);
     return clamp(z, iv.x, iv.y) * g.filter_params.z;
 }
 
-// The cut filter's density (per pixel) at offset o from a centre c on an axis of n pixels.
+// The cut filter's density (per pixel) at offset o from a centre c on an axis of n pixels: 0 off
+// the kept interval (off the film, or past the radius).
 float filter_eval_axis(float o, float c, float n) {
-    float h = g.filter_params.z, q = abs(o) / h;
-    if (!(q < 31.0)) return 0.0;
-    vec2 m = filter_masses(filter_interval(c, n));
-    return filter_v(int(q)) / (h * (m.y - m.x));
+    float h = g.filter_params.z, z = o / h;
+    vec2 iv = filter_interval(c, n);
+    if (!(z >= iv.x && z < iv.y)) return 0.0;
+    vec2 m = filter_masses(iv);
+    return filter_v(int(abs(z))) / (h * (m.y - m.x));
 }
 
 // An offset from the centre of pixel `px`, drawn from its filter.

@@ -158,3 +158,25 @@ fn bad_input_exits_2() {
         &["--exposure"],
     );
 }
+
+#[test]
+fn a_reader_that_stops_early_ends_it_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::{Command, Stdio};
+    // `candela compare a b | head -0`: standard output is closed before the report is written.
+    let dir = scratch("compare_closed_pipe");
+    let a = exr(&dir, "a.exr", &pattern(64, 48, 0.0));
+    let b = exr(&dir, "b.exr", &pattern(64, 48, 0.25));
+    let mut child = Command::new(candela_tests::candela())
+        .args(["compare", a.to_str().unwrap(), b.to_str().unwrap()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run candela");
+    drop(child.stdout.take());
+    let o = child.wait_with_output().expect("wait");
+    let err = text(&o.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    // Ended by SIGPIPE (13), as Unix tools are.
+    assert_eq!(o.status.signal(), Some(13), "{:?}: {err}", o.status);
+}

@@ -30,6 +30,19 @@ use crate::layout::{GpuGridInfo, GpuPrim, PRIM_SPHERE};
 pub const DEFAULT_DENSITY: f64 = 3.0;
 /// Most cells along one axis.
 pub const MAX_AXIS: u32 = 512;
+
+/// An explicit grid resolution (cells along the longest axis), checked: the one rule that the
+/// scene file, the CLI, the HTTP API and the acceleration choice apply. The error is the part of
+/// a message after its location.
+pub fn check_resolution(r: u64) -> Result<u32, String> {
+    if (1..=MAX_AXIS as u64).contains(&r) {
+        Ok(r as u32)
+    } else {
+        Err(format!(
+            "must be in [1, {MAX_AXIS}] (cells along the longest axis), got {r}"
+        ))
+    }
+}
 /// Most cells in the whole grid (64 MiB of offsets).
 pub const MAX_CELLS: u64 = 1 << 24;
 /// Cells are grown by this fraction of their width when primitives are inserted.

@@ -425,12 +425,7 @@ impl AccelOptions {
         let kind = parse_request(name)?.unwrap_or_else(|| auto_kind(size));
         let res = request.grid_resolution.or(scene.grid_resolution);
         if let Some(r) = res {
-            if !(1..=grid::MAX_AXIS).contains(&r) {
-                return Err(format!(
-                    "grid resolution must be in [1, {}], got {r}",
-                    grid::MAX_AXIS
-                ));
-            }
+            grid::check_resolution(r.into()).map_err(|e| format!("grid resolution {e}"))?;
         }
         Ok(AccelOptions {
             kind,

@@ -3,6 +3,7 @@
 
 use glam::DVec3;
 
+use super::lights::alias_table;
 use crate::layout::GpuGlobals;
 use crate::scene::{Filter, Scene};
 
@@ -29,13 +30,12 @@ pub(super) fn globals(scene: &Scene, width: u32, height: u32, facts: SceneFacts)
     let right = forward.cross(cam.up).normalize();
     let up = right.cross(forward);
     let tan_half = (cam.fov_y.to_radians() * 0.5).tan();
-    let (filter_kind, stddev) = match scene.film.filter {
-        Filter::Box => (0, 0.5),
-        Filter::Gaussian { stddev } => (1, stddev),
-    };
-    let tables = match scene.film.filter {
-        Filter::Box => ([0.0; 32], [0; 32]),
-        Filter::Gaussian { .. } => gaussian_filter_tables(),
+    // The box filter reads none of the Gaussian's parameters or tables: zeros.
+    let (filter_kind, filter_params, tables) = match scene.film.filter {
+        Filter::Box => (0, [0.0; 4], ([0.0; 32], [0; 32])),
+        Filter::Gaussian { stddev } => {
+            (1, gaussian_filter_params(stddev), gaussian_filter_tables())
+        }
     };
     let v4 = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
     let c = facts.center;
@@ -50,7 +50,7 @@ pub(super) fn globals(scene: &Scene, width: u32, height: u32, facts: SceneFacts)
             cam.focus_distance as f32,
         ],
         film: [width, height, filter_kind, facts.light_count],
-        filter: gaussian_filter_params(stddev),
+        filter: filter_params,
         filter_c: tables.0,
         filter_alias: tables.1,
         scene_sphere: [c.x as f32, c.y as f32, c.z as f32, facts.radius as f32],
@@ -67,8 +67,7 @@ pub(super) fn globals(scene: &Scene, width: u32, height: u32, facts: SceneFacts)
 }
 
 /// The Gaussian filter's parameters as shaders/common/filter.glsl reads them: σ, the radius
-/// r = 4σ (Mitsuba's) and the width r/31 of one step of Mitsuba's discretised filter. The box
-/// filter reads none of them.
+/// r = 4σ (Mitsuba's) and the width r/31 of one step of Mitsuba's discretised filter.
 fn gaussian_filter_params(stddev: f32) -> [f32; 4] {
     let r = 4.0 * stddev;
     [stddev, r, r / 31.0, 0.0]
@@ -86,9 +85,9 @@ fn filter_step(k: usize) -> f64 {
 }
 
 /// The tables of shaders/common/filter.glsl: the running sums C_k = Σ_{i<k} v_i (C_31: one side's
-/// mass, in steps) and an alias table (Walker / Vose) over the 31 steps of one side, each entry
-/// the probability of keeping its own step in 27-bit fixed point (bits 0..26) and the step it
-/// otherwise takes (bits 27..31).
+/// mass, in steps) and an alias table over the 31 steps of one side (`alias_table`, the lights'),
+/// each entry the probability of keeping its own step in fixed point with 24 fractional bits
+/// (bits 0..26; exact in an f32) and the step it otherwise takes (bits 27..31).
 fn gaussian_filter_tables() -> ([f32; 32], [u32; 32]) {
     let mut c = [0.0f32; 32];
     let mut sum = 0.0f64;
@@ -96,33 +95,21 @@ fn gaussian_filter_tables() -> ([f32; 32], [u32; 32]) {
         *ck = sum as f32;
         sum += filter_step(k);
     }
-    // Vose's method: scaled probabilities, small ones paired with large ones.
-    let n = 31;
-    let mut p: Vec<f64> = (0..n).map(|k| filter_step(k) * n as f64 / sum).collect();
-    let mut alias: Vec<usize> = (0..n).collect();
-    let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&k| p[k] < 1.0);
-    while let (Some(s), Some(&l)) = (small.pop(), large.last()) {
-        alias[s] = l;
-        p[l] -= 1.0 - p[s];
-        if p[l] < 1.0 {
-            large.pop();
-            small.push(l);
-        }
-    }
-    for k in large.into_iter().chain(small) {
-        p[k] = 1.0; // rounding leftovers keep their own step
-    }
+    let pmf: Vec<f64> = (0..31).map(|k| filter_step(k) / sum).collect();
     let mut packed = [0u32; 32];
-    for k in 0..n {
-        let fixed = (p[k].clamp(0.0, 1.0) * (1u32 << 26) as f64).round() as u32;
-        packed[k] = fixed | (alias[k] as u32) << 27;
+    for (slot, entry) in packed.iter_mut().zip(alias_table(&pmf)) {
+        let keep = (entry.prob.clamp(0.0, 1.0) as f64 * FILTER_KEEP_ONE as f64).round() as u32;
+        *slot = keep | entry.alias << 27;
     }
     (c, packed)
 }
 
+/// A keep probability of 1 in the filter's alias entries (shaders/common/filter.glsl divides by it).
+const FILTER_KEEP_ONE: u32 = 1 << 24;
+
 #[cfg(test)]
 mod tests {
-    use super::{filter_step, gaussian_filter_tables};
+    use super::{filter_step, gaussian_filter_tables, FILTER_KEEP_ONE};
 
     #[test]
     fn gaussian_filter_tables_are_mitsubas_steps() {
@@ -136,7 +123,7 @@ mod tests {
         // The alias table reproduces each step's probability v_k / C_31.
         let mut mass = [0.0f64; 31];
         for (k, &e) in alias[..31].iter().enumerate() {
-            let keep = (e & ((1 << 27) - 1)) as f64 / (1u32 << 26) as f64;
+            let keep = (e & ((1 << 27) - 1)) as f32 as f64 / FILTER_KEEP_ONE as f64;
             mass[k] += keep / 31.0;
             mass[(e >> 27) as usize] += (1.0 - keep) / 31.0;
         }

@@ -181,7 +181,8 @@ pub fn alias_table(pmf: &[f64]) -> Vec<GpuAlias> {
         n
     ];
     let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| scaled[i] < 1.0);
-    while let (Some(s), Some(&l)) = (small.pop(), large.last()) {
+    while let Some(&l) = large.last() {
+        let Some(s) = small.pop() else { break };
         table[s] = GpuAlias {
             prob: scaled[s] as f32,
             alias: l as u32,

@@ -275,7 +275,7 @@ pub(crate) fn render(d: Option<&RenderDesc>) -> Result<RenderDefaults, SceneErro
 
 /// `render.accel` and `render.grid_resolution` (docs/accel.md).
 fn accel(d: &RenderDesc) -> Result<(Option<String>, Option<u32>), SceneError> {
-    use crate::accel::{grid::MAX_AXIS, parse_request};
+    use crate::accel::{grid::check_resolution, parse_request};
     if let Some(name) = &d.accel {
         parse_request(name).map_err(|e| SceneError::invalid("render.accel", e))?;
     }
@@ -287,13 +287,9 @@ fn accel(d: &RenderDesc) -> Result<(Option<String>, Option<u32>), SceneError> {
                 "only applies to \"accel\": \"grid\"",
             ))
         }
-        Some(r) if (1..=MAX_AXIS as u64).contains(&r) => Some(r as u32),
-        Some(r) => {
-            return Err(SceneError::invalid(
-                "render.grid_resolution",
-                format!("must be in [1, {MAX_AXIS}] (cells along the longest axis), got {r}"),
-            ))
-        }
+        Some(r) => Some(
+            check_resolution(r).map_err(|e| SceneError::invalid("render.grid_resolution", e))?,
+        ),
     };
     Ok((d.accel.clone(), res))
 }

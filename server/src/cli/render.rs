@@ -151,12 +151,8 @@ fn check_args(a: &RenderArgs) -> Result<(), CliError> {
         renderer::accel::parse_request(k).map_err(|e| CliError::input(format!("--accel: {e}")))?;
     }
     if let Some(r) = a.grid_resolution {
-        let max = renderer::accel::grid::MAX_AXIS;
-        if r == 0 || r > max {
-            return Err(CliError::input(format!(
-                "--grid-resolution: must be in 1..={max} (cells along the longest axis), got {r}"
-            )));
-        }
+        renderer::accel::grid::check_resolution(r.into())
+            .map_err(|e| CliError::input(format!("--grid-resolution: {e}")))?;
         if a.accel.as_deref().is_some_and(|k| k != "grid") {
             return Err(CliError::input(
                 "--grid-resolution: only applies to --accel grid",

@@ -178,7 +178,7 @@ fn integrator_options(
 
 /// The request's `accel` field: a name or `{"type", "grid_resolution"}`, checked.
 fn accel_setting(v: Option<&Value>) -> Result<Option<AccelSetting>, ApiError> {
-    use renderer::accel::{grid::MAX_AXIS, parse_request};
+    use renderer::accel::{grid::check_resolution, parse_request};
     let setting: AccelSetting = match v {
         None | Some(Value::Null) => return Ok(None),
         Some(Value::String(name)) => AccelSetting {
@@ -198,12 +198,12 @@ fn accel_setting(v: Option<&Value>) -> Result<Option<AccelSetting>, ApiError> {
     parse_request(&setting.kind)
         .map_err(|e| ApiError::invalid("accel.type", format!("accel.type: {e}")))?;
     if let Some(r) = setting.grid_resolution {
-        if r == 0 || r > MAX_AXIS {
-            return Err(ApiError::invalid(
+        check_resolution(r.into()).map_err(|e| {
+            ApiError::invalid(
                 "accel.grid_resolution",
-                format!("accel.grid_resolution: must be in 1..={MAX_AXIS}, got {r}"),
-            ));
-        }
+                format!("accel.grid_resolution: {e}"),
+            )
+        })?;
         if setting.kind != "grid" {
             return Err(ApiError::invalid(
                 "accel.grid_resolution",

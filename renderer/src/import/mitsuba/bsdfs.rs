@@ -566,17 +566,18 @@ impl Ctx<'_> {
         let (su, sv) = (to_uv.x_axis.x, to_uv.y_axis.y);
         let (tu, tv) = (to_uv.w_axis.x, to_uv.w_axis.y);
         let scale_and_shift = to_uv.x_axis.y == 0.0 && to_uv.y_axis.x == 0.0;
-        let (su, sv) = (
-            su * p.float("uscale")?.unwrap_or(1.0),
-            sv * p.float("vscale")?.unwrap_or(1.0),
-        );
+        let legacy = (p.float("uscale")?, p.float("vscale")?);
+        let (su, sv) = (su * legacy.0.unwrap_or(1.0), sv * legacy.1.unwrap_or(1.0));
+        // Legacy uscale/vscale with a to_uv shift compose in no defined order.
+        let legacy_with_shift = legacy != (None, None) && (tu, tv) != (0.0, 0.0);
         let offset =
             p.float("uoffset")?.unwrap_or(0.0) != 0.0 || p.float("voffset")?.unwrap_or(0.0) != 0.0;
         // Mitsuba's uv has v = 0 on the top row (candela's v flipped), so its row is sv·(1 − v)
         // + tv where candela's `scale` gives 1 − sv·v: the same texel rows (repeat) exactly when
         // tv ≡ 1 − sv and tu ≡ 0 modulo 1 (what candela's exporter writes).
         let whole = |x: f64| (x - x.round()).abs() < 1e-6;
-        if !scale_and_shift || offset || !whole(tu) || !whole(tv - (1.0 - sv)) {
+        if !scale_and_shift || offset || legacy_with_shift || !whole(tu) || !whole(tv - (1.0 - sv))
+        {
             self.report.unsupported(
                 &p.loc_of("to_uv"),
                 "texture \"bitmap\": a to_uv other than a scale (with a v shift of 1 − scale, or a whole v scale) is not supported",

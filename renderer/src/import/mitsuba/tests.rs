@@ -350,3 +350,47 @@ fn an_error_in_a_shapegroup_member_names_the_member_line() {
     let e = imp.load(&Default::default()).unwrap_err().to_string();
     assert!(e.contains("s.xml:4: "), "{e}");
 }
+
+#[test]
+fn bitmap_to_uv_scale_with_its_v_shift_is_kept_and_others_are_reported() {
+    let textured = |transform: &str| {
+        format!(
+            "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\"><string name=\"filename\" value=\"grad.png\"/>\n{transform}</texture></bsdf></shape>"
+        )
+    };
+    // Mitsuba's v runs from the top row: a scale sv with a v shift of 1 − sv (what candela's
+    // exporter writes) is candela's scale exactly, also with whole shifts added.
+    for shift in ["-0.3", "0.7", "2.7"] {
+        let body = textured(&format!(
+            "<transform name=\"to_uv\"><scale x=\"0.5\" y=\"1.3\"/><translate y=\"{shift}\"/></transform>"
+        ));
+        let imp = import_body(&body, false).unwrap_or_else(|e| panic!("{shift}: {e}"));
+        let uv_warnings = imp
+            .warnings
+            .iter()
+            .filter(|w| format!("{w:?}").contains("to_uv"));
+        assert_eq!(uv_warnings.count(), 0, "{shift}: {:?}", imp.warnings);
+        let m = imp.doc["materials"]
+            .as_object()
+            .unwrap()
+            .values()
+            .next()
+            .unwrap()
+            .clone();
+        assert_eq!(m["reflectance"]["scale"], json!([0.5, 1.3]), "{shift}");
+    }
+    // A non-whole v scale without its shift, a u shift, and legacy scales with a shift.
+    let transform = |t: &str| format!("<transform name=\"to_uv\">{t}</transform>");
+    for body in [
+        textured(&transform("<scale x=\"1\" y=\"0.5\"/>")),
+        textured(&transform(
+            "<scale x=\"2\" y=\"2\"/><translate x=\"0.25\" y=\"-1\"/>",
+        )),
+        textured(&format!(
+            "<float name=\"vscale\" value=\"2\"/>{}",
+            transform("<scale y=\"0.25\"/><translate y=\"0.5\"/>")
+        )),
+    ] {
+        refused(&body, 3, &["to_uv other than a scale"]);
+    }
+}
