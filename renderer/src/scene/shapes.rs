@@ -54,7 +54,23 @@ pub(crate) fn quad(d: &QuadDesc, path: &str) -> Result<RawMesh, SceneError> {
     Ok(mesh)
 }
 
-/// A `box` object at `path`: 6 faces × 2 triangles, per-face UVs, normals outward.
+/// The corners of Mitsuba 3's cube (shapes/cube.cpp), four per face in the order of
+/// `CUBE_UVS`, faces −y, +y, +x, +z, −x, −z; the triangles of a face are (0, 1, 2) and (3, 0, 2),
+/// wound outward.
+const CUBE_FACES: [[[i8; 3]; 4]; 6] = [
+    [[1, -1, -1], [1, -1, 1], [-1, -1, 1], [-1, -1, -1]],
+    [[1, 1, -1], [-1, 1, -1], [-1, 1, 1], [1, 1, 1]],
+    [[1, -1, -1], [1, 1, -1], [1, 1, 1], [1, -1, 1]],
+    [[1, -1, 1], [1, 1, 1], [-1, 1, 1], [-1, -1, 1]],
+    [[-1, -1, 1], [-1, 1, 1], [-1, 1, -1], [-1, -1, -1]],
+    [[1, 1, -1], [1, -1, -1], [-1, -1, -1], [-1, 1, -1]],
+];
+
+/// Mitsuba's uvs of each face's four corners (Mitsuba's v: 0 on a texture's top row).
+const CUBE_UVS: [[f32; 2]; 4] = [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
+
+/// A `box` object at `path`: 6 faces × 2 triangles, per-face UVs, normals outward, exactly
+/// Mitsuba's `cube` scaled and moved onto [min, max].
 pub(crate) fn cube(d: &BoxDesc, path: &str) -> Result<RawMesh, SceneError> {
     let min = DVec3::from_array(d.min);
     let max = DVec3::from_array(d.max);
@@ -69,25 +85,25 @@ pub(crate) fn cube(d: &BoxDesc, path: &str) -> Result<RawMesh, SceneError> {
             ));
         }
     }
+    // Step 2: Mitsuba's cube (shapes/cube.cpp) on [−1, 1]³ mapped onto [min, max]: its corners,
+    // uvs and triangles face by face, so that textures and anisotropic tangents (dp/du) agree.
     let extent = max - min;
     let mut mesh = RawMesh {
         uvs: Some(Vec::with_capacity(24)),
         ..Default::default()
     };
-    for k in 0..3 {
-        // (i, j, k) cyclic, so e_i × e_j = e_k.
-        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
-        let along = |axis: usize| {
-            let mut v = DVec3::ZERO;
-            v[axis] = extent[axis];
-            v
-        };
-        // +k face: origin on the max side, eu along i, ev along j (eu × ev = +e_k).
-        let mut origin = min;
-        origin[k] = max[k];
-        push_parallelogram(&mut mesh, origin, along(i), along(j));
-        // −k face: origin on the min side, eu along j, ev along i (eu × ev = −e_k).
-        push_parallelogram(&mut mesh, min, along(j), along(i));
+    for face in CUBE_FACES {
+        let base = mesh.positions.len() as u32;
+        for (corner, uv) in face.iter().zip(CUBE_UVS) {
+            let unit = DVec3::from_array(corner.map(|c| c as f64));
+            mesh.positions.push(min + (unit + 1.0) * 0.5 * extent);
+            if let Some(uvs) = &mut mesh.uvs {
+                // candela reads v = 1 on a texture's top row, Mitsuba v = 0 (see QUAD_UVS).
+                uvs.push(Vec2::new(uv[0], 1.0 - uv[1]));
+            }
+        }
+        mesh.indices.push([base, base + 1, base + 2]);
+        mesh.indices.push([base + 3, base, base + 2]);
     }
     Ok(mesh)
 }
@@ -291,6 +307,66 @@ mod tests {
         assert_eq!(
             cube(&bad, "objects[4]").unwrap_err().path(),
             Some("objects[4].max")
+        );
+    }
+
+    #[test]
+    fn box_has_mitsubas_cube_uvs_and_tangents() {
+        // Mitsuba 3.9.1 scalar_rgb, `cube`: the direction of dp/du (the anisotropic tangent) on
+        // each face, by outward normal, and uv (0.565, 0.565) where a ray up from (0.13, −5, 0.13)
+        // meets the −y face.
+        let want = [
+            (-DVec3::Y, DVec3::Z),
+            (DVec3::Y, -DVec3::X),
+            (DVec3::X, DVec3::Y),
+            (DVec3::Z, DVec3::Y),
+            (-DVec3::X, DVec3::Y),
+            (-DVec3::Z, -DVec3::Y),
+        ];
+        let d: BoxDesc =
+            serde_json::from_str(r#"{"min": [-1, -1, -1], "max": [1, 1, 1]}"#).unwrap();
+        let m = cube(&d, "b").unwrap();
+        let uvs = m.uvs.as_ref().unwrap();
+        for t in 0..12 {
+            let [i0, i1, i2] = m.indices[t].map(|i| i as usize);
+            let (dp1, dp2) = (
+                m.positions[i1] - m.positions[i0],
+                m.positions[i2] - m.positions[i0],
+            );
+            let (d1, d2) = (
+                (uvs[i1] - uvs[i0]).as_dvec2(),
+                (uvs[i2] - uvs[i0]).as_dvec2(),
+            );
+            let dp_du = (dp1 * d2.y - dp2 * d1.y) / (d1.x * d2.y - d2.x * d1.y);
+            let n = dp1.cross(dp2).normalize();
+            let (_, axis) = want
+                .iter()
+                .find(|(w, _)| (*w - n).length() < 1e-12)
+                .unwrap();
+            assert!(
+                (dp_du.normalize() - *axis).length() < 1e-12,
+                "triangle {t}: dp/du {dp_du}"
+            );
+        }
+        // The −y face's point (0.13, −1, 0.13): uv by barycentric interpolation on its triangle.
+        let p = DVec3::new(0.13, -1.0, 0.13);
+        let uv = (0..2)
+            .find_map(|t| {
+                let [a, b, c] = m.indices[t].map(|i| i as usize);
+                let (pa, pb, pc) = (m.positions[a], m.positions[b], m.positions[c]);
+                let area = (pb - pa).cross(pc - pa).length();
+                let wa = (pb - p).cross(pc - p).length() / area;
+                let wb = (pc - p).cross(pa - p).length() / area;
+                let wc = (pa - p).cross(pb - p).length() / area;
+                ((wa + wb + wc - 1.0).abs() < 1e-9).then(|| {
+                    uvs[a].as_dvec2() * wa + uvs[b].as_dvec2() * wb + uvs[c].as_dvec2() * wc
+                })
+            })
+            .unwrap();
+        // candela's v is 1 − Mitsuba's.
+        assert!(
+            (uv - glam::DVec2::new(0.565, 0.435)).length() < 1e-9,
+            "{uv}"
         );
     }
 
