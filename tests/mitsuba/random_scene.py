@@ -16,10 +16,11 @@ line of facts the generator knows independently of candela's loader:
 
 A scene: an optional room or floor, one to four objects (spheres, boxes, quads, inline triangle
 meshes with or without normals and uvs, the uv sphere OBJ and, without --mitsuba, instances of it),
-materials drawn from every model with random parameters (colour and roughness textures
-included; not alpha masks, texture channels or explicit srgb), and
+materials drawn from every model with random parameters (colour and roughness textures, textured
+principled and dielectric scalars, texture channels and explicit srgb, alpha masks and faint
+emission on any model included), and
 lights drawn from area quads and spheres, point, spot and directional lights, a constant or
-mapped environment; a pinhole or thin-lens camera, a box or Gaussian filter, max_depth 2..8 or
+mapped environment; a pinhole or thin-lens camera, a box or Gaussian filter (σ up to 2 pixels), max_depth 2..8 or
 unbounded. Same seed, same scene. With --mitsuba only translatable content is drawn.
 """
 import argparse
@@ -29,7 +30,8 @@ import os
 import random
 import shutil
 
-ASSETS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scenes", "assets")
+HERE = os.path.dirname(os.path.abspath(__file__))
+ASSETS = os.path.join(HERE, "..", "..", "scenes", "assets")
 PRESETS = {  # conductor complex IOR at roughly R, G, B (Mitsuba's Au, Cu, Al)
     "gold": ([0.143, 0.374, 1.442], [3.983, 2.385, 1.603]),
     "copper": ([0.200, 0.924, 1.102], [3.912, 2.452, 2.142]),
@@ -40,6 +42,10 @@ PRESETS = {  # conductor complex IOR at roughly R, G, B (Mitsuba's Au, Cu, Al)
 class Gen:
     def __init__(self, seed, mitsuba):
         self.r = random.Random(seed)
+        # The extras (alpha masks, texture channels and explicit srgb, textured scalars, emission
+        # on any model, wide Gaussian filters) draw from their own stream, so a seed's base scene
+        # stays what it was before they were added.
+        self.x = random.Random(seed * 7919 + 1)
         self.mitsuba = mitsuba
         self.features = set()
         self.materials = {}
@@ -102,7 +108,40 @@ class Gen:
             m["exponent"] = self.u(2, 200)
         if kind != "dielectric" and self.chance(0.2):
             m["two_sided"] = False
+        if kind != "phong":
+            self.extras(m, textured_ok)
         return self.add_material(m)
+
+    def extra_texture(self, scalar):
+        """A texture with a channel and srgb drawn from the extras stream."""
+        t = {"texture": "assets/checker.png", "scale": [round(self.x.uniform(0.5, 3.0), 4)] * 2}
+        if self.x.random() < 0.5:
+            t["srgb"] = self.x.random() < 0.5
+        if scalar or self.x.random() < 0.3:
+            t["channel"] = self.x.choice(["r", "g", "b", "a", "luminance"])
+        return t
+
+    def extras(self, m, textured_ok):
+        """Adds the extras to material m: textured scalars, a channel or srgb on a colour
+        texture, an alpha mask, or a faint emission."""
+        x = self.x
+        if textured_ok and x.random() < 0.2:
+            fields = {"principled": ["roughness", "metallic", "sheen", "clearcoat"],
+                      "dielectric": ["roughness"] if "roughness" in m else []}.get(m["type"], [])
+            if fields:
+                m[x.choice(fields)] = self.extra_texture(scalar=True)
+        for key in ("reflectance", "base_color"):
+            if is_texture(m.get(key)) and x.random() < 0.5:
+                m[key].update({k: v for k, v in self.extra_texture(False).items()
+                               if k in ("srgb", "channel")})
+        if textured_ok and x.random() < 0.1:
+            # A binary mask (Mitsuba's `mask` blends where candela cuts at 0.5, so the reference
+            # takes only masks of 0 and 1: tests/import/mitsuba/mask.png's channels are).
+            m["alpha_mask"] = {"texture": "assets/mask.png",
+                               "scale": [round(x.uniform(0.5, 3.0), 4)] * 2,
+                               "channel": x.choice(["r", "g", "b", "a"])}
+        elif x.random() < 0.05:
+            m["emission"] = [round(x.uniform(0.05, 0.5), 3) for _ in range(3)]
 
     def add_material(self, m):
         name = f"m{len(self.materials)}"
@@ -252,6 +291,8 @@ class Gen:
         film = {"width": size, "height": size}
         if self.chance(0.3):
             film["filter"] = {"type": "gaussian", "stddev": self.u(0.3, 0.6)}
+            if self.x.random() < 0.2:  # wider than a pixel's neighbourhood
+                film["filter"]["stddev"] = round(self.x.uniform(0.6, 2.0), 4)
         doc = {"version": 1, "camera": cam, "film": film, "materials": self.materials,
                "objects": objects,
                "render": {"max_depth": self.r.choice([2, 3, 4, 6, 6, 8, -1])}}
@@ -284,6 +325,8 @@ def facts(gen, doc):
         features.add(f"mat_{m['type']}")
         if any(is_texture(v) for v in m.values()):
             features.add("textures")
+        if "alpha_mask" in m:
+            features.add("alpha")
         smooth = not is_texture(m.get("roughness")) and m.get("roughness", 0) == 0
         delta_surfaces |= m["type"] in ("conductor", "dielectric") and smooth
     return {"features": sorted(features),
@@ -303,6 +346,8 @@ def main():
     os.makedirs(os.path.join(a.out, "assets"), exist_ok=True)
     for f in ("checker.png", "sky.exr", "uv_sphere.obj"):
         shutil.copyfile(os.path.join(ASSETS, f), os.path.join(a.out, "assets", f))
+    shutil.copyfile(os.path.join(HERE, "..", "import", "mitsuba", "mask.png"),
+                    os.path.join(a.out, "assets", "mask.png"))
     with open(os.path.join(a.out, "scene.json"), "w") as f:
         json.dump(doc, f, indent=1)
     print(json.dumps({"seed": a.seed, **facts(gen, doc)}))

@@ -1,5 +1,6 @@
-//! Random scenes (tests/mitsuba/random_scene.py: every material model with random parameters, textures,
-//! meshes, instances, every light type, thin lens, Gaussian filter, max_depth 2..8 and unbounded)
+//! Random scenes (tests/mitsuba/random_scene.py: every material model with random parameters, textures
+//! with channels and srgb, textured scalars, alpha masks, emission on any model, meshes, instances,
+//! every light type, thin lens, Gaussian filters up to σ 2, max_depth 2..8 and unbounded)
 //! audited three ways, so that what holds on the project's scenes also holds on scenes nobody
 //! wrote by hand:
 //! 1. the features the loader detects equal the ones the generator placed (60 seeds, no GPU);
