@@ -58,16 +58,9 @@ vec2 filter_interval(float c, float n) {
     return vec2(max(-31.0, -c / h), min(31.0, (n - c) / h));
 }
 
-// The signed masses of interval iv's ends (in steps): ±C_31 for a pixel away from the edges.
-vec2 filter_masses(vec2 iv) {
-    if (iv.x == -31.0 && iv.y == 31.0) return vec2(-g.filter_c[31], g.filter_c[31]);
-    return vec2(filter_mass(iv.x), filter_mass(iv.y));
-}
-
 // An offset (in steps) drawn from the whole filter: a side from u's first half or second, a step
 // from the alias table (bits 0..26: the probability of keeping it, times 2^24; 27..31: the other
-// step), and a
-// point uniform in it, from what is left of u (Vose's method reuses the fraction).
+// step), and a point uniform in it, from what is left of u (Vose's method reuses the fraction).
 float filter_sample_whole(float u) {
     float side = u < 0.5 ? -1.0 : 1.0;
     float x = fract(2.0 * u) * 31.0;
@@ -95,8 +88,8 @@ float filter_eval_axis(float o, float c, float n) {
     float h = g.filter_params.z, z = o / h;
     vec2 iv = filter_interval(c, n);
     if (!(z >= iv.x && z < iv.y)) return 0.0;
-    vec2 m = filter_masses(iv);
-    return filter_v(int(abs(z))) / (h * (m.y - m.x));
+    float mass = filter_whole(c, n) ? 2.0 * g.filter_c[31] : filter_mass(iv.y) - filter_mass(iv.x);
+    return filter_v(int(abs(z))) / (h * mass);
 }
 
 // An offset from the centre of pixel `px`, drawn from its filter.
@@ -109,7 +102,8 @@ vec2 filter_sample(vec2 u, uvec2 px) {
 }
 
 // The normalised filter of pixel `px` at offset o (pixels) from its centre: the density that
-// filter_sample draws from.
+// filter_sample draws from (bdpt's splat_film takes its two axes apart, row by row;
+// renderer/tests/filter_gpu.rs checks it against filter_sample).
 float filter_eval(vec2 o, uvec2 px) {
     if (g.film.z == 1u) {
         vec2 c = vec2(px) + 0.5, n = vec2(g.film.xy);

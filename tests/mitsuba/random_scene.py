@@ -18,10 +18,9 @@ A scene: an optional room or floor, one to four objects (spheres, boxes, quads, 
 meshes with or without normals and uvs, the uv sphere OBJ and, without --mitsuba, instances of it),
 materials drawn from every model with random parameters (colour and roughness textures, textured
 principled and dielectric scalars, texture channels and explicit srgb, alpha masks and faint
-emission on any model included), and
-lights drawn from area quads and spheres, point, spot and directional lights, a constant or
-mapped environment; a pinhole or thin-lens camera, a box or Gaussian filter (σ up to 2 pixels), max_depth 2..8 or
-unbounded. Same seed, same scene. With --mitsuba only translatable content is drawn.
+emission on any model included), and lights drawn from area quads and spheres, point, spot and
+directional lights, a constant or mapped environment; a pinhole or thin-lens camera, a box or
+Gaussian filter (σ up to 2 pixels), max_depth 2..8 or unbounded. Same seed, same scene. With --mitsuba only translatable content is drawn.
 """
 import argparse
 import json

@@ -4,4 +4,4 @@ set -u
 export OUT
 CASES="scenes/cornell.json:bdpt:auto scenes/cornell.json:deferred:auto scenes/cornell.json:nee:auto scenes/cornell.json:pt:auto scenes/cornell.json:whitted:auto scenes/cornell.json:vct:auto" \
 BINS=".carry/new/candela .carry/filt/candela .carry/final/candela" ROUNDS=3 TIME=1 WARMUP=0.4 \
-W=1280 H=720 bash bench/results/filter-1127s4/bins.sh
+W=1280 H=720 bash bench/results/h100-regen-1127/bins.sh

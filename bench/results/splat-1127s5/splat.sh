@@ -4,4 +4,4 @@ set -u
 export OUT
 CASES="scenes/cornell.json:bdpt:auto scenes/cornell.json:deferred:auto scenes/cornell.json:nee:auto" \
 BINS=".carry/filt/candela .carry/row/candela .carry/row/candela@FILTER_AXIS_LOOP=1" ROUNDS=3 TIME=1 WARMUP=0.4 \
-W=1280 H=720 bash bench/results/filter-1127s4/bins.sh
+W=1280 H=720 bash bench/results/h100-regen-1127/bins.sh

@@ -85,7 +85,7 @@ pub(crate) fn cube(d: &BoxDesc, path: &str) -> Result<RawMesh, SceneError> {
             ));
         }
     }
-    // Step 2: Mitsuba's cube (shapes/cube.cpp) on [−1, 1]³ mapped onto [min, max]: its corners,
+    // Mitsuba's cube (shapes/cube.cpp) on [−1, 1]³ mapped onto [min, max]: its corners,
     // uvs and triangles face by face, so that textures and anisotropic tangents (dp/du) agree.
     let extent = max - min;
     let mut mesh = RawMesh {
