@@ -1,6 +1,18 @@
 // The scene's storage buffers at their named bindings (types.glsl). Included once per kernel.
 #ifndef COMMON_BINDINGS_GLSL
 #define COMMON_BINDINGS_GLSL
+// COUNT_STEPS, a measuring define (CANDELA_SHADER_DEFINES): each invocation counts the BVH nodes
+// it fetches and the primitives it tests (the binary BVH's and the CWBVH's walks of the scene's
+// own tree; not instances' walks, the stackless fallback or the grid), and film_count reports
+// them in place of the rays: COUNT_STEPS=1 node fetches, =2 primitive tests.
+#ifdef COUNT_STEPS
+uint count_nodes = 0u, count_prims = 0u;
+#define COUNT_NODE count_nodes++
+#define COUNT_PRIM count_prims++
+#else
+#define COUNT_NODE
+#define COUNT_PRIM
+#endif
 #include "common/types.glsl"
 
 layout(set = 0, binding = B_GLOBALS, scalar) readonly buffer Globals { GpuGlobals g; };

@@ -37,8 +37,12 @@ void film_odd_store(uint pixel) {
 }
 
 // Adds an invocation's (or a workgroup's) counters to the pass's: dropped samples, and rays as a
-// 64-bit count in two words (carry into the high word when the low word wraps).
+// 64-bit count in two words (carry into the high word when the low word wraps). With COUNT_STEPS
+// (bindings.glsl) the "rays" are the invocation's node fetches or primitive tests.
 void film_count(uint rays, uint dropped) {
+#ifdef COUNT_STEPS
+    rays = COUNT_STEPS == 1 ? count_nodes : count_prims;
+#endif
     if (dropped > 0u) atomicAdd(stats.dropped_samples, dropped);
     if (rays > 0u) {
         uint before = atomicAdd(stats.rays_lo, rays);

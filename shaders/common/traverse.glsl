@@ -63,6 +63,7 @@ bool alpha_cut(uint m, GpuPrim p, vec2 b12) {
 // own primitives); shortens r.tmax on a hit.
 bool intersect_prim(inout Ray r, RayPre pre, uint i, uint inst, inout Hit hit) {
     GpuPrim p = prims[i];
+    COUNT_PRIM;
     uint bits = floatBitsToUint(p.a.w);
     float t;
 #ifdef HAS_SPHERES
@@ -173,6 +174,7 @@ bool traverse_stackless(inout Ray r, RayPre pre, uint root, uint inst, bool any_
     uint node = ROOT;                                                                   \
     while (true) {                                                                      \
         GpuBvhNode n = NODE(node);                                                      \
+        COUNT_NODE;                                                                     \
         float tl = intersect_box(r.o, pre, n.l_min, n.l_max, r.tmin, r.tmax);           \
         float tr = intersect_box(r.o, pre, n.r_min, n.r_max, r.tmin, r.tmax);           \
         bool hl = !isinf(tl), hr = !isinf(tr);                                          \

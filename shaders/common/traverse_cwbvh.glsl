@@ -125,6 +125,7 @@ bool traverse_cwbvh(Ray r, bool any_hit, out Hit hit) {
             uint slot = (bit - 24u) ^ oct_inv;
             uint rel = bitCount(hits & ~(0xffffffffu << slot));
             GpuCwbvhNode n = cw_node(node_group.x + rel);
+            COUNT_NODE;
             // Step 2: its children's boxes.
             uint hitmask = cw_intersect_node(n, r, pre, oct_inv);
             node_group = uvec2(n.child_base, (hitmask & 0xff000000u) | (n.e_imask >> 24));

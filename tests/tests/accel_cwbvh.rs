@@ -429,6 +429,51 @@ fn cli_accel_cwbvh() {
     let second = json(run(&args));
     assert_eq!(second["accel_cache"], "hit");
     assert_eq!(first["accel_bytes"], second["accel_bytes"]);
+    // The report names the kernel variant that ran (the Cornell box's tree is full: no
+    // CWBVH_SPARSE).
+    let defines: Vec<&str> = (first["kernel_defines"].as_array().expect("kernel_defines"))
+        .iter()
+        .map(|d| d.as_str().unwrap())
+        .collect();
+    assert!(defines.contains(&"ACCEL_CWBVH=1"), "{defines:?}");
+    assert!(
+        !defines.iter().any(|d| d.starts_with("CWBVH_SPARSE")),
+        "{defines:?}"
+    );
+}
+
+/// The measuring define COUNT_STEPS (through `CANDELA_SHADER_DEFINES`, listed in the report's
+/// `kernel_defines`) makes `rays` count node fetches (1) or primitive tests (2): on the Cornell
+/// box the 8-wide tree fetches fewer nodes per ray than the binary one, and tests fewer walls.
+#[test]
+fn count_steps_knob_counts_nodes_and_primitives() {
+    let dir = scratch("count-steps");
+    let out = dir.join("o.exr");
+    let report = |accel: &str, count: &str| -> Value {
+        let mut args = vec!["render", "scenes/cornell.json", "-o", out.to_str().unwrap()];
+        args.extend_from_slice(&[
+            "--width", "16", "--height", "12", "--spp", "2", "--seed", "3",
+        ]);
+        args.extend_from_slice(&["--accel", accel, "--no-accel-cache", "--json"]);
+        let o = run_candela_env(&args, &[("CANDELA_SHADER_DEFINES", count)]);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        serde_json::from_slice(&o.stdout).expect("one JSON object")
+    };
+    let per_ray = |accel: &str| -> (f64, f64) {
+        let rays = report(accel, "")["rays"].as_f64().unwrap();
+        let r = report(accel, "COUNT_STEPS=1");
+        assert!(
+            r["kernel_defines"].to_string().contains("COUNT_STEPS=1"),
+            "{r}"
+        );
+        let nodes = r["rays"].as_f64().unwrap();
+        let prims = report(accel, "COUNT_STEPS=2")["rays"].as_f64().unwrap();
+        (nodes / rays, prims / rays)
+    };
+    let (bvh, cw) = (per_ray("bvh"), per_ray("cwbvh"));
+    println!("nodes, primitives per ray: bvh {bvh:?}, cwbvh {cw:?}");
+    assert!(bvh.0 >= 1.0 && cw.0 >= 1.0 && bvh.1 >= 1.0 && cw.1 >= 1.0);
+    assert!(cw.0 < bvh.0 && cw.1 < bvh.1);
 }
 
 /// A cache file whose CWBVH is not a tree within the stack (a cycle, a leaf out of range, too

@@ -88,6 +88,10 @@ pub struct RenderStats {
     pub features: Vec<&'static str>,
     /// "specialized" (to the scene's features) or "generic" (every feature).
     pub kernels: crate::compile::KernelMode,
+    /// The pass kernel's defines (`NAME=VALUE`): features, accel variant (`CWBVH_SPARSE`, ...),
+    /// light sampler, the integrator's, and any of the measuring knob `CANDELA_SHADER_DEFINES`,
+    /// so that a report names the variant that ran.
+    pub kernel_defines: Vec<String>,
     /// The acceleration structure: "bvh", "cwbvh" or "grid".
     pub accel: String,
     /// Seconds to obtain it: its build, or loading it from the cache on a hit.

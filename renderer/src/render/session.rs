@@ -118,6 +118,8 @@ struct SceneInfo {
     load_time: Duration,
     compile_time: Duration,
     light_sampler: &'static str,
+    /// The pass kernel's defines, `NAME=VALUE`.
+    kernel_defines: Vec<String>,
 }
 
 impl RenderSession {
@@ -329,6 +331,7 @@ impl RenderSession {
                 } else {
                     "power"
                 },
+                kernel_defines: defines.iter().map(|(n, v)| format!("{n}={v}")).collect(),
             },
         })
     }

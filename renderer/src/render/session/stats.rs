@@ -48,6 +48,7 @@ impl RenderSession {
             kernel_stats: self.pipeline.statistics().into_iter().collect(),
             features: self.info.features.names(),
             kernels: self.info.kernels,
+            kernel_defines: self.info.kernel_defines.clone(),
             accel: self.info.accel.kind.name().to_string(),
             accel_build_s: self.info.accel.build_time.as_secs_f64(),
             accel_bytes: self.info.bytes.accel,
