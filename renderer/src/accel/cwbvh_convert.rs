@@ -28,11 +28,23 @@ use super::Phases;
 const PARALLEL_COST_LEVELS: u32 = 14;
 /// Wide levels whose children's subtrees are converted in parallel (8⁴ = 4096 tasks at most).
 const PARALLEL_LEVELS: u32 = 4;
-/// obvhs's leaf cost factor and quantisation denominator (1 / 255).
+/// obvhs's leaf cost factor (a primitive test's cost against a wide node's) and quantisation
+/// denominator (1 / 255).
 const PRIM_COST: f32 = 0.3;
 const DENOM: f32 = 1.0 / 255.0;
 const INVALID: u8 = u8::MAX;
 const NO_CHILD: u32 = u32::MAX;
+
+/// [`PRIM_COST`], or the measuring knob `CANDELA_CWBVH_PRIM_COST` (0.01 to 10; part of the accel
+/// cache's key, `accel::knobs`).
+fn prim_cost() -> f32 {
+    static COST: std::sync::OnceLock<f32> = std::sync::OnceLock::new();
+    *COST.get_or_init(|| {
+        let knob = std::env::var("CANDELA_CWBVH_PRIM_COST").ok();
+        knob.and_then(|v| v.parse::<f32>().ok())
+            .map_or(PRIM_COST, |c| c.clamp(0.01, 10.0))
+    })
+}
 
 #[derive(Copy, Clone, PartialEq, Default)]
 enum Kind {
@@ -146,7 +158,7 @@ fn cost(bvh2: &Bvh2, d: &Decisions, n: usize, max_leaf: u32, level: u32) -> u32 
             "the wide tree is built from leaves of one primitive"
         );
         let leaf = Decision {
-            cost: half_area * (node.prim_count as f32) * PRIM_COST,
+            cost: half_area * (node.prim_count as f32) * prim_cost(),
             kind: Kind::Leaf,
             left: 0,
             right: 0,
@@ -171,7 +183,7 @@ fn cost(bvh2: &Bvh2, d: &Decisions, n: usize, max_leaf: u32, level: u32) -> u32 
     let (l, r) = (first * 7, (first + 1) * 7);
     // Slot 0 (i = 1 in the paper): a leaf, or an internal node over the best split of 8 slots.
     let cost_leaf = if prims <= max_leaf {
-        (prims as f32) * half_area * PRIM_COST
+        (prims as f32) * half_area * prim_cost()
     } else {
         f32::INFINITY
     };

@@ -45,10 +45,12 @@ use crate::layout::GpuBvhNode;
 const SEARCH_DISTANCES: [usize; 6] = [1, 2, 6, 14, 24, 32];
 
 /// The builds' parameters: obvhs's medium preset with `reinsertion` as the reinsertion batch
-/// ratio. Two knobs for measuring build time against tree quality (bench/RESULTS.md):
+/// ratio. Knobs for measuring build time against tree quality (bench/RESULTS.md):
 /// `CANDELA_PLOC_SEARCH` (1, 2, 6, 14, 24 or 32) sets PLOC's search distance,
-/// `CANDELA_REINSERTION` the reinsertion batch ratio (0: no reinsertion). The cache key
-/// includes them as set ([`knobs`]), so a measuring run never serves its trees to others.
+/// `CANDELA_REINSERTION` the reinsertion batch ratio (0: no reinsertion),
+/// `CANDELA_COLLAPSE_COST` the binary tree's leaf-collapse traversal cost (see also
+/// `CANDELA_BVH_LEAF` and the CWBVH's `CANDELA_CWBVH_PRIM_COST`). The cache key includes them as
+/// set ([`knobs`]), so a measuring run never serves its trees to others.
 pub(crate) fn build_params(reinsertion: f32) -> BvhBuildParams {
     let mut params = BvhBuildParams::medium_build();
     params.reinsertion_batch_ratio = reinsertion;
@@ -61,14 +63,32 @@ pub(crate) fn build_params(reinsertion: f32) -> BvhBuildParams {
     if let Some(r) = var("CANDELA_REINSERTION").and_then(|v| v.parse::<f32>().ok()) {
         params.reinsertion_batch_ratio = r.clamp(0.0, 1.0);
     }
+    if let Some(c) = var("CANDELA_COLLAPSE_COST").and_then(|v| v.parse::<f32>().ok()) {
+        params.collapse_traversal_cost = c.clamp(0.01, 100.0);
+    }
     params
+}
+
+/// The binary BVH's largest leaf: [`MAX_LEAF`], or the measuring knob `CANDELA_BVH_LEAF`
+/// (1 to [`MAX_LEAF`]).
+fn bvh_max_leaf() -> u32 {
+    let knob = std::env::var("CANDELA_BVH_LEAF")
+        .ok()
+        .and_then(|v| v.parse::<u32>().ok());
+    knob.unwrap_or(MAX_LEAF as u32).clamp(1, MAX_LEAF as u32)
 }
 
 /// The build knobs as set in the environment (see [`build_params`]), for the cache key.
 pub(crate) fn knobs() -> String {
-    ["CANDELA_PLOC_SEARCH", "CANDELA_REINSERTION"]
-        .map(|name| format!("{name}={:?};", std::env::var(name).ok()))
-        .concat()
+    [
+        "CANDELA_PLOC_SEARCH",
+        "CANDELA_REINSERTION",
+        "CANDELA_COLLAPSE_COST",
+        "CANDELA_BVH_LEAF",
+        "CANDELA_CWBVH_PRIM_COST",
+    ]
+    .map(|name| format!("{name}={:?};", std::env::var(name).ok()))
+    .concat()
 }
 
 /// The PLOC build of a binary tree over `prims` (leaf i is primitive i) with `params`' search
@@ -147,7 +167,7 @@ pub fn build(prims: &[PrimBounds], keep_deep: bool) -> Bvh {
     // obvhs's `build_bvh2` (medium preset, our leaf size), its steps timed apart: PLOC,
     // reinsertion, leaf collapsing, reinsertion again.
     let mut params = build_params(BvhBuildParams::medium_build().reinsertion_batch_ratio);
-    params.max_prims_per_leaf = MAX_LEAF as u32;
+    params.max_prims_per_leaf = bvh_max_leaf();
     let mut ph = Phases::default();
     let mut bvh = ph.time("ploc", || ploc(prims, &params));
     let mut reinsertion = ReinsertionOptimizer::default();
