@@ -81,9 +81,9 @@ bool intersect_triangle(Ray r, RayPre pre, vec3 p0, vec3 p1, vec3 p2, out float 
     return true;
 }
 
-// Ray/sphere test; returns the nearest root within (tmin, tmax).
-bool intersect_sphere(Ray r, vec3 center, float radius, out float t) {
-    t = 0.0;
+// The two roots (near, far) of the ray's line and the sphere; false when the line misses it.
+bool sphere_roots(Ray r, vec3 center, float radius, out float tn, out float tf) {
+    tn = 0.0; tf = 0.0;
     vec3 f = r.o - center;
     float bq = -dot(f, r.d);
     vec3 l = f + bq * r.d;             // f minus its projection on d: accurate perpendicular
@@ -93,10 +93,28 @@ bool intersect_sphere(Ray r, vec3 center, float radius, out float t) {
     float q = bq + (bq >= 0.0 ? 1.0 : -1.0) * sqrt(disc);
     float t0 = (q != 0.0) ? cq / q : 0.0;
     float t1 = q;
-    float tn = min(t0, t1), tf = max(t0, t1);
+    tn = min(t0, t1); tf = max(t0, t1);
+    return true;
+}
+
+// Ray/sphere test; returns the nearest root within (tmin, tmax).
+bool intersect_sphere(Ray r, vec3 center, float radius, out float t) {
+    float tn, tf;
+    t = 0.0;
+    if (!sphere_roots(r, center, radius, tn, tf)) return false;
     if (tn > r.tmin && tn < r.tmax) { t = tn; return true; }
     if (tf > r.tmin && tf < r.tmax) { t = tf; return true; }
     return false;
+}
+
+// Mitsuba's sphere parameterisation at `local` (a point of the sphere of `radius` minus its
+// centre): u = longitude around +z / 2π, v = colatitude / π, with v = 0 on a texture's top row;
+// candela reads v = 1 there, so v is returned flipped.
+vec2 sphere_uv(vec3 local, float radius) {
+    float phi = atan(local.y, local.x);
+    if (phi < 0.0) phi += 2.0 * 3.14159265358979323846;
+    float theta = acos(clamp(local.z / radius, -1.0, 1.0));
+    return vec2(phi * 0.15915494309189533577, 1.0 - theta * 0.31830988618379067154);
 }
 
 #endif

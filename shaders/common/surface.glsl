@@ -42,11 +42,7 @@ Surface surface_at(Hit hit, Ray ray) {
         s.ng = normalize(local);
         if ((bits & PRIM_FLIP_NORMALS) != 0u) s.ng = -s.ng;
         s.ns = s.ng;
-        // Mitsuba's sphere parameterisation: u = longitude around +z / 2π, v = colatitude / π,
-        // with v = 0 on a texture's top row; candela reads v = 1 there, so v is stored flipped.
-        float phi = atan(local.y, local.x);
-        if (phi < 0.0) phi += 2.0 * PI;
-        s.uv = vec2(phi * INV_2PI, 1.0 - safe_acos(local.z / radius) * INV_PI);
+        s.uv = sphere_uv(local, radius);
         dpdu = vec3(-local.y, local.x, 0.0);
     } else
 #endif

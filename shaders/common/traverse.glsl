@@ -57,6 +57,23 @@ bool alpha_cut(uint m, GpuPrim p, vec2 b12) {
     vec2 uv = (1.0 - b12.x - b12.y) * vec2(s.n0.w, s.uv_v.x) + b12.x * vec2(s.n1.w, s.uv_v.y) + b12.y * vec2(s.n2.w, s.uv_v.z);
     return texture_eval(tex, uv).r < 0.5;
 }
+
+// The first root of sphere p within (tmin, tmax) that material m's alpha mask keeps, at the
+// sphere's own uv (sphere_uv): a ray through a hole in the near side may meet the far side.
+bool intersect_sphere_masked(Ray r, GpuPrim p, uint m, out float t) {
+    float roots[2];
+    t = 0.0;
+    if (!sphere_roots(r, p.a.xyz, p.b.x, roots[0], roots[1])) return false;
+    uint tex = materials[m].header.z;
+    for (int k = 0; k < 2; ++k) {
+        float tk = roots[k];
+        if (!(tk > r.tmin && tk < r.tmax)) continue;
+        if (tex != NONE && texture_eval(tex, sphere_uv(r.o + tk * r.d - p.a.xyz, p.b.x)).r < 0.5) continue;
+        t = tk;
+        return true;
+    }
+    return false;
+}
 #endif
 
 // Tests primitive `i` against the ray (in the frame of instance `inst`, NONE for the scene's
@@ -68,6 +85,11 @@ bool intersect_prim(inout Ray r, RayPre pre, uint i, uint inst, inout Hit hit) {
     float t;
 #ifdef HAS_SPHERES
     if ((bits & PRIM_SPHERE) != 0u) {
+#ifdef HAS_ALPHA
+        if ((bits & PRIM_ALPHA) != 0u) {
+            if (!intersect_sphere_masked(r, p, bits & PRIM_MATERIAL_MASK, t)) return false;
+        } else
+#endif
         if (!intersect_sphere(r, p.a.xyz, p.b.x, t)) return false;
         r.tmax = t; hit.t = t; hit.prim = i; hit.b12 = vec2(0.0);
         return true;

@@ -9,7 +9,9 @@ For each seed: the scene, two Mitsuba renders (`path`, seeds 1 and 2) and two ca
 integrator (seeds 11 and 12), compared with criteria close to tests/src/lib.rs
 `assert_matches_mitsuba`'s: relMSE after 4×4 block averaging below 3× the seed-to-seed noise plus
 2e-4, with all four images scaled so that the first Mitsuba image's mean is 0.3 (relMSE's 0.01
-floor would hide a dark scene); mean FLIP (unscaled) below 0.1; per-channel means within 2%, or
+floor would hide a dark scene); mean FLIP (unscaled) below 0.1, or where the noise alone gives
+more (FLIP between the two seeds of either renderer, `flip_noise`), below 1.5× that (the Rust check
+keeps a strict 0.1: its scenes are quieter); per-channel means within 2%, or
 within 5 standard errors of the two renderers' means where that is wider (estimated from each
 pair's seed-to-seed differences over 4×4 blocks; the Rust check keeps a strict 2%). Comparisons
 the renderers do not share are skipped: pt with delta lights (pt cannot reach them), bdpt with
@@ -77,7 +79,15 @@ def scaled(bl, k):
     return [[k * x for x in p] for p in bl]
 
 
-def compare(candela, c, m, name):
+def flip(candela, a, b):
+    """Mean FLIP between two EXR files (`candela compare`)."""
+    out = subprocess.run([candela, "compare", a, b, "--json"], capture_output=True, text=True,
+                         check=True)
+    return json.loads(out.stdout)["metrics"]["flip"]
+
+
+def compare(candela, c, m, names):
+    """c, m: two seeds' images of each renderer; names: their EXR files, (c1, c2), (m1, m2)."""
     (c1, c2), (m1, m2) = c, m
     bc1, bc2, bm1, bm2 = blocks(c1), blocks(c2), blocks(m1), blocks(m2)
     # Exposure: every image scaled so that the reference's mean is 0.3 (relMSE's 0.01 floor
@@ -88,19 +98,21 @@ def compare(candela, c, m, name):
     noise = rel_mse(bc1, bc2) / 2 + rel_mse(bm1, bm2) / 2
     mc, mm = means(bc1), means(bm1)
     se = [math.hypot(a, b) for a, b in zip(mean_stderr(bc1, bc2), mean_stderr(bm1, bm2))]
-    out = subprocess.run([candela, "compare", name[0], name[1], "--json"], capture_output=True,
-                         text=True, check=True)
-    flip = json.loads(out.stdout)["metrics"]["flip"]
+    (nc1, nc2), (nm1, nm2) = names
+    f = flip(candela, nc1, nm1)
+    # The FLIP two renders of the same image have from their noise alone.
+    flip_noise = max(flip(candela, nc1, nc2), flip(candela, nm1, nm2))
     fails = []
     for ch in range(3):
         if mm[ch] > 1e-3 and abs(mc[ch] - mm[ch]) > max(0.02 * mm[ch], 5 * se[ch]):
             fails.append(f"mean[{ch}] {mc[ch]:.4f} vs {mm[ch]:.4f} (stderr {se[ch]:.4f})")
     if blocked >= 3 * noise + 2e-4:
         fails.append(f"block relMSE {blocked:.3e} vs noise {noise:.3e}")
-    if flip >= 0.1:
-        fails.append(f"FLIP {flip:.3f}")
-    return {"exposure": k, "block_rel_mse": blocked, "noise": noise, "flip": flip, "mean_candela": mc,
-            "mean_mitsuba": mm, "stderr": se, "fails": fails}
+    if f >= max(0.1, 1.5 * flip_noise):
+        fails.append(f"FLIP {f:.3f} (noise {flip_noise:.3f})")
+    return {"exposure": k, "block_rel_mse": blocked, "noise": noise, "flip": f,
+            "flip_noise": flip_noise, "mean_candela": mc, "mean_mitsuba": mm, "stderr": se,
+            "fails": fails}
 
 
 def run(cmd):
@@ -159,7 +171,7 @@ def main():
                          str(a.spp), "--seed", str(s)])
                     cs.append((p, read_exr(p)))
                 rec.update(compare(a.candela, [c[1] for c in cs], [m[1] for m in mi],
-                                   (cs[0][0], mi[0][0])))
+                                   ([c[0] for c in cs], [m[0] for m in mi])))
             except RuntimeError as e:
                 rec["fails"] = [str(e)]
             print(json.dumps(rec), flush=True)

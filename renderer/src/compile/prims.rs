@@ -55,7 +55,7 @@ pub(super) fn gather(scene: &Scene, origin: DVec3, centre: DVec3) -> Result<Prim
     for mesh in &scene.meshes {
         triangles(mesh, frames, &alpha_material, &mut out);
     }
-    spheres(scene, frames, &mut out);
+    spheres(scene, frames, &alpha_material, &mut out);
     Ok(out)
 }
 
@@ -177,13 +177,21 @@ fn shading_record(mesh: &TriangleMesh, idx: &[u32; 3]) -> GpuTriShading {
     }
 }
 
-/// The analytic spheres, with bounds padded so rounding cannot clip them.
-fn spheres(scene: &Scene, frames: Frames, out: &mut Prims) {
+/// The analytic spheres, with bounds padded so rounding cannot clip them. An alpha-masked
+/// material's mask cuts them at their own uvs (the traversal's `intersect_sphere_masked`).
+fn spheres(scene: &Scene, frames: Frames, alpha_material: &[bool], out: &mut Prims) {
     for s in &scene.spheres {
         let c = s.center - frames.origin;
         let mut flags = PRIM_SPHERE | (s.material & PRIM_MATERIAL_MASK);
         if s.flip_normals {
             flags |= PRIM_FLIP_NORMALS;
+        }
+        if alpha_material
+            .get(s.material as usize)
+            .copied()
+            .unwrap_or(false)
+        {
+            flags |= PRIM_ALPHA;
         }
         let cf = f3(c);
         out.gpu.push(GpuPrim {

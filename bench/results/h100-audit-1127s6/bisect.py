@@ -1,0 +1,44 @@
+#!/usr/bin/env python3
+"""Which part of a random scene makes candela and Mitsuba differ: variants of one scene, each
+compared as audit.py does (block relMSE against noise, means). bisect.py SEED CANDELA OUT SPP"""
+import copy, json, os, subprocess, sys
+sys.path.insert(0, "tests/mitsuba")
+import audit
+seed, cand, out, spp = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4]
+d = os.path.join(out, f"s{seed}")
+subprocess.run([sys.executable, "tests/mitsuba/random_scene.py", seed, d, "--size", "64", "--mitsuba"], check=True, capture_output=True)
+base = json.load(open(os.path.join(d, "scene.json")))
+def var(name, f):
+    v = copy.deepcopy(base); f(v); return name, v
+def diffuse(*ms):
+    def f(v):
+        for m in ms: v["materials"][m] = {"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]}
+    return f
+mats = base["materials"]
+vs = [("base", base)]
+for m, mat in mats.items():
+    if mat.get("alpha_mask"): vs.append(var(f"{m}_no_alpha", lambda v, m=m: v["materials"][m].pop("alpha_mask")))
+    if mat["type"] in ("dielectric", "principled", "conductor"): vs.append(var(f"{m}_diffuse", diffuse(m)))
+    if mat.get("anisotropic"): vs.append(var(f"{m}_iso", lambda v, m=m: v["materials"][m].__setitem__("anisotropic", 0.0)))
+    if mat.get("two_sided") is False: vs.append(var(f"{m}_two_sided", lambda v, m=m: v["materials"][m].pop("two_sided")))
+if base.get("lights"): vs.append(var("no_delta_lights", lambda v: v.pop("lights")))
+for name, v in vs:
+    p = os.path.join(d, f"{name}.json"); json.dump(v, open(p, "w"))
+    mi, cs = [], []
+    for s in (1, 2):
+        o = os.path.join(d, f"{name}_m{s}.exr")
+        subprocess.run([sys.executable, "tests/mitsuba/render_reference.py", p, o, "--spp", spp, "--seed", str(s), "--variant", "cuda_ad_rgb"], check=True, capture_output=True)
+        mi.append(o)
+        o = os.path.join(d, f"{name}_c{s}.exr")
+        subprocess.run([cand, "render", p, "-o", o, "--integrator", "nee", "--spp", spp, "--seed", str(10 + s)], check=True, capture_output=True)
+        cs.append(o)
+    r = audit.compare(cand, [audit.read_exr(x) for x in cs], [audit.read_exr(x) for x in mi], (cs, mi))
+    print(name, "blk %.2e noise %.2e ratio %.1f" % (r["block_rel_mse"], r["noise"], r["block_rel_mse"] / r["noise"]),
+          [round(x, 4) for x in r["mean_candela"]], [round(x, 4) for x in r["mean_mitsuba"]], flush=True)
+    if name == "base":
+        bc = [[(a + b) / 2 for a, b in zip(p, q)] for p, q in zip(audit.blocks(audit.read_exr(cs[0])), audit.blocks(audit.read_exr(cs[1])))]
+        bm = [[(a + b) / 2 for a, b in zip(p, q)] for p, q in zip(audit.blocks(audit.read_exr(mi[0])), audit.blocks(audit.read_exr(mi[1])))]
+        bn = [[(a - b) for a, b in zip(p, q)] for p, q in zip(audit.blocks(audit.read_exr(mi[0])), audit.blocks(audit.read_exr(mi[1])))]
+        err = sorted(((sum((x - y) ** 2 for x, y in zip(p, q)) / (sum(y * y for y in q) + 1e-4), i, [round(x, 4) for x in p], [round(y, 4) for y in q], [round(z, 4) for z in n]) for i, (p, q, n) in enumerate(zip(bc, bm, bn))), reverse=True)
+        for e in err[:8]:
+            print("  block", e[1] % 16, e[1] // 16, "rel %.3f" % e[0], "candela", e[2], "mitsuba", e[3], "m1-m2", e[4])
