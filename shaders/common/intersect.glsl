@@ -6,6 +6,7 @@
 // enlarged by 1 + 2γ3 (Ize 2013) so a box is never missed by rounding.
 #ifndef COMMON_INTERSECT_GLSL
 #define COMMON_INTERSECT_GLSL
+#include "common/math.glsl"
 
 struct Ray {
     vec3 o;
@@ -112,9 +113,9 @@ bool intersect_sphere(Ray r, vec3 center, float radius, out float t) {
 // candela reads v = 1 there, so v is returned flipped.
 vec2 sphere_uv(vec3 local, float radius) {
     float phi = atan(local.y, local.x);
-    if (phi < 0.0) phi += 2.0 * 3.14159265358979323846;
-    float theta = acos(clamp(local.z / radius, -1.0, 1.0));
-    return vec2(phi * 0.15915494309189533577, 1.0 - theta * 0.31830988618379067154);
+    if (phi < 0.0) phi += 2.0 * PI;
+    float theta = safe_acos(local.z / radius);
+    return vec2(phi * INV_2PI, 1.0 - theta * INV_PI);
 }
 
 #endif

@@ -96,16 +96,19 @@ bool sample_light_emission(vec4 u0, vec4 u1, out LightEmit e) {
     vec2 u_pos = u0.yz, u_dir = vec2(u0.w, u1.x);
     // Step 2: the origin and direction, by light kind.
     if (l.kind == LIGHT_TRIANGLE || l.kind == LIGHT_SPHERE) {
+        vec2 bary = vec2(0.0);
         if (l.kind == LIGHT_TRIANGLE) {
-            vec2 b = sample_uniform_triangle(u_pos);
-            float b0 = 1.0 - b.x - b.y;
-            e.p = b0 * l.p0.xyz + b.x * l.p1.xyz + b.y * l.p2.xyz;
-            e.p_err = gamma_n(7.0) * (abs(b0 * l.p0.xyz) + abs(b.x * l.p1.xyz) + abs(b.y * l.p2.xyz));
+            bary = sample_uniform_triangle(u_pos);
+            float b0 = 1.0 - bary.x - bary.y;
+            e.p = b0 * l.p0.xyz + bary.x * l.p1.xyz + bary.y * l.p2.xyz;
+            e.p_err = gamma_n(7.0) * (abs(b0 * l.p0.xyz) + abs(bary.x * l.p1.xyz) + abs(bary.y * l.p2.xyz));
         } else {
             vec3 local = l.p0.w * sample_uniform_sphere(u_pos);
             e.p = l.p0.xyz + local;
             e.p_err = gamma_n(5.0) * (abs(l.p0.xyz) + abs(local));
         }
+        // A point in a hole of the surface's alpha mask emits nothing (common/alpha.glsl).
+        if (emitter_cut(l, e.p, bary)) return false;
         e.n = light_front_normal(l, e.p);
         vec3 t, b;
         make_frame(e.n, t, b);

@@ -14,6 +14,7 @@
 #include "common/bindings.glsl"
 #include "common/sampling.glsl"
 #include "common/env.glsl"
+#include "common/alpha.glsl"
 
 #ifdef LIGHT_BVH
 #define LIGHT_SAMPLER_BVH 1
@@ -162,7 +163,7 @@ bool sample_light(vec3 p_ref, vec3 n_ref, vec3 u, out LightSample ls) {
         ls.dist = sqrt(dist2);
         ls.wi = w / ls.dist;
         float cosl = -dot(nl, ls.wi);
-        if (cosl <= 0.0) return false;
+        if (cosl <= 0.0 || emitter_cut(l, pl, b)) return false;
         ls.p = pl;
         ls.L = l.radiance.rgb;
         ls.pdf = pick * dist2 / (cosl * l.p0.w);
@@ -180,7 +181,7 @@ bool sample_light(vec3 p_ref, vec3 n_ref, vec3 u, out LightSample ls) {
         ls.wi = w / ls.dist;
         // Front side: outward normal unless the sphere's normals are flipped (p1.x = 1).
         vec3 front = l.p1.x > 0.5 ? -nl : nl;
-        if (dot(front, ls.wi) >= 0.0) return false;
+        if (dot(front, ls.wi) >= 0.0 || emitter_cut(l, pl, vec2(0.0))) return false;
         ls.p = pl;
         ls.L = l.radiance.rgb;
         ls.pdf = pick * sphere_light_pdf(l, p_ref, pl, nl);

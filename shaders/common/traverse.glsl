@@ -1,7 +1,7 @@
 // BVH traversal in compute: a binary BVH whose nodes hold both children's boxes (Aila & Laine
 // 2009), nearest child first, a short stack of BVH_STACK entries. `trace_closest` finds the
 // nearest hit; `trace_any` stops at the first occluder (shadow rays). Alpha-masked triangles
-// are skipped where their mask is below 0.5.
+// and spheres are skipped where their mask is below 0.5 (common/alpha.glsl).
 //
 // Any depth: the host keeps trees within BVH_STACK levels where it can (renderer/src/accel/
 // flatten.rs), and then the stack cannot overflow. A deeper tree (a pathological mesh) still
@@ -20,6 +20,7 @@
 #include "common/bindings.glsl"
 #include "common/intersect.glsl"
 #include "common/texture.glsl"
+#include "common/alpha.glsl"
 
 // Tests shorten the stack (TEST_BVH_STACK) to run the fallback on ordinary scenes.
 #ifdef TEST_BVH_STACK
@@ -48,27 +49,16 @@ layout(set = 0, binding = B_TLAS_NODES, std430) readonly buffer TlasNodes { vec4
 #endif
 
 #ifdef HAS_ALPHA
-// True when the alpha mask of material m cuts the triangle's point with barycentrics b12 away.
-bool alpha_cut(uint m, GpuPrim p, vec2 b12) {
-    uint tex = materials[m].header.z;
-    uint si = floatBitsToUint(p.c.w);
-    if (tex == NONE || si == NONE) return false;
-    GpuTriShading s = tri_shading[si];
-    vec2 uv = (1.0 - b12.x - b12.y) * vec2(s.n0.w, s.uv_v.x) + b12.x * vec2(s.n1.w, s.uv_v.y) + b12.y * vec2(s.n2.w, s.uv_v.z);
-    return texture_eval(tex, uv).r < 0.5;
-}
-
 // The first root of sphere p within (tmin, tmax) that material m's alpha mask keeps, at the
 // sphere's own uv (sphere_uv): a ray through a hole in the near side may meet the far side.
 bool intersect_sphere_masked(Ray r, GpuPrim p, uint m, out float t) {
     float roots[2];
     t = 0.0;
     if (!sphere_roots(r, p.a.xyz, p.b.x, roots[0], roots[1])) return false;
-    uint tex = materials[m].header.z;
     for (int k = 0; k < 2; ++k) {
         float tk = roots[k];
         if (!(tk > r.tmin && tk < r.tmax)) continue;
-        if (tex != NONE && texture_eval(tex, sphere_uv(r.o + tk * r.d - p.a.xyz, p.b.x)).r < 0.5) continue;
+        if (mask_cuts(m, sphere_uv(r.o + tk * r.d - p.a.xyz, p.b.x))) continue;
         t = tk;
         return true;
     }

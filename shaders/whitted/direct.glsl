@@ -42,7 +42,7 @@ bool whitted_area_sample(GpuLight l, vec3 p_ref, vec2 u, out vec3 pl, out vec3 w
         dist = sqrt(dist2);
         wi = w / dist;
         float cosl = -dot(nl, wi);
-        if (cosl <= 0.0) return false;  // front side only
+        if (cosl <= 0.0 || emitter_cut(l, pl, b)) return false;  // front side only, no hole
         pdf = dist2 / (cosl * l.p0.w);
         return pdf > 0.0 && !isinf(pdf);
     }
@@ -57,7 +57,7 @@ bool whitted_area_sample(GpuLight l, vec3 p_ref, vec2 u, out vec3 pl, out vec3 w
     dist = sqrt(dist2);
     wi = w / dist;
     vec3 front = l.p1.x > 0.5 ? -nl : nl;
-    if (dot(front, wi) >= 0.0) return false;
+    if (dot(front, wi) >= 0.0 || emitter_cut(l, pl, vec2(0.0))) return false;
     pdf = sphere_light_pdf(l, p_ref, pl, nl);
     return pdf > 0.0 && !isinf(pdf);
 }

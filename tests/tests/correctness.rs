@@ -316,3 +316,61 @@ fn reset_equals_a_fresh_session() {
         );
     }
 }
+
+/// An alpha-masked emitter emits only where its surface exists. Camera rays and BSDF-sampled
+/// paths pass through its holes, so light sampling (nee, bdpt's connections and light
+/// subpaths, whitted's point set, vct's injection) must give the holes no light either; once it
+/// sampled the whole shape and lit the floor as if the lamp had no holes. pt, which finds light
+/// only by hitting it, is the reference: direct light only (max_depth 2), a quad lamp and a
+/// sphere lamp, each masked to about 61% (tests/import/mitsuba/mask.png).
+#[test]
+fn masked_emitters_light_only_where_they_exist() {
+    let mask = candela_tests::repo_root().join("tests/import/mitsuba/mask.png");
+    let lamp_quad = r#"{"type": "quad", "origin": [-1, 1.5, -1], "edge_u": [2, 0, 0],
+                        "edge_v": [0, 0, 2], "material": "lamp"}"#;
+    let lamp_sphere =
+        r#"{"type": "sphere", "center": [0, 1.2, 0], "radius": 0.6, "material": "lamp"}"#;
+    for (name, lamp) in [("quad", lamp_quad), ("sphere", lamp_sphere)] {
+        let scene = |mask_field: &str| {
+            let text = format!(
+                r#"{{"version": 1, "camera": {{"position": [0, 0.8, 3], "look_at": [0, 0, 0], "fov_y": 35}},
+                    "film": {{"width": 12, "height": 12}},
+                    "materials": {{
+                      "floor": {{"type": "diffuse", "reflectance": [0.8, 0.8, 0.8]}},
+                      "lamp": {{"type": "diffuse", "reflectance": 0, "emission": [4, 4, 4]{mask_field}}}}},
+                    "objects": [
+                      {{"type": "quad", "origin": [-3, 0, 3], "edge_u": [6, 0, 0], "edge_v": [0, 0, -6],
+                        "material": "floor"}},
+                      {lamp}],
+                    "render": {{"max_depth": 2}}}}"#
+            );
+            renderer::scene::load_str(&text, mask.parent()).unwrap()
+        };
+        let masked = scene(r#", "alpha_mask": {"texture": "mask.png", "scale": [2, 2]}"#);
+        let whole = scene("");
+        let mean = |s, integrator, spp| {
+            let (img, _) = render_loaded(s, integrator, spp, 12, 12, 7, None);
+            img.mean()[0]
+        };
+        // The reference, and the mask's effect on it (so the comparison below can fail).
+        let reference = mean(&masked, "pt", 4096);
+        let unmasked = mean(&whole, "pt", 2048);
+        println!("{name} lamp: pt masked {reference:.4}, unmasked {unmasked:.4}");
+        assert!(
+            reference < 0.8 * unmasked,
+            "{name}: the mask hardly dims the lamp"
+        );
+        for (integrator, spp, tolerance) in [
+            ("nee", 512, 0.03),
+            ("bdpt", 256, 0.03),
+            ("whitted", 16, 0.1),
+        ] {
+            let m = mean(&masked, integrator, spp);
+            println!("{name} lamp: {integrator} {m:.4} (pt {reference:.4})");
+            assert!(
+                (m / reference - 1.0).abs() < tolerance,
+                "{name} lamp: {integrator} {m:.4} against pt {reference:.4}"
+            );
+        }
+    }
+}
