@@ -236,7 +236,9 @@ pub mod light {
     pub const ENV_MAP: u32 = 6;
 }
 
-/// A light (80 bytes). Triangle: p0..p2 vertices, p0.w area. Sphere: p0 centre, p0.w radius.
+/// A light (80 bytes). Triangle: p0..p2 vertices, p0.w area. Sphere: p0 centre, p0.w radius,
+/// p1.x 1 when its normals point inwards. Both: p2.w the share of the surface its alpha mask
+/// cuts away (0 without a mask; used by `deferred` only, renderer/src/compile/mask_coverage.rs).
 /// Point: p0 position. Spot: p0 position, p1 direction, p2 = (cos cutoff, cos beam, cutoff rad,
 /// beam rad). Directional: p0 = travel direction. Environments: radiance (constant) or scale.
 /// `prim` is the emitting primitive (area lights) and `pick_pdf` the probability of choosing

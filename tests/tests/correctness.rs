@@ -322,7 +322,8 @@ fn reset_equals_a_fresh_session() {
 /// subpaths, whitted's point set, vct's injection) must give the holes no light either; once it
 /// sampled the whole shape and lit the floor as if the lamp had no holes. pt, which finds light
 /// only by hitting it, is the reference: direct light only (max_depth 2), a quad lamp and a
-/// sphere lamp, each masked to about 61% (tests/import/mitsuba/mask.png).
+/// sphere lamp, each masked to about 61% (tests/import/mitsuba/mask.png). deferred's point-like
+/// lights shine with the share of the lamp that exists.
 #[test]
 fn masked_emitters_light_only_where_they_exist() {
     let mask = candela_tests::repo_root().join("tests/import/mitsuba/mask.png");
@@ -372,5 +373,14 @@ fn masked_emitters_light_only_where_they_exist() {
                 "{name} lamp: {integrator} {m:.4} against pt {reference:.4}"
             );
         }
+        // deferred's point-like lights are approximate, but they shine with the share of the
+        // lamp that exists: the mask dims them about as much as it dims pt's image.
+        let (d_masked, d_whole) = (mean(&masked, "deferred", 4), mean(&whole, "deferred", 4));
+        let (ratio, pt_ratio) = (d_masked / d_whole, reference / unmasked);
+        println!("{name} lamp: deferred masked / whole {ratio:.3} (pt {pt_ratio:.3})");
+        assert!(
+            (ratio / pt_ratio - 1.0).abs() < 0.15,
+            "{name} lamp: deferred's mask dims by {ratio:.3}, pt's by {pt_ratio:.3}"
+        );
     }
 }

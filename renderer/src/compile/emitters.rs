@@ -2,10 +2,11 @@
 //! names its light), then point, spot and directional lights, then the environment; and which
 //! textures are environment maps (their rows clamp instead of wrapping).
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 
 use super::light_bvh::LightBvh;
 use super::lights::{self, LightBuilder};
+use super::mask_coverage;
 use super::prims::Shape;
 use crate::layout::*;
 use crate::scene::{Environment, Light, Scene};
@@ -29,17 +30,19 @@ pub(super) struct Emitters {
 }
 
 /// Builds the light table; marks each emissive primitive of `sorted` (BVH order, `order[slot]` its
-/// input index into `shapes`) with its light index. `radius`: the scene's bounding sphere.
+/// input index into `shapes`; `tri_shading` their normals and uvs) with its light index.
+/// `radius`: the scene's bounding sphere.
 pub(super) fn gather(
     scene: &Scene,
     order: &[u32],
     sorted: &mut [GpuPrim],
     shapes: &[Shape],
+    tri_shading: &[GpuTriShading],
     radius: f64,
 ) -> Emitters {
     let origin = scene.camera.position;
     let mut lb = LightBuilder::new();
-    emissive_prims(scene, order, sorted, shapes, &mut lb);
+    emissive_prims(scene, order, sorted, shapes, tri_shading, &mut lb);
     for l in &scene.lights {
         delta_light(l, origin, radius, &mut lb);
     }
@@ -69,12 +72,14 @@ pub(super) fn gather(
     out
 }
 
-/// Every primitive whose material emits becomes an area light.
+/// Every primitive whose material emits becomes an area light; an alpha-masked one records the
+/// share of it that its mask cuts away (`GpuLight::p2.w`, for `deferred`).
 fn emissive_prims(
     scene: &Scene,
     order: &[u32],
     sorted: &mut [GpuPrim],
     shapes: &[Shape],
+    tri_shading: &[GpuTriShading],
     lb: &mut LightBuilder,
 ) {
     let emission: Vec<Vec3> = scene.materials.iter().map(|m| m.emission).collect();
@@ -97,7 +102,36 @@ fn emissive_prims(
             ),
             Shape::Triangle(p) => lb.triangle(slot as u32, p, e),
         };
+        if bits & PRIM_ALPHA != 0 {
+            lb.lights[li as usize].p2[3] = 1.0
+                - mask_kept(
+                    scene,
+                    bits,
+                    &shapes[orig as usize],
+                    tri_shading.get(sorted[slot].c[3].to_bits() as usize),
+                );
+        }
         sorted[slot].b[3] = f32::from_bits(li);
+    }
+}
+
+/// The share of an alpha-masked primitive (material and flags `bits`, its shading record if a
+/// triangle has one) that its mask keeps: 1 where the mask cannot apply (no texture, no uvs).
+fn mask_kept(scene: &Scene, bits: u32, shape: &Shape, shading: Option<&GpuTriShading>) -> f32 {
+    let mask = scene.materials[(bits & PRIM_MATERIAL_MASK) as usize]
+        .alpha_mask
+        .and_then(|t| scene.textures.get(t as usize));
+    match (shape, mask, shading) {
+        (Shape::Sphere { .. }, Some(mask), _) => mask_coverage::sphere_kept(mask),
+        (Shape::Triangle(_), Some(mask), Some(s)) => {
+            let uv = [
+                Vec2::new(s.n0[3], s.uv_v[0]),
+                Vec2::new(s.n1[3], s.uv_v[1]),
+                Vec2::new(s.n2[3], s.uv_v[2]),
+            ];
+            mask_coverage::triangle_kept(mask, uv)
+        }
+        _ => 1.0,
     }
 }
 

@@ -18,6 +18,7 @@ mod instances;
 pub mod light_bvh;
 mod light_split;
 mod lights;
+mod mask_coverage;
 mod materials;
 mod prims;
 
@@ -280,7 +281,14 @@ pub fn compile_with(
 
     // Step 5: lights: emissive primitives, then delta lights, then the environment (emitting
     // instances were written out as meshes in step 0).
-    let emitters = emitters::gather(scene, &bvh.order, &mut sorted, &prims.shapes, radius);
+    let emitters = emitters::gather(
+        scene,
+        &bvh.order,
+        &mut sorted,
+        &prims.shapes,
+        &prims.tri_shading,
+        radius,
+    );
     sorted.extend_from_slice(&inst.prims);
     let mut tri_shading = prims.tri_shading;
     tri_shading.extend_from_slice(&inst.tri_shading);

@@ -176,7 +176,8 @@ pub fn manage(scene_lights: &[GpuLight], o: &ManagerOptions) -> LightSet {
             light::TRIANGLE => {
                 st.scene_triangle += 1;
                 let (p0, p1, p2) = (v3(l.p0), v3(l.p1), v3(l.p2));
-                let area = l.p0[3];
+                // The area that exists: an alpha mask's holes do not shine.
+                let area = l.p0[3] * (1.0 - l.p2[3]);
                 let n = (p1 - p0).cross(p2 - p0).normalize_or_zero();
                 let i0 = rgb * area;
                 if i0.max_element() <= 0.0 || n == Vec3::ZERO {
@@ -191,7 +192,7 @@ pub fn manage(scene_lights: &[GpuLight], o: &ManagerOptions) -> LightSet {
                 st.scene_sphere += 1;
                 let radius = l.p0[3];
                 let flipped = l.p1[0] > 0.5;
-                let i = rgb * (std::f32::consts::PI * radius * radius);
+                let i = rgb * (std::f32::consts::PI * radius * radius * (1.0 - l.p2[3]));
                 if flipped || i.max_element() <= 0.0 {
                     st.skipped += 1;
                     continue;
