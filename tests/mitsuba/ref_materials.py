@@ -79,13 +79,21 @@ class Textures:
         return pick({"r": 0, "g": 1, "b": 2, "a": 3}[channel or "r"]), w, h, to_uv
 
     def scalar(self, v, path, fn=None):
-        """Scalar field: number → float; texture → one-channel `bitmap` of fn(red channel)."""
+        """Scalar field: number → float; texture → one-channel `bitmap` of fn(red channel).
+        candela applies fn (roughness → alpha) to the bilinearly filtered value, Mitsuba filters
+        the bitmap it is given: a bitmap of fn(texel) would blend fn's values between texel
+        centres where candela blends the texels before fn (the random-scene audit's seed 132: a
+        rough dielectric floor with a checker roughness, 44× the noise). So the bitmap holds
+        fn(candela's bilinear lookup) on a grid k× finer (k odd, so that every texel centre, where
+        the blend has a kink, is a centre of the finer grid too), which Mitsuba's bilinear filter
+        follows to within about (1/k)² of the blend's curvature."""
         if not is_texture(v):
             x = num(v, path)
             return fn(x) if fn else x
         r, w, h, to_uv = self.red(v, path)
         if fn:
-            r = fn(r)
+            k = next(k for k in (7, 5, 3, 1) if w * h * k * k <= FINE_TEXELS or k == 1)
+            r, w, h = fn(upsampled_bilinear(r, w, h, k)), w * k, h * k
         bmp = mi.Bitmap(dr.scalar.TensorXf(r, (h, w, 1)))
         return {"type": "bitmap", "bitmap": bmp, "raw": True, "filter_type": "bilinear",
                 "wrap_mode": "repeat", "to_uv": to_uv}
@@ -103,6 +111,29 @@ class Textures:
         bmp = mi.Bitmap(dr.scalar.TensorXf(r, (h, w, 1)))
         return {"type": "bitmap", "bitmap": bmp, "raw": True, "filter_type": "nearest",
                 "wrap_mode": "repeat", "to_uv": to_uv}
+
+
+# The most texels of a derived scalar bitmap (scalar() picks its refinement k within this).
+FINE_TEXELS = 1 << 22
+
+
+def upsampled_bilinear(r, w, h, k):
+    """Texels r (w×h, row 0 at the top) looked up bilinearly with repeat wrapping, as candela's
+    texture_eval does (texel centres at half-integers), at the centres of a grid k× finer."""
+    if k == 1:
+        return r
+    i = dr.arange(dr.scalar.ArrayXu, w * k * h * k)
+    fx = dr.scalar.ArrayXf(i % (w * k)) / k + (0.5 / k - 0.5)
+    fy = dr.scalar.ArrayXf(i // (w * k)) / k + (0.5 / k - 0.5)
+    x0, y0 = dr.floor(fx), dr.floor(fy)
+    ax, ay = fx - x0, fy - y0
+    wrap = lambda a, n: dr.scalar.ArrayXu(((dr.scalar.ArrayXi(a) % n) + n) % n)
+    xa, xb = wrap(x0, w), wrap(x0 + 1, w)
+    ya, yb = wrap(y0, h), wrap(y0 + 1, h)
+    at = lambda x, y: dr.gather(dr.scalar.ArrayXf, r, y * w + x)
+    top = at(xa, ya) * (1 - ax) + at(xb, ya) * ax
+    bottom = at(xa, yb) * (1 - ax) + at(xb, yb) * ax
+    return top * (1 - ay) + bottom * ay
 
 
 def _nonzero(v):

@@ -212,6 +212,20 @@ def triangle_uvs_and_anisotropy_mapping():
     assert abs(inner["alpha_v"] - 0.25 * aspect) < 1e-9, inner
 
 
+@check
+def derived_scalar_textures_filter_before_fn():
+    # candela squares the filtered roughness; the derived alpha bitmap must follow that between
+    # texel centres (a bitmap of squared texels gives 0.5 halfway between 0 and 1, not 0.25).
+    name = write_image("ramp.exr", 2, 1, lambda x, y: (float(x),) * 3)
+    d = Textures(TMP).scalar({"texture": name}, "m.roughness", lambda x: x * x)
+    t = mi.load_dict(d)
+    si = dr.zeros(mi.SurfaceInteraction3f)
+    for u, want in ((0.5, 0.25), (0.375, 0.0625), (0.25, 0.0), (0.75, 1.0)):
+        si.uv = [u, 0.5]
+        got = t.eval_1(si)
+        assert abs(got - want) < 0.01, (u, got, want)
+
+
 def feature_scene():
     write_image("checker.png", 4, 4,
                 lambda x, y: (0.8, 0.2, 0.1) if (x + y) % 2 else (0.1, 0.5, 0.9), "png")

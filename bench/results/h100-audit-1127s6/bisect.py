@@ -14,8 +14,34 @@ def diffuse(*ms):
     def f(v):
         for m in ms: v["materials"][m] = {"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]}
     return f
+def png_upsampled(src, dst, k):
+    """An 8-bit RGB PNG (rows of filter type 0, as random_scene.py's assets) k× larger, each
+    texel repeated: the same pattern, its bilinear blends k× narrower in uv."""
+    import struct, zlib
+    d = open(src, "rb").read()
+    w, h = struct.unpack(">II", d[16:24]); assert d[24:26] == bytes([8, 2]), "8-bit RGB only"
+    i, idat = 8, b""
+    while i < len(d):
+        n = struct.unpack(">I", d[i:i + 4])[0]
+        if d[i + 4:i + 8] == b"IDAT": idat += d[i + 8:i + 8 + n]
+        i += 12 + n
+    raw = zlib.decompress(idat); rows = [raw[y * (3 * w + 1):(y + 1) * (3 * w + 1)] for y in range(h)]
+    assert all(r[0] == 0 for r in rows), "filter type 0 only"
+    big = b"".join(b"\0" + b"".join(r[1 + 3 * x:4 + 3 * x] * k for x in range(w)) for r in rows for _ in range(k))
+    chunk = lambda t, b: struct.pack(">I", len(b)) + t + b + struct.pack(">I", zlib.crc32(t + b))
+    open(dst, "wb").write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w * k, h * k, 8, 2, 0, 0, 0))
+                          + chunk(b"IDAT", zlib.compress(big)) + chunk(b"IEND", b""))
 mats = base["materials"]
 vs = [("base", base)]
+# Textured roughness: Mitsuba's derived alpha texture interpolates roughness² where candela squares
+# the interpolated roughness; with the texture 4× finer (same pattern) the blends shrink 4×.
+for m, mat in mats.items():
+    r = mat.get("roughness")
+    if isinstance(r, dict) and "texture" in r:
+        fine = os.path.join(d, "assets", "fine4_" + os.path.basename(r["texture"]))
+        png_upsampled(os.path.join(d, r["texture"]), fine, 4)
+        vs.append(var(f"{m}_roughness_fine4", lambda v, m=m, f=fine: v["materials"][m]["roughness"].__setitem__("texture", os.path.relpath(f, d))))
+        vs.append(var(f"{m}_roughness_const", lambda v, m=m: v["materials"][m].__setitem__("roughness", 0.3)))
 for m, mat in mats.items():
     if mat.get("alpha_mask"): vs.append(var(f"{m}_no_alpha", lambda v, m=m: v["materials"][m].pop("alpha_mask")))
     if mat["type"] in ("dielectric", "principled", "conductor"): vs.append(var(f"{m}_diffuse", diffuse(m)))
