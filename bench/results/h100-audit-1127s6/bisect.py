@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Which part of a random scene makes candela and Mitsuba differ: variants of one scene, each
-compared as audit.py does (block relMSE against noise, means). bisect.py SEED CANDELA OUT SPP"""
+compared as audit.py does (block relMSE against noise, means). bisect.py SEED CANDELA OUT SPP
+(Mitsuba variant: $VARIANT, default cuda_ad_rgb)"""
 import copy, json, os, subprocess, sys
 sys.path.insert(0, "tests/mitsuba")
 import audit
@@ -53,7 +54,7 @@ for name, v in vs:
     mi, cs = [], []
     for s in (1, 2):
         o = os.path.join(d, f"{name}_m{s}.exr")
-        subprocess.run([sys.executable, "tests/mitsuba/render_reference.py", p, o, "--spp", spp, "--seed", str(s), "--variant", "cuda_ad_rgb"], check=True, capture_output=True)
+        subprocess.run([sys.executable, "tests/mitsuba/render_reference.py", p, o, "--spp", spp, "--seed", str(s), "--variant", os.environ.get("VARIANT", "cuda_ad_rgb")], check=True, capture_output=True)
         mi.append(o)
         o = os.path.join(d, f"{name}_c{s}.exr")
         subprocess.run([cand, "render", p, "-o", o, "--integrator", "nee", "--spp", spp, "--seed", str(10 + s)], check=True, capture_output=True)
