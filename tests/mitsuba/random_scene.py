@@ -198,7 +198,9 @@ class Gen:
             o = {"type": "sphere", "center": [self.u(-1.8, 1.8), round(-1 + r + self.u(0, 0.8), 4),
                                               self.u(-1.8, 1.8)], "radius": r, "material": mat}
         elif kind == "box":
-            lo = [self.u(-2, 1), -1, self.u(-2, 1)]
+            # 1 mm above the floor: a bottom face in the floor's plane ties with it, which each
+            # renderer breaks its own way where a mask's holes show it (the audit's seed 169).
+            lo = [self.u(-2, 1), -0.999, self.u(-2, 1)]
             o = {"type": "box", "min": lo,
                  "max": [lo[0] + self.u(0.3, 1), self.u(-0.5, 1), lo[2] + self.u(0.3, 1)],
                  "material": mat}

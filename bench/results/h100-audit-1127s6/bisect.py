@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Which part of a random scene makes candela and Mitsuba differ: variants of one scene, each
 compared as audit.py does (block relMSE against noise, means). bisect.py SEED CANDELA OUT SPP
-(Mitsuba variant: $VARIANT, default cuda_ad_rgb)"""
+(Mitsuba variant: $VARIANT, default cuda_ad_rgb; $ONLY: the variants to run, by name)"""
 import copy, json, os, subprocess, sys
 sys.path.insert(0, "tests/mitsuba")
 import audit
@@ -49,6 +49,13 @@ for m, mat in mats.items():
     if mat.get("anisotropic"): vs.append(var(f"{m}_iso", lambda v, m=m: v["materials"][m].__setitem__("anisotropic", 0.0)))
     if mat.get("two_sided") is False: vs.append(var(f"{m}_two_sided", lambda v, m=m: v["materials"][m].pop("two_sided")))
 if base.get("lights"): vs.append(var("no_delta_lights", lambda v: v.pop("lights")))
+# Boxes resting on the floor share its plane (the generator's min y = -1): lifted by 1 cm.
+def lift(v):
+    for o in v["objects"]:
+        if o["type"] == "box" and o["min"][1] == -1: o["min"][1] = -0.99
+if any(o["type"] == "box" and o["min"][1] == -1 for o in base["objects"]): vs.append(var("boxes_lifted", lift))
+if os.environ.get("ONLY"):  # a space-separated subset of the variants' names
+    vs = [x for x in vs if x[0] in os.environ["ONLY"].split()]
 for name, v in vs:
     p = os.path.join(d, f"{name}.json"); json.dump(v, open(p, "w"))
     mi, cs = [], []
