@@ -317,6 +317,48 @@ fn reset_equals_a_fresh_session() {
     }
 }
 
+/// A masked lamp beside a whole one: light sampling picks the masked lamp by the power its mask
+/// keeps (renderer/src/compile/emitters.rs), with both light samplers, and nee stays unbiased
+/// (its pick pdfs in MIS follow): nee with the power sampler and with the light BVH against pt,
+/// direct light only.
+#[test]
+fn masked_and_whole_lamps_sampled_by_the_power_they_keep() {
+    let mask = candela_tests::repo_root().join("tests/import/mitsuba/mask.png");
+    let scene = |sampler: &str| {
+        let text = format!(
+            r#"{{"version": 1, "camera": {{"position": [0, 0.8, 3], "look_at": [0, 0, 0], "fov_y": 35}},
+                "film": {{"width": 12, "height": 12}},
+                "materials": {{
+                  "floor": {{"type": "diffuse", "reflectance": [0.8, 0.8, 0.8]}},
+                  "whole": {{"type": "diffuse", "reflectance": 0, "emission": [2, 2, 2]}},
+                  "masked": {{"type": "diffuse", "reflectance": 0, "emission": [6, 6, 6],
+                             "alpha_mask": {{"texture": "mask.png", "scale": [2, 2]}}}}}},
+                "objects": [
+                  {{"type": "quad", "origin": [-3, 0, 3], "edge_u": [6, 0, 0], "edge_v": [0, 0, -6],
+                    "material": "floor"}},
+                  {{"type": "quad", "origin": [-2, 1.5, -1], "edge_u": [1.5, 0, 0], "edge_v": [0, 0, 2],
+                    "material": "whole"}},
+                  {{"type": "quad", "origin": [0.5, 1.2, -1], "edge_u": [1.5, 0, 0], "edge_v": [0, 0, 2],
+                    "material": "masked"}}],
+                "render": {{"max_depth": 2, "light_sampler": "{sampler}"}}}}"#
+        );
+        renderer::scene::load_str(&text, mask.parent()).unwrap()
+    };
+    let mean = |s: &renderer::scene::Scene, integrator, spp| {
+        let (img, _) = render_loaded(s, integrator, spp, 12, 12, 7, None);
+        img.mean()[0]
+    };
+    let reference = mean(&scene("power"), "pt", 4096);
+    for sampler in ["power", "bvh"] {
+        let m = mean(&scene(sampler), "nee", 512);
+        println!("nee ({sampler} sampler) {m:.4} against pt {reference:.4}");
+        assert!(
+            (m / reference - 1.0).abs() < 0.03,
+            "nee with the {sampler} light sampler: {m:.4} against pt {reference:.4}"
+        );
+    }
+}
+
 /// An alpha-masked emitter emits only where its surface exists. Camera rays and BSDF-sampled
 /// paths pass through its holes, so light sampling (nee, bdpt's connections and light
 /// subpaths, whitted's point set, vct's injection) must give the holes no light either; once it

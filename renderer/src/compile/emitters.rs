@@ -72,8 +72,12 @@ pub(super) fn gather(
     out
 }
 
+/// The least share of its power a masked emitter is picked by (`emissive_prims`).
+const MIN_PICK_SHARE: f32 = 1.0 / 256.0;
+
 /// Every primitive whose material emits becomes an area light; an alpha-masked one records the
-/// share of it that its mask cuts away (`GpuLight::p2.w`, for `deferred`).
+/// share of it that its mask cuts away (`GpuLight::p2.w`, for `deferred`) and is picked by the
+/// power of what its mask keeps.
 fn emissive_prims(
     scene: &Scene,
     order: &[u32],
@@ -103,13 +107,17 @@ fn emissive_prims(
             Shape::Triangle(p) => lb.triangle(slot as u32, p, e),
         };
         if bits & PRIM_ALPHA != 0 {
-            lb.lights[li as usize].p2[3] = 1.0
-                - mask_kept(
-                    scene,
-                    bits,
-                    &shapes[orig as usize],
-                    tri_shading.get(sorted[slot].c[3].to_bits() as usize),
-                );
+            let kept = mask_kept(
+                scene,
+                bits,
+                &shapes[orig as usize],
+                tri_shading.get(sorted[slot].c[3].to_bits() as usize),
+            );
+            lb.lights[li as usize].p2[3] = 1.0 - kept;
+            // Light sampling picks by the power that exists (the pick pdf and the light BVH
+            // follow): a sample in a hole is wasted. Never zero, so a sliver the estimate's
+            // points miss can still be picked.
+            lb.power[li as usize] *= f64::from(kept.max(MIN_PICK_SHARE));
         }
         sorted[slot].b[3] = f32::from_bits(li);
     }
@@ -188,5 +196,51 @@ fn environment(scene: &Scene, radius: f64, lb: &mut LightBuilder, out: &mut Emit
             }
         }
         _ => {}
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// A masked lamp is picked by the share of its power that its mask keeps: two equal quad
+    /// lamps, one masked to about 61% (tests/import/mitsuba/mask.png), the other whole.
+    #[test]
+    fn masked_emitters_are_picked_by_the_power_they_keep() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/import/mitsuba");
+        let lamp = |x: f32, m: &str| {
+            format!(
+                r#"{{"type": "quad", "origin": [{x}, 1.5, -1], "edge_u": [2, 0, 0], "edge_v": [0, 0, 2], "material": "{m}"}}"#
+            )
+        };
+        let json = format!(
+            r#"{{"version": 1, "camera": {{"position": [0, 0.8, 3], "look_at": [0, 0, 0]}},
+            "film": {{"width": 8, "height": 8}},
+            "materials": {{
+              "whole": {{"type": "diffuse", "reflectance": 0, "emission": [4, 4, 4]}},
+              "masked": {{"type": "diffuse", "reflectance": 0, "emission": [4, 4, 4],
+                         "alpha_mask": {{"texture": "mask.png", "scale": [2, 2]}}}}}},
+            "objects": [{}, {}]}}"#,
+            lamp(-3.0, "whole"),
+            lamp(1.0, "masked")
+        );
+        let scene = crate::scene::load_str(&json, Some(&root)).unwrap();
+        let c = super::super::compile(&scene, 8, 8).unwrap();
+        // Each quad is two triangles; sum the picks of each lamp's pair.
+        let (mut masked, mut whole, mut kept) = (0.0f64, 0.0f64, 0.0f64);
+        for l in &c.lights {
+            if l.p2[3] > 0.0 {
+                masked += f64::from(l.pick_pdf);
+                kept += f64::from(1.0 - l.p2[3]) / 2.0;
+            } else {
+                whole += f64::from(l.pick_pdf);
+            }
+        }
+        assert_eq!(c.lights.len(), 4);
+        assert!((masked + whole - 1.0).abs() < 1e-6);
+        assert!((0.4..0.8).contains(&kept), "kept share {kept}");
+        let ratio = masked / whole;
+        assert!(
+            (ratio / kept - 1.0).abs() < 1e-3,
+            "masked / whole pick {ratio:.4}, kept share {kept:.4}"
+        );
     }
 }
