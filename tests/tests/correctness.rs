@@ -420,7 +420,10 @@ fn masked_emitters_light_only_where_they_exist() {
         // vct's injection samples the lamps as nee does: its approximation of direct light
         // dims with the mask as pt's image does.
         for (integrator, spp) in [("deferred", 4), ("vct", 4)] {
-            let (a, b) = (mean(&masked, integrator, spp), mean(&whole, integrator, spp));
+            let (a, b) = (
+                mean(&masked, integrator, spp),
+                mean(&whole, integrator, spp),
+            );
             let (ratio, pt_ratio) = (a / b, reference / unmasked);
             println!("{name} lamp: {integrator} masked / whole {ratio:.3} (pt {pt_ratio:.3})");
             assert!(

@@ -87,15 +87,38 @@ fn emissive_prims(
     lb: &mut LightBuilder,
 ) {
     let emission: Vec<Vec3> = scene.materials.iter().map(|m| m.emission).collect();
-    for (slot, &orig) in order.iter().enumerate() {
-        let bits = sorted[slot].a[3].to_bits();
+    let emits = |bits: u32| -> Option<Vec3> {
         let e = emission
             .get((bits & PRIM_MATERIAL_MASK) as usize)
             .copied()
             .unwrap_or(Vec3::ZERO);
-        if e.max_element() <= 0.0 {
-            continue;
-        }
+        (e.max_element() > 0.0).then_some(e)
+    };
+    // Step 1: the kept share of every masked emitter, in parallel (SIDE² mask lookups each).
+    let kept: Vec<f32> = {
+        use rayon::prelude::*;
+        let sorted = &*sorted;
+        order
+            .par_iter()
+            .enumerate()
+            .map(|(slot, &orig)| {
+                let bits = sorted[slot].a[3].to_bits();
+                if bits & PRIM_ALPHA == 0 || emits(bits).is_none() {
+                    return 1.0;
+                }
+                mask_kept(
+                    scene,
+                    bits,
+                    &shapes[orig as usize],
+                    tri_shading.get(sorted[slot].c[3].to_bits() as usize),
+                )
+            })
+            .collect()
+    };
+    // Step 2: the lights, in slot order.
+    for (slot, &orig) in order.iter().enumerate() {
+        let bits = sorted[slot].a[3].to_bits();
+        let Some(e) = emits(bits) else { continue };
         let li = match shapes[orig as usize] {
             Shape::Sphere { center, radius } => lb.sphere(
                 slot as u32,
@@ -107,12 +130,7 @@ fn emissive_prims(
             Shape::Triangle(p) => lb.triangle(slot as u32, p, e),
         };
         if bits & PRIM_ALPHA != 0 {
-            let kept = mask_kept(
-                scene,
-                bits,
-                &shapes[orig as usize],
-                tri_shading.get(sorted[slot].c[3].to_bits() as usize),
-            );
+            let kept = kept[slot];
             lb.lights[li as usize].p2[3] = 1.0 - kept;
             // Light sampling picks by the power that exists (the pick pdf and the light BVH
             // follow): a sample in a hole is wasted. Never zero, so a sliver the estimate's

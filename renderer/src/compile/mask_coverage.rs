@@ -1,7 +1,8 @@
 //! The share of an alpha-masked emitter that exists: the fraction of its area where the mask is
-//! ≥ 0.5, as the shaders' `mask_cuts` decides (shaders/common/alpha.glsl). Light sampling does
-//! not need it (a sampled point in a hole simply emits nothing), but `deferred`'s point-like area
-//! lights do: they shine with intensity radiance · area · this share
+//! ≥ 0.5, as the shaders' `mask_cuts` decides (shaders/common/alpha.glsl). Light sampling picks
+//! such an emitter by its power times this share (a sampled point in a hole emits nothing, so the
+//! estimate stays unbiased whatever the share; it only steers samples away from the holes), and
+//! `deferred`'s point-like area lights shine with intensity radiance · area · this share
 //! (renderer/src/integrators/deferred/lights.rs). Estimated on a fixed stratified set of
 //! `SIDE`² points spread uniformly over the surface's area.
 
