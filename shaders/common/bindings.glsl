@@ -13,6 +13,14 @@ uint count_nodes = 0u, count_prims = 0u;
 #define COUNT_NODE
 #define COUNT_PRIM
 #endif
+// COUNT_CLOCK, a measuring define like COUNT_STEPS: each invocation adds the subgroup clock's
+// cycles it spends in closest-hit walks (=1), any-hit walks (=2) or, in the path kernels
+// (pt, nee), its whole sample loop (=3), reported in place of the rays (needs the device's
+// VK_KHR_shader_clock).
+#ifdef COUNT_CLOCK
+#extension GL_ARB_shader_clock : require
+uint count_clock = 0u;
+#endif
 #include "common/types.glsl"
 
 layout(set = 0, binding = B_GLOBALS, scalar) readonly buffer Globals { GpuGlobals g; };

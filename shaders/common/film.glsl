@@ -43,6 +43,9 @@ void film_count(uint rays, uint dropped) {
 #ifdef COUNT_STEPS
     rays = COUNT_STEPS == 1 ? count_nodes : count_prims;
 #endif
+#ifdef COUNT_CLOCK
+    rays = count_clock;
+#endif
     if (dropped > 0u) atomicAdd(stats.dropped_samples, dropped);
     if (rays > 0u) {
         uint before = atomicAdd(stats.rays_lo, rays);

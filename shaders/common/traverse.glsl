@@ -354,42 +354,64 @@ bool traverse_instances(Ray r, bool any_hit, inout Hit hit) {
 #if defined(ACCEL_CWBVH)
 // accel "cwbvh": the compressed 8-wide BVH (common/traverse_cwbvh.glsl) answers both queries.
 #include "common/traverse_cwbvh.glsl"
-bool trace_closest(Ray r, out Hit hit) { return traverse_cwbvh(r, false, hit); }
+bool walk_closest(Ray r, out Hit hit) { return traverse_cwbvh(r, false, hit); }
 
-bool trace_any(Ray r) {
+bool walk_any(Ray r) {
     Hit h;
     return traverse_cwbvh(r, true, h);
 }
 #elif defined(ACCEL_GRID)
 // accel "grid": the uniform grid (common/grid.glsl) answers both queries instead of the BVH.
 #include "common/grid.glsl"
-bool trace_closest(Ray r, out Hit hit) { return traverse_grid(r, false, hit); }
+bool walk_closest(Ray r, out Hit hit) { return traverse_grid(r, false, hit); }
 
-bool trace_any(Ray r) {
+bool walk_any(Ray r) {
     Hit h;
     return traverse_grid(r, true, h);
 }
 #elif defined(HAS_INSTANCES)
 // The scene's own BVH, then the instances, beyond its nearest hit.
-bool trace_closest(Ray r, out Hit hit) {
+bool walk_closest(Ray r, out Hit hit) {
     traverse(r, false, hit);
     r.tmax = hit.t;
     traverse_instances(r, false, hit);
     return hit.prim != NONE;
 }
 
-bool trace_any(Ray r) {
+bool walk_any(Ray r) {
     Hit h;
     if (traverse(r, true, h)) return true;
     return traverse_instances(r, true, h);
 }
 #else
-bool trace_closest(Ray r, out Hit hit) { return traverse(r, false, hit); }
+bool walk_closest(Ray r, out Hit hit) { return traverse(r, false, hit); }
 
-bool trace_any(Ray r) {
+bool walk_any(Ray r) {
     Hit h;
     return traverse(r, true, h);
 }
+#endif
+
+
+// The two queries the integrators call. COUNT_CLOCK (a measuring define, common/bindings.glsl)
+// adds the cycles each thread spends in them.
+#ifdef COUNT_CLOCK
+bool trace_closest(Ray r, out Hit hit) {
+    uint c0 = clock2x32ARB().x;
+    bool found = walk_closest(r, hit);
+    if (COUNT_CLOCK == 1) count_clock += clock2x32ARB().x - c0;
+    return found;
+}
+
+bool trace_any(Ray r) {
+    uint c0 = clock2x32ARB().x;
+    bool found = walk_any(r);
+    if (COUNT_CLOCK == 2) count_clock += clock2x32ARB().x - c0;
+    return found;
+}
+#else
+bool trace_closest(Ray r, out Hit hit) { return walk_closest(r, hit); }
+bool trace_any(Ray r) { return walk_any(r); }
 #endif
 
 #endif

@@ -357,7 +357,7 @@ struct DeviceParts {
 }
 
 /// Creates the logical device with the features the kernels use: scalar block layout (required),
-/// host query reset, 64-bit integers and buffer float atomics where available.
+/// host query reset, 64-bit integers, buffer float atomics and the subgroup clock where available.
 fn create_device(
     instance: &ash::Instance,
     physical: vk::PhysicalDevice,
@@ -373,18 +373,18 @@ fn create_device(
     // SAFETY: valid physical device.
     let device_exts =
         unsafe { instance.enumerate_device_extension_properties(physical) }.unwrap_or_default();
-    let has_atomic_float_ext = device_exts.iter().any(|e| {
-        e.extension_name_as_c_str()
-            .map(|n| n == ash::ext::shader_atomic_float::NAME)
-            .unwrap_or(false)
-    });
-    let has_executable_properties_ext = device_exts.iter().any(|e| {
-        e.extension_name_as_c_str()
-            .map(|n| n == ash::khr::pipeline_executable_properties::NAME)
-            .unwrap_or(false)
-    });
+    let has_ext = |name: &std::ffi::CStr| {
+        device_exts
+            .iter()
+            .any(|e| e.extension_name_as_c_str() == Ok(name))
+    };
+    let has_atomic_float_ext = has_ext(ash::ext::shader_atomic_float::NAME);
+    let has_executable_properties_ext = has_ext(ash::khr::pipeline_executable_properties::NAME);
+    // The subgroup clock, for the measuring define COUNT_CLOCK (common/bindings.glsl).
+    let has_clock_ext = has_ext(ash::khr::shader_clock::NAME);
     let mut executable_info = vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default();
     let mut atomic_float = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default();
+    let mut clock = vk::PhysicalDeviceShaderClockFeaturesKHR::default();
     let base_features = {
         let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12);
         if has_atomic_float_ext {
@@ -392,6 +392,9 @@ fn create_device(
         }
         if has_executable_properties_ext {
             f2 = f2.push_next(&mut executable_info);
+        }
+        if has_clock_ext {
+            f2 = f2.push_next(&mut clock);
         }
         // SAFETY: valid physical device and feature chain.
         unsafe { instance.get_physical_device_features2(physical, &mut f2) };
@@ -419,7 +422,13 @@ fn create_device(
     let mut en_executable_info =
         vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default()
             .pipeline_executable_info(true);
+    let subgroup_clock = has_clock_ext && clock.shader_subgroup_clock == vk::TRUE;
+    let mut en_clock =
+        vk::PhysicalDeviceShaderClockFeaturesKHR::default().shader_subgroup_clock(true);
     let mut device_ext_ptrs: Vec<*const i8> = Vec::new();
+    if subgroup_clock {
+        device_ext_ptrs.push(ash::khr::shader_clock::NAME.as_ptr());
+    }
     if float_atomics {
         device_ext_ptrs.push(ash::ext::shader_atomic_float::NAME.as_ptr());
     }
@@ -436,6 +445,9 @@ fn create_device(
     }
     if executable_properties {
         dci = dci.push_next(&mut en_executable_info);
+    }
+    if subgroup_clock {
+        dci = dci.push_next(&mut en_clock);
     }
     // SAFETY: valid create info referencing live locals.
     let device = unsafe { instance.create_device(physical, &dci, None) }
