@@ -476,6 +476,46 @@ fn count_steps_knob_counts_nodes_and_primitives() {
     assert!(cw.0 < bvh.0 && cw.1 < bvh.1);
 }
 
+/// The measuring define COUNT_CLOCK makes `rays` the subgroup-clock cycles spent in closest-hit
+/// walks (1) or the whole path kernel (3; any-hit walks, 2, are counted as closest-hit ones
+/// are): both are counted, and the walks take part of the kernel's cycles, not more. (pt: each
+/// define compiles a kernel, slow on lavapipe.)
+#[test]
+fn count_clock_knob_counts_the_walks_cycles() {
+    let dir = scratch("count-clock");
+    let out = dir.join("o.exr");
+    let cycles = |count: &str| -> f64 {
+        let args = [
+            "render",
+            "scenes/cornell.json",
+            "-o",
+            out.to_str().unwrap(),
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--spp",
+            "2",
+            "--seed",
+            "3",
+            "--integrator",
+            "pt",
+            "--json",
+        ];
+        let o = run_candela_env(&args, &[("CANDELA_SHADER_DEFINES", count)]);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        let r: Value = serde_json::from_slice(&o.stdout).expect("one JSON object");
+        assert!(r["kernel_defines"].to_string().contains(count), "{r}");
+        r["rays"].as_f64().unwrap()
+    };
+    let (closest, total) = (cycles("COUNT_CLOCK=1"), cycles("COUNT_CLOCK=3"));
+    println!("cycles: closest-hit walks {closest}, kernel {total}");
+    assert!(
+        closest > 0.0 && closest < total,
+        "{closest} against {total}"
+    );
+}
+
 /// A cache file whose CWBVH is not a tree within the stack (a cycle, a leaf out of range, too
 /// deep) is refused on load and rebuilt: the depth bound the traversal relies on is checked, not
 /// trusted.
