@@ -317,32 +317,45 @@ fn reset_equals_a_fresh_session() {
     }
 }
 
+/// A 12×12 view of a grey floor under lamps (`objects`, with their `materials`), direct light only
+/// (max_depth 2; `render` adds fields), textures from tests/import/mitsuba (mask.png).
+fn lamp_scene(materials: &str, objects: &str, render: &str) -> renderer::scene::Scene {
+    let render = if render.is_empty() {
+        String::new()
+    } else {
+        format!(", {render}")
+    };
+    let text = format!(
+        r#"{{"version": 1, "camera": {{"position": [0, 0.8, 3], "look_at": [0, 0, 0], "fov_y": 35}},
+            "film": {{"width": 12, "height": 12}},
+            "materials": {{"floor": {{"type": "diffuse", "reflectance": [0.8, 0.8, 0.8]}}, {materials}}},
+            "objects": [
+              {{"type": "quad", "origin": [-3, 0, 3], "edge_u": [6, 0, 0], "edge_v": [0, 0, -6],
+                "material": "floor"}},
+              {objects}],
+            "render": {{"max_depth": 2{render}}}}}"#
+    );
+    let textures = candela_tests::repo_root().join("tests/import/mitsuba");
+    renderer::scene::load_str(&text, Some(&textures)).unwrap()
+}
+
 /// A masked lamp beside a whole one: light sampling picks the masked lamp by the power its mask
 /// keeps (renderer/src/compile/emitters.rs), with both light samplers, and nee stays unbiased
 /// (its pick pdfs in MIS follow): nee with the power sampler and with the light BVH against pt,
 /// direct light only.
 #[test]
 fn masked_and_whole_lamps_sampled_by_the_power_they_keep() {
-    let mask = candela_tests::repo_root().join("tests/import/mitsuba/mask.png");
     let scene = |sampler: &str| {
-        let text = format!(
-            r#"{{"version": 1, "camera": {{"position": [0, 0.8, 3], "look_at": [0, 0, 0], "fov_y": 35}},
-                "film": {{"width": 12, "height": 12}},
-                "materials": {{
-                  "floor": {{"type": "diffuse", "reflectance": [0.8, 0.8, 0.8]}},
-                  "whole": {{"type": "diffuse", "reflectance": 0, "emission": [2, 2, 2]}},
-                  "masked": {{"type": "diffuse", "reflectance": 0, "emission": [6, 6, 6],
-                             "alpha_mask": {{"texture": "mask.png", "scale": [2, 2]}}}}}},
-                "objects": [
-                  {{"type": "quad", "origin": [-3, 0, 3], "edge_u": [6, 0, 0], "edge_v": [0, 0, -6],
-                    "material": "floor"}},
-                  {{"type": "quad", "origin": [-2, 1.5, -1], "edge_u": [1.5, 0, 0], "edge_v": [0, 0, 2],
-                    "material": "whole"}},
-                  {{"type": "quad", "origin": [0.5, 1.2, -1], "edge_u": [1.5, 0, 0], "edge_v": [0, 0, 2],
-                    "material": "masked"}}],
-                "render": {{"max_depth": 2, "light_sampler": "{sampler}"}}}}"#
-        );
-        renderer::scene::load_str(&text, mask.parent()).unwrap()
+        lamp_scene(
+            r#""whole": {"type": "diffuse", "reflectance": 0, "emission": [2, 2, 2]},
+               "masked": {"type": "diffuse", "reflectance": 0, "emission": [6, 6, 6],
+                          "alpha_mask": {"texture": "mask.png", "scale": [2, 2]}}"#,
+            r#"{"type": "quad", "origin": [-2, 1.5, -1], "edge_u": [1.5, 0, 0], "edge_v": [0, 0, 2],
+                "material": "whole"},
+               {"type": "quad", "origin": [0.5, 1.2, -1], "edge_u": [1.5, 0, 0], "edge_v": [0, 0, 2],
+                "material": "masked"}"#,
+            &format!(r#""light_sampler": "{sampler}""#),
+        )
     };
     let mean = |s: &renderer::scene::Scene, integrator, spp| {
         let (img, _) = render_loaded(s, integrator, spp, 12, 12, 7, None);
@@ -368,26 +381,19 @@ fn masked_and_whole_lamps_sampled_by_the_power_they_keep() {
 /// lights shine with the share of the lamp that exists.
 #[test]
 fn masked_emitters_light_only_where_they_exist() {
-    let mask = candela_tests::repo_root().join("tests/import/mitsuba/mask.png");
     let lamp_quad = r#"{"type": "quad", "origin": [-1, 1.5, -1], "edge_u": [2, 0, 0],
                         "edge_v": [0, 0, 2], "material": "lamp"}"#;
     let lamp_sphere =
         r#"{"type": "sphere", "center": [0, 1.2, 0], "radius": 0.6, "material": "lamp"}"#;
     for (name, lamp) in [("quad", lamp_quad), ("sphere", lamp_sphere)] {
         let scene = |mask_field: &str| {
-            let text = format!(
-                r#"{{"version": 1, "camera": {{"position": [0, 0.8, 3], "look_at": [0, 0, 0], "fov_y": 35}},
-                    "film": {{"width": 12, "height": 12}},
-                    "materials": {{
-                      "floor": {{"type": "diffuse", "reflectance": [0.8, 0.8, 0.8]}},
-                      "lamp": {{"type": "diffuse", "reflectance": 0, "emission": [4, 4, 4]{mask_field}}}}},
-                    "objects": [
-                      {{"type": "quad", "origin": [-3, 0, 3], "edge_u": [6, 0, 0], "edge_v": [0, 0, -6],
-                        "material": "floor"}},
-                      {lamp}],
-                    "render": {{"max_depth": 2}}}}"#
-            );
-            renderer::scene::load_str(&text, mask.parent()).unwrap()
+            lamp_scene(
+                &format!(
+                    r#""lamp": {{"type": "diffuse", "reflectance": 0, "emission": [4, 4, 4]{mask_field}}}"#
+                ),
+                lamp,
+                "",
+            )
         };
         let masked = scene(r#", "alpha_mask": {"texture": "mask.png", "scale": [2, 2]}"#);
         let whole = scene("");
