@@ -38,6 +38,7 @@ layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 int bdpt_max_depth() { return pc.max_depth < 0 ? BDPT_DEPTH_CAP : min(pc.max_depth, BDPT_DEPTH_CAP); }
 
 void main() {
+    COUNT_CLOCK_START;
     FilmTask t = film_task();
     int max_depth = bdpt_max_depth();
     bdpt_mis = (pc.flags & PUSH_FLAG_BDPT_NO_MIS) == 0u;

@@ -21,6 +21,7 @@
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 void main() {
+    COUNT_CLOCK_START;
     // Threads cover the band's light subpaths: lv_cols() per row, block t.px.x of row t.px.y,
     // traced with the random numbers of the block's first pixel.
     FilmTask t = film_task();

@@ -14,12 +14,15 @@ uint count_nodes = 0u, count_prims = 0u;
 #define COUNT_PRIM
 #endif
 // COUNT_CLOCK, a measuring define like COUNT_STEPS: each invocation adds the subgroup clock's
-// cycles it spends in closest-hit walks (=1), any-hit walks (=2) or, in the path kernels
-// (pt, nee), its whole sample loop (=3), reported in place of the rays (needs the device's
-// VK_KHR_shader_clock).
+// cycles it spends in closest-hit walks (=1), any-hit walks (=2) or its whole kernel (=3: from
+// COUNT_CLOCK_START at the top of each pass kernel's main to film_count), reported in place of
+// the rays (needs the device's VK_KHR_shader_clock).
 #ifdef COUNT_CLOCK
 #extension GL_ARB_shader_clock : require
-uint count_clock = 0u;
+uint count_clock = 0u, count_clock_start = 0u;
+#define COUNT_CLOCK_START count_clock_start = clock2x32ARB().x
+#else
+#define COUNT_CLOCK_START
 #endif
 #include "common/types.glsl"
 

@@ -44,7 +44,7 @@ void film_count(uint rays, uint dropped) {
     rays = COUNT_STEPS == 1 ? count_nodes : count_prims;
 #endif
 #ifdef COUNT_CLOCK
-    rays = count_clock;
+    rays = COUNT_CLOCK == 3 ? clock2x32ARB().x - count_clock_start : count_clock;
 #endif
     if (dropped > 0u) atomicAdd(stats.dropped_samples, dropped);
     if (rays > 0u) {

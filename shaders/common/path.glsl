@@ -122,9 +122,7 @@ vec3 trace_path(uvec2 px, inout Rng rng, inout uint rays) {
 }
 
 void main() {
-#ifdef COUNT_CLOCK
-    uint clock_start = clock2x32ARB().x;
-#endif
+    COUNT_CLOCK_START;
     FilmTask t = film_task();
     vec4 acc = film_load(t);
     uint rays = 0u, dropped = 0u;
@@ -138,9 +136,6 @@ void main() {
         film_lanes_add(t, acc, L, r, dropped);
     }
     film_store(t, acc);
-#ifdef COUNT_CLOCK
-    if (COUNT_CLOCK == 3) count_clock = clock2x32ARB().x - clock_start;
-#endif
     film_count(rays, dropped);
 }
 

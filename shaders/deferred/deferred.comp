@@ -16,6 +16,7 @@ layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 
 void main() {
+    COUNT_CLOCK_START;
     uvec2 px = gl_GlobalInvocationID.xy;
     if (px.x >= g.film.x || px.y >= g.film.y) return;
     uint pixel = px.y * g.film.x + px.x;

@@ -232,6 +232,7 @@ vec3 shade_sample(uvec2 px, uint pixel, uint tile_index, uint slice, inout uint 
 }
 
 void main() {
+    COUNT_CLOCK_START;
     uint lid = gl_LocalInvocationIndex;
     if (lid == 0u) { s_rays = 0u; s_dropped = 0u; s_tested = 0u; s_shaded = 0u; s_lit = 0u; }
     barrier();

@@ -123,6 +123,7 @@ vec3 trace_whitted(uvec2 px, inout Rng rng, inout uint rays) {
 }
 
 void main() {
+    COUNT_CLOCK_START;
     FilmTask t = film_task();
     vec4 acc = film_load(t);
     uint rays = 0u, dropped = 0u;

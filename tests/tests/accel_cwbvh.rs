@@ -477,14 +477,14 @@ fn count_steps_knob_counts_nodes_and_primitives() {
 }
 
 /// The measuring define COUNT_CLOCK makes `rays` the subgroup-clock cycles spent in closest-hit
-/// walks (1) or the whole path kernel (3; any-hit walks, 2, are counted as closest-hit ones
-/// are): both are counted, and the walks take part of the kernel's cycles, not more. (pt: each
-/// define compiles a kernel, slow on lavapipe.)
+/// walks (1) or the whole pass kernels (3; any-hit walks, 2, are counted as closest-hit ones
+/// are): both are counted, and the walks take part of the kernels' cycles, not more; for pt
+/// and for bdpt (two pass kernels).
 #[test]
 fn count_clock_knob_counts_the_walks_cycles() {
     let dir = scratch("count-clock");
     let out = dir.join("o.exr");
-    let cycles = |count: &str| -> f64 {
+    let cycles = |integrator: &str, count: &str| -> f64 {
         let args = [
             "render",
             "scenes/cornell.json",
@@ -499,7 +499,7 @@ fn count_clock_knob_counts_the_walks_cycles() {
             "--seed",
             "3",
             "--integrator",
-            "pt",
+            integrator,
             "--json",
         ];
         let o = run_candela_env(&args, &[("CANDELA_SHADER_DEFINES", count)]);
@@ -508,12 +508,15 @@ fn count_clock_knob_counts_the_walks_cycles() {
         assert!(r["kernel_defines"].to_string().contains(count), "{r}");
         r["rays"].as_f64().unwrap()
     };
-    let (closest, total) = (cycles("COUNT_CLOCK=1"), cycles("COUNT_CLOCK=3"));
-    println!("cycles: closest-hit walks {closest}, kernel {total}");
-    assert!(
-        closest > 0.0 && closest < total,
-        "{closest} against {total}"
-    );
+    for integrator in ["pt", "bdpt"] {
+        let closest = cycles(integrator, "COUNT_CLOCK=1");
+        let total = cycles(integrator, "COUNT_CLOCK=3");
+        println!("{integrator} cycles: closest-hit walks {closest}, kernels {total}");
+        assert!(
+            closest > 0.0 && closest < total,
+            "{closest} against {total}"
+        );
+    }
 }
 
 /// A cache file whose CWBVH is not a tree within the stack (a cycle, a leaf out of range, too
