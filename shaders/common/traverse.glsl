@@ -392,7 +392,6 @@ bool walk_any(Ray r) {
 }
 #endif
 
-
 // The two queries the integrators call. COUNT_CLOCK (a measuring define, common/bindings.glsl)
 // adds the cycles each thread spends in them.
 #ifdef COUNT_CLOCK
