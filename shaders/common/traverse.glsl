@@ -351,66 +351,47 @@ bool traverse_instances(Ray r, bool any_hit, inout Hit hit) {
 }
 #endif
 
+// `walk` answers both queries: the nearest hit, or (any_hit) whether anything is hit at all.
 #if defined(ACCEL_CWBVH)
-// accel "cwbvh": the compressed 8-wide BVH (common/traverse_cwbvh.glsl) answers both queries.
+// accel "cwbvh": the compressed 8-wide BVH (common/traverse_cwbvh.glsl).
 #include "common/traverse_cwbvh.glsl"
-bool walk_closest(Ray r, out Hit hit) { return traverse_cwbvh(r, false, hit); }
-
-bool walk_any(Ray r) {
-    Hit h;
-    return traverse_cwbvh(r, true, h);
-}
+bool walk(Ray r, bool any_hit, out Hit hit) { return traverse_cwbvh(r, any_hit, hit); }
 #elif defined(ACCEL_GRID)
-// accel "grid": the uniform grid (common/grid.glsl) answers both queries instead of the BVH.
+// accel "grid": the uniform grid (common/grid.glsl) instead of the BVH.
 #include "common/grid.glsl"
-bool walk_closest(Ray r, out Hit hit) { return traverse_grid(r, false, hit); }
-
-bool walk_any(Ray r) {
-    Hit h;
-    return traverse_grid(r, true, h);
-}
+bool walk(Ray r, bool any_hit, out Hit hit) { return traverse_grid(r, any_hit, hit); }
 #elif defined(HAS_INSTANCES)
 // The scene's own BVH, then the instances, beyond its nearest hit.
-bool walk_closest(Ray r, out Hit hit) {
-    traverse(r, false, hit);
+bool walk(Ray r, bool any_hit, out Hit hit) {
+    if (traverse(r, any_hit, hit) && any_hit) return true;
     r.tmax = hit.t;
-    traverse_instances(r, false, hit);
+    traverse_instances(r, any_hit, hit);
     return hit.prim != NONE;
 }
-
-bool walk_any(Ray r) {
-    Hit h;
-    if (traverse(r, true, h)) return true;
-    return traverse_instances(r, true, h);
-}
 #else
-bool walk_closest(Ray r, out Hit hit) { return traverse(r, false, hit); }
-
-bool walk_any(Ray r) {
-    Hit h;
-    return traverse(r, true, h);
-}
+bool walk(Ray r, bool any_hit, out Hit hit) { return traverse(r, any_hit, hit); }
 #endif
 
-// The two queries the integrators call. COUNT_CLOCK (a measuring define, common/bindings.glsl)
-// adds the cycles each thread spends in them.
+// The queries the integrators call: `trace` with the kind chosen per thread (one inlined walk
+// serves both, nee's loop), `trace_closest` and `trace_any`. COUNT_CLOCK (a measuring define,
+// common/bindings.glsl) adds the cycles each thread spends in closest-hit (1) or any-hit (2)
+// walks.
+bool trace(Ray r, bool any_hit, out Hit hit) {
 #ifdef COUNT_CLOCK
-bool trace_closest(Ray r, out Hit hit) {
     uint c0 = clock2x32ARB().x;
-    bool found = walk_closest(r, hit);
-    if (COUNT_CLOCK == 1) count_clock += clock2x32ARB().x - c0;
+    bool found = walk(r, any_hit, hit);
+    if (COUNT_CLOCK == (any_hit ? 2 : 1)) count_clock += clock2x32ARB().x - c0;
     return found;
+#else
+    return walk(r, any_hit, hit);
+#endif
 }
+
+bool trace_closest(Ray r, out Hit hit) { return trace(r, false, hit); }
 
 bool trace_any(Ray r) {
-    uint c0 = clock2x32ARB().x;
-    bool found = walk_any(r);
-    if (COUNT_CLOCK == 2) count_clock += clock2x32ARB().x - c0;
-    return found;
+    Hit h;
+    return trace(r, true, h);
 }
-#else
-bool trace_closest(Ray r, out Hit hit) { return walk_closest(r, hit); }
-bool trace_any(Ray r) { return walk_any(r); }
-#endif
 
 #endif
