@@ -152,6 +152,7 @@ mod tests {
             max_buffer_bytes: 1000,
             memory_bytes: 1500,
             lowered: false,
+            max_workgroup_tiles: 16,
         };
         assert!(check_fits(&[("prims", 1000), ("bvh nodes", 500)], &limits).is_ok());
         let e = check_fits(&[("prims", 1001)], &limits)

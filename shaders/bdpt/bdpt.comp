@@ -32,7 +32,7 @@
 #include "bdpt/subpath.glsl"
 #include "bdpt/strategies.glsl"
 
-layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+PASS_LOCAL_SIZE;
 
 // Mitsuba's max_depth, capped by the arrays' capacity (−1: the capacity).
 int bdpt_max_depth() { return pc.max_depth < 0 ? BDPT_DEPTH_CAP : min(pc.max_depth, BDPT_DEPTH_CAP); }

@@ -18,7 +18,7 @@
 #include "bdpt/strategies.glsl"
 #include "bdpt/store.glsl"
 
-layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+PASS_LOCAL_SIZE;
 
 void main() {
     COUNT_CLOCK_START;

@@ -1,7 +1,7 @@
 // Which pixel and which samples an invocation of a pass kernel renders (renderer/src/render/
 // dispatch.rs sizes passes to the GPU, not to the image). pc.dispatch: bits 0–3 log2 of the
 // lanes L (threads sharing one pixel's samples: 1, 2, 4 or 8), bits 8–31 the first film row
-// of this dispatch's band. Workgroups of 64 threads cover 8 × (8/L) pixels; lane k of a pixel
+// of this dispatch's band. Tiles of 64 threads cover 8 × (8/L) pixels; lane k of a pixel
 // takes the pass's samples k, k + L, k + 2L, ... in rounds, and after each round lane 0 adds
 // the round's L results to the pixel's sum in sample order with film_add, so the sum is, bit for
 // bit, the one a single thread makes whatever L is. Usage (every pass kernel):
@@ -14,9 +14,17 @@
 //       film_lanes_add(t, acc, L, r, dropped); // every thread calls it (it may hold a barrier)
 //   }
 //   film_store(t, acc);
-// Needs common/bindings.glsl (ACCUM), common/film.glsl and local_size 64.
+// Needs common/bindings.glsl (ACCUM) and common/film.glsl; pass kernels declare their workgroup
+// with PASS_LOCAL_SIZE: WG_TILES tiles of 8 × 8 threads (default 1), side by side along the
+// film's rows (renderer/src/render/dispatch.rs divides the workgroups in x by the same number;
+// why: renderer/src/integrators/registry.rs, `workgroup_tiles`).
 #ifndef COMMON_DISPATCH_GLSL
 #define COMMON_DISPATCH_GLSL
+
+#ifndef WG_TILES
+#define WG_TILES 1
+#endif
+#define PASS_LOCAL_SIZE layout(local_size_x = 8, local_size_y = 8, local_size_z = WG_TILES) in
 
 struct FilmTask {
     uvec2 px;
@@ -29,10 +37,12 @@ struct FilmTask {
 FilmTask film_task() {
     FilmTask t;
     t.lanes_log2 = pc.dispatch & 0xfu;
-    uint li = gl_LocalInvocationIndex;
+    uint li = gl_LocalInvocationIndex & 63u; // within the tile
     t.lane = li & ((1u << t.lanes_log2) - 1u);
-    uint slot = li >> t.lanes_log2; // pixel within the workgroup: 8 columns, 8/L rows
-    t.px = uvec2(gl_WorkGroupID.x * 8u + (slot & 7u),
+    uint slot = li >> t.lanes_log2; // pixel within the tile: 8 columns, 8/L rows
+    // Tiles side by side in x, so a workgroup never reaches into the next band's rows.
+    uint tile_col = gl_WorkGroupID.x * uint(WG_TILES) + gl_LocalInvocationID.z;
+    t.px = uvec2(tile_col * 8u + (slot & 7u),
                  (pc.dispatch >> 8) + gl_WorkGroupID.y * (8u >> t.lanes_log2) + (slot >> 3));
     t.valid = t.px.x < g.film.x && t.px.y < g.film.y;
     t.pixel = t.px.y * g.film.x + t.px.x;
@@ -57,7 +67,7 @@ void film_store(FilmTask t, vec4 acc) {
     }
 }
 
-shared vec3 film_lane_L[64];
+shared vec3 film_lane_L[64 * WG_TILES];
 
 // Adds round r's results to acc (lane 0's) in sample order.
 void film_lanes_add(FilmTask t, inout vec4 acc, vec3 L, uint r, inout uint dropped) {

@@ -24,7 +24,7 @@
 #include "common/material.glsl"
 #include "common/lights.glsl"
 
-layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+PASS_LOCAL_SIZE;
 
 // The depths come from the push constants; the host may compile them in instead
 // (CANDELA_DEPTH_CONSTANTS, a benchmark experiment: integrators/path.rs).

@@ -26,7 +26,7 @@
 #include "vct/cone.glsl"
 #endif
 
-layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+PASS_LOCAL_SIZE;
 
 bool depth_allows(int d) { return pc.max_depth < 0 || pc.max_depth >= d; }
 

@@ -29,7 +29,7 @@
 #define WHITTED_JITTER 1
 #endif
 
-layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+PASS_LOCAL_SIZE;
 
 
 // The ray through the centre of pixel px (and of the lens): no filter offset.

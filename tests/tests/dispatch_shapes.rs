@@ -8,7 +8,7 @@
 //! bit for bit. The film (20×13) is not a multiple of the
 //! workgroup tile, so the edges are exercised.
 
-use candela_tests::{gpu, scene_path};
+use candela_tests::{gpu, run_candela_env, scene_path, scratch, text};
 use renderer::film::Image;
 use renderer::integrators::IntegratorOptions;
 use renderer::prepare::{prepare, PrepareOptions};
@@ -113,4 +113,75 @@ fn bdpt_designs_agree() {
     let d = max_rel_diff(&a, &b);
     println!("bdpt split vs per_pixel (float splats, lanes 2): max relative difference {d:.2e}");
     assert!(d < 1e-4, "{d}");
+}
+
+/// Workgroups of several 8 × 8 tiles (`WG_TILES`: the register cap of the integrators whose
+/// registry entry asks for one, bdpt's 10) give the image workgroups of one tile give: every
+/// film kernel rendered through the CLI with the measuring knob at 1 and at 3 (the 13-row film
+/// leaves the second workgroup row's last tile off the film), bit for bit; bdpt's default is 10.
+#[test]
+fn workgroups_of_several_tiles_give_the_same_image() {
+    let dir = scratch("workgroup-tiles");
+    let render = |integrator: &str, options: &str, tiles: &str| -> (Vec<u8>, String) {
+        let out = dir.join(format!(
+            "{integrator}-tiles{}.exr",
+            tiles.replace("WG_TILES=", "")
+        ));
+        let (w, h) = (W.to_string(), H.to_string());
+        let args = [
+            "render",
+            "scenes/cornell.json",
+            "-o",
+            out.to_str().unwrap(),
+            "--width",
+            &w,
+            "--height",
+            &h,
+            "--spp",
+            "3",
+            "--seed",
+            "7",
+            "--integrator",
+            integrator,
+            "--options",
+            options,
+            "--json",
+        ];
+        let o = run_candela_env(&args, &[("CANDELA_SHADER_DEFINES", tiles)]);
+        assert!(
+            o.status.success(),
+            "{integrator} {tiles}: {}",
+            text(&o.stderr)
+        );
+        let report: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON object");
+        (
+            std::fs::read(&out).unwrap(),
+            report["kernel_defines"].to_string(),
+        )
+    };
+    let cases = [
+        ("pt", "{}"),
+        ("nee", "{}"),
+        ("whitted", "{}"),
+        ("vct", r#"{"resolution": 64}"#),
+        ("bdpt", r#"{"fixed_point_splats": true}"#),
+    ];
+    for (integrator, options) in cases {
+        let (one, defines) = render(integrator, options, "WG_TILES=1");
+        assert!(defines.contains("WG_TILES=1"), "{defines}");
+        let (three, _) = render(integrator, options, "WG_TILES=3");
+        assert_eq!(
+            one, three,
+            "{integrator}: 3 tiles per workgroup changed the image"
+        );
+        if integrator == "bdpt" {
+            let (default, defines) = render(integrator, options, "");
+            assert!(defines.contains("WG_TILES=10"), "{defines}");
+            assert_eq!(
+                one, default,
+                "bdpt: its 10 tiles per workgroup changed the image"
+            );
+        }
+        println!("{integrator}: the same image with 1 and 3 tiles per workgroup");
+    }
 }

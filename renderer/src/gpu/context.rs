@@ -516,7 +516,10 @@ impl GpuContext {
             .map(|h| h.size)
             .max()
             .unwrap_or(0);
-        let limits = super::DeviceLimits::new(props.limits.max_storage_buffer_range as u64, heap);
+        let l = &props.limits;
+        let tiles =
+            (l.max_compute_work_group_invocations / 64).min(l.max_compute_work_group_size[2]);
+        let limits = super::DeviceLimits::new(l.max_storage_buffer_range as u64, heap, tiles);
         tracing::info!(device = %info.name, driver = %info.driver, validation, float_atomics, "Vulkan device ready");
         Ok(GpuContext {
             entry,

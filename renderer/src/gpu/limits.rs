@@ -1,4 +1,5 @@
-//! What the device can hold: its largest storage buffer and device-local heap, read when the
+//! What the device can hold: its largest storage buffer and device-local heap (and its largest
+//! workgroup, which bounds the film kernels' `WG_TILES`), read when the
 //! device opens, optionally lowered by environment variables (for tests, and to leave room on a
 //! shared GPU). `crate::memory` checks scenes against them before uploading.
 
@@ -18,11 +19,15 @@ pub struct DeviceLimits {
     pub memory_bytes: u64,
     /// Whether an environment variable lowered either figure.
     pub lowered: bool,
+    /// The most 8 × 8-thread tiles one workgroup may stack in z: `maxComputeWorkGroupInvocations`
+    /// / 64, at most `maxComputeWorkGroupSize[2]` (render/session.rs lowers an integrator's
+    /// `workgroup_tiles` to it).
+    pub max_workgroup_tiles: u32,
 }
 
 impl DeviceLimits {
     /// The device's limits, lowered by [`MEMORY_LIMIT_ENV`] / [`BUFFER_LIMIT_ENV`] when set.
-    pub fn new(max_buffer_bytes: u64, memory_bytes: u64) -> DeviceLimits {
+    pub fn new(max_buffer_bytes: u64, memory_bytes: u64, max_workgroup_tiles: u32) -> DeviceLimits {
         let env = |name: &str| {
             std::env::var(name)
                 .ok()
@@ -33,6 +38,7 @@ impl DeviceLimits {
             max_buffer_bytes: buf.map_or(max_buffer_bytes, |b| b.min(max_buffer_bytes)),
             memory_bytes: mem.map_or(memory_bytes, |m| m.min(memory_bytes)),
             lowered: mem.is_some() || buf.is_some(),
+            max_workgroup_tiles: max_workgroup_tiles.max(1),
         }
     }
 }

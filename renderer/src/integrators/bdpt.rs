@@ -142,6 +142,9 @@ pub struct BdptIntegrator {
     float_splats: bool,
     /// Split design: the light pass (made in `setup`).
     light_pass: Option<ComputePipeline>,
+    /// Tiles of 8 × 8 threads per workgroup its kernels were built with (`WG_TILES`, read in
+    /// `setup`; render/dispatch.rs): the light pass sizes its workgroups with it.
+    workgroup_tiles: u32,
     /// Bytes the light-vertex buffer may take on this device (set in `prepare`).
     light_buffer_bytes: u64,
     /// Float splats: the end-of-pass merge of the odd samples' splats (made in `setup`).
@@ -166,6 +169,7 @@ pub fn new(o: &BdptOptions, scene_max_depth: Option<i32>) -> BdptIntegrator {
         },
         float_splats: false,
         light_pass: None,
+        workgroup_tiles: 1,
         light_buffer_bytes: LIGHT_BUFFER_BYTES / LIGHT_BUFFER_SHARE,
         splat_merge: None,
         pass_ms: (0.0, 0.0, 0.0),
@@ -264,9 +268,11 @@ impl Integrator for BdptIntegrator {
             Some(light) => {
                 // Split: per sample, the band's light subpaths, then its camera subpaths.
                 // The light pass covers the band's light subpaths: `light_cols` per row (the
-                // groups' columns cover at least the film's width).
-                let cols = self.light_cols(groups[0] * 8) as u32;
-                let light_groups = [cols.div_ceil(8), groups[1], groups[2]];
+                // groups' columns, `workgroup_tiles` tiles of 8 each, cover at least the film's
+                // width).
+                let tile = 8 * self.workgroup_tiles;
+                let cols = self.light_cols(groups[0] * tile) as u32;
+                let light_groups = [cols.div_ceil(tile), groups[1], groups[2]];
                 let (base, spp) = (push.sample_base, push.spp);
                 for i in 0..spp {
                     push.sample_base = base + i;
@@ -366,6 +372,12 @@ impl Integrator for BdptIntegrator {
         defines: &ShaderDefines,
     ) -> Result<(), RenderError> {
         let push = std::mem::size_of::<GpuPush>() as u32;
+        self.workgroup_tiles = defines
+            .iter()
+            .find(|(name, _)| name == "WG_TILES")
+            .and_then(|(_, v)| v.parse::<u32>().ok())
+            .unwrap_or(1)
+            .max(1);
         if self.design == BdptDesign::Split {
             let d = self.light_defines(defines);
             let spirv = ctx.kernel("bdpt/light.comp", &d)?;

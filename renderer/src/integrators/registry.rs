@@ -67,6 +67,15 @@ pub struct IntegratorInfo {
     pub instances: bool,
     /// The per-pass kernel, relative to shaders/ (its other stages live in the same folder).
     pub kernel: &'static str,
+    /// Tiles of 8 × 8 threads per workgroup of its film kernels (`WG_TILES`,
+    /// common/dispatch.glsl). The driver must fit one workgroup on an SM, so a workgroup of
+    /// 64·n threads caps a kernel's registers at 65536 / (64·n): 10 tiles hold bdpt's kernels
+    /// at 96 registers instead of the 167 the compiler picks alone, 20 resident warps per SM
+    /// instead of 12: 12–41% more samples per second on nine project scenes, 4% fewer on the
+    /// furnace (bench/RESULTS.md, "Register caps through the workgroup size"). 1 where a cap was
+    /// measured not to pay (pt, nee, whitted) or not measured (vct); deferred's kernels declare
+    /// their own workgroups. The session lowers it to the device's workgroup limits.
+    pub workgroup_tiles: u32,
     /// Its documentation page in the repository, if it has one.
     pub doc: Option<&'static str>,
     /// Its options (besides `type`).
@@ -85,6 +94,7 @@ macro_rules! integrators {
             delta_lights: $delta_lights:literal,
             instances: $instances:literal,
             kernel: $kernel:literal,
+            workgroup_tiles: $tiles:literal,
             doc: $doc:expr,
             build: $build:path $(,)?
         }
@@ -111,6 +121,7 @@ macro_rules! integrators {
                 delta_lights: $delta_lights,
                 instances: $instances,
                 kernel: $kernel,
+                workgroup_tiles: $tiles,
                 doc: $doc,
                 options: <$opts as OptionsInfo>::FIELDS,
             },
@@ -165,6 +176,7 @@ integrators! {
         delta_lights: false,
         instances: true,
         kernel: "pt/pt.comp",
+        workgroup_tiles: 1,
         doc: None,
         build: pt::new,
     }
@@ -176,6 +188,7 @@ integrators! {
         delta_lights: true,
         instances: true,
         kernel: "nee/nee.comp",
+        workgroup_tiles: 1,
         doc: None,
         build: nee::new,
     }
@@ -187,6 +200,7 @@ integrators! {
         delta_lights: true,
         instances: true,
         kernel: "bdpt/bdpt.comp",
+        workgroup_tiles: 10,
         doc: None,
         build: bdpt::new,
     }
@@ -198,6 +212,7 @@ integrators! {
         delta_lights: true,
         instances: true,
         kernel: "whitted/whitted.comp",
+        workgroup_tiles: 1,
         doc: Some("docs/whitted.md"),
         build: whitted::new,
     }
@@ -209,6 +224,7 @@ integrators! {
         delta_lights: true,
         instances: false,
         kernel: "deferred/deferred.comp",
+        workgroup_tiles: 1,
         doc: Some("docs/deferred.md"),
         build: deferred::new,
     }
@@ -220,6 +236,7 @@ integrators! {
         delta_lights: true,
         instances: false,
         kernel: "vct/vct.comp",
+        workgroup_tiles: 1,
         doc: Some("docs/vct.md"),
         build: vct::new,
     }

@@ -9,7 +9,10 @@
 //!   [`super::LLVMPIPE_MAX_DISPATCHES`]).
 //!
 //! `GpuPush::dispatch` carries the shape to the kernel: bits 0–3 log2 of the lanes, bits 8–31
-//! the first row of the band. Workgroups are 64 threads over 8 × (8 / lanes) pixels.
+//! the first row of the band. Workgroups are `tiles` tiles of 64 threads, each over 8 × (8 /
+//! lanes) pixels, side by side in x (so a workgroup never reaches into the next band; the
+//! kernels' `WG_TILES`, common/dispatch.glsl): the integrator's
+//! [`crate::integrators::IntegratorInfo::workgroup_tiles`].
 
 use crate::layout::GpuPush;
 
@@ -29,6 +32,9 @@ pub struct DispatchShape {
     pub lanes: u32,
     /// Rows per dispatch: a multiple of 8 (the last band may be shorter).
     pub band_rows: u32,
+    /// Tiles of 8 × 8 threads per workgroup: what the kernels were compiled with (`WG_TILES`),
+    /// set by the session whatever shape a test asks for.
+    pub tiles: u32,
 }
 
 impl DispatchShape {
@@ -37,6 +43,7 @@ impl DispatchShape {
         DispatchShape {
             lanes: 1,
             band_rows: height.next_multiple_of(TILE).max(TILE),
+            tiles: 1,
         }
     }
 
@@ -69,6 +76,7 @@ impl DispatchShape {
         DispatchShape {
             lanes,
             band_rows: band_rows.next_multiple_of(TILE).max(TILE),
+            tiles: 1,
         }
     }
 
@@ -83,7 +91,11 @@ impl DispatchShape {
                 "band rows must be a positive multiple of 8, got {band_rows}"
             ));
         }
-        Ok(DispatchShape { lanes, band_rows })
+        Ok(DispatchShape {
+            lanes,
+            band_rows,
+            tiles: 1,
+        })
     }
 
     /// The bands of a film `height` rows high: (first row, rows).
@@ -96,7 +108,12 @@ impl DispatchShape {
 
     /// Workgroups covering `rows` rows of a film `width` pixels wide.
     pub fn groups(&self, width: u32, rows: u32) -> [u32; 3] {
-        [width.div_ceil(TILE), rows.div_ceil(TILE / self.lanes), 1]
+        let tile_cols = width.div_ceil(TILE);
+        [
+            tile_cols.div_ceil(self.tiles.max(1)),
+            rows.div_ceil(TILE / self.lanes),
+            1,
+        ]
     }
 
     /// The `GpuPush::dispatch` word of the band starting at `first_row`.
@@ -231,6 +248,11 @@ mod tests {
         // Workgroups cover the band: 8 columns by 8/lanes rows each.
         let s = DispatchShape::new(4, 16).unwrap();
         assert_eq!(s.groups(30, 16), [4, 8, 1]);
+        // Workgroups of 10 tiles side by side: 4 tile columns in one workgroup, 22 in three;
+        // rows as before, so a band's workgroups stay within its rows.
+        let t = DispatchShape { tiles: 10, ..s };
+        assert_eq!(t.groups(30, 16), [1, 8, 1]);
+        assert_eq!(t.groups(170, 16), [3, 8, 1]);
         assert_eq!(s.encode(16), 2 | (16 << 8));
         assert!(DispatchShape::new(3, 16).is_err() && DispatchShape::new(2, 12).is_err());
         let push = GpuPush {

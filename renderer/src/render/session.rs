@@ -89,6 +89,8 @@ pub struct RenderSession {
     split_limit: u32,
     /// A dispatch shape given by hand (tests); None: [`DispatchShape::auto`].
     shape: Option<DispatchShape>,
+    /// Tiles of 8 × 8 threads per workgroup the kernels were built with (`WG_TILES`).
+    workgroup_tiles: u32,
     /// Passes queued on the GPU and spare frames.
     ring: PassRing,
     /// Passes waited for by the session itself (for an [`Self::accumulation`], an image) and not
@@ -195,7 +197,24 @@ impl RenderSession {
         crate::memory::check_fits(&needed, &ctx.limits)?;
         // Step 1: every kernel the session will build (specialised for the scene's features,
         // or generic, and the integrator's own defines), compiled in parallel where not cached.
-        let defines = Self::defines(scene, options.info(), integrator.as_ref(), kernels);
+        let defines = Self::defines(
+            scene,
+            options.info(),
+            integrator.as_ref(),
+            kernels,
+            ctx.limits.max_workgroup_tiles,
+        );
+        let workgroup_tiles =
+            defines
+                .iter()
+                .find(|(name, _)| name == "WG_TILES")
+                .map_or(Ok(1), |(_, v)| match v.parse::<u32>() {
+                    Ok(n) if (1..=ctx.limits.max_workgroup_tiles).contains(&n) => Ok(n),
+                    _ => Err(RenderError::Invalid(format!(
+                        "WG_TILES must be 1 to {} tiles of 64 threads on this device, got {v:?}",
+                        ctx.limits.max_workgroup_tiles
+                    ))),
+                })?;
         let mut list = vec![(options.info().kernel.to_string(), defines.clone())];
         list.extend(integrator.kernels(&defines));
         ctx.compile_kernels(&list)?;
@@ -305,6 +324,7 @@ impl RenderSession {
                 1
             },
             shape: None,
+            workgroup_tiles,
             ring: PassRing::default(),
             completed: VecDeque::new(),
             kernel_build: kernel_stats().since(&kernels_before),
@@ -338,14 +358,16 @@ impl RenderSession {
 
     /// The defines of the session's kernels: the scene's feature set (for `mode`), the accel
     /// kind and its variants (`CWBVH_INDIRECT`, `CWBVH_SPARSE`), the light sampler (the light
-    /// BVH where the scene has one and the integrator's registry entry takes it), the
-    /// integrator's own, and the measuring knob's (`CANDELA_SHADER_DEFINES`, which replace
+    /// BVH where the scene has one and the integrator's registry entry takes it), the tiles per
+    /// workgroup (`WG_TILES`: the entry's, at most `max_tiles`), the integrator's own, and the
+    /// measuring knob's (`CANDELA_SHADER_DEFINES`, which replace
     /// defines of the same name).
     fn defines(
         scene: &CompiledScene,
         entry: &IntegratorInfo,
         integrator: &dyn Integrator,
         mode: KernelMode,
+        max_tiles: u32,
     ) -> ShaderDefines {
         let mut defines = scene.features.for_mode(mode).defines();
         if scene.grid.is_some() {
@@ -366,6 +388,10 @@ impl RenderSession {
         }
         if Self::uses_light_bvh(scene, entry) {
             defines.push(("LIGHT_BVH".to_string(), "1".to_string()));
+        }
+        let tiles = entry.workgroup_tiles.min(max_tiles);
+        if tiles > 1 {
+            defines.push(("WG_TILES".to_string(), tiles.to_string()));
         }
         defines.extend(integrator.defines());
         let extra = parse_defines(&std::env::var("CANDELA_SHADER_DEFINES").unwrap_or_default());
@@ -391,7 +417,13 @@ impl RenderSession {
     ) -> Vec<(String, ShaderDefines)> {
         let mut integrator = options.build(scene_max_depth);
         integrator.prepare(ctx);
-        let defines = Self::defines(scene, options.info(), integrator.as_ref(), mode);
+        let defines = Self::defines(
+            scene,
+            options.info(),
+            integrator.as_ref(),
+            mode,
+            ctx.limits.max_workgroup_tiles,
+        );
         let mut out = vec![(options.info().kernel.to_string(), defines.clone())];
         out.extend(integrator.kernels(&defines));
         out
@@ -410,6 +442,7 @@ impl RenderSession {
     /// The shape of a pass of `spp` samples.
     fn shape_for(&self, spp: u32) -> DispatchShape {
         if !self.integrator.shapes_dispatch() {
+            // Its kernels declare their own workgroups (deferred): WG_TILES does not apply.
             return DispatchShape::single(self.height);
         }
         let limited = |mut s: DispatchShape| {
@@ -420,6 +453,7 @@ impl RenderSession {
             if (s.band_rows as u64) > max_rows {
                 s.band_rows = ((max_rows as u32) / 8 * 8).max(8);
             }
+            s.tiles = self.workgroup_tiles;
             s
         };
         // Benchmark knob: CANDELA_MAX_LANES caps the lanes (bench/gpu_first100ms.sh sweeps it).
