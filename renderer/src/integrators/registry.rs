@@ -74,7 +74,8 @@ pub struct IntegratorInfo {
     /// instead of 12: 12–41% more samples per second on nine project scenes, 4% fewer on the
     /// furnace (bench/RESULTS.md, "Register caps through the workgroup size"). 1 where a cap was
     /// measured not to pay (pt, nee, whitted) or not measured (vct); deferred's kernels declare
-    /// their own workgroups. The session lowers it to the device's workgroup limits.
+    /// their own workgroups. Films below `render::dispatch::TILED_MIN_PIXELS` keep one tile (too
+    /// few large workgroups to fill the GPU), and the device's workgroup limits lower it.
     pub workgroup_tiles: u32,
     /// Its documentation page in the repository, if it has one.
     pub doc: Option<&'static str>,

@@ -22,8 +22,24 @@ pub use crate::layout::MAX_LANES;
 pub const TARGET_THREADS: u64 = 1 << 20;
 /// Most pixels in one band.
 pub const MAX_BAND_PIXELS: u64 = 1 << 22;
-/// Pixel columns of a workgroup (and the granularity of bands, in rows).
+/// Pixel columns of a tile of 64 threads (and the granularity of bands, in rows).
 const TILE: u32 = 8;
+/// Smallest film whose kernels take their integrator's workgroups of several tiles
+/// ([`crate::integrators::IntegratorInfo::workgroup_tiles`]); smaller films keep one tile. Large
+/// workgroups are few: 256×256 pixels make 102 of bdpt's 640 threads for an H100's 132 SMs, and
+/// there bdpt lost up to 26% with them while gaining at 1280×720 (bench/RESULTS.md, "Register
+/// caps through the workgroup size"). 2^19 pixels make ~820 such workgroups, ~6 per SM; the
+/// threshold between the sizes measured is not itself measured.
+pub const TILED_MIN_PIXELS: u64 = 1 << 19;
+
+/// Tiles per workgroup of a session's film kernels: the integrator's `wanted` on films of at
+/// least [`TILED_MIN_PIXELS`], else 1; at most `max_tiles` (the device's workgroup limits).
+pub fn workgroup_tiles(wanted: u32, pixels: u64, max_tiles: u32) -> u32 {
+    match pixels >= TILED_MIN_PIXELS {
+        true => wanted.min(max_tiles).max(1),
+        false => 1,
+    }
+}
 
 /// Lanes per pixel and rows per band of a pass.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -253,6 +269,11 @@ mod tests {
         let t = DispatchShape { tiles: 10, ..s };
         assert_eq!(t.groups(30, 16), [1, 8, 1]);
         assert_eq!(t.groups(170, 16), [3, 8, 1]);
+        // Several tiles only on large films, within the device's limits.
+        assert_eq!(workgroup_tiles(10, 1280 * 720, 16), 10);
+        assert_eq!(workgroup_tiles(10, 1280 * 720, 4), 4);
+        assert_eq!(workgroup_tiles(10, 256 * 256, 16), 1);
+        assert_eq!(workgroup_tiles(1, 1280 * 720, 16), 1);
         assert_eq!(s.encode(16), 2 | (16 << 8));
         assert!(DispatchShape::new(3, 16).is_err() && DispatchShape::new(2, 12).is_err());
         let push = GpuPush {

@@ -359,7 +359,8 @@ impl RenderSession {
     /// The defines of the session's kernels: the scene's feature set (for `mode`), the accel
     /// kind and its variants (`CWBVH_INDIRECT`, `CWBVH_SPARSE`), the light sampler (the light
     /// BVH where the scene has one and the integrator's registry entry takes it), the tiles per
-    /// workgroup (`WG_TILES`: the entry's, at most `max_tiles`), the integrator's own, and the
+    /// workgroup (`WG_TILES`: the entry's on films of at least
+    /// [`super::dispatch::TILED_MIN_PIXELS`], at most `max_tiles`), the integrator's own, and the
     /// measuring knob's (`CANDELA_SHADER_DEFINES`, which replace
     /// defines of the same name).
     fn defines(
@@ -389,7 +390,8 @@ impl RenderSession {
         if Self::uses_light_bvh(scene, entry) {
             defines.push(("LIGHT_BVH".to_string(), "1".to_string()));
         }
-        let tiles = entry.workgroup_tiles.min(max_tiles);
+        let film = scene.width as u64 * scene.height as u64;
+        let tiles = super::dispatch::workgroup_tiles(entry.workgroup_tiles, film, max_tiles);
         if tiles > 1 {
             defines.push(("WG_TILES".to_string(), tiles.to_string()));
         }
