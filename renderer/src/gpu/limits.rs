@@ -19,9 +19,9 @@ pub struct DeviceLimits {
     pub memory_bytes: u64,
     /// Whether an environment variable lowered either figure.
     pub lowered: bool,
-    /// The most 8 × 8-thread tiles one workgroup may stack in z: `maxComputeWorkGroupInvocations`
-    /// / 64, at most `maxComputeWorkGroupSize[2]` (render/session.rs lowers an integrator's
-    /// `workgroup_tiles` to it).
+    /// The most 8 × 8-thread tiles one workgroup may hold (its z size):
+    /// `maxComputeWorkGroupInvocations` / 64, at most `maxComputeWorkGroupSize[2]`
+    /// (render/dispatch.rs, `workgroup_tiles`, lowers an integrator's tiles to it).
     pub max_workgroup_tiles: u32,
 }
 

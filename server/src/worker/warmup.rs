@@ -8,7 +8,10 @@
 //!    the kernel cache when it holds them;
 //! 2. a session of the scene at 8×8 pixels is created, on several threads at once, which
 //!    creates the pipelines (the driver's compile, kept in its pipeline cache) and, for vct,
-//!    builds the scene's volume (kept in the in-process volume cache).
+//!    builds the scene's volume (kept in the in-process volume cache). Integrators whose
+//!    kernels take larger workgroups on large films (`IntegratorInfo::workgroup_tiles`, bdpt)
+//!    build another variant there: the scene is also prepared at a film of
+//!    `TILED_MIN_PIXELS`.
 //!
 //! It runs at the lowest CPU priority (nice 19), beside the jobs. Jobs do not wait for it: a job
 //! that needs a kernel being compiled waits for that compile alone. Progress is in `GET
@@ -71,7 +74,7 @@ fn lower_priority() {
     }
 }
 
-/// One variant to build: a scene (prepared at 8×8) and an integrator.
+/// One variant to build: a scene (prepared at 8×8, or at a large film) and an integrator.
 struct Variant {
     scene: usize,
     options: IntegratorOptions,
@@ -85,8 +88,17 @@ fn run(ctx: &Arc<GpuContext>, config: &ServerConfig, shared: &Shared, integrator
         ..Default::default()
     };
     shared.set_kernels(status.clone());
-    // Step 1: the built-in scenes' feature sets, and the distinct kernel lists per integrator.
-    let scenes = prepared_scenes(config);
+    // Step 1: the built-in scenes' feature sets (on a large film too where an integrator's
+    // kernels differ there), and the distinct kernel lists per integrator.
+    let tiled = integrators
+        .iter()
+        .any(|n| IntegratorOptions::from_name(n).is_some_and(|o| o.info().workgroup_tiles > 1));
+    let mut scenes = prepared_scenes(config, (8, 8));
+    if tiled {
+        let width = 1024;
+        let height = (renderer::render::TILED_MIN_PIXELS / width as u64) as u32;
+        scenes.extend(prepared_scenes(config, (width, height)));
+    }
     let mut seen: HashSet<Vec<(String, ShaderDefines)>> = HashSet::new();
     let mut variants = Vec::new();
     let mut kernels = Vec::new();
@@ -114,7 +126,7 @@ fn run(ctx: &Arc<GpuContext>, config: &ServerConfig, shared: &Shared, integrator
     if let Err(e) = ctx.compile_kernels(&kernels) {
         warn!(error = %e, "kernel warm-up: compiling");
     }
-    // Step 3: one small session per variant (pipelines, vct volumes), several at once: the
+    // Step 3: one session per variant (pipelines, vct volumes), several at once: the
     // driver compiles pipelines on the calling thread.
     let next = std::sync::atomic::AtomicUsize::new(0);
     let status = std::sync::Mutex::new(status);
@@ -154,8 +166,8 @@ fn run(ctx: &Arc<GpuContext>, config: &ServerConfig, shared: &Shared, integrator
     );
 }
 
-/// Every built-in scene that loads, compiled at 8×8 pixels (no acceleration-structure cache).
-fn prepared_scenes(config: &ServerConfig) -> Vec<PreparedScene> {
+/// Every built-in scene that loads, compiled at `film` pixels (no acceleration-structure cache).
+fn prepared_scenes(config: &ServerConfig, film: (u32, u32)) -> Vec<PreparedScene> {
     let base = config.builtin_dir();
     let limits = config.limits.scene_limits();
     SCENES
@@ -165,8 +177,8 @@ fn prepared_scenes(config: &ServerConfig) -> Vec<PreparedScene> {
                 .map_err(|e| warn!(scene = name, error = %e, "kernel warm-up: scene"))
                 .ok()?;
             let options = PrepareOptions {
-                width: Some(8),
-                height: Some(8),
+                width: Some(film.0),
+                height: Some(film.1),
                 ..Default::default()
             };
             prepare(&scene, &options)
