@@ -372,12 +372,9 @@ impl Integrator for BdptIntegrator {
         defines: &ShaderDefines,
     ) -> Result<(), RenderError> {
         let push = std::mem::size_of::<GpuPush>() as u32;
-        self.workgroup_tiles = defines
-            .iter()
-            .find(|(name, _)| name == "WG_TILES")
-            .and_then(|(_, v)| v.parse::<u32>().ok())
-            .unwrap_or(1)
-            .max(1);
+        self.workgroup_tiles =
+            crate::render::defined_workgroup_tiles(defines, ctx.limits.max_workgroup_tiles)
+                .map_err(RenderError::Invalid)?;
         if self.design == BdptDesign::Split {
             let d = self.light_defines(defines);
             let spirv = ctx.kernel("bdpt/light.comp", &d)?;

@@ -28,8 +28,10 @@ const TILE: u32 = 8;
 /// ([`crate::integrators::IntegratorInfo::workgroup_tiles`]); smaller films keep one tile. Large
 /// workgroups are few: 256×256 pixels make 102 of bdpt's 640 threads for an H100's 132 SMs, and
 /// there bdpt lost up to 26% with them while gaining at 1280×720 (bench/RESULTS.md, "Register
-/// caps through the workgroup size"). 2^19 pixels make ~820 such workgroups, ~6 per SM; the
-/// threshold between the sizes measured is not itself measured.
+/// caps through the workgroup size"). 2^19 pixels make ~820 such workgroups, ~6 per SM. Measured
+/// at five sizes between (bench/RESULTS.md, "bdpt's tiles: the film-size threshold measured"),
+/// the four scenes' ratios are all ≥ 0.95 from 614,400 pixels on; at 480,000 one scene (the
+/// furnace) is at 0.946, so the threshold lies between them.
 pub const TILED_MIN_PIXELS: u64 = 1 << 19;
 
 /// Tiles per workgroup of a session's film kernels: the integrator's `wanted` on films of at
@@ -38,6 +40,25 @@ pub fn workgroup_tiles(wanted: u32, pixels: u64, max_tiles: u32) -> u32 {
     match pixels >= TILED_MIN_PIXELS {
         true => wanted.min(max_tiles).max(1),
         false => 1,
+    }
+}
+
+/// The tiles per workgroup a kernel's defines ask for (`WG_TILES`; 1 where absent): the one
+/// reading of that define, for the session (which checks it once) and for integrators that size
+/// passes of their own with it (bdpt's light pass). An error names the value and the device's
+/// limit `max_tiles`.
+pub fn defined_workgroup_tiles(
+    defines: &crate::gpu::ShaderDefines,
+    max_tiles: u32,
+) -> Result<u32, String> {
+    let Some((_, v)) = defines.iter().find(|(name, _)| name == "WG_TILES") else {
+        return Ok(1);
+    };
+    match v.parse::<u32>() {
+        Ok(n) if (1..=max_tiles).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "WG_TILES must be 1 to {max_tiles} tiles of 64 threads on this device, got {v:?}"
+        )),
     }
 }
 
@@ -184,6 +205,26 @@ pub(super) fn pass_chunks(push: &GpuPush, limit: u32) -> Vec<GpuPush> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_workgroup_tiles_define_is_read_and_bounded() {
+        let d = |v: &str| {
+            vec![
+                ("A".to_string(), "1".to_string()),
+                ("WG_TILES".to_string(), v.to_string()),
+            ]
+        };
+        assert_eq!(defined_workgroup_tiles(&vec![], 16), Ok(1));
+        assert_eq!(defined_workgroup_tiles(&d("10"), 16), Ok(10));
+        assert_eq!(defined_workgroup_tiles(&d("16"), 16), Ok(16));
+        for bad in ["0", "17", "ten", ""] {
+            let e = defined_workgroup_tiles(&d(bad), 16).unwrap_err();
+            assert!(
+                e.contains("1 to 16") && e.contains(&format!("{bad:?}")),
+                "{e}"
+            );
+        }
+    }
 
     #[test]
     fn pass_chunks_cover_the_samples_in_order() {

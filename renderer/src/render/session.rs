@@ -205,16 +205,8 @@ impl RenderSession {
             ctx.limits.max_workgroup_tiles,
         );
         let workgroup_tiles =
-            defines
-                .iter()
-                .find(|(name, _)| name == "WG_TILES")
-                .map_or(Ok(1), |(_, v)| match v.parse::<u32>() {
-                    Ok(n) if (1..=ctx.limits.max_workgroup_tiles).contains(&n) => Ok(n),
-                    _ => Err(RenderError::Invalid(format!(
-                        "WG_TILES must be 1 to {} tiles of 64 threads on this device, got {v:?}",
-                        ctx.limits.max_workgroup_tiles
-                    ))),
-                })?;
+            super::dispatch::defined_workgroup_tiles(&defines, ctx.limits.max_workgroup_tiles)
+                .map_err(RenderError::Invalid)?;
         let mut list = vec![(options.info().kernel.to_string(), defines.clone())];
         list.extend(integrator.kernels(&defines));
         ctx.compile_kernels(&list)?;
