@@ -194,8 +194,11 @@ fn cwbvh_cache_and_memory_figures() {
     assert!((stats.gpu_bytes_per_triangle - per_tri).abs() < 1e-6 * per_tri);
 }
 
-/// "cwbvh" is spelled the same by scenes, the CLI and jobs; "auto" (the default) picks it for
-/// large meshes without instances, else the binary BVH.
+/// "cwbvh" is spelled the same by scenes, the CLI and jobs; "auto" (the default) takes it for
+/// large meshes without instances, the binary BVH for scenes with instances, and below
+/// AUTO_CWBVH_TRIANGLES builds both and keeps the one of lower estimated cost per ray
+/// (accel/estimate.rs): the Cornell box's walls overlap (the CWBVH), one sphere does not (the
+/// binary BVH).
 #[test]
 fn cwbvh_is_selectable_by_name_and_auto_picks_it_for_large_meshes() {
     let text = std::fs::read_to_string(scene_path("cornell.json")).unwrap();
@@ -206,11 +209,10 @@ fn cwbvh_is_selectable_by_name_and_auto_picks_it_for_large_meshes() {
             kind: Some(name),
             grid_resolution: None,
         };
-        AccelOptions::resolve(request, s.render.accel_request(), s.accel_size())
-            .unwrap()
-            .kind
+        AccelOptions::resolve(request, s.render.accel_request(), s.accel_size()).unwrap()
     };
-    assert_eq!(named("cwbvh", &cornell), AccelKind::Cwbvh);
+    assert_eq!(named("cwbvh", &cornell).kind, AccelKind::Cwbvh);
+    assert!(!named("cwbvh", &cornell).by_estimate && !named("bvh", &cornell).by_estimate);
     let default = |s: &Scene| {
         AccelOptions::resolve(
             AccelRequest::default(),
@@ -218,20 +220,44 @@ fn cwbvh_is_selectable_by_name_and_auto_picks_it_for_large_meshes() {
             s.accel_size(),
         )
         .unwrap()
-        .kind
     };
-    assert_eq!(
-        default(&cornell),
-        AccelKind::Bvh,
-        "36 triangles: auto is bvh"
+    assert!(
+        default(&cornell).by_estimate,
+        "36 triangles: auto estimates"
     );
-    assert_eq!(named("auto", &cornell), AccelKind::Bvh);
+    assert_eq!(named("auto", &cornell), default(&cornell));
+    // The estimates choose: the Cornell box the CWBVH, the furnace's one sphere the binary BVH;
+    // the report carries both costs.
+    let c = compiled(&cornell, 8, default(&cornell), None);
+    let costs = c.accel.estimate.expect("estimated");
+    assert_eq!(c.accel.kind, AccelKind::Cwbvh, "{costs:?}");
+    assert!(c.cwbvh.is_some() && c.nodes.is_empty() && costs.cwbvh < costs.bvh);
+    let furnace = load("furnace.json");
+    let f = compiled(&furnace, 8, default(&furnace), None);
+    let costs = f.accel.estimate.expect("estimated");
+    assert_eq!(f.accel.kind, AccelKind::Bvh, "{costs:?}");
+    assert!(f.cwbvh.is_none() && costs.bvh <= costs.cwbvh);
+    let (_, stats) = render_compiled(&furnace, &f, "pt", 1, 1, None);
+    assert_eq!(stats.accel, "bvh");
+    assert_eq!(stats.accel_estimate, Some(costs));
+    // A named structure is built alone, without estimates.
+    assert_eq!(
+        compiled(&cornell, 8, named("bvh", &cornell), None)
+            .accel
+            .estimate,
+        None
+    );
     v["render"]["accel"] = json!("cwbvh");
     let s = load_str(&v.to_string(), Some(&scene_path(""))).unwrap();
-    assert_eq!(default(&s), AccelKind::Cwbvh, "the scene's render.accel");
-    assert_eq!(named("bvh", &s), AccelKind::Bvh, "the request wins");
+    assert_eq!(
+        default(&s).kind,
+        AccelKind::Cwbvh,
+        "the scene's render.accel"
+    );
+    assert_eq!(named("bvh", &s).kind, AccelKind::Bvh, "the request wins");
     // The same box with AUTO_CWBVH_TRIANGLES triangles (one mesh's repeated): auto takes the
-    // CWBVH; one triangle fewer, or an instance, keeps the binary BVH.
+    // CWBVH without estimating; one triangle fewer estimates, and an instance keeps the binary
+    // BVH.
     let mut big = cornell.clone();
     let mesh = &mut big.meshes[0];
     let n = renderer::accel::AUTO_CWBVH_TRIANGLES as usize;
@@ -239,11 +265,12 @@ fn cwbvh_is_selectable_by_name_and_auto_picks_it_for_large_meshes() {
     let first = mesh.indices[0];
     mesh.indices.resize(n - rest, first);
     mesh.materials.resize(n - rest, mesh.materials[0]);
-    assert_eq!(default(&big), AccelKind::Cwbvh);
+    assert_eq!(default(&big).kind, AccelKind::Cwbvh);
+    assert!(!default(&big).by_estimate);
     let mut fewer = big.clone();
     fewer.meshes[0].indices.pop();
     fewer.meshes[0].materials.pop();
-    assert_eq!(default(&fewer), AccelKind::Bvh);
+    assert!(default(&fewer).by_estimate);
     let mut instanced = big.clone();
     instanced.prototypes.push(cornell.meshes[0].clone());
     instanced.instances.push(renderer::scene::Instance {
@@ -251,7 +278,8 @@ fn cwbvh_is_selectable_by_name_and_auto_picks_it_for_large_meshes() {
         to_world: glam::DMat4::IDENTITY,
         material: None,
     });
-    assert_eq!(default(&instanced), AccelKind::Bvh);
+    assert_eq!(default(&instanced).kind, AccelKind::Bvh);
+    assert!(!default(&instanced).by_estimate);
 }
 
 // Pathological meshes (as in accel_deep.rs): each has an analytic twin that must render the

@@ -353,12 +353,27 @@ fn cli_accel_flags() {
         (off["accel"].as_str(), off["accel_cache"].as_str()),
         (Some("grid"), Some("off"))
     );
-    let bvh = json(run(&["--json", "--accel-cache", cache_s]));
+    let bvh = json(run(&["--accel", "bvh", "--json", "--accel-cache", cache_s]));
     assert_eq!(
         (bvh["accel"].as_str(), bvh["accel_cache"].as_str()),
         (Some("bvh"), Some("miss"))
     );
-    assert!(bvh.get("grid_resolution").is_none());
+    assert!(bvh.get("grid_resolution").is_none() && bvh.get("accel_estimate").is_none());
+    // The default, "auto", builds both BVHs on this small scene (the binary one now from the
+    // cache, so not a hit until the CWBVH is cached too) and keeps the one its estimates prefer.
+    let auto = json(run(&["--json", "--accel-cache", cache_s]));
+    assert_eq!(
+        (auto["accel"].as_str(), auto["accel_cache"].as_str()),
+        (Some("cwbvh"), Some("miss"))
+    );
+    let e = &auto["accel_estimate"];
+    assert!(
+        e["cwbvh"].as_f64().unwrap() < e["bvh"].as_f64().unwrap(),
+        "{e}"
+    );
+    let again = json(run(&["--json", "--accel-cache", cache_s]));
+    assert_eq!(again["accel_cache"].as_str(), Some("hit"));
+    assert_eq!(again["accel_estimate"], auto["accel_estimate"]);
     // The text report names the accel.
     let o = run(&["--accel", "grid", "--accel-cache", cache_s]);
     let t = text(&o.stdout);

@@ -14,13 +14,15 @@
 //!
 //! `cwbvh` holds the compressed 8-wide BVH (`accel: "cwbvh"`, Ylitie et al. 2017) built by
 //! obvhs, `grid` the alternative uniform grid (`accel: "grid"`), `select` the options that pick
-//! one and the build entry point used by `compile`, and `cache` the on-disk cache of built
-//! structures.
+//! one and the build entry point used by `compile`, `estimate` the surface-area estimates with
+//! which `"auto"` chooses between the two BVHs on small scenes, and `cache` the on-disk cache of
+//! built structures.
 
 pub mod cache;
 pub mod cwbvh;
 mod cwbvh_convert;
 mod distinct;
+pub mod estimate;
 mod flatten;
 pub mod grid;
 mod ploc;
@@ -28,8 +30,8 @@ mod select;
 
 pub use flatten::{parents, MAX_LEAF, STACK_DEPTH};
 pub use select::{
-    auto_kind, build_accel, parse_request, Accel, AccelInfo, AccelKind, AccelOptions, AccelRequest,
-    CacheStatus, SceneSize, AUTO_CWBVH_TRIANGLES, REQUEST_NAMES,
+    auto_choice, build_accel, parse_request, Accel, AccelInfo, AccelKind, AccelOptions,
+    AccelRequest, AutoChoice, CacheStatus, SceneSize, AUTO_CWBVH_TRIANGLES, REQUEST_NAMES,
 };
 
 use std::time::{Duration, Instant};

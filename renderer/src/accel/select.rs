@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 use serde::Serialize;
 
 use super::cwbvh::{self, Cwbvh};
+use super::estimate::{self, Costs};
 use super::grid::{self, Grid};
 use super::{build, cache, parents, Phases, PrimBounds, STACK_DEPTH};
 use crate::layout::{GpuBvhNode, GpuPrim};
@@ -65,6 +66,10 @@ pub struct AccelOptions {
     /// primitives and lights identically and can be compared pixel for pixel. Off: the CWBVH's
     /// own leaf order.
     pub cwbvh_bvh_order: bool,
+    /// `"auto"` on a scene below [`AUTO_CWBVH_TRIANGLES`] without instances: `build_accel`
+    /// builds (or loads) the binary BVH and the CWBVH and keeps the one of lower estimated cost
+    /// per ray ([`super::estimate`]); `kind` is then the binary BVH until built.
+    pub by_estimate: bool,
 }
 
 /// Whether the structure came from the cache.
@@ -94,6 +99,8 @@ pub struct AccelInfo {
     /// Grid only: primitive references (a primitive counts once per cell it overlaps).
     pub grid_refs: Option<u64>,
     pub cache: CacheStatus,
+    /// Both trees' estimated costs per ray when `"auto"` chose by them (`by_estimate`).
+    pub estimate: Option<Costs>,
     /// Instances (`instance` objects; 0 without), and bytes of their GPU records and of the
     /// top-level BVH over them (`bytes` already counts the prototypes' own BVHs).
     pub instances: u64,
@@ -136,6 +143,9 @@ pub fn build_accel(
     cache_dir: Option<&Path>,
 ) -> Accel {
     let start = Instant::now();
+    if opts.by_estimate {
+        return by_estimate(opts, prims, bounds, bvh_bounds, cache_dir);
+    }
     let mut ph = Phases::default();
     // Step 1: the cache.
     let key = cache_dir.map(|_| {
@@ -239,6 +249,48 @@ pub fn build_accel(
     tracing::debug!("accel {} phases: {:?}", opts.kind.name(), ph.0);
     a.info.phases = ph;
     a
+}
+
+/// `"auto"` on a small scene: both BVHs (each from the cache or built), and the one of lower
+/// estimated cost per ray kept. Its phases are the binary BVH's, then `cwbvh` (all of the
+/// CWBVH's) and `estimate`; it is a cache hit only if both were.
+fn by_estimate(
+    opts: &AccelOptions,
+    prims: &[GpuPrim],
+    bounds: &[PrimBounds],
+    bvh_bounds: &[PrimBounds],
+    cache_dir: Option<&Path>,
+) -> Accel {
+    let start = Instant::now();
+    let one = |kind| {
+        let o = AccelOptions {
+            kind,
+            by_estimate: false,
+            ..*opts
+        };
+        build_accel(&o, prims, bounds, bvh_bounds, cache_dir)
+    };
+    let (bvh, wide) = (one(AccelKind::Bvh), one(AccelKind::Cwbvh));
+    let t = Instant::now();
+    let costs = Costs::of(
+        &estimate::of_bvh(&bvh.nodes),
+        &estimate::of_cwbvh(&wide.cwbvh.as_ref().map_or(&[][..], |c| &c.nodes)),
+    );
+    let estimate_s = t.elapsed().as_secs_f64();
+    let cache = match (bvh.info.cache, wide.info.cache) {
+        (CacheStatus::Hit, CacheStatus::Hit) => CacheStatus::Hit,
+        (CacheStatus::Off, _) => CacheStatus::Off,
+        _ => CacheStatus::Miss,
+    };
+    let mut phases = bvh.info.phases.0.clone();
+    phases.push(("cwbvh", wide.info.phases.0.iter().map(|p| p.1).sum()));
+    phases.push(("estimate", estimate_s));
+    let mut kept = if costs.prefer_cwbvh() { wide } else { bvh };
+    kept.info.estimate = Some(costs);
+    kept.info.cache = cache;
+    kept.info.phases = Phases(phases);
+    kept.info.build_time = start.elapsed();
+    kept
 }
 
 fn grid_accel(order: Vec<u32>, g: Grid) -> Accel {
@@ -361,7 +413,7 @@ fn from_entry(opts: &AccelOptions, mut e: cache::Entry, n: usize) -> Option<Acce
 }
 
 /// What a request may name: a structure of [`AccelKind::NAMES`], or "auto", the default, which
-/// [`auto_kind`] turns into one from the scene.
+/// [`auto_choice`] turns into one from the scene.
 pub const REQUEST_NAMES: [&str; 4] = ["auto", "bvh", "cwbvh", "grid"];
 
 /// A request's structure name: None for "auto", else the structure; Err names the value and
@@ -381,8 +433,9 @@ pub fn parse_request(name: &str) -> Result<Option<AccelKind>, String> {
 /// Scenes of at least this many triangles of their own (no instances) get the CWBVH under
 /// "auto". Measured (bench/RESULTS.md, "accel auto"; nee / pt / whitted / deferred, cwbvh
 /// against bvh): ×1.12 / 1.04 / 1.67 / 0.95 at 1M triangles, ×1.15 / 1.04 / 1.74 / 1.00 at 2M,
-/// nee ×1.15–1.17 at 8M and 30M; below 1M pt and deferred lose up to 3% and the project scenes
-/// are mixed (the binary BVH is faster for some integrators on five of nine).
+/// nee ×1.15–1.17 at 8M and 30M. Below it, where small scenes split by their geometry (×0.63 to
+/// ×1.72), "auto" builds both trees and keeps the one of lower estimated cost
+/// ([`AutoChoice::ByEstimate`]).
 pub const AUTO_CWBVH_TRIANGLES: u64 = 1_000_000;
 
 /// What "auto" looks at in a scene (`Scene::accel_size`).
@@ -393,13 +446,26 @@ pub struct SceneSize {
     pub instances: usize,
 }
 
-/// The structure "auto" picks for a scene of `size`: the CWBVH for large meshes, else the
-/// binary BVH (which alone traces instances through a second level).
-pub fn auto_kind(size: SceneSize) -> AccelKind {
-    if size.instances == 0 && size.triangles >= AUTO_CWBVH_TRIANGLES {
-        AccelKind::Cwbvh
+/// How "auto" chooses for a scene of `size`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AutoChoice {
+    /// This structure: the binary BVH for scenes with instances (it alone traces them through a
+    /// second level), the CWBVH for scenes of at least [`AUTO_CWBVH_TRIANGLES`] triangles.
+    Kind(AccelKind),
+    /// Smaller scenes: both BVHs are built and the one of lower estimated cost per ray kept
+    /// ([`super::estimate`]; measured on the project scenes and random ones, bench/RESULTS.md,
+    /// "`auto` by the trees' estimates").
+    ByEstimate,
+}
+
+/// What "auto" does for a scene of `size` ([`AutoChoice`]).
+pub fn auto_choice(size: SceneSize) -> AutoChoice {
+    if size.instances > 0 {
+        AutoChoice::Kind(AccelKind::Bvh)
+    } else if size.triangles >= AUTO_CWBVH_TRIANGLES {
+        AutoChoice::Kind(AccelKind::Cwbvh)
     } else {
-        AccelKind::Bvh
+        AutoChoice::ByEstimate
     }
 }
 
@@ -414,7 +480,7 @@ pub struct AccelRequest<'a> {
 impl AccelOptions {
     /// The options of `request` (a CLI flag, a job's settings) falling back, field by field, on
     /// the scene's `render` block (already validated), then on the defaults ("auto":
-    /// [`auto_kind`] of the scene's `size`; automatic grid resolution). Unknown names are an
+    /// [`auto_choice`] for the scene's `size`; automatic grid resolution). Unknown names are an
     /// error naming the value.
     pub fn resolve(
         request: AccelRequest<'_>,
@@ -422,7 +488,13 @@ impl AccelOptions {
         size: SceneSize,
     ) -> Result<AccelOptions, String> {
         let name = request.kind.or(scene.kind).unwrap_or("auto");
-        let kind = parse_request(name)?.unwrap_or_else(|| auto_kind(size));
+        let (kind, by_estimate) = match parse_request(name)?.map(AutoChoice::Kind) {
+            Some(AutoChoice::Kind(k)) => (k, false),
+            _ => match auto_choice(size) {
+                AutoChoice::Kind(k) => (k, false),
+                AutoChoice::ByEstimate => (AccelKind::Bvh, true),
+            },
+        };
         let res = request.grid_resolution.or(scene.grid_resolution);
         if let Some(r) = res {
             grid::check_resolution(r.into()).map_err(|e| format!("grid resolution {e}"))?;
@@ -433,6 +505,7 @@ impl AccelOptions {
             grid_bvh_order: false,
             bvh_keep_deep: false,
             cwbvh_bvh_order: false,
+            by_estimate,
         })
     }
 }

@@ -115,6 +115,7 @@ pub(super) fn build(
     };
     let blas_opts = AccelOptions {
         kind: accel::AccelKind::Bvh,
+        by_estimate: false,
         ..*opts
     };
     // Per prototype: its BLAS root node index and object box.

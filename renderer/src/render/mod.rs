@@ -103,6 +103,10 @@ pub struct RenderStats {
     /// steps around the build (outside `accel_build_s`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub accel_phases: Vec<(String, f64)>,
+    /// Both BVHs' estimated costs per ray (`{"bvh", "cwbvh"}`, in binary node fetches) when
+    /// "auto" chose between them by those estimates (accel/estimate.rs); absent otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub accel_estimate: Option<crate::accel::estimate::Costs>,
     /// GPU bytes of the geometry: primitives and per-triangle shading data.
     pub geometry_bytes: u64,
     /// GPU bytes of every scene buffer (geometry, accel, materials, textures, lights, ...).

@@ -41,7 +41,7 @@ pub struct Instance {
 }
 
 impl Scene {
-    /// What accel "auto" looks at ([`crate::accel::auto_kind`]).
+    /// What accel "auto" looks at ([`crate::accel::auto_choice`]).
     pub fn accel_size(&self) -> crate::accel::SceneSize {
         crate::accel::SceneSize {
             triangles: self.meshes.iter().map(|m| m.indices.len() as u64).sum(),

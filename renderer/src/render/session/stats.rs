@@ -55,6 +55,7 @@ impl RenderSession {
             accel_phases: (self.info.accel.phases.0.iter())
                 .map(|&(n, s)| (n.to_string(), s))
                 .collect(),
+            accel_estimate: self.info.accel.estimate,
             geometry_bytes: self.info.bytes.geometry,
             scene_gpu_bytes: self.info.bytes.total(),
             gpu_bytes_per_triangle: if self.info.triangles > 0 {
