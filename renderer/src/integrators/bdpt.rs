@@ -373,8 +373,7 @@ impl Integrator for BdptIntegrator {
     ) -> Result<(), RenderError> {
         let push = std::mem::size_of::<GpuPush>() as u32;
         self.workgroup_tiles =
-            crate::render::defined_workgroup_tiles(defines, ctx.limits.max_workgroup_tiles)
-                .map_err(RenderError::Invalid)?;
+            (ctx.limits.workgroup_tiles_of(defines)).map_err(RenderError::Invalid)?;
         if self.design == BdptDesign::Split {
             let d = self.light_defines(defines);
             let spirv = ctx.kernel("bdpt/light.comp", &d)?;

@@ -43,25 +43,6 @@ pub fn workgroup_tiles(wanted: u32, pixels: u64, max_tiles: u32) -> u32 {
     }
 }
 
-/// The tiles per workgroup a kernel's defines ask for (`WG_TILES`; 1 where absent): the one
-/// reading of that define, for the session (which checks it once) and for integrators that size
-/// passes of their own with it (bdpt's light pass). An error names the value and the device's
-/// limit `max_tiles`.
-pub fn defined_workgroup_tiles(
-    defines: &crate::gpu::ShaderDefines,
-    max_tiles: u32,
-) -> Result<u32, String> {
-    let Some((_, v)) = defines.iter().find(|(name, _)| name == "WG_TILES") else {
-        return Ok(1);
-    };
-    match v.parse::<u32>() {
-        Ok(n) if (1..=max_tiles).contains(&n) => Ok(n),
-        _ => Err(format!(
-            "WG_TILES must be 1 to {max_tiles} tiles of 64 threads on this device, got {v:?}"
-        )),
-    }
-}
-
 /// Lanes per pixel and rows per band of a pass.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct DispatchShape {
@@ -205,26 +186,6 @@ pub(super) fn pass_chunks(push: &GpuPush, limit: u32) -> Vec<GpuPush> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn the_workgroup_tiles_define_is_read_and_bounded() {
-        let d = |v: &str| {
-            vec![
-                ("A".to_string(), "1".to_string()),
-                ("WG_TILES".to_string(), v.to_string()),
-            ]
-        };
-        assert_eq!(defined_workgroup_tiles(&vec![], 16), Ok(1));
-        assert_eq!(defined_workgroup_tiles(&d("10"), 16), Ok(10));
-        assert_eq!(defined_workgroup_tiles(&d("16"), 16), Ok(16));
-        for bad in ["0", "17", "ten", ""] {
-            let e = defined_workgroup_tiles(&d(bad), 16).unwrap_err();
-            assert!(
-                e.contains("1 to 16") && e.contains(&format!("{bad:?}")),
-                "{e}"
-            );
-        }
-    }
 
     #[test]
     fn pass_chunks_cover_the_samples_in_order() {

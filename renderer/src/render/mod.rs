@@ -14,7 +14,7 @@ mod shards;
 mod until;
 
 pub use crate::error::RenderError;
-pub use dispatch::{defined_workgroup_tiles, DispatchShape, MAX_LANES, TILED_MIN_PIXELS};
+pub use dispatch::{DispatchShape, MAX_LANES, TILED_MIN_PIXELS};
 pub use estimate_gpu::{ESTIMATE_KERNEL, ESTIMATE_LABELS};
 pub use inflight::{AccumSnapshot, CompletedPass, PassEstimate, PassStats, PIPELINE_DEPTH};
 pub use session::{HostAccumulation, Progress, RenderSession, LLVMPIPE_MAX_DISPATCHES};

@@ -204,9 +204,10 @@ impl RenderSession {
             kernels,
             ctx.limits.max_workgroup_tiles,
         );
-        let workgroup_tiles =
-            super::dispatch::defined_workgroup_tiles(&defines, ctx.limits.max_workgroup_tiles)
-                .map_err(RenderError::Invalid)?;
+        let workgroup_tiles = ctx
+            .limits
+            .workgroup_tiles_of(&defines)
+            .map_err(RenderError::Invalid)?;
         let mut list = vec![(options.info().kernel.to_string(), defines.clone())];
         list.extend(integrator.kernels(&defines));
         ctx.compile_kernels(&list)?;
