@@ -40,6 +40,19 @@ impl Worker {
         extra: &[&str],
         env: &[(&str, &Path)],
     ) -> Worker {
+        let w = Worker::spawn(data, name, lease_s, extra, env);
+        w.wait_ready();
+        w
+    }
+
+    /// [`Worker::start_env`] without waiting for the worker to be up.
+    pub fn spawn(
+        data: &Path,
+        name: &str,
+        lease_s: &str,
+        extra: &[&str],
+        env: &[(&str, &Path)],
+    ) -> Worker {
         let log = data.parent().unwrap().join(format!("{name}.log"));
         let out = std::fs::File::create(&log).unwrap();
         let url = database_env(data).expect("a PostgreSQL database");
@@ -60,13 +73,21 @@ impl Worker {
             .stderr(out)
             .spawn()
             .expect("start candela worker");
-        let w = Worker { child, log };
+        Worker { child, log }
+    }
+
+    /// Waits (a minute at most) for the worker's start line.
+    pub fn wait_ready(&self) {
         let deadline = Instant::now() + Duration::from_secs(60);
-        while !w.log().contains("candela: worker") {
-            assert!(Instant::now() < deadline, "worker {name}:\n{}", w.log());
+        while !self.log().contains("candela: worker") {
+            assert!(
+                Instant::now() < deadline,
+                "{}:\n{}",
+                self.log.display(),
+                self.log()
+            );
             std::thread::sleep(Duration::from_millis(50));
         }
-        w
     }
 
     pub fn log(&self) -> String {
@@ -76,6 +97,22 @@ impl Worker {
     pub fn kill9(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
+    }
+
+    /// Stops the process (SIGSTOP) where it stands: it writes nothing more until thawed.
+    pub fn freeze(&self) {
+        self.signal("-STOP");
+    }
+
+    /// Lets a frozen process go on (SIGCONT).
+    pub fn thaw(&self) {
+        self.signal("-CONT");
+    }
+
+    fn signal(&self, sig: &str) {
+        let pid = self.child.id().to_string();
+        let s = Command::new("kill").args([sig, &pid]).status();
+        assert!(s.map(|s| s.success()).unwrap_or(false), "kill {sig} {pid}");
     }
 }
 

@@ -213,10 +213,10 @@ fn three_workers_split_one_job_on_postgres() {
     let start = |n: &str| Worker::start_with(&data, n, "2", &split);
     let mut workers: Vec<Worker> = ["w1", "w2", "w3"].map(start).into();
     let logs = |ws: &[Worker]| ws.iter().map(|w| w.log()).collect::<Vec<_>>().join("\n");
-    // Step 1: a job of 12 shards. Three times, a worker holding a checkpointed shard dies
+    // Step 1: a job of 16 shards. Three times, a worker holding a checkpointed shard dies
     // (SIGKILL) before finishing it, and a new worker takes its place.
     // (Shards of about a second each on lavapipe, five checkpoint intervals.)
-    let (total, seed, kills) = (1200u64, 11, 3);
+    let (total, seed, kills) = (1600u64, 11, 3);
     let body = json!({"scene_name": "cornell", "spp": total, "width": 24, "height": 24,
                       "seed": seed});
     let id = api.submit(&body)["id"].as_i64().unwrap();
@@ -225,26 +225,45 @@ fn three_workers_split_one_job_on_postgres() {
     // (Who was killed, holding which shard, at what spp; their processes, for their logs.)
     let (mut victims, mut dead): (Vec<(String, u32, u64)>, Vec<Worker>) = (vec![], vec![]);
     while victims.len() < kills {
+        // (The claims first, then the shards: the rows a victim is chosen by are the
+        // freshest.)
+        let claimers: BTreeSet<String> = claims(&data).into_iter().map(|c| c.1).collect();
         let rows = shards(&data, id);
         assert!(
-            Instant::now() < deadline,
+            Instant::now() < deadline && (rows.is_empty() || !rows.iter().all(|r| r.1)),
             "{victims:?} {rows:?}\n{}",
             logs(&workers)
         );
-        let claimers: BTreeSet<String> = claims(&data).into_iter().map(|c| c.1).collect();
-        // (Early in its shard, so that it cannot finish it before the kill lands; held by a
-        // live worker, not by one killed before whose lease has not run out yet.)
+        // (A shard being rendered by a live worker, not by one killed before whose lease has
+        // not run out yet, and not taken over before, so that a checkpoint is the holder's
+        // own, not one it has claimed but perhaps not resumed yet.)
         let alive = |owner: &str| workers.iter().any(|w| name(w) == owner);
-        let started = rows
+        let fresh = |idx: u32| !victims.iter().any(|v| v.1 == idx);
+        let held = rows
             .iter()
-            .find(|r| !r.1 && r.3 > 0 && r.3 <= 50 && alive(&r.2));
-        if let (true, Some(r)) = (claimers.len() >= 3, started) {
+            .filter(|r| !r.1 && alive(&r.2) && fresh(r.0))
+            .max_by_key(|r| r.3);
+        if let (true, Some(r)) = (claimers.len() >= 3, held) {
+            // Its holder is frozen, then the shard read again once a commit it had sent has
+            // landed: killed if it has checkpointed the shard and not finished it, else let
+            // go on. (The reads are slow on a loaded machine, the shards quick: frozen, it
+            // cannot finish between the read and the kill.)
             let at = workers.iter().position(|w| name(w) == r.2).unwrap();
-            let mut victim = workers.remove(at);
-            victim.kill9();
-            victims.push((r.2.clone(), r.0, r.3));
-            dead.push(victim);
-            workers.push(start(&format!("w{}", 3 + victims.len())));
+            workers[at].freeze();
+            std::thread::sleep(Duration::from_millis(200));
+            let now = shards(&data, id).into_iter().find(|s| s.0 == r.0);
+            match now {
+                Some(s) if !s.1 && s.2 == r.2 && s.3 > 0 => {
+                    let mut victim = workers.remove(at);
+                    victim.kill9();
+                    victims.push((s.2, s.0, s.3));
+                    dead.push(victim);
+                    // (Not waited for: the others render on meanwhile.)
+                    let name = format!("w{}", 3 + dead.len());
+                    workers.push(Worker::spawn(&data, &name, "2", &split, &[]));
+                }
+                _ => workers[at].thaw(),
+            }
             continue;
         }
         std::thread::sleep(Duration::from_millis(20));
@@ -261,7 +280,7 @@ fn three_workers_split_one_job_on_postgres() {
     assert_eq!(spp(&done), total, "{done}");
     assert_eq!(done["stats"]["spp"], total, "{done}");
     let rows = shards(&data, id);
-    assert_eq!(rows.len(), 12, "{rows:?}");
+    assert_eq!(rows.len(), 16, "{rows:?}");
     assert!(
         rows.iter().all(|r| r.1 && r.3 == 100),
         "every shard whole: {rows:?}"
