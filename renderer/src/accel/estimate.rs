@@ -19,6 +19,7 @@
 //! the estimate is a heuristic, not a prediction of Msamples/s.
 
 use crate::layout::{GpuBvhNode, GpuCwbvhNode};
+use obvhs::aabb::Aabb;
 
 /// Cost of one binary node fetch (two child boxes): the unit.
 pub const BVH_NODE_COST: f64 = 1.0;
@@ -63,18 +64,9 @@ impl Costs {
     }
 }
 
-type Box3 = ([f32; 3], [f32; 3]);
-
-fn area((lo, hi): Box3) -> f64 {
-    let d: [f64; 3] = std::array::from_fn(|a| (hi[a] as f64 - lo[a] as f64).max(0.0));
-    2.0 * (d[0] * d[1] + d[1] * d[2] + d[2] * d[0])
-}
-
-fn union(a: Box3, b: Box3) -> Box3 {
-    (
-        std::array::from_fn(|k| a.0[k].min(b.0[k])),
-        std::array::from_fn(|k| a.1[k].max(b.1[k])),
-    )
+/// A box's half surface area (the ratios need no more), 0 for an inverted one.
+fn area(b: &Aabb) -> f64 {
+    b.half_area().max(0.0) as f64
 }
 
 /// Sums the estimate over a tree given as its root's child boxes and a function from a node to
@@ -83,7 +75,7 @@ fn union(a: Box3, b: Box3) -> Box3 {
 /// counts every child as reached.
 fn sum<F>(count: usize, children: F) -> Estimate
 where
-    F: Fn(usize) -> Vec<(Box3, Option<usize>, u32)>,
+    F: Fn(usize) -> Vec<(Aabb, Option<usize>, u32)>,
 {
     let mut e = Estimate {
         nodes: 1.0,
@@ -92,9 +84,12 @@ where
     if count == 0 {
         return e;
     }
-    let root = children(0).into_iter().map(|c| c.0).reduce(union);
-    let root_area = root.map(area).unwrap_or(0.0);
-    let ratio = |b: Box3| match root_area > 0.0 {
+    let root = children(0)
+        .into_iter()
+        .map(|c| c.0)
+        .reduce(|a, b| a.union(&b));
+    let root_area = root.as_ref().map(area).unwrap_or(0.0);
+    let ratio = |b: &Aabb| match root_area > 0.0 {
         true => (area(b) / root_area).min(1.0),
         false => 1.0,
     };
@@ -106,11 +101,11 @@ where
         for (b, inner, prims) in children(i) {
             match inner {
                 Some(c) if c < count && !std::mem::replace(&mut seen[c], true) => {
-                    e.nodes += ratio(b);
+                    e.nodes += ratio(&b);
                     stack.push(c);
                 }
                 Some(_) => {}
-                None => e.prims += ratio(b) * prims as f64,
+                None => e.prims += ratio(&b) * prims as f64,
             }
         }
     }
@@ -124,11 +119,14 @@ pub fn of_bvh(nodes: &[GpuBvhNode]) -> Estimate {
     sum(nodes.len(), |i| {
         let n = &nodes[i];
         [
-            ((n.l_min, n.l_max), n.left, n.l_count),
-            ((n.r_min, n.r_max), n.right, n.r_count),
+            (n.l_min, n.l_max, n.left, n.l_count),
+            (n.r_min, n.r_max, n.right, n.r_count),
         ]
         .into_iter()
-        .map(|(b, index, count)| (b, (count == 0).then_some(index as usize), count))
+        .map(|(lo, hi, index, count)| {
+            let b = Aabb::new(lo.into(), hi.into());
+            (b, (count == 0).then_some(index as usize), count)
+        })
         .collect()
     })
 }
@@ -139,18 +137,19 @@ pub fn of_bvh(nodes: &[GpuBvhNode]) -> Estimate {
 pub fn of_cwbvh(nodes: &[GpuCwbvhNode]) -> Estimate {
     sum(nodes.len(), |i| {
         let n = &nodes[i];
+        let scale: [f32; 3] = std::array::from_fn(|a| 2f32.powi(n.e_imask[a] as i32 - 127));
         let mut inner = 0usize;
         (0..8)
             .filter(|&c| n.meta[c] != 0)
             .map(|c| {
-                let scale: [f32; 3] = std::array::from_fn(|a| 2f32.powi(n.e_imask[a] as i32 - 127));
                 let lo = std::array::from_fn(|a| n.p[a] + scale[a] * n.q[2 * a][c] as f32);
                 let hi = std::array::from_fn(|a| n.p[a] + scale[a] * n.q[2 * a + 1][c] as f32);
+                let b = Aabb::new(lo.into(), hi.into());
                 if n.e_imask[3] & (1 << c) != 0 {
                     inner += 1;
-                    ((lo, hi), Some(n.child_base as usize + inner - 1), 0)
+                    (b, Some(n.child_base as usize + inner - 1), 0)
                 } else {
-                    ((lo, hi), None, (n.meta[c] >> 5).count_ones())
+                    (b, None, (n.meta[c] >> 5).count_ones())
                 }
             })
             .collect()

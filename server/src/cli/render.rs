@@ -72,9 +72,9 @@ pub struct RenderArgs {
     /// Print the report as one JSON object.
     #[arg(long)]
     pub json: bool,
-    /// Acceleration structure: auto (cwbvh for meshes of 1M triangles or more without instances,
-    /// else bvh), bvh, cwbvh (compressed 8-wide BVH) or grid (default: the scene's render.accel,
-    /// else auto).
+    /// Acceleration structure: auto (bvh with instances, cwbvh for 1M triangles or more, else
+    /// whichever of the two has the lower surface-area cost estimate), bvh, cwbvh (compressed
+    /// 8-wide BVH) or grid (default: the scene's render.accel, else auto).
     #[arg(long, value_name = "KIND")]
     pub accel: Option<String>,
     /// Grid cells along the scene's longest axis, 1..=512 (default: the scene's
