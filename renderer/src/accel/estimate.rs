@@ -237,7 +237,7 @@ mod tests {
             &of_cwbvh(&cwbvh::build(&walls).nodes),
         );
         assert!(c.prefer_cwbvh(), "{c:?}");
-        // Three small spheres far apart: one wide fetch costs more than the binary tree's.
+        // Three small boxes far apart: one wide fetch costs more than the binary tree's.
         let apart: Vec<_> = (0..3)
             .map(|i| {
                 flat_box(

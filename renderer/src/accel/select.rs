@@ -144,7 +144,14 @@ pub fn build_accel(
 ) -> Accel {
     let start = Instant::now();
     if opts.by_estimate {
-        return by_estimate(opts, prims, bounds, bvh_bounds, cache_dir);
+        return by_estimate(|kind| {
+            let one = AccelOptions {
+                kind,
+                by_estimate: false,
+                ..*opts
+            };
+            build_accel(&one, prims, bounds, bvh_bounds, cache_dir)
+        });
     }
     let mut ph = Phases::default();
     // Step 1: the cache.
@@ -251,26 +258,12 @@ pub fn build_accel(
     a
 }
 
-/// `"auto"` on a small scene: both BVHs (each from the cache or built), and the one of lower
-/// estimated cost per ray kept. Its phases are the binary BVH's, then `cwbvh` (all of the
+/// `"auto"` on a small scene: both BVHs (each from the cache or built by `one`), and the one of
+/// lower estimated cost per ray kept. Its phases are the binary BVH's, then `cwbvh` (all of the
 /// CWBVH's) and `estimate` (the two trees are built side by side, so their phases overlap in
 /// time and sum to more than the build time); it is a cache hit only if both were.
-fn by_estimate(
-    opts: &AccelOptions,
-    prims: &[GpuPrim],
-    bounds: &[PrimBounds],
-    bvh_bounds: &[PrimBounds],
-    cache_dir: Option<&Path>,
-) -> Accel {
+fn by_estimate(one: impl Fn(AccelKind) -> Accel + Sync) -> Accel {
     let start = Instant::now();
-    let one = |kind| {
-        let o = AccelOptions {
-            kind,
-            by_estimate: false,
-            ..*opts
-        };
-        build_accel(&o, prims, bounds, bvh_bounds, cache_dir)
-    };
     // (Side by side: each build is parallel, but not all through.)
     let (bvh, wide) = rayon::join(|| one(AccelKind::Bvh), || one(AccelKind::Cwbvh));
     let t = Instant::now();
@@ -490,12 +483,10 @@ impl AccelOptions {
         size: SceneSize,
     ) -> Result<AccelOptions, String> {
         let name = request.kind.or(scene.kind).unwrap_or("auto");
-        let (kind, by_estimate) = match parse_request(name)?.map(AutoChoice::Kind) {
-            Some(AutoChoice::Kind(k)) => (k, false),
-            _ => match auto_choice(size) {
-                AutoChoice::Kind(k) => (k, false),
-                AutoChoice::ByEstimate => (AccelKind::Bvh, true),
-            },
+        let choice = parse_request(name)?.map_or_else(|| auto_choice(size), AutoChoice::Kind);
+        let (kind, by_estimate) = match choice {
+            AutoChoice::Kind(k) => (k, false),
+            AutoChoice::ByEstimate => (AccelKind::Bvh, true),
         };
         let res = request.grid_resolution.or(scene.grid_resolution);
         if let Some(r) = res {

@@ -372,8 +372,10 @@ impl Integrator for BdptIntegrator {
         defines: &ShaderDefines,
     ) -> Result<(), RenderError> {
         let push = std::mem::size_of::<GpuPush>() as u32;
-        self.workgroup_tiles =
-            (ctx.limits.workgroup_tiles_of(defines)).map_err(RenderError::Invalid)?;
+        self.workgroup_tiles = ctx
+            .limits
+            .workgroup_tiles_of(defines)
+            .map_err(RenderError::Invalid)?;
         if self.design == BdptDesign::Split {
             let d = self.light_defines(defines);
             let spirv = ctx.kernel("bdpt/light.comp", &d)?;
