@@ -35,7 +35,7 @@
 PASS_LOCAL_SIZE;
 
 // Mitsuba's max_depth, capped by the arrays' capacity (−1: the capacity).
-int bdpt_max_depth() { return pc.max_depth < 0 ? BDPT_DEPTH_CAP : min(pc.max_depth, BDPT_DEPTH_CAP); }
+int bdpt_max_depth() { return PASS_MAX_DEPTH < 0 ? BDPT_DEPTH_CAP : min(PASS_MAX_DEPTH, BDPT_DEPTH_CAP); }
 
 void main() {
     COUNT_CLOCK_START;

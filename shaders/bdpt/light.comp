@@ -30,7 +30,7 @@ void main() {
     t.px.x = lv_block_pixel(block);
     bdpt_light_weight = float(lv_block_pixels(block));
     t.pixel = t.px.y * g.film.x + t.px.x;
-    int max_depth = pc.max_depth < 0 ? BDPT_DEPTH_CAP : min(pc.max_depth, BDPT_DEPTH_CAP);
+    int max_depth = PASS_MAX_DEPTH < 0 ? BDPT_DEPTH_CAP : min(PASS_MAX_DEPTH, BDPT_DEPTH_CAP);
     bdpt_mis = (pc.flags & PUSH_FLAG_BDPT_NO_MIS) == 0u;
     bdpt_path = (t.px.y - (pc.dispatch >> 8)) * lv_cols() + block;
     uint rays = 0u, dropped = 0u;

@@ -72,7 +72,7 @@ void splat_add(uint pixel, vec3 v, bool odd) {
 // covers it, weighted by the normalised filter; `odd`: the sample index is odd.
 void splat_film(vec2 film, vec3 L, bool odd) {
     ivec2 res = ivec2(g.film.xy);
-    if (g.film.z == 1u) {
+    if (FILTER_GAUSSIAN) {
         float r = g.filter_params.y;
         ivec2 lo = max(ivec2(ceil(film - 0.5 - r)), ivec2(0));
         ivec2 hi = min(ivec2(floor(film - 0.5 + r)), res - 1);

@@ -69,7 +69,7 @@ int random_walk(Ray ray, vec3 beta, float pdf_dir, int max_new, uint mode, int b
         if ((bs.flags & BSDF_TRANSMISSION) != 0u && mode == TRANSPORT_RADIANCE) eta_scale *= sqr(bs.eta);
         if (!any(greaterThan(beta, vec3(0.0)))) break;
         // Step 4: Russian roulette once the subpath has rr_depth segments.
-        if (i >= pc.rr_depth) {
+        if (i >= PASS_RR_DEPTH) {
             float q = min(max_comp(beta) * rr_norm * eta_scale, 0.95);
             if (!(u.w < q)) break;
             beta /= q;

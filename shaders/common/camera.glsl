@@ -25,7 +25,7 @@ Ray camera_ray(uvec2 px, inout Rng rng) {
     r.tmin = 0.0;
     r.tmax = FLT_MAX_C;
     float aperture = g.lens.z;
-    if (aperture > 0.0) {
+    if (CAMERA_THIN_LENS) {
         // Thin lens: the focus point lies on the plane at focus_distance along the view axis.
         vec3 focus = d * g.lens.w; // d has unit component along cam_forward
         vec2 lens = aperture * sample_uniform_disk_concentric(u.zw);

@@ -35,7 +35,7 @@ bool camera_film_position(vec3 pl, vec3 w, out vec2 film, out float cos_theta) {
     if (!(cos_theta > 0.0)) return false;
     // The point where the ray meets the focus plane (unit distance for the pinhole), projected
     // through the lens centre as camera_ray's screen coordinates.
-    float dist = g.lens.z > 0.0 ? g.lens.w : 1.0;
+    float dist = CAMERA_THIN_LENS ? g.lens.w : 1.0;
     vec3 pf = pl + w * (dist / cos_theta);
     float sx = dot(pf, g.cam_right.xyz) / dist, sy = dot(pf, g.cam_up.xyz) / dist;
     vec2 res = vec2(g.film.xy);
@@ -53,8 +53,8 @@ float camera_pdf_dir(float cos_theta) {
 
 // A lens point for a connection (t = 1), uniform on the aperture (the origin for a pinhole).
 vec3 camera_sample_lens(vec2 u) {
+    if (!CAMERA_THIN_LENS) return vec3(0.0);
     float aperture = g.lens.z;
-    if (!(aperture > 0.0)) return vec3(0.0);
     vec2 lens = aperture * sample_uniform_disk_concentric(u);
     return lens.x * g.cam_right.xyz + lens.y * g.cam_up.xyz;
 }

@@ -94,7 +94,7 @@ float filter_eval_axis(float o, float c, float n) {
 
 // An offset from the centre of pixel `px`, drawn from its filter.
 vec2 filter_sample(vec2 u, uvec2 px) {
-    if (g.film.z == 1u) {
+    if (FILTER_GAUSSIAN) {
         vec2 c = vec2(px) + 0.5, n = vec2(g.film.xy);
         return vec2(filter_sample_axis(u.x, c.x, n.x), filter_sample_axis(u.y, c.y, n.y));
     }
@@ -105,7 +105,7 @@ vec2 filter_sample(vec2 u, uvec2 px) {
 // filter_sample draws from (bdpt's splat_film takes its two axes apart, row by row;
 // renderer/tests/filter_gpu.rs checks it against filter_sample).
 float filter_eval(vec2 o, uvec2 px) {
-    if (g.film.z == 1u) {
+    if (FILTER_GAUSSIAN) {
         vec2 c = vec2(px) + 0.5, n = vec2(g.film.xy);
         return filter_eval_axis(o.x, c.x, n.x) * filter_eval_axis(o.y, c.y, n.y);
     }

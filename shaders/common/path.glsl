@@ -26,15 +26,6 @@
 
 PASS_LOCAL_SIZE;
 
-// The depths come from the push constants; the host may compile them in instead
-// (CANDELA_DEPTH_CONSTANTS, a benchmark experiment: integrators/path.rs).
-#ifndef PATH_MAX_DEPTH
-#define PATH_MAX_DEPTH pc.max_depth
-#endif
-#ifndef PATH_RR_DEPTH
-#define PATH_RR_DEPTH pc.rr_depth
-#endif
-
 vec3 trace_path(uvec2 px, inout Rng rng, inout uint rays) {
     // Step 1: the camera ray.
     Ray ray = camera_ray(px, rng);
@@ -73,7 +64,7 @@ vec3 trace_path(uvec2 px, inout Rng rng, inout uint rays) {
             L += beta * w * gm.emission.rgb;
         }
         // Step 4: stop where max_depth says no further vertex may contribute.
-        if (PATH_MAX_DEPTH >= 0 && depth + 1 >= PATH_MAX_DEPTH) break;
+        if (PASS_MAX_DEPTH >= 0 && depth + 1 >= PASS_MAX_DEPTH) break;
 
         // Step 5: the BSDF in the local shading frame (z = ns, x = tangent).
         SurfaceParams m = resolve_material(s.material, s.uv);
@@ -112,7 +103,7 @@ vec3 trace_path(uvec2 px, inout Rng rng, inout uint rays) {
         ray = spawn_ray(s, from_local(bs.wi, s.tangent, bt, s.ns));
 
         // Step 8: Russian roulette from rr_depth on (Mitsuba: q = min(max(β)·η², 0.95)).
-        if (depth + 1 >= PATH_RR_DEPTH) {
+        if (depth + 1 >= PASS_RR_DEPTH) {
             float q = min(max_comp(beta) * eta_scale, 0.95);
             if (rng_next1(rng) >= q) break;
             beta /= q;

@@ -74,4 +74,22 @@ layout(push_constant, scalar) uniform Push {
     uint dispatch; // lanes and band: common/dispatch.glsl
 } pc;
 
+// What a render holds constant, read at run time (the generic kernel) or compiled in where the
+// host specialises the kernel (renderer/src/render/session.rs, `defines`), so that the tests on
+// them fold away: the depths (push constants), the pixel filter (the Gaussian, else the box:
+// common/filter.glsl) and the camera (a thin lens, else a pinhole: common/camera.glsl). The
+// integrators' options have theirs beside their parameters (deferred/common.glsl, vct/common.glsl).
+#ifndef PASS_MAX_DEPTH
+#define PASS_MAX_DEPTH pc.max_depth
+#endif
+#ifndef PASS_RR_DEPTH
+#define PASS_RR_DEPTH pc.rr_depth
+#endif
+#ifndef FILTER_GAUSSIAN
+#define FILTER_GAUSSIAN (g.film.z == 1u)
+#endif
+#ifndef CAMERA_THIN_LENS
+#define CAMERA_THIN_LENS (g.lens.z > 0.0)
+#endif
+
 #endif

@@ -76,6 +76,24 @@ struct DParams {
 struct DLight { vec4 pos_radius; vec4 intensity; vec4 axis; vec4 spot; };
 
 layout(set = 0, binding = B_DPARAMS, scalar) readonly buffer DParamsBuf { DParams dp; };
+
+// The options that pick code paths, read from the parameters (the generic kernel) or compiled in
+// where the host specialises the kernel (renderer/src/integrators/deferred/mod.rs, `constants`).
+#ifndef DEFERRED_SHADOWS
+#define DEFERRED_SHADOWS (dp.shadows != 0u)
+#endif
+#ifndef DEFERRED_CULL
+#define DEFERRED_CULL (dp.cull != 0u)
+#endif
+#ifndef DEFERRED_CAP
+#define DEFERRED_CAP dp.max_per_pixel
+#endif
+#ifndef DEFERRED_DEBUG
+#define DEFERRED_DEBUG dp.debug
+#endif
+#ifndef DEFERRED_ENV_AMBIENT
+#define DEFERRED_ENV_AMBIENT (dp.env_ambient != 0u)
+#endif
 layout(set = 0, binding = B_DLIGHTS, scalar) readonly buffer DLights { DLight dlights[]; };
 layout(set = 0, binding = B_GBUFFER, scalar) buffer GBuffer { uvec4 gbuf[]; };
 layout(set = 0, binding = B_TILE_COUNTS, scalar) buffer TileCounts { uint tile_counts[]; };

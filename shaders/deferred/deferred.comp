@@ -27,7 +27,7 @@ void main() {
         Rng rng = rng_init(pixel, pc.sample_base + i, pc.seed_lo, pc.seed_hi);
         Ray ray = camera_ray(px, rng);
         vec3 L = vec3(0.0);
-        if (pc.max_depth >= 1) {
+        if (PASS_MAX_DEPTH >= 1) {
             Hit hit;
             if (!trace_closest(ray, hit)) {
                 L = env_eval(ray.d);

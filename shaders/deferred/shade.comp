@@ -45,7 +45,7 @@ bool light_incident(DLight l, vec3 p, out vec3 wi, out float dist, out vec3 Li) 
     float d2 = dot(w, w);
     if (!(d2 > 0.0)) return false;
     float r = l.pos_radius.w;
-    if (dp.cull != 0u && d2 >= r * r) return false;
+    if (DEFERRED_CULL && d2 >= r * r) return false;
     dist = sqrt(d2);
     wi = w / dist;
     uint kind = dl_kind(l);
@@ -97,11 +97,11 @@ vec3 shade_sample(uvec2 px, uint pixel, uint tile_index, uint slice, inout uint 
     vec3 L = vec3(0.0);
     if (!gs.hit) {
         // Step 2a: escaped rays see the environment.
-        if (pc.max_depth >= 1) L = env_eval(ray.d);
+        if (PASS_MAX_DEPTH >= 1) L = env_eval(ray.d);
     } else {
         // Step 2b: emission of an emitter seen from its front side.
-        if (gs.front && pc.max_depth >= 1) L += materials[gs.material].emission.rgb;
-        if (pc.max_depth >= 2) {
+        if (gs.front && PASS_MAX_DEPTH >= 1) L += materials[gs.material].emission.rgb;
+        if (PASS_MAX_DEPTH >= 2) {
             // Step 3: the shading point: position from the camera ray and depth; the
             // rounding-error bound of the reconstruction for spawning shadow rays.
             Surface s;
@@ -123,10 +123,10 @@ vec3 shade_sample(uvec2 px, uint pixel, uint tile_index, uint slice, inout uint 
                 // Step 4: the lights of this pixel's tile (all of them when the tile
                 // overflowed or culling is off).
                 uint count = tile_counts[tile_slot(slice, tile_index)];
-                bool all = dp.cull == 0u || count == TILE_OVERFLOW;
+                bool all = !DEFERRED_CULL || count == TILE_OVERFLOW;
                 uint n = all ? dp.n_cull : count;
                 uint base = tile_slot(slice, tile_index) * dp.tile_capacity;
-                uint cap = min(dp.max_per_pixel, uint(MAX_CAP));
+                uint cap = min(uint(DEFERRED_CAP), uint(MAX_CAP));
                 lit += 1u;
                 tested += n;
                 if (cap == 0u) {
@@ -137,7 +137,7 @@ vec3 shade_sample(uvec2 px, uint pixel, uint tile_index, uint slice, inout uint 
                         shaded += 1u;
                         vec3 f = bsdf_eval(m, wo, to_local(wi, s.tangent, bt, s.ns), TRANSPORT_RADIANCE);
                         if (!any(greaterThan(f, vec3(0.0)))) continue;
-                        if (dp.shadows != 0u && !unoccluded(s, l, wi, dist, rays)) continue;
+                        if (DEFERRED_SHADOWS && !unoccluded(s, l, wi, dist, rays)) continue;
                         L += f * Li;
                     }
                 } else {
@@ -165,7 +165,7 @@ vec3 shade_sample(uvec2 px, uint pixel, uint tile_index, uint slice, inout uint 
                         if (!light_incident(l, s.p, wi, dist, Li)) continue;
                         vec3 f = bsdf_eval(m, wo, to_local(wi, s.tangent, bt, s.ns), TRANSPORT_RADIANCE);
                         if (!any(greaterThan(f, vec3(0.0)))) continue;
-                        if (dp.shadows != 0u && !unoccluded(s, l, wi, dist, rays)) continue;
+                        if (DEFERRED_SHADOWS && !unoccluded(s, l, wi, dist, rays)) continue;
                         L += f * Li;
                     }
                 }
@@ -175,17 +175,17 @@ vec3 shade_sample(uvec2 px, uint pixel, uint tile_index, uint slice, inout uint 
                     vec3 wi = -l.axis.xyz;
                     vec3 f = bsdf_eval(m, wo, to_local(wi, s.tangent, bt, s.ns), TRANSPORT_RADIANCE);
                     if (!any(greaterThan(f, vec3(0.0)))) continue;
-                    if (dp.shadows != 0u && !unoccluded(s, l, wi, 0.0, rays)) continue;
+                    if (DEFERRED_SHADOWS && !unoccluded(s, l, wi, 0.0, rays)) continue;
                     L += f * l.intensity.rgb;
                 }
             }
             // Step 6: the environment as an ambient term, by one BSDF sample.
-            if (dp.env_ambient != 0u && g.env.x != NONE) {
+            if (DEFERRED_ENV_AMBIENT && g.env.x != NONE) {
                 BsdfSample bs;
                 if (bsdf_sample(m, wo, rng_next3(rng), TRANSPORT_RADIANCE, bs)) {
                     vec3 wi = from_local(bs.wi, s.tangent, bt, s.ns);
                     bool vis = true;
-                    if (dp.shadows != 0u) {
+                    if (DEFERRED_SHADOWS) {
                         rays += 1u;
                         vis = !trace_any(spawn_ray(s, wi));
                     }
@@ -195,11 +195,11 @@ vec3 shade_sample(uvec2 px, uint pixel, uint tile_index, uint slice, inout uint 
         }
     }
     // Debug views of the G-buffer and the culling.
-    if (dp.debug == DEBUG_NORMAL) {
+    if (DEFERRED_DEBUG == DEBUG_NORMAL) {
         L = gs.hit ? gs.n : vec3(0.0);
-    } else if (dp.debug == DEBUG_DEPTH) {
+    } else if (DEFERRED_DEBUG == DEBUG_DEPTH) {
         L = vec3(gs.hit ? gs.t : 0.0);
-    } else if (dp.debug == DEBUG_GBUFFER_ERROR) {
+    } else if (DEFERRED_DEBUG == DEBUG_GBUFFER_ERROR) {
         // Against a fresh ray cast with the full surface: normal angle (radians), position
         // error relative to the depth, and 1 where hit/material/side disagree.
         Hit hit;
@@ -215,7 +215,7 @@ vec3 shade_sample(uvec2 px, uint pixel, uint tile_index, uint slice, inout uint 
             bool same = s.material == gs.material && (dot(-ray.d, s.ng) > 0.0) == gs.front;
             L = vec3(angle, length(p - s.p) / max(gs.t, 1e-30), same ? 0.0 : 1.0);
         }
-    } else if (dp.debug == DEBUG_TILE_LIGHTS) {
+    } else if (DEFERRED_DEBUG == DEBUG_TILE_LIGHTS) {
         uint count = tile_counts[tile_slot(slice, tile_index)];
         uint reach = 0u;
         if (gs.hit) {

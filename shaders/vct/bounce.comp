@@ -20,7 +20,7 @@ void main() {
     }
     Voxel vx = load_voxel(slot);
     if (vx.opacity <= 0.0 || dot(vx.n, vx.n) == 0.0) { bounce[slot] = uvec4(0u); return; }
-    uint n = max(uint(P.cone.y), 1u);
+    uint n = VCT_CONES;
     float tan_half = P.cone.x;
     vec3 E[2] = vec3[2](vec3(0.0), vec3(0.0));
     for (int side = 0; side < 2; ++side) {

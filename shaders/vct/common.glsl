@@ -50,6 +50,26 @@ struct VctInfo {
 };
 
 layout(set = 0, binding = B_VCT_PARAMS, scalar) readonly buffer VctParamsBuf { VctParams P; };
+
+// The options that pick code paths, read from the parameters (the generic kernel) or compiled in
+// where the host specialises the kernel (renderer/src/integrators/vct/mod.rs, `constants`): the
+// storage, the AO output, shadow cones and the diffuse cones. The cones traced per sample stay a
+// run-time read (measured: `constants`), the macro only lets a measurement compile them in.
+#ifndef VCT_OCTREE
+#define VCT_OCTREE (P.dims.z == 1u)
+#endif
+#ifndef VCT_AO
+#define VCT_AO (P.mode.x == 1u)
+#endif
+#ifndef VCT_SHADOW_CONE
+#define VCT_SHADOW_CONE (P.mode.y == 1u)
+#endif
+#ifndef VCT_CONES
+#define VCT_CONES max(uint(P.cone.y), 1u)
+#endif
+#ifndef VCT_CONES_PER_SAMPLE
+#define VCT_CONES_PER_SAMPLE P.mode.w
+#endif
 layout(set = 0, binding = B_VCT_INFO, scalar) buffer VctInfoBuf { VctInfo info; };
 layout(set = 0, binding = B_VCT_FRAGS, scalar) buffer VctFrags { uvec2 frags[]; };      // (packed voxel, prim)
 layout(set = 0, binding = B_VCT_NODES, scalar) buffer VctNodes { uvec2 vnodes[]; };     // (first child | flag, packed coords)
@@ -80,7 +100,7 @@ uvec3 octant_bits(uint o) { return uvec3(o & 1u, (o >> 1) & 1u, (o >> 2) & 1u); 
 
 uint vct_res() { return P.dims.x; }
 uint vct_levels() { return P.dims.y; }
-bool vct_octree() { return P.dims.z == 1u; }
+bool vct_octree() { return VCT_OCTREE; }
 
 // World (camera-relative) ↔ grid units.
 vec3 to_grid(vec3 p) { return (p - P.grid.xyz) / P.grid.w; }

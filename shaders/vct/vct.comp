@@ -28,12 +28,12 @@
 
 PASS_LOCAL_SIZE;
 
-bool depth_allows(int d) { return pc.max_depth < 0 || pc.max_depth >= d; }
+bool depth_allows(int d) { return PASS_MAX_DEPTH < 0 || PASS_MAX_DEPTH >= d; }
 
 #ifdef VCT_VOLUME
 // Ambient occlusion at s: the mean transparency of the diffuse cones within `ao_distance`.
 float ambient_occlusion(Surface s, vec3 n, inout Rng rng) {
-    uint nc = max(uint(P.cone.y), 1u);
+    uint nc = VCT_CONES;
     vec3 t, b;
     make_frame(n, t, b);
     float phi0 = 2.0 * PI * rng_next1(rng);
@@ -51,7 +51,7 @@ float ambient_occlusion(Surface s, vec3 n, inout Rng rng) {
 bool visible(Surface s, LightSample ls, inout uint rays, out float vis) {
     vis = 1.0;
 #ifdef VCT_VOLUME
-    if (P.mode.y == 1u) {
+    if (VCT_SHADOW_CONE) {
         // Shadow cone: transparency of a narrow cone towards the light, stopping three voxels short.
         vec3 ng = dot(s.ng, ls.wi) >= 0.0 ? s.ng : -s.ng;
         float tmax = isinf(ls.dist) ? 1e9 : ls.dist / P.grid.w - 3.0;
@@ -71,14 +71,14 @@ vec3 shade(uvec2 px, inout Rng rng, inout uint rays) {
     rays += 1u;
     bool hit_any = trace_closest(ray, hit);
 #ifdef VCT_VOLUME
-    if (P.mode.x == 1u) {
+    if (VCT_AO) {
         if (!hit_any) return vec3(1.0);
         Surface sa = surface_at(hit, ray);
         vec3 na = dot(sa.ng, -ray.d) >= 0.0 ? sa.ng : -sa.ng;
         return vec3(ambient_occlusion(sa, na, rng));
     }
 #endif
-    if (pc.max_depth == 0) return vec3(0.0);
+    if (PASS_MAX_DEPTH == 0) return vec3(0.0);
     if (!hit_any) return env_eval(ray.d);
     Surface s = surface_at(hit, ray);
     vec3 wo_world = -ray.d;
@@ -138,15 +138,15 @@ vec3 shade(uvec2 px, inout Rng rng, inout uint rays) {
     if (m.type == MAT_DIFFUSE) {
         // Diffuse cones over the hemisphere of the side seen, randomly rotated per sample:
         // ∫ f L cos dω ≈ Σ_i f_i(cos) L_i · π / (N cos_i) (cosine-weighted placement).
-        uint nc = max(uint(P.cone.y), 1u);
+        uint nc = VCT_CONES;
         vec3 n = dot(s.ns, wo_world) >= 0.0 ? s.ns : -s.ns;
         vec3 t, b;
         make_frame(n, t, b);
         float phi0 = 2.0 * PI * rng_next1(rng);
         vec3 origin = s.p + ng_o * (CONE_OFFSET * vox);
-        // `cones_per_sample` (P.mode.w) < nc: a run of that many cones from a random one,
+        // `cones_per_sample` (VCT_CONES_PER_SAMPLE) < nc: a run of that many cones from a random one,
         // weighted by nc / run, so each cone is traced with the same expected weight.
-        uint run = clamp(P.mode.w, 1u, nc);
+        uint run = clamp(uint(VCT_CONES_PER_SAMPLE), 1u, nc);
         uint first = run < nc ? min(uint(rng_next1(rng) * float(nc)), nc - 1u) : 0u;
         float run_weight = float(nc) / float(run);
         for (uint j = 0u; j < run; ++j) {

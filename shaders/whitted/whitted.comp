@@ -66,7 +66,7 @@ vec3 trace_whitted(uvec2 px, inout Rng rng, inout uint rays) {
 #endif
     stack[sp++] = Pending(cam.o, cam.d, vec3(1.0), 0);
     vec3 L = vec3(0.0);
-    if (pc.max_depth == 0) return L; // max_depth 0: nothing at all (Mitsuba)
+    if (PASS_MAX_DEPTH == 0) return L; // max_depth 0: nothing at all (Mitsuba)
     while (sp > 0) {
         Pending e = stack[--sp];
         Ray ray;
@@ -86,7 +86,7 @@ vec3 trace_whitted(uvec2 px, inout Rng rng, inout uint rays) {
         // Step 3: emission, front side (the geometric normal's), as pt/nee and light sampling.
         if (s.light != NONE && dot(wo_world, s.ng) > 0.0) L += e.beta * materials[s.material].emission.rgb;
         // Step 4: a vertex reached by depth + 1 segments may add light only below max_depth.
-        if (e.depth + 1 >= pc.max_depth) continue;
+        if (e.depth + 1 >= PASS_MAX_DEPTH) continue;
 
         // Step 5: the classic decomposition of the material.
         SurfaceParams m = resolve_material(s.material, s.uv);

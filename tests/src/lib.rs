@@ -334,12 +334,27 @@ pub fn specialised_vs_generic(
     compiled: &CompiledScene,
     name: &str,
 ) -> anyhow::Result<(f32, f32)> {
-    use renderer::compile::KernelMode;
     let spec = match name {
         "vct" => serde_json::json!({"type": "vct", "resolution": 64}),
         _ => serde_json::Value::String(name.into()),
     };
-    let options = IntegratorOptions::parse(&spec, name)?;
+    specialised_vs_generic_with(scene, compiled, &spec)
+}
+
+/// [`specialised_vs_generic`] for the integrator `spec` (a job's "integrator" value: a name or
+/// an object with its options), so that renders with other options (and so other constants
+/// compiled into the specialised kernels) are compared too.
+pub fn specialised_vs_generic_with(
+    scene: &renderer::scene::Scene,
+    compiled: &CompiledScene,
+    spec: &serde_json::Value,
+) -> anyhow::Result<(f32, f32)> {
+    use renderer::compile::KernelMode;
+    let name = spec
+        .as_str()
+        .or_else(|| spec["type"].as_str())
+        .ok_or_else(|| anyhow::anyhow!("integrator spec without a type: {spec}"))?;
+    let options = IntegratorOptions::parse(spec, name)?;
     let ctx = gpu();
     let image = |kernels| -> anyhow::Result<Image> {
         let mut s = RenderSession::with_kernels(

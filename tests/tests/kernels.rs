@@ -5,12 +5,15 @@
 //!    the scene never runs);
 //! 2. for every scene (and one scene per material model) and integrator, the specialised
 //!    kernels render the same image as the generic ones (every feature compiled in), to float tolerance (8×8 pixels, 2 spp: building
-//!    the kernels on lavapipe is what costs).
+//!    the kernels on lavapipe is what costs);
+//! 3. the render's constants (filter, camera model, depths, integrator options) compiled into
+//!    specialised kernels render what the generic kernel's run-time reads render, for options
+//!    that take every folded branch the other way.
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
-use candela_tests::{gpu, repo_root, specialised_vs_generic};
+use candela_tests::{gpu, repo_root, specialised_vs_generic, specialised_vs_generic_with};
 use renderer::compile::{compile, FeatureSet};
 use renderer::integrators::names;
 use serde_json::Value;
@@ -189,4 +192,42 @@ fn specialised_and_generic_kernels_render_the_same_image() {
     }
     ctx.check_validation().unwrap();
     println!("specialised vs generic: largest relative difference {worst:e}");
+}
+
+#[test]
+fn compiled_in_constants_render_what_run_time_reads_render() {
+    let ctx = gpu();
+    // Options that flip what the specialised kernels compile in (renderer/src/integrators/*,
+    // `constants`), on a Gaussian-filtered scene, a thin lens and a box filter.
+    let variants = [
+        r#"{"type": "pt", "max_depth": -1, "rr_depth": 1}"#,
+        r#"{"type": "nee", "max_depth": 3, "rr_depth": 2}"#,
+        r#"{"type": "bdpt", "max_depth": 3, "rr_depth": 1}"#,
+        r#"{"type": "whitted", "max_depth": -1}"#,
+        r#"{"type": "deferred", "max_depth": 1}"#,
+        r#"{"type": "deferred", "shadows": true, "max_lights_per_pixel": 1, "env_ambient": false}"#,
+        r#"{"type": "deferred", "cull": false, "shadows": true}"#,
+        r#"{"type": "deferred", "debug": "tile_lights"}"#,
+        r#"{"type": "vct", "resolution": 64, "storage": "dense", "cones": 3, "cones_per_sample": 2}"#,
+        r#"{"type": "vct", "resolution": 64, "shadows": "cone", "max_depth": 2}"#,
+        r#"{"type": "vct", "resolution": 64, "ao": true}"#,
+    ];
+    let mut worst = 0.0f32;
+    for scene_name in ["cornell", "thinlens", "textured_mesh"] {
+        let path = repo_root().join(format!("scenes/{scene_name}.json"));
+        let scene = renderer::scene::load_file(&path).unwrap();
+        let compiled = compile(&scene, 8, 8).unwrap();
+        for v in variants {
+            let spec: Value = serde_json::from_str(v).unwrap();
+            let (d, tol) = specialised_vs_generic_with(&scene, &compiled, &spec)
+                .unwrap_or_else(|e| panic!("{scene_name} {v}: {e}"));
+            worst = worst.max(d);
+            assert!(
+                d <= tol,
+                "{scene_name} {v}: compiled-in constants vs run-time reads differ by {d:e} (relative)"
+            );
+        }
+    }
+    ctx.check_validation().unwrap();
+    println!("compiled-in constants vs run-time reads: largest relative difference {worst:e}");
 }

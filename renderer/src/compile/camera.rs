@@ -4,6 +4,7 @@
 use glam::DVec3;
 
 use super::lights::alias_table;
+use crate::gpu::{Constant, ShaderDefines};
 use crate::layout::GpuGlobals;
 use crate::scene::{Filter, Scene};
 
@@ -63,6 +64,39 @@ pub(super) fn globals(scene: &Scene, width: u32, height: u32, facts: SceneFacts)
             facts.light_nodes[1],
         ],
         instances: [facts.instances[0], facts.instances[1], 0, 0],
+    }
+}
+
+/// What a scene holds constant that kernels otherwise test at run time (shaders/common/types.glsl),
+/// for specialised kernels: the pixel filter and the camera model. Each integrator takes those
+/// that pay for it ([`crate::integrators::Integrator::constants`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SceneConstants {
+    /// The Gaussian pixel filter (else the box).
+    pub gaussian_filter: bool,
+    /// A thin lens (else a pinhole).
+    pub thin_lens: bool,
+}
+
+impl SceneConstants {
+    pub(super) fn of(g: &GpuGlobals) -> Self {
+        SceneConstants {
+            gaussian_filter: g.film[2] == 1,
+            thin_lens: g.lens[2] > 0.0,
+        }
+    }
+
+    pub fn filter(&self) -> (String, String) {
+        Constant::Bool(self.gaussian_filter).define("FILTER_GAUSSIAN")
+    }
+
+    pub fn lens(&self) -> (String, String) {
+        Constant::Bool(self.thin_lens).define("CAMERA_THIN_LENS")
+    }
+
+    /// Both.
+    pub fn all(&self) -> ShaderDefines {
+        vec![self.filter(), self.lens()]
     }
 }
 

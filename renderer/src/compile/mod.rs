@@ -31,6 +31,7 @@ use crate::accel::{self, AccelInfo, AccelOptions};
 use crate::layout::*;
 use crate::scene::expand::{expand_instances, Expand};
 use crate::scene::Scene;
+pub use camera::SceneConstants;
 pub use features::{FeatureSet, KernelMode};
 pub use lights::{alias_table, luminance};
 
@@ -88,6 +89,11 @@ pub struct CompiledScene {
 }
 
 impl CompiledScene {
+    /// What the scene holds constant for specialised kernels: its filter and camera model.
+    pub fn constants(&self) -> SceneConstants {
+        SceneConstants::of(&self.globals)
+    }
+
     /// A testing aid: kernels whose traversal stack holds only `entries` (1..=STACK_DEPTH), so
     /// the stackless fallback for deep trees runs on any scene (the parent pointers are made).
     pub fn with_traversal_stack(mut self, entries: usize) -> Self {

@@ -29,7 +29,7 @@ pub use kernel_cache::{
 pub use limits::{DeviceLimits, BUFFER_LIMIT_ENV, MEMORY_LIMIT_ENV};
 pub use lru::{cache_limits, set_cache_limits, CacheLimits};
 pub use pipeline::{kernel_variants_seen, live_pipelines, Binding, ComputePipeline};
-pub use shader::{shader_source, ShaderDefines, COMPILER_ID};
+pub use shader::{shader_source, Constant, ShaderDefines, COMPILER_ID};
 pub(crate) use staging::host_read_barrier;
 
 /// Errors of the GPU layer. Messages name the stage that failed.

@@ -38,6 +38,29 @@ mod embedded {
 /// `#define NAME VALUE` pairs, in a stable order (they are part of the cache key).
 pub type ShaderDefines = Vec<(String, String)>;
 
+/// A value the host compiles into a kernel in place of a run-time read (the render's constants:
+/// shaders/common/types.glsl), spelled as GLSL reads it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Constant {
+    Bool(bool),
+    Int(i32),
+    Uint(u32),
+}
+
+impl Constant {
+    /// `NAME` defined as this value: `true`, `6`, `(-1)` (parenthesised, so that no operator
+    /// before it merges with the sign), `6u`.
+    pub fn define(self, name: &str) -> (String, String) {
+        let value = match self {
+            Constant::Bool(b) => b.to_string(),
+            Constant::Int(i) if i < 0 => format!("({i})"),
+            Constant::Int(i) => i.to_string(),
+            Constant::Uint(u) => format!("{u}u"),
+        };
+        (name.to_string(), value)
+    }
+}
+
 /// What the SPIR-V depends on besides the sources and defines: the glslang version (from
 /// Cargo.lock) and the target environment. Part of every kernel cache key.
 pub const COMPILER_ID: &str = concat!(

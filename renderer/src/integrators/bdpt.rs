@@ -81,10 +81,11 @@ use std::sync::Arc;
 use super::{
     BdptDesign, BdptOptions, ExtraBuffer, ExtraSum, GpuResolve, Integrator, Resolver, ScratchBuffer,
 };
-use crate::compile::CompiledScene;
+use crate::compile::{CompiledScene, SceneConstants};
 use crate::error::RenderError;
 use crate::gpu::{
-    Binding, ComputePipeline, DispatchTiming, GpuContext, GpuResult, Recorder, ShaderDefines,
+    Binding, ComputePipeline, Constant, DispatchTiming, GpuContext, GpuResult, Recorder,
+    ShaderDefines,
 };
 use crate::layout::{
     binding, GpuPush, PUSH_FLAG_BDPT_NO_MIS, PUSH_FLAG_BDPT_SHARE_SHIFT, PUSH_FLAG_BDPT_STRATEGY,
@@ -405,6 +406,12 @@ impl Integrator for BdptIntegrator {
         self.light_buffer_bytes = (l.memory_bytes / LIGHT_BUFFER_SHARE)
             .min(l.max_buffer_bytes)
             .min(LIGHT_BUFFER_BYTES);
+    }
+    fn constants(&self, scene: &SceneConstants) -> ShaderDefines {
+        let mut c = scene.all();
+        c.push(Constant::Int(self.max_depth).define("PASS_MAX_DEPTH"));
+        c.push(Constant::Int(self.rr_depth).define("PASS_RR_DEPTH"));
+        c
     }
     fn defines(&self) -> ShaderDefines {
         let mut d: ShaderDefines = vec![("BDPT_DEPTH_CAP".into(), self.depth_cap().to_string())];

@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 
 use std::sync::Arc;
 
-use crate::compile::CompiledScene;
+use crate::compile::{CompiledScene, SceneConstants};
 use crate::error::RenderError;
 use crate::gpu::{
     Binding, ComputePipeline, DispatchTiming, GpuContext, GpuResult, Recorder, ShaderDefines,
@@ -291,6 +291,16 @@ pub trait Integrator: Send {
     /// Kernel defines besides the scene's feature set. Default: none.
     fn defines(&self) -> ShaderDefines {
         Vec::new()
+    }
+    /// What this render holds constant that the kernels otherwise read at run time, compiled in
+    /// where the kernels are specialised ([`crate::compile::KernelMode::Specialized`]) so that
+    /// the tests on them fold away (the generic kernel reads them): the scene's filter and
+    /// camera model (`scene`), the depths (`PASS_MAX_DEPTH`, `PASS_RR_DEPTH`:
+    /// shaders/common/types.glsl) and the options that pick code paths, each the value the
+    /// integrator passes at run time. Each integrator lists those measured to pay for its
+    /// kernels (docs/kernels.md). Default: the scene's.
+    fn constants(&self, scene: &SceneConstants) -> ShaderDefines {
+        scene.all()
     }
     /// The kernels (path, defines) [`Integrator::setup`] builds besides the pass kernel, for
     /// `defines` (the session's: the scene's feature set plus [`Integrator::defines`]), so that

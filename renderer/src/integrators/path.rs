@@ -2,15 +2,9 @@
 //! (shaders/common/path.glsl), compiled with or without next-event estimation.
 
 use super::{Integrator, PathOptions};
-use crate::gpu::{ComputePipeline, GpuResult, Recorder, ShaderDefines};
+use crate::compile::SceneConstants;
+use crate::gpu::{ComputePipeline, Constant, GpuResult, Recorder, ShaderDefines};
 use crate::layout::GpuPush;
-
-/// Benchmark knob for issue 19's "max_depth and rr_depth as constants" experiment:
-/// `CANDELA_DEPTH_CONSTANTS=1` compiles both depths into the kernel instead of reading them from
-/// the push constants (one variant per depth pair). Not kept as the default: see docs/kernels.md.
-fn depth_constants() -> bool {
-    std::env::var("CANDELA_DEPTH_CONSTANTS").is_ok_and(|v| v == "1")
-}
 
 pub struct PathIntegrator {
     label: &'static str,
@@ -33,13 +27,14 @@ impl Integrator for PathIntegrator {
     fn max_depth(&self) -> i32 {
         self.max_depth
     }
-    fn defines(&self) -> ShaderDefines {
-        if !depth_constants() {
-            return Vec::new();
-        }
+    /// The depths and the camera model; not the filter: compiled in, it cost pt 3.5% on the
+    /// box-filtered textured_mesh on an H200 (bench/RESULTS.md, "The render's constants"), and
+    /// nee runs the same megakernel.
+    fn constants(&self, scene: &SceneConstants) -> ShaderDefines {
         vec![
-            ("PATH_MAX_DEPTH".into(), self.max_depth.to_string()),
-            ("PATH_RR_DEPTH".into(), self.rr_depth.to_string()),
+            Constant::Int(self.max_depth).define("PASS_MAX_DEPTH"),
+            Constant::Int(self.rr_depth).define("PASS_RR_DEPTH"),
+            scene.lens(),
         ]
     }
     fn record_pass(

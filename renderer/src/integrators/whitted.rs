@@ -69,9 +69,11 @@
 use std::sync::Arc;
 
 use super::{Integrator, OptionField, OptionsInfo};
-use crate::compile::CompiledScene;
+use crate::compile::{CompiledScene, SceneConstants};
 use crate::error::RenderError;
-use crate::gpu::{Binding, ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
+use crate::gpu::{
+    Binding, ComputePipeline, Constant, GpuContext, GpuResult, Recorder, ShaderDefines,
+};
 use crate::layout::GpuPush;
 use serde::{Deserialize, Serialize};
 
@@ -238,6 +240,11 @@ impl Integrator for WhittedIntegrator {
         _defines: &ShaderDefines,
     ) -> Result<(), RenderError> {
         self.validate()
+    }
+    fn constants(&self, scene: &SceneConstants) -> ShaderDefines {
+        let mut c = scene.all();
+        c.push(Constant::Int(self.effective_depth()).define("PASS_MAX_DEPTH"));
+        c
     }
     fn details(&self) -> Option<serde_json::Value> {
         Some(serde_json::json!({

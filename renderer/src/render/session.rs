@@ -353,8 +353,9 @@ impl RenderSession {
     /// kind and its variants (`CWBVH_INDIRECT`, `CWBVH_SPARSE`), the light sampler (the light
     /// BVH where the scene has one and the integrator's registry entry takes it), the tiles per
     /// workgroup (`WG_TILES`: the entry's on films of at least
-    /// [`super::dispatch::TILED_MIN_PIXELS`], at most `max_tiles`), the integrator's own, and the
-    /// measuring knob's (`CANDELA_SHADER_DEFINES`, which replace
+    /// [`super::dispatch::TILED_MIN_PIXELS`], at most `max_tiles`), the integrator's own, for
+    /// specialised kernels the render's constants (the scene's filter and camera model, the
+    /// integrator's depths and options), and the measuring knob's (`CANDELA_SHADER_DEFINES`, which replace
     /// defines of the same name).
     fn defines(
         scene: &CompiledScene,
@@ -389,6 +390,9 @@ impl RenderSession {
             defines.push(("WG_TILES".to_string(), tiles.to_string()));
         }
         defines.extend(integrator.defines());
+        if mode == KernelMode::Specialized {
+            defines.extend(integrator.constants(&scene.constants()));
+        }
         let extra = parse_defines(&std::env::var("CANDELA_SHADER_DEFINES").unwrap_or_default());
         defines.retain(|(name, _)| extra.iter().all(|(n, _)| n != name));
         defines.extend(extra);

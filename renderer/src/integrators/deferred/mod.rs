@@ -29,10 +29,11 @@ use serde::{Deserialize, Serialize};
 use serde_json::json;
 
 use super::{Integrator, OptionField, OptionsInfo};
-use crate::compile::CompiledScene;
+use crate::compile::{CompiledScene, SceneConstants};
 use crate::error::RenderError;
 use crate::gpu::{
-    Binding, ComputePipeline, DispatchTiming, GpuContext, GpuResult, Recorder, ShaderDefines,
+    Binding, ComputePipeline, Constant, DispatchTiming, GpuContext, GpuResult, Recorder,
+    ShaderDefines,
 };
 use crate::layout::GpuPush;
 use lights::{LightSet, ManagerOptions};
@@ -242,6 +243,20 @@ pub(crate) fn validate(o: &DeferredOptions) -> Result<(), RenderError> {
 }
 
 impl DeferredIntegrator {
+    /// The parameters the options set (the stages fill in the lights and tiles).
+    fn option_params(&self) -> DeferredParams {
+        let o = &self.options;
+        DeferredParams {
+            tile_capacity: o.tile_capacity.unwrap_or(DEFAULT_TILE_CAPACITY),
+            max_per_pixel: o.max_lights_per_pixel.unwrap_or(0),
+            shadows: o.shadows.unwrap_or(false) as u32,
+            cull: o.cull.unwrap_or(true) as u32,
+            debug: o.debug.map_or(0, DeferredDebug::code),
+            env_ambient: o.env_ambient.unwrap_or(true) as u32,
+            ..Default::default()
+        }
+    }
+
     fn cutoff(&self) -> f32 {
         if self.options.cull == Some(false) {
             0.0
@@ -254,6 +269,20 @@ impl DeferredIntegrator {
 impl Integrator for DeferredIntegrator {
     fn max_depth(&self) -> i32 {
         self.max_depth
+    }
+
+    fn constants(&self, scene: &SceneConstants) -> ShaderDefines {
+        let p = self.option_params();
+        let mut c = scene.all();
+        c.extend([
+            Constant::Int(self.max_depth).define("PASS_MAX_DEPTH"),
+            Constant::Bool(p.shadows != 0).define("DEFERRED_SHADOWS"),
+            Constant::Bool(p.cull != 0).define("DEFERRED_CULL"),
+            Constant::Uint(p.max_per_pixel).define("DEFERRED_CAP"),
+            Constant::Uint(p.debug).define("DEFERRED_DEBUG"),
+            Constant::Bool(p.env_ambient != 0).define("DEFERRED_ENV_AMBIENT"),
+        ]);
+        c
     }
 
     fn kernels(&self, defines: &ShaderDefines) -> Vec<(String, ShaderDefines)> {
@@ -285,21 +314,12 @@ impl Integrator for DeferredIntegrator {
             },
         );
         // Step 2: the stages' buffers and pipelines.
-        let params = DeferredParams {
-            tile_capacity: o.tile_capacity.unwrap_or(DEFAULT_TILE_CAPACITY),
-            max_per_pixel: o.max_lights_per_pixel.unwrap_or(0),
-            shadows: o.shadows.unwrap_or(false) as u32,
-            cull: o.cull.unwrap_or(true) as u32,
-            debug: o.debug.map_or(0, DeferredDebug::code),
-            env_ambient: o.env_ambient.unwrap_or(true) as u32,
-            ..Default::default()
-        };
         self.stages = Some(Stages::new(
             ctx,
             scene.width,
             scene.height,
             &self.lights,
-            params,
+            self.option_params(),
             o.samples_per_batch,
             shared,
             defines,

@@ -43,9 +43,11 @@ pub use volume::StageTimes;
 use std::sync::{Arc, Mutex};
 
 use super::Integrator;
-use crate::compile::CompiledScene;
+use crate::compile::{CompiledScene, SceneConstants};
 use crate::error::RenderError;
-use crate::gpu::{Binding, ComputePipeline, GpuContext, GpuResult, Recorder, ShaderDefines};
+use crate::gpu::{
+    Binding, ComputePipeline, Constant, GpuContext, GpuResult, Recorder, ShaderDefines,
+};
 use crate::layout::GpuPush;
 use volume::Volume;
 
@@ -102,6 +104,23 @@ impl VctIntegrator {
 impl Integrator for VctIntegrator {
     fn max_depth(&self) -> i32 {
         self.max_depth
+    }
+
+    /// Not `cones_per_sample`: compiled in, it cost the Cornell box 9% on an H200 (and gained
+    /// textured_mesh 3%; bench/RESULTS.md, "The render's constants").
+    fn constants(&self, scene: &SceneConstants) -> ShaderDefines {
+        let mut c = scene.all();
+        c.push(Constant::Int(self.max_depth).define("PASS_MAX_DEPTH"));
+        // (Invalid options have none: setup reports them.)
+        if let Ok(s) = self.options.settings() {
+            c.extend([
+                Constant::Bool(s.storage == VctStorage::Octree).define("VCT_OCTREE"),
+                Constant::Bool(s.ao).define("VCT_AO"),
+                Constant::Bool(s.shadows == VctShadows::Cone).define("VCT_SHADOW_CONE"),
+                Constant::Uint(s.cones.max(1)).define("VCT_CONES"),
+            ]);
+        }
+        c
     }
 
     fn kernels(&self, defines: &ShaderDefines) -> Vec<(String, ShaderDefines)> {
