@@ -144,8 +144,8 @@ vec3 shade(uvec2 px, inout Rng rng, inout uint rays) {
         make_frame(n, t, b);
         float phi0 = 2.0 * PI * rng_next1(rng);
         vec3 origin = s.p + ng_o * (CONE_OFFSET * vox);
-        // `cones_per_sample` (VCT_CONES_PER_SAMPLE) < nc: a run of that many cones from a random one,
-        // weighted by nc / run, so each cone is traced with the same expected weight.
+        // `cones_per_sample` (VCT_CONES_PER_SAMPLE) < nc: a run of that many cones from a random
+        // one, weighted by nc / run, so each cone is traced with the same expected weight.
         uint run = clamp(uint(VCT_CONES_PER_SAMPLE), 1u, nc);
         uint first = run < nc ? min(uint(rng_next1(rng) * float(nc)), nc - 1u) : 0u;
         float run_weight = float(nc) / float(run);

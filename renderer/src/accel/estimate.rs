@@ -64,9 +64,13 @@ impl Costs {
     }
 }
 
-/// A box's half surface area (the ratios need no more), 0 for an inverted one.
+/// A box's half surface area (the ratios need no more), in f64 with each side clamped at 0, so
+/// that an inverted (empty) box has none: obvhs' `half_area` multiplies the signed sides, which
+/// makes a box inverted on all three axes positive.
 fn area(b: &Aabb) -> f64 {
-    b.half_area().max(0.0) as f64
+    let d = b.diagonal();
+    let [x, y, z] = [d.x, d.y, d.z].map(|s| s.max(0.0) as f64);
+    (x + y) * z + x * y
 }
 
 /// Sums the estimate over a tree given as its root's child boxes and a function from a node to
@@ -163,6 +167,16 @@ mod tests {
 
     fn flat_box(lo: [f32; 3], hi: [f32; 3]) -> PrimBounds {
         PrimBounds { min: lo, max: hi }
+    }
+
+    /// Half areas: a box's, and none for a box inverted on one axis or on all three.
+    #[test]
+    fn inverted_boxes_have_no_area() {
+        let b = |lo: [f32; 3], hi: [f32; 3]| Aabb::new(lo.into(), hi.into());
+        assert_eq!(area(&b([0.0; 3], [1.0, 2.0, 3.0])), 11.0);
+        assert_eq!(area(&b([0.0, 0.0, 1.0], [1.0, 2.0, 0.0])), 2.0);
+        assert_eq!(area(&b([1.0; 3], [0.0; 3])), 0.0);
+        assert_eq!(area(&Aabb::empty()), 0.0);
     }
 
     /// Six walls of a unit room, two triangles each (their boxes overlap at the edges).
