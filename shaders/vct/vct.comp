@@ -135,7 +135,7 @@ vec3 shade(uvec2 px, inout Rng rng, inout uint rays) {
     // Step 4: indirect light from the voxel volume.
     vec3 ng_o = dot(s.ng, wo_world) >= 0.0 ? s.ng : -s.ng;
     float vox = P.grid.w;
-    if (m.type == MAT_DIFFUSE) {
+    if (material_type(m) == MAT_DIFFUSE) {
         // Diffuse cones over the hemisphere of the side seen, randomly rotated per sample:
         // ∫ f L cos dω ≈ Σ_i f_i(cos) L_i · π / (N cos_i) (cosine-weighted placement).
         uint nc = VCT_CONES;

@@ -46,6 +46,9 @@ bool whitted_area_sample(GpuLight l, vec3 p_ref, vec2 u, out vec3 pl, out vec3 w
         pdf = dist2 / (cosl * l.p0.w);
         return pdf > 0.0 && !isinf(pdf);
     }
+#ifndef HAS_SPHERES
+    return false;  // (no spheres, so no sphere lights: their code is not compiled)
+#else
     // Sphere.
     vec3 c = l.p0.xyz;
     float r = l.p0.w;
@@ -60,6 +63,7 @@ bool whitted_area_sample(GpuLight l, vec3 p_ref, vec2 u, out vec3 pl, out vec3 w
     if (dot(front, wi) >= 0.0 || emitter_cut(l, pl, vec2(0.0))) return false;
     pdf = sphere_light_pdf(l, p_ref, pl, nl);
     return pdf > 0.0 && !isinf(pdf);
+#endif
 }
 
 // Radiance reflected towards wo_world by the local lobes `m` of surface s, from every light.

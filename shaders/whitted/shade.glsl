@@ -46,15 +46,22 @@ Classic classic_material(in SurfaceParams m, vec3 wo) {
     if (bsdf_reflection_only(m) && wo.z < 0.0 && (m.flags & MATF_TWO_SIDED) == 0u) return c;
     float cos_o = abs(wo.z);
 
-    if (m.type == MAT_DIFFUSE) {
+    // (Each model compiles only where the kernel has it: common/bsdf/bsdf.glsl's HAS_MAT_*.)
+    if (false) {
+#ifdef HAS_MAT_DIFFUSE
+    } else if (material_type(m) == MAT_DIFFUSE) {
         // Step 1: Lambert, lit locally.
         c.has_local = true;
         c.ambient = m.c0;
-    } else if (m.type == MAT_PHONG) {
+#endif
+#ifdef HAS_MAT_PHONG
+    } else if (material_type(m) == MAT_PHONG) {
         // Step 1: diffuse + specular highlight, lit locally.
         c.has_local = true;
         c.ambient = m.c0 + m.c1;
-    } else if (m.type == MAT_CONDUCTOR) {
+#endif
+#ifdef HAS_MAT_CONDUCTOR
+    } else if (material_type(m) == MAT_CONDUCTOR) {
         if (m.s[0] < WHITTED_MIRROR_ROUGHNESS) {
             // Step 1: a mirror tinted by reflectance × Fresnel at this angle.
             c.kr = m.c0 * conductor_fresnel(m, cos_o);
@@ -63,13 +70,17 @@ Classic classic_material(in SurfaceParams m, vec3 wo) {
             c.has_local = true;
             c.ambient = m.c0 * conductor_fresnel(m, 1.0);
         }
-    } else if (m.type == MAT_DIELECTRIC) {
+#endif
+#ifdef HAS_MAT_DIELECTRIC
+    } else if (material_type(m) == MAT_DIELECTRIC) {
         // Step 1: smooth interface whatever the roughness: F-weighted reflection and refraction.
         float eta_ti;
         float F = whitted_refract(wo, dielectric_eta(m, false), c.wt, eta_ti);
         c.kr = m.c0 * F;
         c.kt = m.c1 * ((1.0 - F) * eta_ti * eta_ti);
-    } else if (m.type == MAT_PRINCIPLED) {
+#endif
+#ifdef HAS_MAT_PRINCIPLED
+    } else if (material_type(m) == MAT_PRINCIPLED) {
         PrincipledParams p = principled_unpack(m);
         if (p.roughness >= WHITTED_MIRROR_ROUGHNESS) {
             // Step 1: rough: the full principled BSDF, lit locally.
@@ -97,8 +108,18 @@ Classic classic_material(in SurfaceParams m, vec3 wo) {
                 c.kt = sqrt(p.base_color) * (p.bsdf * (1.0 - F) * eta_ti * eta_ti);
             }
         }
+#endif
     }
     return c;
 }
+
+// Whether any material this kernel compiles can branch (mirror reflection or refraction):
+// conductors, dielectrics and principled surfaces can; diffuse and phong are local only. Without
+// them every ray tree is the camera ray alone and the kernel needs no ray stack.
+#if defined(HAS_MAT_CONDUCTOR) || defined(HAS_MAT_DIELECTRIC) || defined(HAS_MAT_PRINCIPLED)
+#define WHITTED_BRANCHES 1
+#else
+#define WHITTED_BRANCHES 0
+#endif
 
 #endif

@@ -55,8 +55,15 @@ struct Pending {
     int depth;
 };
 
+// The ray stack: WHITTED_STACK entries where materials branch, else the camera ray's one.
+#if WHITTED_BRANCHES
+#define WHITTED_STACK_SIZE WHITTED_STACK
+#else
+#define WHITTED_STACK_SIZE 1
+#endif
+
 vec3 trace_whitted(uvec2 px, inout Rng rng, inout uint rays) {
-    Pending stack[WHITTED_STACK];
+    Pending stack[WHITTED_STACK_SIZE];
     int sp = 0;
     // Step 1: the camera ray.
 #if WHITTED_JITTER
@@ -104,6 +111,7 @@ vec3 trace_whitted(uvec2 px, inout Rng rng, inout uint rays) {
             }
         }
 
+#if WHITTED_BRANCHES
         // Step 7: the specular branches, the lighter pushed first so the heavier runs first.
         vec3 wr_beta = e.beta * c.kr, wt_beta = e.beta * c.kt;
         bool reflect_on = max_comp(wr_beta) >= WHITTED_MIN_WEIGHT;
@@ -118,6 +126,7 @@ vec3 trace_whitted(uvec2 px, inout Rng rng, inout uint rays) {
             Ray next = spawn_ray(s, is_refract ? wt : wr);
             stack[sp++] = Pending(next.o, next.d, is_refract ? wt_beta : wr_beta, e.depth + 1);
         }
+#endif
     }
     return L;
 }

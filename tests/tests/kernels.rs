@@ -3,8 +3,9 @@
 //!    read independently here from the scene document and its mesh files: none missed (a kernel
 //!    without a feature the scene needs renders it wrongly) and none extra (it would compile code
 //!    the scene never runs);
-//! 2. for every scene (and one scene per material model) and integrator, the specialised
-//!    kernels render the same image as the generic ones (every feature compiled in), to float tolerance (8×8 pixels, 2 spp: building
+//! 2. for every scene (and one scene per material model, whose kernels know every material's
+//!    type: `MAT_SOLE`) and integrator, the specialised kernels render the same image as the
+//!    generic ones (every feature compiled in), to float tolerance (8×8 pixels, 2 spp: building
 //!    the kernels on lavapipe is what costs);
 //! 3. the render's constants (filter, camera model, depths, integrator options) compiled into
 //!    specialised kernels render what the generic kernel's run-time reads render, for options

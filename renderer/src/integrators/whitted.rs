@@ -7,7 +7,9 @@
 //! One thread per pixel; per sample one camera ray, then an explicit, fixed-size stack of
 //! weighted rays (no recursion): pop a ray, find its closest hit, add what it sees, push its
 //! mirror-reflected and refracted continuations (both branches, each with its own weight, e.g.
-//! F and 1 − F for glass). At every hit:
+//! F and 1 − F for glass). A specialised kernel of a scene whose materials cannot branch (no
+//! conductor, dielectric or principled surface) has no stack: the camera ray is the whole tree.
+//! At every hit:
 //! - **Emission**: emitters show their radiance (front side, as pt/nee), at every depth.
 //! - **Direct light** on the surface's non-mirror ("local") lobes, evaluated with the exact BSDF
 //!   of shaders/common/bsdf: one shadow ray to every point, spot and directional light

@@ -30,6 +30,26 @@
 #define HAS_MAT_PHONG 1
 #endif
 
+// A kernel that compiles one model knows every material's type (MAT_SOLE): the dispatch and the
+// integrators' tests of the type (`material_type`) then fold away.
+#if (defined(HAS_MAT_DIFFUSE) + defined(HAS_MAT_CONDUCTOR) + defined(HAS_MAT_DIELECTRIC) + \
+     defined(HAS_MAT_PRINCIPLED) + defined(HAS_MAT_PHONG)) == 1
+#if defined(HAS_MAT_DIFFUSE)
+#define MAT_SOLE MAT_DIFFUSE
+#elif defined(HAS_MAT_CONDUCTOR)
+#define MAT_SOLE MAT_CONDUCTOR
+#elif defined(HAS_MAT_DIELECTRIC)
+#define MAT_SOLE MAT_DIELECTRIC
+#elif defined(HAS_MAT_PRINCIPLED)
+#define MAT_SOLE MAT_PRINCIPLED
+#else
+#define MAT_SOLE MAT_PHONG
+#endif
+#define material_type(m) MAT_SOLE
+#else
+#define material_type(m) ((m).type)
+#endif
+
 #define TRANSPORT_RADIANCE 0u
 #define TRANSPORT_IMPORTANCE 1u
 #define BSDF_DELTA 1u          // sampled lobe is perfectly specular (pdf is a discrete probability)
@@ -66,8 +86,9 @@ struct BsdfSample { vec3 wi; vec3 weight; float pdf; uint flags; float eta; };
 /// True for materials that only reflect and therefore go through the twosided logic:
 /// diffuse, conductor, phong, and principled without specular transmission.
 bool bsdf_reflection_only(in SurfaceParams m) {
-    return m.type == MAT_DIFFUSE || m.type == MAT_CONDUCTOR || m.type == MAT_PHONG ||
-           (m.type == MAT_PRINCIPLED && !(m.s[7] > 0.0));
+    uint t = material_type(m);
+    return t == MAT_DIFFUSE || t == MAT_CONDUCTOR || t == MAT_PHONG ||
+           (t == MAT_PRINCIPLED && !(m.s[7] > 0.0));
 }
 
 /// Mirrors a back-side query of a two-sided reflector to the front (Mitsuba `twosided`).
@@ -93,7 +114,7 @@ vec3 bsdf_eval(in SurfaceParams m, vec3 wo, vec3 wi, uint mode) {
     if (!bsdf_resolve_side(m, wo, flipped)) return vec3(0.0);
     if (flipped) wi.z = -wi.z;
     vec3 f;
-    switch (m.type) {
+    switch (material_type(m)) {
 #ifdef HAS_MAT_DIFFUSE
         case MAT_DIFFUSE: f = diffuse_eval(m, wo, wi); break;
 #endif
@@ -120,7 +141,7 @@ float bsdf_pdf(in SurfaceParams m, vec3 wo, vec3 wi) {
     if (!bsdf_resolve_side(m, wo, flipped)) return 0.0;
     if (flipped) wi.z = -wi.z;
     float pdf;
-    switch (m.type) {
+    switch (material_type(m)) {
 #ifdef HAS_MAT_DIFFUSE
         case MAT_DIFFUSE: pdf = diffuse_pdf(m, wo, wi); break;
 #endif
@@ -149,7 +170,7 @@ bool bsdf_sample(in SurfaceParams m, vec3 wo, vec3 u, uint mode, out BsdfSample 
     bool flipped;
     if (!bsdf_resolve_side(m, wo, flipped)) return false;
     bool ok;
-    switch (m.type) {
+    switch (material_type(m)) {
 #ifdef HAS_MAT_DIFFUSE
         case MAT_DIFFUSE: ok = diffuse_sample(m, wo, u, s); break;
 #endif
@@ -181,10 +202,10 @@ bool bsdf_sample(in SurfaceParams m, vec3 wo, vec3 u, uint mode, out BsdfSample 
 /// True when every lobe is perfectly specular (next-event estimation cannot help).
 bool bsdf_is_delta(in SurfaceParams m) {
 #ifdef HAS_MAT_CONDUCTOR
-    if (m.type == MAT_CONDUCTOR) return conductor_is_delta(m);
+    if (material_type(m) == MAT_CONDUCTOR) return conductor_is_delta(m);
 #endif
 #ifdef HAS_MAT_DIELECTRIC
-    if (m.type == MAT_DIELECTRIC) return dielectric_is_delta(m);
+    if (material_type(m) == MAT_DIELECTRIC) return dielectric_is_delta(m);
 #endif
     return false;
 }
@@ -192,7 +213,7 @@ bool bsdf_is_delta(in SurfaceParams m) {
 /// Cheap reflectance estimate in [0, 1] (Russian roulette, debugging); not an exact albedo.
 vec3 bsdf_albedo_hint(in SurfaceParams m) {
     vec3 a;
-    switch (m.type) {
+    switch (material_type(m)) {
 #ifdef HAS_MAT_DIFFUSE
         case MAT_DIFFUSE: a = m.c0; break;
 #endif
