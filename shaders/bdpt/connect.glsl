@@ -173,7 +173,7 @@ vec3 connect_st(int s, int t, vec4 u, out vec2 film, inout MisInputs mi, out Ray
         q_end.p = infinite ? ls.wi : ls.p;
         q_end.light = li;
         GpuLight gl = lights[li];
-        if (gl.kind == LIGHT_TRIANGLE || gl.kind == LIGHT_SPHERE) q_end.ng = light_front_normal(gl, ls.p);
+        if (gl.kind == LIGHT_TRIANGLE || light_is_sphere(gl.kind)) q_end.ng = light_front_normal(gl, ls.p);
         q_end.flags = ls.delta ? VF_DELTA_LIGHT : 0u;
         weight_q = ls.L / ls.pdf;
     } else {

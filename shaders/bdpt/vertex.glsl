@@ -141,7 +141,7 @@ float nee_density_ratio(Vertex x0, Vertex x1) {
     if (li == NONE) return 1.0;
     GpuLight l = lights[li];
     float r = light_pick_pmf(li, x1.p, x1.ns) / l.pick_pdf;
-    if (x0.kind != VTX_INF && l.kind == LIGHT_SPHERE) {
+    if (x0.kind != VTX_INF && light_is_sphere(l.kind)) {
         vec3 w = x0.p - x1.p;
         float d2 = dot(w, w);
         float cosl = abs(dot(x0.ng, w)) * inversesqrt(max(d2, 1e-38));

@@ -38,7 +38,7 @@ bool emitter_cut(GpuLight l, vec3 pl, vec2 b) {
     uint bits = floatBitsToUint(p.a.w);
     if ((bits & PRIM_ALPHA) == 0u) return false;
     uint m = bits & PRIM_MATERIAL_MASK;
-    if (l.kind == LIGHT_SPHERE) return mask_cuts(m, sphere_uv(pl - p.a.xyz, p.b.x));
+    if (light_is_sphere(l.kind)) return mask_cuts(m, sphere_uv(pl - p.a.xyz, p.b.x));
     return alpha_cut(m, p, b);
 }
 #else

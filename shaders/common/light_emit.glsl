@@ -39,7 +39,7 @@ bool light_is_delta(uint kind) {
 // Surface area of an area light (triangle: stored; sphere: 4πr²); 0 for the others.
 float light_area(GpuLight l) {
     if (l.kind == LIGHT_TRIANGLE) return l.p0.w;
-    if (l.kind == LIGHT_SPHERE) return 4.0 * PI * l.p0.w * l.p0.w;
+    if (light_is_sphere(l.kind)) return 4.0 * PI * l.p0.w * l.p0.w;
     return 0.0;
 }
 
@@ -54,7 +54,7 @@ vec3 light_front_normal(GpuLight l, vec3 pl) {
 // pick excluded (pbrt's Pdf_Le pdfDir). 0 for the delta direction of directional lights.
 float light_pdf_dir(uint li, vec3 nl, vec3 w) {
     GpuLight l = lights[li];
-    if (l.kind == LIGHT_TRIANGLE || l.kind == LIGHT_SPHERE) return max(dot(nl, w), 0.0) * INV_PI;
+    if (l.kind == LIGHT_TRIANGLE || light_is_sphere(l.kind)) return max(dot(nl, w), 0.0) * INV_PI;
     if (l.kind == LIGHT_POINT) return INV_4PI;
     if (l.kind == LIGHT_SPOT) return dot(w, l.p1.xyz) >= l.p2.x ? pdf_uniform_cone(l.p2.x) : 0.0;
     return 0.0;
@@ -64,7 +64,7 @@ float light_pdf_dir(uint li, vec3 nl, vec3 w) {
 // the bounding disk for infinite lights.
 float light_pdf_pos(uint li) {
     GpuLight l = lights[li];
-    if (l.kind == LIGHT_TRIANGLE || l.kind == LIGHT_SPHERE) {
+    if (l.kind == LIGHT_TRIANGLE || light_is_sphere(l.kind)) {
         float a = light_area(l);
         return a > 0.0 ? 1.0 / a : 0.0;
     }
@@ -95,7 +95,7 @@ bool sample_light_emission(vec4 u0, vec4 u1, out LightEmit e) {
     e.delta = light_is_delta(l.kind);
     vec2 u_pos = u0.yz, u_dir = vec2(u0.w, u1.x);
     // Step 2: the origin and direction, by light kind.
-    if (l.kind == LIGHT_TRIANGLE || l.kind == LIGHT_SPHERE) {
+    if (l.kind == LIGHT_TRIANGLE || light_is_sphere(l.kind)) {
         vec2 bary = vec2(0.0);
         if (l.kind == LIGHT_TRIANGLE) {
             bary = sample_uniform_triangle(u_pos);

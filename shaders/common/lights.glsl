@@ -119,9 +119,7 @@ float light_pdf_hit(uint li, vec3 p_ref, vec3 n_ref, vec3 pl, vec3 nl) {
         float cosl = abs(dot(nl, w)) * inversesqrt(max(dist2, 1e-38));
         return cosl > 0.0 ? light_pick_pmf(li, p_ref, n_ref) * dist2 / (cosl * l.p0.w) : 0.0;
     }
-#ifdef HAS_SPHERES
-    if (l.kind == LIGHT_SPHERE) return light_pick_pmf(li, p_ref, n_ref) * sphere_light_pdf(l, p_ref, pl, nl);
-#endif
+    if (light_is_sphere(l.kind)) return light_pick_pmf(li, p_ref, n_ref) * sphere_light_pdf(l, p_ref, pl, nl);
     return 0.0;
 }
 
@@ -171,9 +169,7 @@ bool sample_light(vec3 p_ref, vec3 n_ref, vec3 u, out LightSample ls) {
         ls.pdf = pick * dist2 / (cosl * l.p0.w);
         return ls.pdf > 0.0 && !isinf(ls.pdf);
     }
-#ifdef HAS_SPHERES
-    // (sphere lights are emissive spheres: kernels of scenes without spheres compile none)
-    if (l.kind == LIGHT_SPHERE) {
+    if (light_is_sphere(l.kind)) {
         vec3 c = l.p0.xyz;
         float r = l.p0.w;
         vec3 nl = sample_sphere_seen_from(c, r, p_ref, u2, sphere_sampled_by_area(l, p_ref));
@@ -191,7 +187,6 @@ bool sample_light(vec3 p_ref, vec3 n_ref, vec3 u, out LightSample ls) {
         ls.pdf = pick * sphere_light_pdf(l, p_ref, pl, nl);
         return ls.pdf > 0.0 && !isinf(ls.pdf);
     }
-#endif
 #ifdef HAS_DELTA_LIGHTS
     if (l.kind == LIGHT_POINT || l.kind == LIGHT_SPOT) {
         vec3 w = l.p0.xyz - p_ref;

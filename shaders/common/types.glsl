@@ -39,6 +39,14 @@ struct GpuMaterial {
 };
 struct GpuTexture { uint offset; uint width; uint height; uint flags; vec2 scale; vec2 pad; };
 struct GpuLight { uint kind; uint prim; float pick_pdf; uint bvh_trail; vec4 p0; vec4 p1; vec4 p2; vec4 radiance; };
+// Whether light kind k is a sphere light. Sphere lights are emissive spheres, so a kernel of a
+// scene without spheres (no HAS_SPHERES) has none: every test folds to false and the sphere
+// lights' sampling and densities are not compiled.
+#ifdef HAS_SPHERES
+#define light_is_sphere(k) ((k) == LIGHT_SPHERE)
+#else
+#define light_is_sphere(k) false
+#endif
 struct GpuAlias { float prob; uint alias; };
 struct GpuLightNode { vec4 min_phi; vec4 max_cos_o; vec4 w_cos_e; uint index; uint flags; uint pad0; uint pad1; };
 struct GpuGlobals {

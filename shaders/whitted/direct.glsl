@@ -46,9 +46,7 @@ bool whitted_area_sample(GpuLight l, vec3 p_ref, vec2 u, out vec3 pl, out vec3 w
         pdf = dist2 / (cosl * l.p0.w);
         return pdf > 0.0 && !isinf(pdf);
     }
-#ifndef HAS_SPHERES
-    return false;  // (no spheres, so no sphere lights: their code is not compiled)
-#else
+    if (!light_is_sphere(l.kind)) return false;
     // Sphere.
     vec3 c = l.p0.xyz;
     float r = l.p0.w;
@@ -63,7 +61,6 @@ bool whitted_area_sample(GpuLight l, vec3 p_ref, vec2 u, out vec3 pl, out vec3 w
     if (dot(front, wi) >= 0.0 || emitter_cut(l, pl, vec2(0.0))) return false;
     pdf = sphere_light_pdf(l, p_ref, pl, nl);
     return pdf > 0.0 && !isinf(pdf);
-#endif
 }
 
 // Radiance reflected towards wo_world by the local lobes `m` of surface s, from every light.
@@ -74,7 +71,7 @@ vec3 whitted_direct(Surface s, in SurfaceParams m, vec3 wo_world, inout uint ray
     uint n_lights = g.film.w;
     for (uint li = 0u; li < n_lights; ++li) {
         GpuLight l = lights[li];
-        if (l.kind == LIGHT_TRIANGLE || l.kind == LIGHT_SPHERE) {
+        if (l.kind == LIGHT_TRIANGLE || light_is_sphere(l.kind)) {
             // Step 1: area lights: the fixed point set; a triangle does not light itself.
             if (l.kind == LIGHT_TRIANGLE && s.light == li) continue;
             vec3 sum = vec3(0.0);
