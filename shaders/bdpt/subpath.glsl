@@ -25,10 +25,10 @@ int random_walk(Ray ray, vec3 beta, float pdf_dir, int max_new, uint mode, int b
         Hit hit;
         rays += 1u;
         if (!trace_closest(ray, hit)) {
-            if (mode == TRANSPORT_RADIANCE && g.env.x != NONE) {
+            if (mode == TRANSPORT_RADIANCE && ENV_LIGHT != NONE) {
                 Vertex v = vertex_blank(VTX_INF);
                 v.p = ray.d;
-                v.light = g.env.x;
+                v.light = ENV_LIGHT;
                 v.wo = -ray.d;
                 v.beta = beta;
                 v.pdf_fwd = pdf_dir; // solid angle towards an infinite light

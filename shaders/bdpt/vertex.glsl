@@ -107,7 +107,7 @@ float pdf_light(Vertex l, Vertex to) {
 // env_pdf with emission's pick (∝ power: light subpaths start there, light_emit.glsl) in place
 // of NEE's (the light BVH's under LIGHT_BVH).
 float env_pdf_emit(vec3 d) {
-    uint li = g.env.x;
+    uint li = ENV_LIGHT;
     if (li == NONE) return 0.0;
     float nee_pick = light_pick_pmf(li, vec3(0.0), vec3(0.0));
     return nee_pick > 0.0 ? env_pdf(d) / nee_pick * lights[li].pick_pdf : 0.0;
@@ -137,7 +137,7 @@ float pdf_surface(Vertex v, SurfaceParams m, vec3 w_prev, Vertex next) {
 // delta and infinite lights).
 float nee_density_ratio(Vertex x0, Vertex x1) {
     if (x1.kind != VTX_SURFACE) return 1.0;
-    uint li = x0.light != NONE ? x0.light : (x0.kind == VTX_INF ? g.env.x : NONE);
+    uint li = x0.light != NONE ? x0.light : (x0.kind == VTX_INF ? ENV_LIGHT : NONE);
     if (li == NONE) return 1.0;
     GpuLight l = lights[li];
     float r = light_pick_pmf(li, x1.p, x1.ns) / l.pick_pdf;

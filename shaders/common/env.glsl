@@ -29,7 +29,7 @@ vec3 env_uv_to_dir(vec2 uv) {
 
 // Radiance arriving from direction d (0 with no environment).
 vec3 env_eval(vec3 d) {
-    uint li = g.env.x;
+    uint li = ENV_LIGHT;
     if (li == NONE) return vec3(0.0);
 #ifdef HAS_ENV_MAP
     if (g.env.y != NONE) {

@@ -125,7 +125,7 @@ float light_bvh_pmf(uint li, vec3 p, vec3 nrm) {
     GpuLight l = lights[li];
     nrm = light_bvh_unit(nrm);
     float p_inf = light_bvh_p_infinite();
-    if (l.kind == LIGHT_DIRECTIONAL || l.kind == LIGHT_ENV_CONSTANT || l.kind == LIGHT_ENV_MAP) {
+    if (l.kind == LIGHT_DIRECTIONAL || light_is_env(l.kind)) {
         return g.counts.w == 0u ? 0.0 : p_inf / float(g.counts.w);
     }
     if (g.counts.z == 0u) return 0.0;

@@ -30,7 +30,7 @@ struct LightEmit {
 
 // True for the lights that sit at infinity (their "position" is a direction).
 bool light_is_infinite(uint kind) {
-    return kind == LIGHT_DIRECTIONAL || kind == LIGHT_ENV_CONSTANT || kind == LIGHT_ENV_MAP;
+    return kind == LIGHT_DIRECTIONAL || light_is_env(kind);
 }
 bool light_is_delta(uint kind) {
     return kind == LIGHT_POINT || kind == LIGHT_SPOT || kind == LIGHT_DIRECTIONAL;
@@ -142,7 +142,7 @@ bool sample_light_emission(vec4 u0, vec4 u1, out LightEmit e) {
         e.Le = l.radiance.rgb;
     }
 #endif
-    else if (l.kind == LIGHT_ENV_CONSTANT || l.kind == LIGHT_ENV_MAP) {
+    else if (light_is_env(l.kind)) {
         // The direction towards the environment, then the ray travelling away from it.
         vec3 wi;
         float pdf_dir;

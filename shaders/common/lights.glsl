@@ -125,7 +125,7 @@ float light_pdf_hit(uint li, vec3 p_ref, vec3 n_ref, vec3 pl, vec3 nl) {
 
 // pdf (× pick probability) of the environment sampling direction d.
 float env_pdf(vec3 d) {
-    uint li = g.env.x;
+    uint li = ENV_LIGHT;
     if (li == NONE) return 0.0;
     GpuLight l = lights[li];
     float pick = light_pick_pmf(li, vec3(0.0), vec3(0.0)); // (infinite lights: the same from everywhere)
@@ -210,7 +210,7 @@ bool sample_light(vec3 p_ref, vec3 n_ref, vec3 u, out LightSample ls) {
         return true;
     }
 #endif
-    if (l.kind == LIGHT_ENV_CONSTANT || l.kind == LIGHT_ENV_MAP) {
+    if (light_is_env(l.kind)) {
         float pdf_dir;
 #ifdef HAS_ENV_MAP
         if (l.kind == LIGHT_ENV_MAP) {

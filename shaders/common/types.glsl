@@ -47,6 +47,15 @@ struct GpuLight { uint kind; uint prim; float pick_pdf; uint bvh_trail; vec4 p0;
 #else
 #define light_is_sphere(k) false
 #endif
+// The environment light's index (NONE: none), and whether light kind k is the environment. A
+// kernel of a scene without an environment (no HAS_ENV) knows there is none: every test folds.
+#ifdef HAS_ENV
+#define ENV_LIGHT g.env.x
+#define light_is_env(k) ((k) == LIGHT_ENV_CONSTANT || (k) == LIGHT_ENV_MAP)
+#else
+#define ENV_LIGHT NONE
+#define light_is_env(k) false
+#endif
 struct GpuAlias { float prob; uint alias; };
 struct GpuLightNode { vec4 min_phi; vec4 max_cos_o; vec4 w_cos_e; uint index; uint flags; uint pad0; uint pad1; };
 struct GpuGlobals {

@@ -180,7 +180,7 @@ vec3 shade_sample(uvec2 px, uint pixel, uint tile_index, uint slice, inout uint 
                 }
             }
             // Step 6: the environment as an ambient term, by one BSDF sample.
-            if (DEFERRED_ENV_AMBIENT && g.env.x != NONE) {
+            if (DEFERRED_ENV_AMBIENT && ENV_LIGHT != NONE) {
                 BsdfSample bs;
                 if (bsdf_sample(m, wo, rng_next3(rng), TRANSPORT_RADIANCE, bs)) {
                     vec3 wi = from_local(bs.wi, s.tangent, bt, s.ns);

@@ -105,7 +105,7 @@ vec3 trace_whitted(uvec2 px, inout Rng rng, inout uint rays) {
         // along the shading normal on wo's side, times the lobes' albedo; no shadow ray).
         if (c.has_local) {
             L += e.beta * whitted_direct(s, c.local, wo_world, rays);
-            if (any(greaterThan(c.ambient, vec3(0.0))) && g.env.x != NONE) {
+            if (any(greaterThan(c.ambient, vec3(0.0))) && ENV_LIGHT != NONE) {
                 vec3 n_side = wo.z >= 0.0 ? s.ns : -s.ns;
                 L += e.beta * c.ambient * env_eval(n_side);
             }

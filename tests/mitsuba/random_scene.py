@@ -260,6 +260,7 @@ class Gen:
         if lights:
             self.features.add("delta_lights")
         if self.chance(0.45):
+            self.features.add("environment")
             if self.chance(0.5):
                 env = {"type": "constant", "radiance": self.colour(0.1, 1.2)}
             else:

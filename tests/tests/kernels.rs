@@ -151,6 +151,7 @@ fn expected_features(path: &Path) -> FeatureSet {
         .get("lights")
         .and_then(Value::as_array)
         .is_some_and(|l| !l.is_empty());
+    f.environment = doc.get("environment").is_some();
     if doc.get("environment").and_then(|e| e["type"].as_str()) == Some("map") {
         f.env_map = true;
         f.textures = true;

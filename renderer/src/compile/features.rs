@@ -22,6 +22,8 @@ pub struct FeatureSet {
     pub textures: bool,
     /// Alpha-masked (cut-out) primitives.
     pub alpha: bool,
+    /// An environment, constant or a map: escaping rays see it and light sampling may pick it.
+    pub environment: bool,
     /// An environment map (importance-sampled).
     pub env_map: bool,
     /// Point, spot or directional lights.
@@ -72,6 +74,7 @@ impl FeatureSet {
         tri_shading: true,
         textures: true,
         alpha: true,
+        environment: true,
         env_map: true,
         delta_lights: true,
         mat_diffuse: true,
@@ -83,12 +86,13 @@ impl FeatureSet {
     };
 
     /// Each flag with its name in reports and its kernel define.
-    fn flags(&self) -> [(bool, &'static str, &'static str); 12] {
+    fn flags(&self) -> [(bool, &'static str, &'static str); 13] {
         [
             (self.spheres, "spheres", "HAS_SPHERES"),
             (self.tri_shading, "tri_shading", "HAS_TRI_SHADING"),
             (self.textures, "textures", "HAS_TEXTURES"),
             (self.alpha, "alpha", "HAS_ALPHA"),
+            (self.environment, "environment", "HAS_ENV"),
             (self.env_map, "env_map", "HAS_ENV_MAP"),
             (self.delta_lights, "delta_lights", "HAS_DELTA_LIGHTS"),
             (self.mat_diffuse, "mat_diffuse", "HAS_MAT_DIFFUSE"),
@@ -168,6 +172,7 @@ impl FeatureSet {
                     .zip(&instanced)
                     .any(|(m, &u)| u && shaded(&m)),
             delta_lights: !scene.lights.is_empty(),
+            environment: scene.environment.is_some(),
             instances: !scene.instances.is_empty(),
             ..Default::default()
         };
