@@ -26,43 +26,23 @@ struct Tex {
     scale: [f32; 2],
 }
 
+/// A texture of `width` × `height` texels with flags and uv scale.
+const fn tex(width: u32, height: u32, flags: u32, scale: [f32; 2]) -> Tex {
+    Tex {
+        width,
+        height,
+        flags,
+        scale,
+    }
+}
+
 const TEXTURES: [Tex; 6] = [
-    Tex {
-        width: 5,
-        height: 4,
-        flags: 0,
-        scale: [1.0, 1.0],
-    },
-    Tex {
-        width: 1,
-        height: 1,
-        flags: 0,
-        scale: [1.0, 1.0],
-    },
-    Tex {
-        width: 1,
-        height: 3,
-        flags: 0,
-        scale: [3.0, 0.5],
-    },
-    Tex {
-        width: 7,
-        height: 2,
-        flags: 0,
-        scale: [-1.5, 2.25],
-    },
-    Tex {
-        width: 6,
-        height: 3,
-        flags: 1,
-        scale: [1.0, 1.0],
-    },
-    Tex {
-        width: 2,
-        height: 1,
-        flags: 1,
-        scale: [1.0, 1.0],
-    },
+    tex(5, 4, 0, [1.0, 1.0]),
+    tex(1, 1, 0, [1.0, 1.0]),
+    tex(1, 3, 0, [3.0, 0.5]),
+    tex(7, 2, 0, [-1.5, 2.25]),
+    tex(6, 3, 1, [1.0, 1.0]),
+    tex(2, 1, 1, [1.0, 1.0]),
 ];
 
 /// The host reference: bilinear over texel centres, columns repeating, rows repeating or
