@@ -11,8 +11,10 @@ vec4 texel_fetch(GpuTexture t, int x, int y) {
 
 // The two neighbouring texel indices i and i + 1 of a bilinear lookup along an axis of n texels,
 // wrapped (repeat) or clamped to [0, n). texture_eval's uv lies in [0, 1), so i is in [−1, n − 1]
-// and a select wraps it where an integer modulo costs tens of instructions; i is clamped to that
-// range first, so no input (NaN uv included) reads outside the texture.
+// and a select wraps it (an integer modulo by a run-time divisor is a sequence of instructions:
+// GPUs have no integer divider; measured in bench/RESULTS.md, "Texture lookups without integer
+// modulos"); i is clamped to that range first, so no input (NaN uv included) reads outside the
+// texture.
 ivec2 texel_pair(int i, int n, bool clamp_edges) {
     i = clamp(i, -1, n - 1);
     if (clamp_edges) return ivec2(max(i, 0), min(i + 1, n - 1));
