@@ -18,6 +18,16 @@
 #define BDPT_CONNECT_GLSL
 #include "bdpt/paths.glsl"
 
+// Whether this kernel evaluates light tracing (t = 1): not the split design's camera pass, whose
+// strategies are t ≥ 2 (light.comp has t = 1), so that its kernel compiles no lens sampling and
+// no splats (whose loop over the filter's footprint weighed on its registers and schedule even
+// though it never ran there).
+#ifdef BDPT_CAMERA_PASS
+#define BDPT_HAS_T1 false
+#else
+#define BDPT_HAS_T1 true
+#endif
+
 // The density values that strategy (s, t) changes before the ratios are taken (pbrt's
 // ScopedAssignments): reverse densities at p_{t−1}, p_{t−2}, q_{s−1}, q_{s−2}; the light endpoint
 // as this strategy sees it (for s = 1, the fresh sample); and the NEE/emission ratio of x0.
@@ -126,7 +136,7 @@ float mis_weight(int s, int t, MisInputs mi) {
         if (x > 0.0 && acc > 0.0) sum_ri += x * acc;
     }
     // (t = 1 has no camera-side terms: every term above is of a strategy with t ≥ 2.)
-    if (t == 1) sum_ri *= mis_sq(bdpt_share());
+    if (BDPT_HAS_T1 && t == 1) sum_ri *= mis_sq(bdpt_share());
     return 1.0 / (1.0 + sum_ri);
 }
 
@@ -179,7 +189,7 @@ vec3 connect_st(int s, int t, vec4 u, out vec2 film, inout MisInputs mi, out Ray
     } else {
         q_end = LGTV(s - 1);
     }
-    if (t == 1) {
+    if (BDPT_HAS_T1 && t == 1) {
         // A fresh lens point, and where the connection lands on the film.
         if (q_end.kind != VTX_SURFACE) return vec3(0.0);
         Vertex c = vertex_blank(VTX_CAMERA);
@@ -242,7 +252,7 @@ vec3 connect_st(int s, int t, vec4 u, out vec2 film, inout MisInputs mi, out Ray
     if (!any(greaterThan(L, vec3(0.0)))) return vec3(0.0);
     // Step 4: the shadow ray, from the camera end when it is a surface (traced by connect, once
     // the weight is known).
-    if (t == 1) {
+    if (BDPT_HAS_T1 && t == 1) {
         shadow = spawn_ray_to(vertex_surface(q_end), p_end.p);
     } else if (s == 1 && isinf(ls.dist)) {
         shadow = spawn_ray(vertex_surface(p_end), ls.wi);

@@ -68,9 +68,21 @@ void splat_add(uint pixel, vec3 v, bool odd) {
 }
 #endif
 
+// Filter weights below this are Russian-rouletted in splats: a pixel of weight w < SPLAT_RR_WEIGHT
+// receives L · SPLAT_RR_WEIGHT with probability w / SPLAT_RR_WEIGHT, else nothing, so its
+// expectation is unchanged. A Gaussian's footprint (radius 4σ) holds 16–25 pixels, most of them
+// in its faint rim; their atomics were a quarter of bdpt's time on the Cornell box (bench/
+// RESULTS.md, "bdpt's splats"), and the roulette adds the rim's variance only (at most
+// SPLAT_RR_WEIGHT × the rim's share of the filter, per unit L²). 0 splats every pixel.
+#ifndef SPLAT_RR_WEIGHT
+#define SPLAT_RR_WEIGHT 0.05
+#endif
+
 // Adds contribution L, landed at film position `film` (pixels), to every pixel whose filter
-// covers it, weighted by the normalised filter; `odd`: the sample index is odd.
-void splat_film(vec2 film, vec3 L, bool odd) {
+// covers it, weighted by the normalised filter; `odd`: the sample index is odd; u: a uniform
+// for the roulette of faint pixels (each rouletted pixel k of the footprint draws
+// fract(u + k·φ⁻¹), uniform for each and spread evenly over them).
+void splat_film(vec2 film, vec3 L, bool odd, float u) {
     ivec2 res = ivec2(g.film.xy);
     if (FILTER_GAUSSIAN) {
         float r = g.filter_params.y;
@@ -82,7 +94,13 @@ void splat_film(vec2 film, vec3 L, bool odd) {
             if (wy <= 0.0) continue;
             for (int x = lo.x; x <= hi.x; ++x) {
                 float wf = wy * filter_eval_axis(film.x - (float(x) + 0.5), float(x) + 0.5, float(res.x));
-                if (wf > 0.0) splat_add(uint(y * res.x + x), L * wf, odd);
+                if (!(wf > 0.0)) continue;
+                if (wf < SPLAT_RR_WEIGHT) {
+                    u = fract(u + 0.618034);
+                    if (u * SPLAT_RR_WEIGHT >= wf) continue;
+                    wf = SPLAT_RR_WEIGHT;
+                }
+                splat_add(uint(y * res.x + x), L * wf, odd);
             }
         }
     } else {

@@ -44,13 +44,15 @@ vec3 bdpt_strategies(int nc, int nl, int t_first, int max_depth, inout Rng rng, 
             vec2 film;
             vec3 c = connect(s, t, rng_next4(rng), mi, rays, film, w);
             c *= strategy_weight(w);
-            if (t == 1) {
+            if (BDPT_HAS_T1 && t == 1) {
                 // A light subpath shared by several pixels counts for each (paths.glsl).
                 c *= bdpt_light_weight;
                 if (!is_finite(c)) {
                     dropped += 1u;
                 } else if (any(greaterThan(c, vec3(0.0)))) {
-                    splat_film(film, c, (rng.key.y & 1u) == 1u);
+                    // t = 0 is no strategy: its dimensions hold the splats' roulette.
+                    rng.dim = 1024u + uint(s);
+                    splat_film(film, c, (rng.key.y & 1u) == 1u, rng_next1(rng));
                 }
                 continue;
             }
