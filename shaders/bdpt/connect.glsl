@@ -27,6 +27,13 @@
 #else
 #define BDPT_HAS_T1 true
 #endif
+// Likewise whether it evaluates s = 0 and s = 1: not the light pass, whose strategies are
+// (s ≥ 2, t = 1), so that its kernel compiles no emission lookups and no light sampling.
+#ifdef BDPT_LIGHT_PASS
+#define BDPT_HAS_S01 false
+#else
+#define BDPT_HAS_S01 true
+#endif
 
 // The density values that strategy (s, t) changes before the ratios are taken (pbrt's
 // ScopedAssignments): reverse densities at p_{t−1}, p_{t−2}, q_{s−1}, q_{s−2}; the light endpoint
@@ -47,7 +54,7 @@ bool bdpt_mis = true;
 // density throughout) in the weight's denominator.
 float mis_term(float ri, int s_other, int s, float nee_ratio) {
     if (s_other == 1) ri *= nee_ratio;
-    if (s == 1) ri /= nee_ratio;
+    if (BDPT_HAS_S01 && s == 1) ri /= nee_ratio;
     return bdpt_mis ? ri * ri : 1.0;
 }
 
@@ -174,7 +181,7 @@ vec3 connect_st(int s, int t, vec4 u, out vec2 film, inout MisInputs mi, out Ray
     vec3 weight_q = vec3(0.0), weight_p = vec3(0.0); // β·f at each end, or the sampled end's weight
     float cos_theta = 0.0;
     LightSample ls;
-    if (s == 1) {
+    if (BDPT_HAS_S01 && s == 1) {
         // A fresh light point, chosen from camera vertex t−1 as NEE does.
         if (!sample_light(p_end.p, p_end.ns, u.xyz, ls) || !any(greaterThan(ls.L, vec3(0.0)))) return vec3(0.0);
         uint li = ls.li;
@@ -254,14 +261,14 @@ vec3 connect_st(int s, int t, vec4 u, out vec2 film, inout MisInputs mi, out Ray
     // the weight is known).
     if (BDPT_HAS_T1 && t == 1) {
         shadow = spawn_ray_to(vertex_surface(q_end), p_end.p);
-    } else if (s == 1 && isinf(ls.dist)) {
+    } else if (BDPT_HAS_S01 && s == 1 && isinf(ls.dist)) {
         shadow = spawn_ray(vertex_surface(p_end), ls.wi);
     } else {
         shadow = spawn_ray_to(vertex_surface(p_end), q_end.p);
     }
     // Step 5: the densities this strategy changes; for s = 1, NEE's density of the fresh point
     // given camera vertex t−1 (p_end; (1, 1) is not a strategy).
-    if (s == 1) {
+    if (BDPT_HAS_S01 && s == 1) {
         mi.l0_fwd = pdf_light_origin(q_end);
         mi.l0_delta = ls.delta;
         mi.nee_ratio = nee_density_ratio(q_end, p_end);
@@ -289,13 +296,13 @@ vec3 connect(int s, int t, vec4 u, MisInputs mi, inout uint rays, out vec2 film,
     w = 0.0;
     film = vec2(-1.0);
     Ray shadow;
-    vec3 L = s == 0 ? connect_s0(t, mi) : connect_st(s, t, u, film, mi, shadow);
+    vec3 L = BDPT_HAS_S01 && s == 0 ? connect_s0(t, mi) : connect_st(s, t, u, film, mi, shadow);
     if (!any(greaterThan(L, vec3(0.0)))) return vec3(0.0);
     // NEE's density of x0 (the light end) given x1 (its neighbour), for s = 0 (s = 1: set by
     // connect_st; s ≥ 2: light vertices 0 and 1, mis_inputs_of_sample's).
-    if (s == 0) mi.nee_ratio = nee_density_ratio(CAMV(t - 1), CAMV(max(t - 2, 0)));
+    if (BDPT_HAS_S01 && s == 0) mi.nee_ratio = nee_density_ratio(CAMV(t - 1), CAMV(max(t - 2, 0)));
     w = mis_weight(s, t, mi);
-    if (s > 0) {
+    if (!BDPT_HAS_S01 || s > 0) {
         rays += 1u;
         if (trace_any(shadow)) {
             w = 0.0;

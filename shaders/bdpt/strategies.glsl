@@ -33,7 +33,7 @@ vec3 bdpt_strategies(int nc, int nl, int t_first, int max_depth, inout Rng rng, 
     MisInputs mi = mis_inputs_of_sample(nl);
     mis_running_sums(nc, nl, mi.nee_ratio);
     for (int t = t_first; t <= nc; ++t) {
-        for (int s = 0; s <= max(nl, 1); ++s) {
+        for (int s = BDPT_HAS_S01 ? 0 : 2; s <= max(nl, 1); ++s) {
             int k = s + t - 1;
             if ((s == 1 && t == 1) || k < 1 || k > max_depth) continue;
             if (s >= 2 && s > nl) continue;
