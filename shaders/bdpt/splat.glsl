@@ -71,7 +71,7 @@ void splat_add(uint pixel, vec3 v, bool odd) {
 // Filter weights below this are Russian-rouletted in splats: a pixel of weight w < SPLAT_RR_WEIGHT
 // receives L · SPLAT_RR_WEIGHT with probability w / SPLAT_RR_WEIGHT, else nothing, so its
 // expectation is unchanged. A Gaussian's footprint (radius 4σ) holds 16–25 pixels, most of them
-// in its faint rim; their atomics were a quarter of bdpt's time on the Cornell box (bench/
+// in its faint rim; the splats were a fifth of bdpt's time on the Cornell box (bench/
 // RESULTS.md, "bdpt's splats"), and the roulette adds the rim's variance only (at most
 // SPLAT_RR_WEIGHT × the rim's share of the filter, per unit L²). 0 splats every pixel.
 #ifndef SPLAT_RR_WEIGHT

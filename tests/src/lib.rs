@@ -262,6 +262,36 @@ pub fn run_candela_env(args: &[&str], env: &[(&str, &str)]) -> std::process::Out
     cmd.output().expect("run candela")
 }
 
+/// Renders project scene `scene` (e.g. "cornell.json") through the CLI into `out` at
+/// `width`×`height` and `spp`, with further arguments `extra` and environment `env`; asserts that
+/// it succeeded (stderr in the message) and reads the image.
+pub fn cli_render(
+    scene: &str,
+    out: &Path,
+    (width, height, spp): (u32, u32, u32),
+    extra: &[&str],
+    env: &[(&str, &str)],
+) -> Image {
+    let (w, h, n) = (width.to_string(), height.to_string(), spp.to_string());
+    let scene = format!("scenes/{scene}");
+    let out_s = out.to_str().expect("a UTF-8 path");
+    let mut args = vec![
+        "render",
+        scene.as_str(),
+        "-o",
+        out_s,
+        "--width",
+        &w,
+        "--height",
+        &h,
+    ];
+    args.extend(["--spp", n.as_str()]);
+    args.extend_from_slice(extra);
+    let o = run_candela_env(&args, env);
+    assert!(o.status.success(), "{args:?}: {}", text(&o.stderr));
+    renderer::film::read_exr(out).unwrap_or_else(|e| panic!("{}: {e}", out.display()))
+}
+
 /// Runs `candela ARGS` (a `--json` report), asserts that it succeeded (stderr in the message)
 /// and parses stdout as one JSON object.
 pub fn run_json(args: &[&str]) -> serde_json::Value {

@@ -635,36 +635,13 @@ fn splat_roulette_keeps_light_tracing_unbiased() {
     let dir = scratch("bdpt-splat-roulette");
     let render = |weight: Option<&str>| -> Image {
         let out = dir.join(format!("rr-{}.exr", weight.unwrap_or("default")));
-        let args = [
-            "render",
-            "scenes/cornell.json",
-            "-o",
-            out.to_str().unwrap(),
-            "--width",
-            "24",
-            "--height",
-            "24",
-            "--spp",
-            "96",
-            "--seed",
-            "5",
-            "--integrator",
-            "bdpt",
-            "--options",
-            r#"{"max_depth": 2, "strategy": [2, 1], "weighted": false, "mis": false}"#,
-        ];
         let defines = weight.map(|w| format!("SPLAT_RR_WEIGHT={w}"));
-        let env: Vec<(&str, &str)> = defines
-            .iter()
+        let env: Vec<(&str, &str)> = (defines.iter())
             .map(|d| ("CANDELA_SHADER_DEFINES", d.as_str()))
             .collect();
-        let o = candela_tests::run_candela_env(&args, &env);
-        assert!(
-            o.status.success(),
-            "{weight:?}: {}",
-            candela_tests::text(&o.stderr)
-        );
-        renderer::film::read_exr(&out).unwrap()
+        let options = r#"{"max_depth": 2, "strategy": [2, 1], "weighted": false, "mis": false}"#;
+        let extra = ["--seed", "5", "--integrator", "bdpt", "--options", options];
+        candela_tests::cli_render("cornell.json", &out, (24, 24, 96), &extra, &env)
     };
     let exact = render(Some("0"));
     let m = exact.mean();
