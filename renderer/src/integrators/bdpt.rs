@@ -60,10 +60,10 @@
 //! shaders/bdpt/splat.glsl) are Russian-rouletted: 0.05's share with probability w / 0.05, so
 //! each pixel's expectation is unchanged while most of the faint rim's atomics go. On the
 //! Cornell box (H200, 1280×720) that rendered 4.8% more samples per second at 4.2% lower relMSE
-//! at equal time (bench/RESULTS.md, "bdpt's splats"). Splats of odd sample index are also added to a second buffer
-//! (binding SPLAT_ODD, same format), so that both halves of the error estimate carry their own
-//! light tracing (render/halves.rs). Checkpoints carry both splat buffers after the
-//! accumulation.
+//! at equal time (bench/RESULTS.md, "bdpt's splats"). Splats of odd sample index are also
+//! added to a second buffer (binding SPLAT_ODD, same format), so that both halves of the error
+//! estimate carry their own light tracing (render/halves.rs). Checkpoints carry both splat
+//! buffers after the accumulation.
 //!
 //! # Options
 //! `{"type": "bdpt", "max_depth", "rr_depth", "mis": true|false, "strategy": [s, t],
