@@ -20,8 +20,8 @@
 
 // Whether this kernel evaluates light tracing (t = 1): not the split design's camera pass, whose
 // strategies are t ≥ 2 (light.comp has t = 1), so that its kernel compiles no lens sampling and
-// no splats (whose loop over the filter's footprint weighed on its registers and schedule even
-// though it never ran there).
+// no splats: code it never ran, which cost bdpt 3.8–8.3% on an H200 (bench/RESULTS.md, "bdpt's
+// splats").
 #ifdef BDPT_CAMERA_PASS
 #define BDPT_HAS_T1 false
 #else
