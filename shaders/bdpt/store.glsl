@@ -9,8 +9,16 @@
 #define BDPT_STORE_GLSL
 #include "bdpt/vertex.glsl"
 
-layout(set = 0, binding = B_BDPT_LIGHT_VERTICES, scalar) buffer LightVertices { vec4 light_vertices[]; };
-layout(set = 0, binding = B_BDPT_LIGHT_COUNTS, scalar) buffer LightCounts { uint light_counts[]; };
+// The camera pass only reads the light subpaths: `readonly` there (as vct's gather reads its
+// volume; +0.4..+1.5% on five of six scenes: bench/RESULTS.md, "Read-only buffers, the
+// tangent only where a BSDF reads it").
+#ifdef BDPT_CAMERA_PASS
+#define LV_ACCESS readonly
+#else
+#define LV_ACCESS
+#endif
+layout(set = 0, binding = B_BDPT_LIGHT_VERTICES, scalar) LV_ACCESS buffer LightVertices { vec4 light_vertices[]; };
+layout(set = 0, binding = B_BDPT_LIGHT_COUNTS, scalar) LV_ACCESS buffer LightCounts { uint light_counts[]; };
 
 #define LV_WORDS 7u
 
@@ -42,6 +50,7 @@ bool lv_block_used(uint b) { return b <= (g.film.x - 1u + lv_shift()) >> bdpt_sh
 uint lv_paths() { return uint(light_vertices.length()) / (LV_WORDS * uint(BDPT_MAX_LIGHT)); }
 uint lv_at(int v, uint k) { return (uint(v) * LV_WORDS + k) * lv_paths() + bdpt_path; }
 
+#ifndef BDPT_CAMERA_PASS
 void light_vertex_store(int v, Vertex x) {
     light_vertices[lv_at(v, 0u)] = vec4(x.p, uintBitsToFloat(x.kind));
     light_vertices[lv_at(v, 1u)] = vec4(x.ng, uintBitsToFloat(x.flags));
@@ -51,6 +60,7 @@ void light_vertex_store(int v, Vertex x) {
     light_vertices[lv_at(v, 5u)] = vec4(x.beta, x.pdf_fwd);
     light_vertices[lv_at(v, 6u)] = vec4(x.uv, x.mis_acc, 0.0);
 }
+#endif
 
 Vertex light_vertex_load(int v) {
     Vertex x;

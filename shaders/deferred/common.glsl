@@ -95,9 +95,14 @@ layout(set = 0, binding = B_DPARAMS, scalar) readonly buffer DParamsBuf { DParam
 #define DEFERRED_ENV_AMBIENT (dp.env_ambient != 0u)
 #endif
 layout(set = 0, binding = B_DLIGHTS, scalar) readonly buffer DLights { DLight dlights[]; };
-layout(set = 0, binding = B_GBUFFER, scalar) buffer GBuffer { uvec4 gbuf[]; };
-layout(set = 0, binding = B_TILE_COUNTS, scalar) buffer TileCounts { uint tile_counts[]; };
-layout(set = 0, binding = B_TILE_LIGHTS, scalar) buffer TileLights { uint tile_lights[]; };
+// The G-buffer's and the tiles' qualifier: empty for the stages that write them, `readonly` in
+// the shading stage (shade.comp), which only reads them.
+#ifndef DEFERRED_STAGE_READS
+#define DEFERRED_STAGE_READS
+#endif
+layout(set = 0, binding = B_GBUFFER, scalar) DEFERRED_STAGE_READS buffer GBuffer { uvec4 gbuf[]; };
+layout(set = 0, binding = B_TILE_COUNTS, scalar) DEFERRED_STAGE_READS buffer TileCounts { uint tile_counts[]; };
+layout(set = 0, binding = B_TILE_LIGHTS, scalar) DEFERRED_STAGE_READS buffer TileLights { uint tile_lights[]; };
 // Shading counters, 64-bit as (lo, hi) pairs, summed over a pass and read back by the host:
 // candidate lights tested per pixel, lights that reached the pixel (and were shaded), and the
 // pixels shaded with direct light.

@@ -17,6 +17,7 @@
 // Counters (common.glsl) record the lights tested and shaded per pixel for the statistics.
 #version 460
 #extension GL_GOOGLE_include_directive : require
+#define DEFERRED_STAGE_READS readonly
 #include "deferred/common.glsl"
 #include "common/film.glsl"
 #include "common/traverse.glsl"

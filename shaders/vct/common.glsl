@@ -70,15 +70,27 @@ layout(set = 0, binding = B_VCT_PARAMS, scalar) readonly buffer VctParamsBuf { V
 #ifndef VCT_CONES_PER_SAMPLE
 #define VCT_CONES_PER_SAMPLE P.mode.w
 #endif
-layout(set = 0, binding = B_VCT_INFO, scalar) buffer VctInfoBuf { VctInfo info; };
+// The volume's depth D = log2 R: compiled in by specialised kernels (the octree walks' trip
+// counts: +5.9% on the Cornell box; the resolution and the march's other parameters were
+// measured too and left out: bench/RESULTS.md, "Read-only buffers, the tangent only where a
+// BSDF reads it").
+#ifndef VCT_LEVELS
+#define VCT_LEVELS P.dims.y
+#endif
+// The qualifier of the volume's buffers: empty for the build kernels, which write them;
+// `readonly` in the gather (vct.comp).
+#ifndef VCT_READS
+#define VCT_READS
+#endif
+layout(set = 0, binding = B_VCT_INFO, scalar) VCT_READS buffer VctInfoBuf { VctInfo info; };
 layout(set = 0, binding = B_VCT_FRAGS, scalar) buffer VctFrags { uvec2 frags[]; };      // (packed voxel, prim)
-layout(set = 0, binding = B_VCT_NODES, scalar) buffer VctNodes { uvec2 vnodes[]; };     // (first child | flag, packed coords)
+layout(set = 0, binding = B_VCT_NODES, scalar) VCT_READS buffer VctNodes { uvec2 vnodes[]; };     // (first child | flag, packed coords)
 layout(set = 0, binding = B_VCT_ACC, scalar) buffer VctAcc { uint acc[]; };            // ACC_WORDS per slot while building
-layout(set = 0, binding = B_VCT_ATTR, scalar) buffer VctAttr { uvec4 attr[]; };        // albedo rgba8, normal snorm8+two-sided, point offset snorm16×3
+layout(set = 0, binding = B_VCT_ATTR, scalar) VCT_READS buffer VctAttr { uvec4 attr[]; };        // albedo rgba8, normal snorm8+two-sided, point offset snorm16×3
 layout(set = 0, binding = B_VCT_EMIT, scalar) buffer VctEmit { uvec2 emit[]; };        // half4 emitted radiance
-layout(set = 0, binding = B_VCT_RAD, scalar) buffer VctRad { uvec4 rad[]; };           // half4 (radiance·opacity, opacity) of the front and back sides
-layout(set = 0, binding = B_VCT_MIP, scalar) buffer VctMip { uvec2 mip[]; };           // half4 × 6 directions per cell / brick sample
-layout(set = 0, binding = B_VCT_LEAF, scalar) buffer VctLeaf { uint leaf[]; };         // octree: 27 voxel slots (or NONE) per leaf-parent brick
+layout(set = 0, binding = B_VCT_RAD, scalar) VCT_READS buffer VctRad { uvec4 rad[]; };           // half4 (radiance·opacity, opacity) of the front and back sides
+layout(set = 0, binding = B_VCT_MIP, scalar) VCT_READS buffer VctMip { uvec2 mip[]; };           // half4 × 6 directions per cell / brick sample
+layout(set = 0, binding = B_VCT_LEAF, scalar) VCT_READS buffer VctLeaf { uint leaf[]; };         // octree: 27 voxel slots (or NONE) per leaf-parent brick
 layout(set = 0, binding = B_VCT_BOUNCE, scalar) buffer VctBounce { uvec4 bounce[]; };  // second bounce per slot, front and back
 
 // Build kernels reuse the session's push-constant block (common/types.glsl): the level or depth
@@ -99,7 +111,7 @@ uint octant(uvec3 b) { return b.x | (b.y << 1) | (b.z << 2); }
 uvec3 octant_bits(uint o) { return uvec3(o & 1u, (o >> 1) & 1u, (o >> 2) & 1u); }
 
 uint vct_res() { return P.dims.x; }
-uint vct_levels() { return P.dims.y; }
+uint vct_levels() { return VCT_LEVELS; }
 bool vct_octree() { return VCT_OCTREE; }
 
 // World (camera-relative) ↔ grid units.

@@ -12,6 +12,10 @@
 // renders max_depth ≤ 2.
 #version 460
 #extension GL_GOOGLE_include_directive : require
+// The gather only reads the volume: its buffers are declared `readonly` here (vct/common.glsl),
+// +4.6..+17% on an H200 (bench/RESULTS.md, "Read-only buffers, the tangent only where a BSDF
+// reads it").
+#define VCT_READS readonly
 #include "common/bindings.glsl"
 #include "common/film.glsl"
 #include "common/dispatch.glsl"

@@ -106,8 +106,12 @@ impl Integrator for VctIntegrator {
         self.max_depth
     }
 
-    /// Not `cones_per_sample`: compiled in, it cost the Cornell box 9% on an H200 (and gained
-    /// textured_mesh 3%; bench/RESULTS.md, "The render's constants").
+    /// The volume's depth (log2 of the resolution; the octree walks' trip counts) is compiled
+    /// in; the resolution itself and the march's step, aperture and coarsest level are not
+    /// (each alone moved either scene by at most 2.7%, and the resolution with the depth cost
+    /// textured_mesh 0.9%; bench/RESULTS.md, "Read-only buffers, the tangent only where a BSDF
+    /// reads it"). Nor is `cones_per_sample`: compiled in, it cost the Cornell box 9% on an
+    /// H200 (and gained textured_mesh 3%; bench/RESULTS.md, "The render's constants").
     fn constants(&self, scene: &SceneConstants) -> ShaderDefines {
         let mut c = scene.all();
         c.push(Constant::Int(self.max_depth).define("PASS_MAX_DEPTH"));
@@ -118,6 +122,7 @@ impl Integrator for VctIntegrator {
                 Constant::Bool(s.ao).define("VCT_AO"),
                 Constant::Bool(s.shadows == VctShadows::Cone).define("VCT_SHADOW_CONE"),
                 Constant::Uint(s.cones.max(1)).define("VCT_CONES"),
+                Constant::Uint(s.resolution.trailing_zeros()).define("VCT_LEVELS"),
             ]);
         }
         c
