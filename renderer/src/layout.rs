@@ -185,6 +185,10 @@ pub struct GpuInstance {
     pub pad: u32,
 }
 
+/// `GpuGlobals::scene_flags` bit: a material the primitives use is a conductor or a principled
+/// surface, whose anisotropy reads the tangent's direction (shaders/common/surface.glsl).
+pub const SCENE_TANGENTS: u32 = 1;
+
 /// `GpuInstance::flags` bits.
 pub const INST_MIRROR: u32 = 1;
 pub const INST_ALPHA: u32 = 2;
@@ -311,6 +315,8 @@ pub struct GpuGlobals {
     pub counts: [u32; 4],
     /// (number of instances, top-level BVH nodes, 0, 0): zero without instances.
     pub instances: [u32; 4],
+    /// (SCENE_* flags, 0, 0, 0)
+    pub scene_flags: [u32; 4],
     /// The Gaussian filter's running sums C_k of its steps, and an alias table of the steps
     /// (shaders/common/filter.glsl); zero for the box filter.
     pub filter_c: [f32; 32],
@@ -435,6 +441,7 @@ pub fn glsl_constants() -> String {
         ("PRIM_SPHERE", PRIM_SPHERE),
         ("PRIM_FLIP_NORMALS", PRIM_FLIP_NORMALS),
         ("PRIM_ALPHA", PRIM_ALPHA),
+        ("SCENE_TANGENTS", SCENE_TANGENTS),
         ("INST_MIRROR", INST_MIRROR),
         ("INST_ALPHA", INST_ALPHA),
         ("LIGHT_TRIANGLE", light::TRIANGLE),

@@ -7,7 +7,6 @@
 #include "common/bindings.glsl"
 #include "common/math.glsl"
 #include "common/traverse.glsl"
-#include "common/bsdf/bsdf.glsl"
 
 struct Surface {
     vec3 p;
@@ -21,22 +20,6 @@ struct Surface {
 };
 
 float gamma_n(float n) { const float e = 5.96046448e-8; return (n * e) / (1.0 - n * e); }
-
-// Whether `material`'s BSDF can depend on the tangent's direction: only conductors and principled
-// surfaces have an anisotropy; every other model is isotropic about the shading normal, so any
-// frame around it gives the same BSDF. Folds to false in kernels without either model.
-bool material_uses_tangent(uint material) {
-#if defined(HAS_MAT_CONDUCTOR) || defined(HAS_MAT_PRINCIPLED)
-#ifdef MAT_SOLE
-    return true;
-#else
-    uint type = materials[material].header.x;
-    return type == MAT_CONDUCTOR || type == MAT_PRINCIPLED;
-#endif
-#else
-    return false;
-#endif
-}
 
 Surface surface_at(Hit hit, Ray ray) {
     Surface s;
@@ -134,11 +117,13 @@ Surface surface_at(Hit hit, Ray ray) {
         }
 #endif
     }
-    // Tangent: dp/du made orthogonal to the shading normal where the material can be
-    // anisotropic; else (and where dp/du is degenerate) any frame around the shading normal.
+    // Tangent: dp/du made orthogonal to the shading normal in scenes with a conductor or a
+    // principled surface, whose anisotropy reads its direction (SURFACE_TANGENTS, a scene
+    // constant: common/types.glsl); else, and where dp/du is degenerate, any frame around the
+    // shading normal (every other model is isotropic about it).
     vec3 t = dpdu - s.ns * dot(s.ns, dpdu);
     float tl = dot(t, t);
-    if (material_uses_tangent(s.material) && tl > 1e-24 && !isinf(tl)) {
+    if (SURFACE_TANGENTS && tl > 1e-24 && !isinf(tl)) {
         s.tangent = t * inversesqrt(tl);
     } else {
         vec3 b;

@@ -70,6 +70,7 @@ struct GpuGlobals {
     vec4 env_params;
     uvec4 counts;
     uvec4 instances;
+    uvec4 scene_flags;
     float filter_c[32];
     uint filter_alias[32];
 };
@@ -104,6 +105,9 @@ layout(push_constant, scalar) uniform Push {
 #endif
 #ifndef FILTER_GAUSSIAN
 #define FILTER_GAUSSIAN (g.film.z == 1u)
+#endif
+#ifndef SURFACE_TANGENTS
+#define SURFACE_TANGENTS ((g.scene_flags.x & SCENE_TANGENTS) != 0u)
 #endif
 #ifndef CAMERA_THIN_LENS
 #define CAMERA_THIN_LENS (g.lens.z > 0.0)

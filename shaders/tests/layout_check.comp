@@ -33,7 +33,7 @@ void main() {
     k = 0u;
     p4(v_globals.cam_forward); p4(v_globals.cam_right); p4(v_globals.cam_up); p4(v_globals.lens);
     u4(v_globals.film); p4(v_globals.filter_params); p4(v_globals.scene_sphere); u4(v_globals.env);
-    p4(v_globals.env_params); u4(v_globals.counts); u4(v_globals.instances);
+    p4(v_globals.env_params); u4(v_globals.counts); u4(v_globals.instances); u4(v_globals.scene_flags);
     for (int i = 0; i < 32; ++i) pf(v_globals.filter_c[i]);
     for (int i = 0; i < 32; ++i) pu(v_globals.filter_alias[i]);
     k = 128u;

@@ -5,7 +5,7 @@ use glam::DVec3;
 
 use super::lights::alias_table;
 use crate::gpu::{Constant, ShaderDefines};
-use crate::layout::GpuGlobals;
+use crate::layout::{GpuGlobals, SCENE_TANGENTS};
 use crate::scene::{Filter, Scene};
 
 /// What the earlier steps found that the globals carry.
@@ -22,6 +22,9 @@ pub(super) struct SceneFacts {
     pub light_nodes: [u32; 2],
     /// The instance count and the top-level BVH's node count (zero without instances).
     pub instances: [u32; 2],
+    /// A material the primitives use may read the tangent's direction (GpuGlobals'
+    /// SCENE_TANGENTS).
+    pub tangents: bool,
 }
 
 /// The globals of `scene` for a `width` × `height` film.
@@ -64,18 +67,23 @@ pub(super) fn globals(scene: &Scene, width: u32, height: u32, facts: SceneFacts)
             facts.light_nodes[1],
         ],
         instances: [facts.instances[0], facts.instances[1], 0, 0],
+        scene_flags: [if facts.tangents { SCENE_TANGENTS } else { 0 }, 0, 0, 0],
     }
 }
 
 /// What a scene holds constant that kernels otherwise test at run time (shaders/common/types.glsl),
-/// for specialised kernels: the pixel filter and the camera model. Each integrator takes those
-/// that pay for it ([`crate::integrators::Integrator::constants`]).
+/// for specialised kernels: the pixel filter, the camera model and whether surfaces need their
+/// tangent's direction. Each integrator takes those that pay for it
+/// ([`crate::integrators::Integrator::constants`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SceneConstants {
     /// The Gaussian pixel filter (else the box).
     pub gaussian_filter: bool,
     /// A thin lens (else a pinhole).
     pub thin_lens: bool,
+    /// Some surface's BSDF may read the tangent's direction (else surfaces take any frame about
+    /// the shading normal: shaders/common/surface.glsl).
+    pub tangents: bool,
 }
 
 impl SceneConstants {
@@ -83,6 +91,7 @@ impl SceneConstants {
         SceneConstants {
             gaussian_filter: g.film[2] == 1,
             thin_lens: g.lens[2] > 0.0,
+            tangents: g.scene_flags[0] & SCENE_TANGENTS != 0,
         }
     }
 
@@ -94,9 +103,13 @@ impl SceneConstants {
         Constant::Bool(self.thin_lens).define("CAMERA_THIN_LENS")
     }
 
-    /// Both.
+    pub fn tangents(&self) -> (String, String) {
+        Constant::Bool(self.tangents).define("SURFACE_TANGENTS")
+    }
+
+    /// All three.
     pub fn all(&self) -> ShaderDefines {
-        vec![self.filter(), self.lens()]
+        vec![self.filter(), self.lens(), self.tangents()]
     }
 }
 

@@ -89,7 +89,8 @@ pub struct CompiledScene {
 }
 
 impl CompiledScene {
-    /// What the scene holds constant for specialised kernels: its filter and camera model.
+    /// What the scene holds constant for specialised kernels: its filter, camera model and
+    /// whether surfaces need their tangent's direction.
     pub fn constants(&self) -> SceneConstants {
         SceneConstants::of(&self.globals)
     }
@@ -340,6 +341,7 @@ pub fn compile_with(
             node_count: nodes.len() as u32,
             light_nodes: emitters.light_counts,
             instances: [inst.instances.len() as u32, inst.tlas.len() as u32],
+            tangents: features.mat_conductor || features.mat_principled,
         },
     );
     Ok(CompiledScene {

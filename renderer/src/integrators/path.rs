@@ -27,14 +27,15 @@ impl Integrator for PathIntegrator {
     fn max_depth(&self) -> i32 {
         self.max_depth
     }
-    /// The depths and the camera model; not the filter: compiled in, it cost pt 3.5% on the
-    /// box-filtered textured_mesh on an H200 (bench/RESULTS.md, "The render's constants"), and
-    /// nee runs the same megakernel.
+    /// The depths, the camera model and the tangents; not the filter: compiled in, it cost pt
+    /// 3.5% on the box-filtered textured_mesh on an H200 (bench/RESULTS.md, "The render's
+    /// constants"), and nee runs the same megakernel.
     fn constants(&self, scene: &SceneConstants) -> ShaderDefines {
         vec![
             Constant::Int(self.max_depth).define("PASS_MAX_DEPTH"),
             Constant::Int(self.rr_depth).define("PASS_RR_DEPTH"),
             scene.lens(),
+            scene.tangents(),
         ]
     }
     fn record_pass(
