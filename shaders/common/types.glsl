@@ -95,7 +95,8 @@ layout(push_constant, scalar) uniform Push {
 // What a render holds constant, read at run time (the generic kernel) or compiled in where the
 // host specialises the kernel (renderer/src/render/session.rs, `defines`), so that the tests on
 // them fold away: the depths (push constants), the pixel filter (the Gaussian, else the box:
-// common/filter.glsl) and the camera (a thin lens, else a pinhole: common/camera.glsl). The
+// common/filter.glsl), the camera (a thin lens, else a pinhole: common/camera.glsl) and whether
+// surfaces orthogonalise dp/du for their tangent (common/surface.glsl). The
 // integrators' options have theirs beside their parameters (deferred/common.glsl, vct/common.glsl).
 #ifndef PASS_MAX_DEPTH
 #define PASS_MAX_DEPTH pc.max_depth
