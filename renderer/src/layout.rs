@@ -496,7 +496,7 @@ mod tests {
         assert_eq!(size_of::<GpuLight>(), 80);
         assert_eq!(size_of::<GpuAlias>(), 8);
         assert_eq!(size_of::<GpuLightNode>(), 64);
-        assert_eq!(size_of::<GpuGlobals>(), 176 + 256);
+        assert_eq!(size_of::<GpuGlobals>(), 192 + 256);
         assert_eq!(size_of::<GpuInstance>(), 112);
         assert_eq!(size_of::<GpuPush>(), 32);
         assert_eq!(size_of::<GpuStats>(), 16);
