@@ -156,17 +156,33 @@ Ray spawn_ray(Surface s, vec3 w) {
     return r;
 }
 
-// A shadow ray from surface s to the point `to` (itself already on its surface); stops just short.
-Ray spawn_ray_to(Surface s, vec3 to) {
-    vec3 dir = to - s.p;
-    Ray r;
-    r.o = offset_origin(s.p, s.p_err, s.ng, dir);
-    vec3 d = to - r.o;
+// A shadow ray from origin o (already off its surface) to the point `to` (itself on its
+// surface); stops just short.
+Ray shadow_ray_between(vec3 o, vec3 to) {
+    vec3 d = to - o;
     float len = length(d);
+    Ray r;
+    r.o = o;
     r.d = d / len;
     r.tmin = 0.0;
     r.tmax = len * (1.0 - 1e-4);
     return r;
 }
+
+// A shadow ray from surface s to the point `to` (itself already on its surface); stops just short.
+Ray spawn_ray_to(Surface s, vec3 to) {
+    return shadow_ray_between(offset_origin(s.p, s.p_err, s.ng, to - s.p), to);
+}
+
+// Both of surface s's ray origins, computed once where many rays leave one point (whitted's
+// shadow rays): offset_origin depends on the direction only through its side of ng.
+struct SurfaceOrigins { vec3 front; vec3 back; };
+
+SurfaceOrigins surface_origins(Surface s) {
+    return SurfaceOrigins(offset_origin(s.p, s.p_err, s.ng, s.ng), offset_origin(s.p, s.p_err, s.ng, -s.ng));
+}
+
+// The origin offset_origin gives for a ray from s along w.
+vec3 origin_towards(SurfaceOrigins o, Surface s, vec3 w) { return dot(w, s.ng) < 0.0 ? o.back : o.front; }
 
 #endif

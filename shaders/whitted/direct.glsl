@@ -25,17 +25,21 @@ vec2 whitted_point(uint j, uint n) {
     return vec2((float(j) + 0.5) * inv, fract(radical_inverse2(j) + 0.5 * inv));
 }
 
-// Samples point u on area light l (triangle or sphere) as seen from p_ref. Returns false when the
-// point faces away or is degenerate. pdf: solid angle, without any pick probability.
-bool whitted_area_sample(GpuLight l, vec3 p_ref, vec2 u, out vec3 pl, out vec3 wi, out float dist,
-                         out float pdf) {
+// The unit normal of triangle light l (its front side), computed once per light.
+vec3 triangle_light_normal(GpuLight l) { return normalize(cross(l.p1.xyz - l.p0.xyz, l.p2.xyz - l.p0.xyz)); }
+
+// Samples point u on area light l (triangle, with its normal nl_tri, or sphere) as seen from
+// p_ref. Returns false when the point faces away or is degenerate. pdf: solid angle, without
+// any pick probability.
+bool whitted_area_sample(GpuLight l, vec3 nl_tri, vec3 p_ref, vec2 u, out vec3 pl, out vec3 wi,
+                         out float dist, out float pdf) {
     pl = vec3(0.0); wi = vec3(0.0, 0.0, 1.0); dist = 0.0; pdf = 0.0;
     vec3 nl;
     if (l.kind == LIGHT_TRIANGLE) {
         vec2 b = sample_uniform_triangle(u);
         vec3 p0 = l.p0.xyz, p1 = l.p1.xyz, p2 = l.p2.xyz;
         pl = (1.0 - b.x - b.y) * p0 + b.x * p1 + b.y * p2;
-        nl = normalize(cross(p1 - p0, p2 - p0));
+        nl = nl_tri;
         vec3 w = pl - p_ref;
         float dist2 = dot(w, w);
         if (!(dist2 > 0.0)) return false;
@@ -68,6 +72,9 @@ bool whitted_area_sample(GpuLight l, vec3 p_ref, vec2 u, out vec3 pl, out vec3 w
 }
 
 // Radiance reflected towards wo_world by the local lobes `m` of surface s, from every light.
+// An area light's shadow rays take their two possible origins and the triangle's normal from
+// values computed once per light, not per ray (per light rather than per hit: fewer values live
+// across the light loop; bench/RESULTS.md, "Whitted's shadow-ray origins").
 vec3 whitted_direct(Surface s, in SurfaceParams m, vec3 wo_world, inout uint rays) {
     vec3 bt = cross(s.ns, s.tangent);
     vec3 wo = to_local(wo_world, s.tangent, bt, s.ns);
@@ -79,14 +86,16 @@ vec3 whitted_direct(Surface s, in SurfaceParams m, vec3 wo_world, inout uint ray
             // Step 1: area lights: the fixed point set; a triangle does not light itself.
             if (l.kind == LIGHT_TRIANGLE && s.light == li) continue;
             vec3 sum = vec3(0.0);
+            vec3 nl_tri = l.kind == LIGHT_TRIANGLE ? triangle_light_normal(l) : vec3(0.0);
+            SurfaceOrigins origins = surface_origins(s);
             for (uint j = 0u; j < WHITTED_AREA_SAMPLES; ++j) {
                 vec3 pl, wi_world;
                 float dist, pdf;
-                if (!whitted_area_sample(l, s.p, whitted_point(j, WHITTED_AREA_SAMPLES), pl, wi_world, dist, pdf)) continue;
+                if (!whitted_area_sample(l, nl_tri, s.p, whitted_point(j, WHITTED_AREA_SAMPLES), pl, wi_world, dist, pdf)) continue;
                 vec3 f = bsdf_eval(m, wo, to_local(wi_world, s.tangent, bt, s.ns), TRANSPORT_RADIANCE);
                 if (!any(greaterThan(f, vec3(0.0)))) continue;
                 rays += 1u;
-                if (trace_any(spawn_ray_to(s, pl))) continue;
+                if (trace_any(shadow_ray_between(origin_towards(origins, s, pl - s.p), pl))) continue;
                 sum += f * (1.0 / pdf);
             }
             L += sum * l.radiance.rgb * (1.0 / float(WHITTED_AREA_SAMPLES));
