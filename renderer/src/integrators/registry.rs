@@ -73,10 +73,11 @@ pub struct IntegratorInfo {
     /// at 96 registers instead of the 167 the compiler picks alone, 20 resident warps per SM
     /// instead of 12: 12–41% more samples per second on nine project scenes, 4% fewer on the
     /// furnace (bench/RESULTS.md, "Register caps through the workgroup size"); 16 hold vct's
-    /// gather at 64 registers: +5..+20% on eight project scenes, 2% fewer on the furnace
-    /// (bench/RESULTS.md, "vct's register cap"). 1 where a cap was measured not to pay (pt,
-    /// nee, whitted); deferred's kernels declare their own workgroups. Films below `render::dispatch::TILED_MIN_PIXELS` keep one tile (too
-    /// few large workgroups to fill the GPU), and the device's workgroup limits lower it.
+    /// gather at 64 registers, 32 warps per SM: +5..+20% on seven project scenes, 3% fewer on
+    /// the furnace (bench/RESULTS.md, "Whitted's shadow-ray origins and vct's register cap").
+    /// 1 where a cap was measured not to pay (pt, nee, whitted); deferred's kernels declare
+    /// their own workgroups. Films below `render::dispatch::TILED_MIN_PIXELS` keep one tile
+    /// (too few large workgroups to fill the GPU), and the device's workgroup limits lower it.
     pub workgroup_tiles: u32,
     /// Its documentation page in the repository, if it has one.
     pub doc: Option<&'static str>,
