@@ -45,7 +45,7 @@ float light_area(GpuLight l) {
 
 // Front (emitting) normal of area light l at its point pl.
 vec3 light_front_normal(GpuLight l, vec3 pl) {
-    if (l.kind == LIGHT_TRIANGLE) return normalize(cross(l.p1.xyz - l.p0.xyz, l.p2.xyz - l.p0.xyz));
+    if (l.kind == LIGHT_TRIANGLE) return triangle_light_normal(l);
     vec3 n = normalize(pl - l.p0.xyz);
     return l.p1.x > 0.5 ? -n : n;
 }

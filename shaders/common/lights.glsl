@@ -135,6 +135,9 @@ float env_pdf(vec3 d) {
     return pick * INV_4PI;
 }
 
+// The unit normal of triangle light l, on its emitting (front) side.
+vec3 triangle_light_normal(GpuLight l) { return normalize(cross(l.p1.xyz - l.p0.xyz, l.p2.xyz - l.p0.xyz)); }
+
 // NEE's light sample from p_ref (shading normal n_ref, or 0 where there is none; only the light
 // BVH's pick uses it).
 bool sample_light(vec3 p_ref, vec3 n_ref, vec3 u, out LightSample ls) {
@@ -156,7 +159,7 @@ bool sample_light(vec3 p_ref, vec3 n_ref, vec3 u, out LightSample ls) {
         vec2 b = sample_uniform_triangle(u2);
         vec3 p0 = l.p0.xyz, p1 = l.p1.xyz, p2 = l.p2.xyz;
         vec3 pl = (1.0 - b.x - b.y) * p0 + b.x * p1 + b.y * p2;
-        vec3 nl = normalize(cross(p1 - p0, p2 - p0));
+        vec3 nl = triangle_light_normal(l);
         vec3 w = pl - p_ref;
         float dist2 = dot(w, w);
         if (!(dist2 > 0.0)) return false;

@@ -25,9 +25,6 @@ vec2 whitted_point(uint j, uint n) {
     return vec2((float(j) + 0.5) * inv, fract(radical_inverse2(j) + 0.5 * inv));
 }
 
-// The unit normal of triangle light l (its front side), computed once per light.
-vec3 triangle_light_normal(GpuLight l) { return normalize(cross(l.p1.xyz - l.p0.xyz, l.p2.xyz - l.p0.xyz)); }
-
 // Samples point u on area light l (triangle, with its normal nl_tri, or sphere) as seen from
 // p_ref. Returns false when the point faces away or is degenerate. pdf: solid angle, without
 // any pick probability.
