@@ -36,7 +36,7 @@ struct VctParams {
     uvec4 dims;       // resolution R, levels D = log2 R, storage (0 dense, 1 octree), coarsest level cones read
     vec4 cone;        // tan of the diffuse cones' half-angle, diffuse cone count, step factor, AO distance (grid units)
     uvec4 mode;       // ao output, shadow cones, injection samples per voxel, diffuse cones per sample
-    uvec4 caps;       // fragment capacity, node capacity, slot capacity, 0
+    uvec4 caps;       // fragment capacity, node capacity, slot capacity, occupancy mask's first node word (0: none)
     uint mip_offset[VCT_LEVELS_MAX]; // dense: first cell of level m in MIP (cells of 6 values)
 };
 
@@ -138,6 +138,16 @@ uint voxel_slot(uvec3 v) {
     uint node = octree_find(v >> 1u, k);
     if (node == NONE) return NONE;
     return (node - info.level_start[k]) * 8u + octant(v & 1u);
+}
+
+// The octree's occupancy mask (P.caps.w > 0): one bit per level-0 voxel, set where the voxel is
+// occupied (normalize.comp, exactly where its opacity is 1), in 4×4×4 bricks of one uvec2 each,
+// stored after the node pool from vnodes[P.caps.w] (renderer/src/integrators/vct/build.rs).
+// Returns the word's index and the bit's place (0..63) in it.
+uvec2 occupancy_place(uvec3 c) {
+    uint n4 = vct_res() >> 2u;
+    uvec3 b = c >> 2u, o = c & 3u;
+    return uvec2(P.caps.w + b.x + n4 * (b.y + n4 * b.z), o.x | (o.y << 2u) | (o.z << 4u));
 }
 
 // The level-0 voxel a slot belongs to.

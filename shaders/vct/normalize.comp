@@ -1,6 +1,7 @@
 // vct stage 2c: averages the fragment sums of every slot into the packed voxel attributes
 // (albedo and opacity, unit normal and two-sidedness, mean surface point) and the emission,
-// and counts the occupied voxels. A voxel touched by any surface is opaque (opacity 1).
+// counts the occupied voxels and marks them in the octree's occupancy mask (common.glsl). A
+// voxel touched by any surface is opaque (opacity 1).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "vct/common.glsl"
@@ -32,4 +33,9 @@ void main() {
                        packSnorm2x16(off.xy), packSnorm2x16(vec2(off.z, 0.0)));
     emit[slot] = pack_h4(vec4(le, 1.0));
     atomicAdd(info.voxel_count, 1u);
+    if (vct_octree() && P.caps.w != 0u) {
+        uvec2 q = occupancy_place(slot_cell(slot));
+        if (q.y < 32u) atomicOr(vnodes[q.x].x, 1u << q.y);
+        else atomicOr(vnodes[q.x].y, 1u << (q.y - 32u));
+    }
 }

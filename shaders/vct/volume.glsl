@@ -52,6 +52,11 @@ uint occupied_slot(uvec3 c) {
 // once. Start with last = uvec2(NONE).
 uint occupied_slot_walk(uvec3 c, inout uvec2 last) {
     if (!vct_octree()) return occupied_slot(c);
+    // Empty voxels from the occupancy mask, one load; only occupied ones walk the tree.
+    if (P.caps.w != 0u) {
+        uvec2 q = occupancy_place(c);
+        if ((vnodes[q.x][q.y >> 5u] & (1u << (q.y & 31u))) == 0u) return NONE;
+    }
     uint key = pack_cell(c >> 1u);
     if (key != last.x) {
         last = uvec2(key, octree_find(c >> 1u, vct_levels() - 1u));

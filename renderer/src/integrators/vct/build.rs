@@ -32,6 +32,19 @@ fn sum_ms(t: &[crate::gpu::DispatchTiming]) -> f64 {
     t.iter().map(|d| d.gpu_ms).sum()
 }
 
+/// Largest resolution whose octree gets an occupancy mask (shaders/vct/volume.glsl,
+/// `occupancy_bit`): r³/8 bytes after the node pool, 16 MiB at 512³.
+pub const MASK_MAX_RESOLUTION: u32 = 512;
+
+/// 64-bit words of the occupancy mask at resolution `r` (one per 4×4×4 brick), 0 above
+/// [`MASK_MAX_RESOLUTION`].
+fn mask_words(r: u32) -> u64 {
+    if r > MASK_MAX_RESOLUTION {
+        return 0;
+    }
+    (r as u64 / 4).pow(3)
+}
+
 /// Octree node-pool estimate for `frags` fragments: depth k+1 gets a tile of 8 per flagged
 /// depth-k node, and a surface touches about a quarter as many cells per level up.
 fn node_capacity(frags: u64, levels: u32) -> u64 {
@@ -251,6 +264,7 @@ impl<'a> Builder<'a> {
         frag_count: u32,
     ) -> Result<(Buffer, VctInfo, u32, u32), RenderError> {
         let levels = self.params.dims[1];
+        let mask = mask_words(self.params.dims[0]);
         let mut node_cap = node_capacity(frag_count as u64, levels);
         loop {
             if node_cap > u32::MAX as u64 / 2 {
@@ -259,7 +273,8 @@ impl<'a> Builder<'a> {
                     u32::MAX / 2
                 )));
             }
-            let nodes = storage_buffer(self.ctx, "vct nodes", node_cap * 8)?;
+            // The node pool, then the occupancy mask (zero until normalize.comp sets its bits).
+            let nodes = storage_buffer(self.ctx, "vct nodes", (node_cap + mask) * 8)?;
             self.ctx.fill_zero(&nodes)?;
             self.params.caps[1] = node_cap as u32;
             self.upload_params()?;
@@ -305,6 +320,8 @@ impl<'a> Builder<'a> {
                 node_cap *= 4;
                 continue;
             }
+            // normalize.comp fills the mask and the cones read it from here on.
+            self.params.caps[3] = if mask > 0 { node_cap as u32 } else { 0 };
             let k = (levels - 1) as usize;
             let slots = 8 * (info.level_end[k] - info.level_start[k]);
             let used = info.node_count.min(node_cap as u32);

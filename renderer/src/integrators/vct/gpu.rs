@@ -43,7 +43,8 @@ pub struct VctParams {
     pub cone: [f32; 4],
     /// AO output, shadow cones, injection samples, diffuse cones traced per sample.
     pub mode: [u32; 4],
-    /// Fragment, node and slot capacities, 0.
+    /// Fragment, node and slot capacities; the first node-pool word of the octree's occupancy
+    /// mask (0: none; dense storage, or resolution above `build::MASK_MAX_RESOLUTION`).
     pub caps: [u32; 4],
     /// Dense storage: first cell of level m in the mip buffer.
     pub mip_offset: [u32; LEVELS_MAX],
