@@ -80,7 +80,8 @@ impl Lcg {
 }
 
 /// The octree and the dense grid hold the same voxels and give the same filtered values at
-/// random points, on every level alone and between levels, along random directions.
+/// random points, on every level alone and between levels, along random directions; the
+/// octree's occupancy mask marks exactly its occupied voxels.
 #[test]
 fn octree_matches_dense() {
     let _guard = serial();
@@ -93,6 +94,22 @@ fn octree_matches_dense() {
         DebugVolume::new(&ctx, &compiled, &o).expect("volume")
     };
     let (octree, dense) = (volume("octree"), volume("dense"));
+    // The leak guard's occupancy mask marks exactly the occupied voxels.
+    let (occupied, marked) = octree
+        .occupancy()
+        .expect("occupancy")
+        .expect("a mask at 64³");
+    assert_eq!(
+        occupied.len() as u32,
+        octree.counts().0,
+        "occupied voxels miscounted"
+    );
+    assert!(!occupied.is_empty());
+    assert_eq!(
+        occupied, marked,
+        "the occupancy mask differs from the voxels"
+    );
+    assert!(dense.occupancy().expect("dense").is_none());
     let (r, levels) = octree.resolution();
     assert_eq!(
         octree.counts().0,

@@ -72,6 +72,60 @@ impl DebugVolume {
         )
     }
 
+    /// The octree's occupancy mask against its attributes (shaders/vct/common.glsl,
+    /// `occupancy_place`): the level-0 voxels whose opacity is 1, and the voxels whose mask bit
+    /// is set, both sorted; None without a mask (dense storage, or a resolution above
+    /// [`build::MASK_MAX_RESOLUTION`]).
+    #[allow(clippy::type_complexity)]
+    pub fn occupancy(&self) -> Result<Option<(Vec<[u32; 3]>, Vec<[u32; 3]>)>, RenderError> {
+        let v = &self.volume;
+        let base = v.params.caps[3] as usize;
+        if base == 0 {
+            return Ok(None);
+        }
+        let r = v.resolution;
+        let n4 = (r / 4) as usize;
+        let words = (v.nodes.size / 8) as usize;
+        let nodes: Vec<[u32; 2]> = self.ctx.download_vec(&v.nodes, words)?;
+        let k = (v.levels - 1) as usize;
+        let (start, end) = (v.info.level_start[k] as usize, v.info.level_end[k] as usize);
+        let attr: Vec<[u32; 4]> = self.ctx.download_vec(&v.attr, 8 * (end - start))?;
+        // Step 1: occupied voxels from the leaf-parent nodes' packed cells and their slots.
+        let mut occupied = Vec::new();
+        for (i, node) in nodes[start..end].iter().enumerate() {
+            let c = [
+                node[1] & 1023,
+                (node[1] >> 10) & 1023,
+                (node[1] >> 20) & 1023,
+            ];
+            for o in 0..8u32 {
+                if attr[8 * i + o as usize][0] >> 24 > 127 {
+                    occupied.push([
+                        2 * c[0] + (o & 1),
+                        2 * c[1] + ((o >> 1) & 1),
+                        2 * c[2] + (o >> 2),
+                    ]);
+                }
+            }
+        }
+        occupied.sort_unstable();
+        // Step 2: the mask's set bits, 4×4×4 bricks of 64 bits.
+        let mut marked = Vec::new();
+        for (b, w) in nodes[base..base + n4 * n4 * n4].iter().enumerate() {
+            let bits = w[0] as u64 | (w[1] as u64) << 32;
+            let brick = [b % n4, (b / n4) % n4, b / (n4 * n4)].map(|x| 4 * x as u32);
+            for i in (0..64u32).filter(|i| bits >> i & 1 == 1) {
+                marked.push([
+                    brick[0] + (i & 3),
+                    brick[1] + ((i >> 2) & 3),
+                    brick[2] + (i >> 4),
+                ]);
+            }
+        }
+        marked.sort_unstable();
+        Ok(Some((occupied, marked)))
+    }
+
     /// Bytes of the kept buffers.
     pub fn memory_bytes(&self) -> u64 {
         self.volume.total_bytes()
