@@ -32,8 +32,8 @@ fn sum_ms(t: &[crate::gpu::DispatchTiming]) -> f64 {
     t.iter().map(|d| d.gpu_ms).sum()
 }
 
-/// Largest resolution whose octree gets an occupancy mask (shaders/vct/volume.glsl,
-/// `occupancy_bit`): r³/8 bytes after the node pool, 16 MiB at 512³.
+/// Largest resolution whose octree gets an occupancy mask (shaders/vct/common.glsl,
+/// `occupancy_place`; read by the leak guard): r³/8 bytes after the node pool, 16 MiB at 512³.
 pub const MASK_MAX_RESOLUTION: u32 = 512;
 
 /// 64-bit words of the occupancy mask at resolution `r` (one per 4×4×4 brick), 0 above
