@@ -33,8 +33,9 @@ fn sum_ms(t: &[crate::gpu::DispatchTiming]) -> f64 {
 }
 
 /// Largest resolution whose octree gets an occupancy mask (shaders/vct/common.glsl,
-/// `occupancy_place`; read by the leak guard): r³/8 bytes after the node pool, 16 MiB at 512³.
-pub const MASK_MAX_RESOLUTION: u32 = 512;
+/// `occupancy_place`; read by the leak guard): r³/8 bytes after the node pool, 128 MiB at 1024³
+/// (every resolution vct accepts; the mask pays most there: +40% on an H200, bench/RESULTS.md).
+pub const MASK_MAX_RESOLUTION: u32 = 1024;
 
 /// 64-bit words of the occupancy mask at resolution `r` (one per 4×4×4 brick), 0 above
 /// [`MASK_MAX_RESOLUTION`].
