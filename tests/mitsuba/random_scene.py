@@ -179,7 +179,10 @@ class Gen:
         o = {"type": "triangles", "positions": pos,
              "indices": [0, 1, 2, 0, 2, 3, 0, 3, 1, 1, 3, 2], "material": material,
              "transform": self.transform()}
-        if self.chance(0.5):
+        # (Not on an emitter for the reference: Mitsuba takes an emitter's front side from its
+        # shading normal, candela from the geometric one (docs/scene-format.md), and these
+        # normals lean 63–74° off the faces; the draw is kept so later draws do not move.)
+        if self.chance(0.5) and not (self.mitsuba and "emission" in self.materials[material]):
             o["normals"] = [[x / math.sqrt(sum(c * c for c in p)) for x in p] for p in pos]
         if self.chance(0.5):
             o["uvs"] = [[0.5, 1], [0, 0], [1, 0], [0.5, 0.5]]

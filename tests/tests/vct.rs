@@ -9,7 +9,7 @@
 use candela_tests::{gpu, scene_path};
 use renderer::compile::compile;
 use renderer::film::Image;
-use renderer::integrators::vct::{DebugVolume, VctOptions};
+use renderer::integrators::vct::{DebugVolume, Occupancy, VctOptions};
 use renderer::integrators::IntegratorOptions;
 use renderer::metrics::{downsample_box, rel_mse};
 use renderer::render::{render, Budget, RenderSession, RenderStats};
@@ -95,7 +95,7 @@ fn octree_matches_dense() {
     };
     let (octree, dense) = (volume("octree"), volume("dense"));
     // The leak guard's occupancy mask marks exactly the occupied voxels.
-    let (occupied, marked) = octree
+    let Occupancy { occupied, marked } = octree
         .occupancy()
         .expect("occupancy")
         .expect("a mask at 64³");

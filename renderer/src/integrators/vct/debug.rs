@@ -11,6 +11,16 @@ use crate::gpu::{Buffer, GpuContext};
 use crate::layout::{binding, GpuStats};
 use crate::upload::{as_bindings, upload_scene};
 
+/// The octree's occupancy mask read back beside its attributes ([`DebugVolume::occupancy`]):
+/// level-0 voxel coordinates, each list sorted.
+#[derive(Debug, PartialEq, Eq)]
+pub struct Occupancy {
+    /// The voxels whose opacity is 1 (from the leaf-parent nodes and their attributes).
+    pub occupied: Vec<[u32; 3]>,
+    /// The voxels whose mask bit is set.
+    pub marked: Vec<[u32; 3]>,
+}
+
 /// A built and lit volume with the scene buffers its kernels bind.
 pub struct DebugVolume {
     ctx: Arc<GpuContext>,
@@ -73,11 +83,9 @@ impl DebugVolume {
     }
 
     /// The octree's occupancy mask against its attributes (shaders/vct/common.glsl,
-    /// `occupancy_place`): the level-0 voxels whose opacity is 1, and the voxels whose mask bit
-    /// is set, both sorted; None without a mask (dense storage, or a resolution above
+    /// `occupancy_place`); None without a mask (dense storage, or a resolution above
     /// [`build::MASK_MAX_RESOLUTION`]).
-    #[allow(clippy::type_complexity)]
-    pub fn occupancy(&self) -> Result<Option<(Vec<[u32; 3]>, Vec<[u32; 3]>)>, RenderError> {
+    pub fn occupancy(&self) -> Result<Option<Occupancy>, RenderError> {
         let v = &self.volume;
         let base = v.params.caps[3] as usize;
         if base == 0 {
@@ -123,7 +131,7 @@ impl DebugVolume {
             }
         }
         marked.sort_unstable();
-        Ok(Some((occupied, marked)))
+        Ok(Some(Occupancy { occupied, marked }))
     }
 
     /// Bytes of the kept buffers.

@@ -36,7 +36,7 @@ mod light;
 mod options;
 mod volume;
 
-pub use debug::DebugVolume;
+pub use debug::{DebugVolume, Occupancy};
 pub use options::{Settings, VctOptions, VctShadows, VctStorage, DENSE_MAX_RESOLUTION};
 pub use volume::StageTimes;
 
