@@ -359,6 +359,13 @@ pub fn seed_average(parts: &[Image], block: u32) -> (Image, f64) {
 /// relative difference between the two images (per channel, dark pixels compared absolutely
 /// below 1e-3) and the tolerance it must meet (bdpt's splats add with float atomics in any
 /// order). Used by the kernel audits (tests/tests/kernels.rs, random_scenes.rs).
+///
+/// whitted takes one area sample per light in scenes of more than [`LAVAPIPE_WHITTED_LIGHTS`]
+/// lights: lavapipe ends every loop of an invocation once their iterations add up to 65535
+/// (docs/whitted.md, "lavapipe"), which 16 shadow walks to each of a few hundred triangle lights
+/// pass, and then both kernels come out wrong, each in its own way (random seed 103's emissive
+/// uv sphere of 528 triangles: 0.63 apart and neither near nee; with one sample both equal and
+/// match nee).
 pub fn specialised_vs_generic(
     scene: &renderer::scene::Scene,
     compiled: &CompiledScene,
@@ -366,10 +373,17 @@ pub fn specialised_vs_generic(
 ) -> anyhow::Result<(f32, f32)> {
     let spec = match name {
         "vct" => serde_json::json!({"type": "vct", "resolution": 64}),
+        "whitted" if compiled.lights.len() > LAVAPIPE_WHITTED_LIGHTS => {
+            serde_json::json!({"type": "whitted", "area_samples": 1})
+        }
         _ => serde_json::Value::String(name.into()),
     };
     specialised_vs_generic_with(scene, compiled, &spec)
 }
+
+/// The most lights whitted's 16 area samples each stay within lavapipe's loop limit for
+/// ([`specialised_vs_generic`]; failures began between 32 and 50 triangle lights).
+pub const LAVAPIPE_WHITTED_LIGHTS: usize = 32;
 
 /// [`specialised_vs_generic`] for the integrator `spec` (a job's "integrator" value: a name or
 /// an object with its options), so that renders with other options (and so other constants
