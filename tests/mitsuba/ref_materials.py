@@ -103,7 +103,7 @@ class Textures:
         mask, nearest filtering puts the cut where candela's 0.5 contour crosses between texel
         centres (texel edges), but the contour rounds every corner of a hole off, and there a
         texel's worth of floor showed in candela where the reference had a hole (the random-scene
-        audit's seed 212: 11× the noise, a hole's corner near the camera). So the bitmap holds
+        audit's seed 212: 39× the noise on an H200, a hole's corner near the camera). So the bitmap holds
         candela's cut, bilinear(red) ≥ 0.5, at the centres of a grid k× finer (k odd: the texel
         edges stay edges of the finer grid, so straight edges stay exact), which nearest filtering
         follows to within half a fine texel at the corners."""

@@ -230,8 +230,8 @@ def derived_scalar_textures_filter_before_fn():
 def mask_corners_follow_candelas_cut():
     # candela keeps a masked point where bilinear(red) >= 0.5, which rounds a hole's corner off;
     # the reference's nearest-filtered bitmap must follow that contour, not the texel's square.
-    name = write_image("corner.png", 2, 2, lambda x, y: (0.0,) * 3 if (x, y) == (0, 0) else (1.0,) * 3,
-                       "png")
+    hole = lambda x, y: (0.0,) * 3 if (x, y) == (0, 0) else (1.0,) * 3
+    name = write_image("corner.png", 2, 2, hole, "png")
     d = Textures(TMP).mask({"texture": name}, "m.alpha_mask")
     t = mi.load_dict(d)
     si = dr.zeros(mi.SurfaceInteraction3f)
