@@ -91,8 +91,12 @@ vec3 trace_path(uvec2 px, inout Rng rng, inout uint rays) {
         }
 #endif
         // Step 7: continue the path by sampling the BSDF.
+        // One draw serves the BSDF (xyz) and step 8's roulette (w), as in bdpt's walks: a
+        // separate draw for the roulette cost nee 1.4% on the Cornell box (bench/RESULTS.md,
+        // "The random numbers' cost").
         BsdfSample bs;
-        if (!bsdf_sample(m, wo, rng_next3(rng), TRANSPORT_RADIANCE, bs)) break;
+        vec4 ub = rng_next4(rng);
+        if (!bsdf_sample(m, wo, ub.xyz, TRANSPORT_RADIANCE, bs)) break;
         beta *= bs.weight;
         if (!any(greaterThan(beta, vec3(0.0)))) break;
         prev_pdf = bs.pdf;
@@ -105,7 +109,7 @@ vec3 trace_path(uvec2 px, inout Rng rng, inout uint rays) {
         // Step 8: Russian roulette from rr_depth on (Mitsuba: q = min(max(β)·η², 0.95)).
         if (depth + 1 >= PASS_RR_DEPTH) {
             float q = min(max_comp(beta) * eta_scale, 0.95);
-            if (rng_next1(rng) >= q) break;
+            if (ub.w >= q) break;
             beta /= q;
         }
     }
