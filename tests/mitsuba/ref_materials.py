@@ -92,7 +92,7 @@ class Textures:
             return fn(x) if fn else x
         r, w, h, to_uv = self.red(v, path)
         if fn:
-            k = next(k for k in (7, 5, 3, 1) if w * h * k * k <= FINE_TEXELS or k == 1)
+            k = refinement(w, h, (7, 5, 3))
             r, w, h = fn(upsampled_bilinear(r, w, h, k)), w * k, h * k
         bmp = mi.Bitmap(dr.scalar.TensorXf(r, (h, w, 1)))
         return {"type": "bitmap", "bitmap": bmp, "raw": True, "filter_type": "bilinear",
@@ -113,7 +113,7 @@ class Textures:
         if not dr.all((r == 0) | (r == 1)):
             raise Untranslatable(f"{path}: non-binary alpha mask (Mitsuba's mask blends, candela "
                                  "cuts at 0.5)")
-        k = next(k for k in (15, 7, 5, 3, 1) if w * h * k * k <= FINE_TEXELS or k == 1)
+        k = refinement(w, h, (15, 7, 5, 3))
         r = dr.select(upsampled_bilinear(r, w, h, k) < 0.5, 0.0, 1.0)
         w, h = w * k, h * k
         bmp = mi.Bitmap(dr.scalar.TensorXf(r, (h, w, 1)))
@@ -121,8 +121,14 @@ class Textures:
                 "wrap_mode": "repeat", "to_uv": to_uv}
 
 
-# The most texels of a derived scalar bitmap (scalar() picks its refinement k within this).
+# The most texels of a derived bitmap (scalar() and mask() pick their refinement k within this).
 FINE_TEXELS = 1 << 22
+
+
+def refinement(w, h, choices):
+    """The first of `choices` (odd factors, largest first) by which a w × h texture may be refined
+    within FINE_TEXELS texels, else 1."""
+    return next((k for k in choices if w * h * k * k <= FINE_TEXELS), 1)
 
 
 def upsampled_bilinear(r, w, h, k):

@@ -46,7 +46,8 @@ for m, mat in mats.items():
 for m, mat in mats.items():
     if mat.get("alpha_mask"): vs.append(var(f"{m}_no_alpha", lambda v, m=m: v["materials"][m].pop("alpha_mask")))
     if mat["type"] in ("dielectric", "principled", "conductor"): vs.append(var(f"{m}_diffuse", diffuse(m)))
-    if mat.get("anisotropic"): vs.append(var(f"{m}_iso", lambda v, m=m: v["materials"][m].__setitem__("anisotropic", 0.0)))
+    for key in ("anisotropic", "anisotropy"):  # principled's and the conductor's
+        if mat.get(key): vs.append(var(f"{m}_iso", lambda v, m=m, key=key: v["materials"][m].__setitem__(key, 0.0)))
     if mat.get("two_sided") is False: vs.append(var(f"{m}_two_sided", lambda v, m=m: v["materials"][m].pop("two_sided")))
 if base.get("lights"): vs.append(var("no_delta_lights", lambda v: v.pop("lights")))
 # Boxes resting on the floor share its plane (the generator's min y = -1): lifted by 1 cm.
