@@ -22,7 +22,11 @@ struct RayPre {
     vec3 inv_d; // clamped reciprocal direction
 };
 
-const float GAMMA3_BOX = 1.0 + 2.0 * (3.0 * 5.96046448e-8) / (1.0 - 3.0 * 5.96046448e-8);
+// pbrt's γn = nε / (1 − nε), ε = 2^-24: bounds on the relative error of n rounded operations.
+const float GAMMA2 = (2.0 * 5.96046448e-8) / (1.0 - 2.0 * 5.96046448e-8);
+const float GAMMA3 = (3.0 * 5.96046448e-8) / (1.0 - 3.0 * 5.96046448e-8);
+const float GAMMA5 = (5.0 * 5.96046448e-8) / (1.0 - 5.0 * 5.96046448e-8);
+const float GAMMA3_BOX = 1.0 + 2.0 * GAMMA3;
 
 RayPre ray_precompute(vec3 d) {
     RayPre pre;
@@ -78,6 +82,22 @@ bool intersect_triangle(Ray r, RayPre pre, vec3 p0, vec3 p1, vec3 p2, out float 
     float inv_det = 1.0 / det;
     t = ts * inv_det;
     if (!(t > r.tmin && t < r.tmax)) return false;
+    // Step 4: t conservatively positive (pbrt-v3 §3.9.6, its bound on t's rounding error from
+    // the sheared coordinates and edge functions). A ray leaves a surface from an origin pushed
+    // off it by the hit point's error bound (surface.glsl's offset_origin); where that bound is
+    // small next to the vertices' coordinates (the surface's plane passes near the camera, the
+    // origin of the render's coordinates) a ray leaving at a grazing angle could find the surface
+    // it left again at a t that is rounding noise, and lose the light beyond it.
+    float max_xt = max(max(abs(ax), abs(bx)), abs(cx));
+    float max_yt = max(max(abs(ay), abs(by)), abs(cy));
+    float max_zt = max(max(abs(az), abs(bz)), abs(cz));
+    float delta_z = GAMMA3 * max_zt;
+    float delta_x = GAMMA5 * (max_xt + max_zt);
+    float delta_y = GAMMA5 * (max_yt + max_zt);
+    float delta_e = 2.0 * (GAMMA2 * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    float max_e = max(max(abs(u), abs(v)), abs(w));
+    float delta_t = 3.0 * (GAMMA3 * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * abs(inv_det);
+    if (!(t > delta_t)) return false;
     b12 = vec2(v, w) * inv_det;
     return true;
 }

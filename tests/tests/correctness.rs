@@ -70,6 +70,56 @@ fn inside_an_emissive_sphere_is_the_geometric_series() {
     }
 }
 
+/// Inside a closed cube whose walls emit 1 inward and reflect ρ = 0.5 diffusely, every point sees
+/// 1 + ρ + ρ² = 1.75 at max_depth 3, as inside the emissive sphere above, wherever the camera is.
+/// Here the camera is a millimetre from a wall, whose plane then passes almost through the origin
+/// of the render's camera-relative coordinates: its hit points' error bounds, and with them the
+/// offsets of rays leaving it, are tiny. Without the triangle test's conservative bound on t
+/// (pbrt's δt, common/intersect.glsl) rays leaving that wall at grazing angles found it again and
+/// lost the light beyond (pixels down to 1.731, the mean 1.744; seed 324 of the Mitsuba audit,
+/// bench/RESULTS.md). pt sees emission 1 wherever a path goes, so its pixels are all but exact.
+#[test]
+fn a_camera_beside_a_wall_loses_no_light() {
+    let wall = |o: [i32; 3], u: [i32; 3], v: [i32; 3]| {
+        format!(
+            r#"{{"type": "quad", "origin": {o:?}, "edge_u": {u:?}, "edge_v": {v:?}, "material": "glow"}}"#
+        )
+    };
+    let walls = [
+        wall([-1, -1, -1], [0, 2, 0], [0, 0, 2]),
+        wall([1, -1, -1], [0, 0, 2], [0, 2, 0]),
+        wall([-1, -1, -1], [0, 0, 2], [2, 0, 0]),
+        wall([-1, 1, -1], [2, 0, 0], [0, 0, 2]),
+        wall([-1, -1, -1], [2, 0, 0], [0, 2, 0]),
+        wall([-1, -1, 1], [0, 2, 0], [2, 0, 0]),
+    ];
+    let scene = renderer::scene::load_str(
+        &format!(
+            r#"{{"version": 1,
+                "camera": {{"position": [-0.999, 0.3, 0.2], "look_at": [1, 0.3, 0.2], "fov_y": 80}},
+                "film": {{"width": 16, "height": 16}},
+                "materials": {{"glow": {{"type": "diffuse", "reflectance": 0.5, "emission": [1, 1, 1]}}}},
+                "objects": [{}]}}"#,
+            walls.join(", ")
+        ),
+        None,
+    )
+    .unwrap();
+    let (img, _) = render_loaded(&scene, "pt", 256, 16, 16, 1, Some(3));
+    let worst = img
+        .pixels
+        .iter()
+        .flatten()
+        .map(|&v| (v as f64 - 1.75).abs())
+        .fold(0.0, f64::max);
+    let m = img.mean();
+    println!("cube, camera beside a wall: mean {m:?}, worst pixel off by {worst:.4}");
+    for c in m {
+        assert!((c - 1.75).abs() < 1e-3, "mean {m:?}, expected 1.75");
+    }
+    assert!(worst < 4e-3, "a pixel is {worst} off 1.75");
+}
+
 /// max_depth 1 shows only emitters: in the furnace that is the environment around the sphere and
 /// black on it.
 #[test]

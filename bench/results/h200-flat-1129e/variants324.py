@@ -53,6 +53,20 @@ V = {"base": base,
      "m0_diffuse_emitter": mat("m0", type="diffuse", ior=None, roughness=None),
      "no_m8": copy.deepcopy(base)}
 V["no_m8"]["objects"] = [o for o in base["objects"] if o.get("material") != "m8"]
+# The floor (a diffuse emitter), the two mirrors and the left wall (no mask) alone, seen as in
+# the scene (through the right wall and the back wall) or directly from inside the room.
+mini = copy.deepcopy(V["m0_diffuse_emitter"])
+for m in ("m2",):
+    mini["materials"][m].pop("alpha_mask", None)
+mini["materials"]["m3"].pop("roughness", None)
+mini["materials"]["m3"].pop("anisotropy", None)
+mini["objects"] = [o for o in mini["objects"] if o.get("material") in ("m0", "m1", "m2", "m3")]
+V["mini"] = mini
+V["mini_direct"] = copy.deepcopy(mini)
+V["mini_direct"]["camera"] = {"position": [2.0, 1.0, 1.0], "look_at": [-3.0, 0.5, 0.0], "fov_y": 50.0}
+V["mini_walls_diffuse"] = copy.deepcopy(V["mini_direct"])
+for m in ("m1", "m3"):
+    V["mini_walls_diffuse"]["materials"][m] = {"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]}
 for k in (3, 5, 6):
     V[f"md{k}"] = copy.deepcopy(base)
     V[f"md{k}"]["render"]["max_depth"] = k
