@@ -120,6 +120,61 @@ fn a_camera_beside_a_wall_loses_no_light() {
     assert!(worst < 4e-3, "a pixel is {worst} off 1.75");
 }
 
+/// A mesh without uvs is parameterised by each triangle's barycentrics, uv = (b1, b2), as in
+/// Mitsuba: textures and alpha masks read it there and its tangent, along which anisotropic lobes
+/// stretch, runs along the triangle's first edge, whether or not the mesh has normals. So such a
+/// mesh renders as the same mesh given those uvs (0, 0), (1, 0), (0, 1) explicitly. Before, a mesh
+/// without uvs had any frame around its normal as its tangent (Mitsuba audit seed 367: an
+/// anisotropic principled tetrahedron up to twice too bright), one with normals but no uvs read
+/// every texture at (0, 0), and one with neither ignored its alpha mask.
+#[test]
+fn a_mesh_without_uvs_is_parameterised_by_its_barycentrics() {
+    // Two triangles of a floor (unshared vertices, so each can take its own corners' uvs) under
+    // a small light, an anisotropic textured conductor or a masked diffuse surface.
+    let scene = |normals: bool, uvs: bool, material: &str| {
+        let mut mesh = serde_json::json!({"type": "triangles", "material": "floor",
+            "positions": [[-1, -0.5, -1], [-1, -0.5, 1], [1, -0.5, -1],
+                          [1, -0.5, 1], [1, -0.5, -1], [-1, -0.5, 1]],
+            "indices": [0, 1, 2, 3, 4, 5]});
+        if normals {
+            mesh["normals"] = serde_json::json!(vec![[0, 1, 0]; 6]);
+        }
+        if uvs {
+            mesh["uvs"] = serde_json::json!([[0, 0], [1, 0], [0, 1], [0, 0], [1, 0], [0, 1]]);
+        }
+        let text = format!(
+            r#"{{"version": 1,
+                "camera": {{"position": [0, 0.6, 2.2], "look_at": [0, -0.5, 0], "fov_y": 60}},
+                "film": {{"width": 24, "height": 24}},
+                "materials": {{"floor": {material},
+                    "light": {{"type": "diffuse", "reflectance": 0, "emission": [4, 4, 4]}}}},
+                "objects": [{mesh}, {{"type": "quad", "origin": [-0.3, 1, -0.8],
+                    "edge_u": [0.6, 0, 0], "edge_v": [0, 0, 0.6], "material": "light"}}]}}"#
+        );
+        renderer::scene::load_str(&text, Some(&scene_path(""))).unwrap()
+    };
+    let anisotropic = r#"{"type": "conductor", "roughness": 0.5, "anisotropy": 0.9,
+        "reflectance": {"texture": "assets/checker.png", "scale": [3, 3]}}"#;
+    let masked = r#"{"type": "diffuse", "reflectance": 0.8,
+        "alpha_mask": {"texture": "assets/checker.png", "scale": [3, 3]}}"#;
+    for (name, material) in [("anisotropic", anisotropic), ("masked", masked)] {
+        let render = |normals, uvs| {
+            render_loaded(&scene(normals, uvs, material), "nee", 16, 24, 24, 1, None).0
+        };
+        let explicit = render(true, true);
+        for (normals, uvs) in [(false, false), (true, false), (false, true)] {
+            let e = rel_mse(&render(normals, uvs), &explicit).unwrap();
+            println!(
+                "{name} floor, normals {normals}, uvs {uvs}: relMSE {e:.2e} against explicit uvs"
+            );
+            assert!(
+                e < 1e-4,
+                "{name}, normals {normals}, uvs {uvs}: relMSE {e:.2e}"
+            );
+        }
+    }
+}
+
 /// max_depth 1 shows only emitters: in the furnace that is the environment around the sphere and
 /// black on it.
 #[test]

@@ -75,8 +75,9 @@ pub(super) struct Frames {
     pub centre: DVec3,
 }
 
-/// One mesh's triangles, with a shading record where the mesh has normals or uvs; every
-/// triangle's records are computed in parallel into the slots it takes.
+/// One mesh's triangles, with a shading record where the mesh has normals or uvs, or an
+/// alpha-masked material (the mask reads the record's uvs: without uvs, the triangles'
+/// barycentrics); every triangle's records are computed in parallel into the slots it takes.
 pub(super) fn triangles(
     mesh: &TriangleMesh,
     frames: Frames,
@@ -85,7 +86,10 @@ pub(super) fn triangles(
 ) {
     use rayon::prelude::*;
     let origin = frames.origin;
-    let shaded = mesh.normals.is_some() || mesh.uvs.is_some();
+    let masked = |m: &u32| alpha_material.get(*m as usize).copied().unwrap_or(false);
+    let shaded = mesh.normals.is_some()
+        || mesh.uvs.is_some()
+        || (alpha_material.contains(&true) && mesh.materials.par_iter().any(masked));
     // Step 1: room for the mesh's records (triangle t's shading record, if any, is at
     // `shade_base + t`).
     let (n, base, shade_base) = (mesh.indices.len(), out.gpu.len(), out.tri_shading.len());
@@ -118,7 +122,7 @@ pub(super) fn triangles(
             let p = idx.map(|i| mesh.positions[i as usize] - origin);
             let m = mesh.materials.get(t).copied().unwrap_or(0);
             let mut flags = m & PRIM_MATERIAL_MASK;
-            if alpha_material.get(m as usize).copied().unwrap_or(false) {
+            if masked(&m) {
                 flags |= PRIM_ALPHA;
             }
             let shading = if shaded {
@@ -150,8 +154,11 @@ fn grow<T: Clone + Send + Sync>(v: &mut Vec<T>, n: usize, fill: T) {
     v.par_extend(rayon::iter::repeat_n(fill, n));
 }
 
-/// A triangle's vertex normals and uvs (w of `uv_v`: 1 when the normals are the mesh's own).
+/// A triangle's vertex normals and uvs (w of `uv_v`: 1 when the normals are the mesh's own). A
+/// mesh without uvs gets each triangle's own barycentric corners (0, 0), (1, 0), (0, 1), so that
+/// uv = (b1, b2) as for triangles without a record (common/surface.glsl) and in Mitsuba.
 fn shading_record(mesh: &TriangleMesh, idx: &[u32; 3]) -> GpuTriShading {
+    const CORNERS: [glam::Vec2; 3] = [glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::Y];
     let n = |k: usize| {
         mesh.normals
             .as_ref()
@@ -162,7 +169,7 @@ fn shading_record(mesh: &TriangleMesh, idx: &[u32; 3]) -> GpuTriShading {
         mesh.uvs
             .as_ref()
             .map(|u| u[idx[k] as usize])
-            .unwrap_or(glam::Vec2::ZERO)
+            .unwrap_or(CORNERS[k])
     };
     GpuTriShading {
         n0: [n(0).x, n(0).y, n(0).z, uv(0).x],
