@@ -64,14 +64,15 @@ fn cwbvh_matches_bvh_on_meshes_and_spheres() {
     cwbvh_matches_bvh("textured_mesh", &load("textured_mesh.json"), "nee", 24, 4);
 }
 
-/// Alpha-masked triangles are skipped by both queries: the checker's dark squares cut holes in
-/// the sphere, seen by camera rays (closest hit) and shadow rays (any hit).
+/// Alpha-masked triangles are skipped by both queries: the checker's dark squares (in its green
+/// channel, 60 against 220; its red channel, 200 and 230, would cut nothing) cut holes in the
+/// sphere, seen by camera rays (closest hit) and shadow rays (any hit).
 #[test]
 fn cwbvh_matches_bvh_with_alpha_cut_outs() {
     let text = std::fs::read_to_string(scene_path("textured_mesh.json")).unwrap();
     let mut v: Value = serde_json::from_str(&text).unwrap();
     v["materials"]["checker"]["alpha_mask"] =
-        json!({"texture": "assets/checker.png", "scale": [2, 1]});
+        json!({"texture": "assets/checker.png", "scale": [2, 1], "channel": "g"});
     let scene = load_str(&v.to_string(), Some(&scene_path(""))).unwrap();
     let c = compiled(&scene, 8, cwbvh(true), None);
     assert!(c.features.alpha, "the scene has no alpha mask");

@@ -155,8 +155,10 @@ fn a_mesh_without_uvs_is_parameterised_by_its_barycentrics() {
     };
     let anisotropic = r#"{"type": "conductor", "roughness": 0.5, "anisotropy": 0.9,
         "reflectance": {"texture": "assets/checker.png", "scale": [3, 3]}}"#;
+    // The checker's green channel (60 and 220) cuts every other square; its red channel (200
+    // and 230) would cut nothing.
     let masked = r#"{"type": "diffuse", "reflectance": 0.8,
-        "alpha_mask": {"texture": "assets/checker.png", "scale": [3, 3]}}"#;
+        "alpha_mask": {"texture": "assets/checker.png", "scale": [3, 3], "channel": "g"}}"#;
     for (name, material) in [("anisotropic", anisotropic), ("masked", masked)] {
         let render = |normals, uvs| {
             render_loaded(&scene(normals, uvs, material), "nee", 16, 24, 24, 1, None).0

@@ -29,8 +29,10 @@ fn cornell_with(objects: Vec<Value>, definitions: Option<Value>) -> Scene {
     }
     v["materials"]["blue"] = json!({"type": "diffuse", "reflectance": [0.1, 0.2, 0.7]});
     v["materials"]["metal"] = json!({"type": "conductor", "roughness": 0.3});
+    // The checker's green channel (60 and 220) cuts every other square; its red channel (200
+    // and 230) would cut nothing.
     v["materials"]["cutout"] = json!({"type": "diffuse", "reflectance": [0.7, 0.6, 0.2],
-        "alpha_mask": {"texture": "assets/checker.png", "scale": [2, 2]}});
+        "alpha_mask": {"texture": "assets/checker.png", "scale": [2, 2], "channel": "g"}});
     let dir = scene_path("cornell.json").parent().unwrap().to_path_buf();
     renderer::scene::load_str(&v.to_string(), Some(&dir)).unwrap_or_else(|e| panic!("{e}"))
 }
