@@ -77,7 +77,9 @@ pub(super) struct Frames {
 
 /// One mesh's triangles, with a shading record where the mesh has normals or uvs, or an
 /// alpha-masked material (the mask reads the record's uvs: without uvs, the triangles'
-/// barycentrics); every triangle's records are computed in parallel into the slots it takes.
+/// barycentrics; such records hold what common/surface.glsl takes without one, so the feature
+/// `tri_shading`, which compiles the reading of records into surface.glsl, stays off for them);
+/// every triangle's records are computed in parallel into the slots it takes.
 pub(super) fn triangles(
     mesh: &TriangleMesh,
     frames: Frames,
