@@ -544,6 +544,24 @@ fn masked_and_ply_backed_instances_render_like_their_flattened_copy() {
     assert_same_image(&inst, &flat, "masked overrides");
 }
 
+/// A replacing material's mask on a definition with neither normals nor uvs (tent.obj, flat): the
+/// mask reads the triangles' barycentrics as uvs (docs/scene-format.md), so the instances need
+/// the shading records a masked mesh of their own gets; the masks must cut something.
+#[test]
+fn a_masked_replacing_material_cuts_a_definition_without_uvs() {
+    let tent = json!({"type": "mesh", "file": "testdata/meshes/tent.obj", "smooth": false});
+    let masked = [Some("cutout"), None, Some("cutout"), None];
+    let (inst, flat) = instanced_and_flat_with(tent.clone(), "white", &masked);
+    assert!(inst.prototypes[0].normals.is_none() && inst.prototypes[0].uvs.is_none());
+    assert_same_image(&inst, &flat, "masked overrides without uvs");
+    let (_, whole) = instanced_and_flat_with(tent, "white", &[None; 4]);
+    let (a, _) = render_loaded(&flat, "nee", 4, SIZE, SIZE, 7, Some(4));
+    let (b, _) = render_loaded(&whole, "nee", 4, SIZE, SIZE, 7, Some(4));
+    let (rel, share) = difference(&a, &b);
+    println!("masked against whole: mean |Δ| {rel:.2e} of the mean, {share:.3} of pixels off");
+    assert!(rel > 1e-2, "the masks cut nothing: {rel} {share}");
+}
+
 /// Prototype BVHs come from the cache on a second compile; the shader's fallbacks for trees
 /// deeper than its stack (the prototype's BVH: the stackless walk; the top-level BVH keeps its
 /// full stack, being built within it) give the image of the full stack.

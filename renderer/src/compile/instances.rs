@@ -105,9 +105,14 @@ pub(super) fn build(
     };
     let alpha_material = prims::alpha_materials(scene);
     // Step 1: each used prototype's primitives (object frame) and BLAS.
+    // A prototype some instance of which replaces its material by a masked one needs the
+    // records the mask reads, whatever its own materials (prims::triangles).
+    let is_masked = |m: u32| alpha_material.get(m as usize).copied().unwrap_or(false);
     let mut used = vec![false; scene.prototypes.len()];
+    let mut masked_elsewhere = vec![false; scene.prototypes.len()];
     for i in &scene.instances {
         used[i.prototype as usize] = true;
+        masked_elsewhere[i.prototype as usize] |= i.material.is_some_and(is_masked);
     }
     let object = Frames {
         origin: DVec3::ZERO,
@@ -125,7 +130,13 @@ pub(super) fn build(
             continue;
         }
         let mut local = Prims::default();
-        prims::triangles(mesh, object, &alpha_material, &mut local);
+        prims::triangles(
+            mesh,
+            object,
+            &alpha_material,
+            masked_elsewhere[p],
+            &mut local,
+        );
         let built = accel::build_accel(
             &blas_opts,
             &local.gpu,
@@ -189,10 +200,8 @@ pub(super) fn build(
         if glam::DMat3::from_mat4(inst.to_world).determinant() < 0.0 {
             flags |= INST_MIRROR;
         }
-        if let Some(m) = inst.material {
-            if alpha_material.get(m as usize).copied().unwrap_or(false) {
-                flags |= INST_ALPHA;
-            }
+        if inst.material.is_some_and(is_masked) {
+            flags |= INST_ALPHA;
         }
         instances.push(GpuInstance {
             world_to_object,

@@ -53,7 +53,7 @@ pub(super) fn gather(scene: &Scene, origin: DVec3, centre: DVec3) -> Result<Prim
         return Err(CompileError::TooManyPrims(prims));
     }
     for mesh in &scene.meshes {
-        triangles(mesh, frames, &alpha_material, &mut out);
+        triangles(mesh, frames, &alpha_material, false, &mut out);
     }
     spheres(scene, frames, &alpha_material, &mut out);
     Ok(out)
@@ -76,14 +76,16 @@ pub(super) struct Frames {
 }
 
 /// One mesh's triangles, with a shading record where the mesh has normals or uvs, or an
-/// alpha-masked material (the mask reads the record's uvs: without uvs, the triangles'
-/// barycentrics; such records hold what common/surface.glsl takes without one, so the feature
-/// `tri_shading`, which compiles the reading of records into surface.glsl, stays off for them);
-/// every triangle's records are computed in parallel into the slots it takes.
+/// alpha-masked material, or `masked_elsewhere` (an instance of this prototype replaces its
+/// material by a masked one). A mask reads the record's uvs (without uvs, the triangles'
+/// barycentrics); such records hold what common/surface.glsl takes without one, so the feature
+/// `tri_shading`, which compiles the reading of records into surface.glsl, stays off for them.
+/// Every triangle's records are computed in parallel into the slots it takes.
 pub(super) fn triangles(
     mesh: &TriangleMesh,
     frames: Frames,
     alpha_material: &[bool],
+    masked_elsewhere: bool,
     out: &mut Prims,
 ) {
     use rayon::prelude::*;
@@ -91,6 +93,7 @@ pub(super) fn triangles(
     let masked = |m: &u32| alpha_material.get(*m as usize).copied().unwrap_or(false);
     let shaded = mesh.normals.is_some()
         || mesh.uvs.is_some()
+        || masked_elsewhere
         || (alpha_material.contains(&true) && mesh.materials.par_iter().any(masked));
     // Step 1: room for the mesh's records (triangle t's shading record, if any, is at
     // `shade_base + t`).
