@@ -128,6 +128,12 @@ bool intersect_sphere(Ray r, vec3 center, float radius, out float t) {
     return false;
 }
 
+// The uv of a triangle's point of barycentrics b12 (of v1, v2) when its mesh has no texture
+// coordinates: Mitsuba's (b1, b2), whose v = 0 is a texture's top row; candela reads v = 1
+// there, so v is returned flipped (as sphere_uv's). renderer/src/compile/prims.rs's shading
+// records hold the same corners.
+vec2 barycentric_uv(vec2 b12) { return vec2(b12.x, 1.0 - b12.y); }
+
 // Mitsuba's sphere parameterisation at `local` (a point of the sphere of `radius` minus its
 // centre): u = longitude around +z / 2π, v = colatitude / π, with v = 0 on a texture's top row;
 // candela reads v = 1 there, so v is returned flipped.

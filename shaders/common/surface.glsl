@@ -82,10 +82,10 @@ Surface surface_at(Hit hit, Ray ray) {
 #endif
         s.ng = normalize(cross(p1 - p0, p2 - p0));
         s.ns = s.ng;
-        // Without uvs a triangle is parameterised by its barycentrics, uv = (b1, b2), so dp/du
-        // runs along its first edge (Mitsuba's convention for meshes without texture
+        // Without uvs a triangle is parameterised by its barycentrics (`barycentric_uv`), so
+        // dp/du runs along its first edge (Mitsuba's convention for meshes without texture
         // coordinates; anisotropic lobes stretch along it).
-        s.uv = vec2(b1, b2);
+        s.uv = barycentric_uv(vec2(b1, b2));
         dpdu = p1 - p0;
         uint si = floatBitsToUint(p.c.w);
 #ifdef HAS_TRI_SHADING

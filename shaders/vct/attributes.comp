@@ -8,6 +8,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "vct/common.glsl"
 #include "vct/closest.glsl"
+#include "common/intersect.glsl"
 #include "common/material.glsl"
 
 layout(local_size_x = 64, local_size_y = 1, local_size_z = 1) in;
@@ -38,7 +39,7 @@ void main() {
         vec3 b = closest_on_triangle(centre, pr.a.xyz, pr.b.xyz, pr.c.xyz);
         q = b.x * pr.a.xyz + b.y * pr.b.xyz + b.z * pr.c.xyz;
         n = normalize(cross(pr.b.xyz - pr.a.xyz, pr.c.xyz - pr.a.xyz));
-        uv = b.yz;
+        uv = barycentric_uv(b.yz);
 #ifdef HAS_TRI_SHADING
         uint si = floatBitsToUint(pr.c.w);
         if (si != NONE) {

@@ -120,10 +120,12 @@ fn a_camera_beside_a_wall_loses_no_light() {
     assert!(worst < 4e-3, "a pixel is {worst} off 1.75");
 }
 
-/// A mesh without uvs is parameterised by each triangle's barycentrics, uv = (b1, b2), as in
-/// Mitsuba: textures and alpha masks read it there and its tangent, along which anisotropic lobes
-/// stretch, runs along the triangle's first edge, whether or not the mesh has normals. So such a
-/// mesh renders as the same mesh given those uvs (0, 0), (1, 0), (0, 1) explicitly. Before, a mesh
+/// A mesh without uvs is parameterised by each triangle's barycentrics as in Mitsuba, uv = (b1,
+/// 1 − b2) in candela's v direction: textures and alpha masks read it there and its tangent, along
+/// which anisotropic lobes stretch, runs along the triangle's first edge, whether or not the mesh
+/// has normals. So such a mesh renders as the same mesh given those uvs (0, 1), (1, 1), (0, 0)
+/// explicitly (that this is Mitsuba's orientation: mitsuba_reference.rs's
+/// `meshes_without_uvs_match_mitsuba`). Before, a mesh
 /// without uvs had any frame around its normal as its tangent (Mitsuba audit seed 367: an
 /// anisotropic principled tetrahedron up to twice too bright), one with normals but no uvs read
 /// every texture at (0, 0), and one with neither ignored its alpha mask.
@@ -140,7 +142,7 @@ fn a_mesh_without_uvs_is_parameterised_by_its_barycentrics() {
             mesh["normals"] = serde_json::json!(vec![[0, 1, 0]; 6]);
         }
         if uvs {
-            mesh["uvs"] = serde_json::json!([[0, 0], [1, 0], [0, 1], [0, 0], [1, 0], [0, 1]]);
+            mesh["uvs"] = serde_json::json!([[0, 1], [1, 1], [0, 0], [0, 1], [1, 1], [0, 0]]);
         }
         let text = format!(
             r#"{{"version": 1,

@@ -126,3 +126,37 @@ fn alpha_masked_sphere_matches_mitsuba() {
     std::fs::write(&path, scene).unwrap();
     compare_at("masked_sphere", &path, &dir, [32, 32], [1024, 2048]);
 }
+
+/// Meshes without uvs: a textured floor and an alpha-masked panel, both inline triangles with no
+/// texture coordinates, so each triangle is parameterised by its barycentrics as in Mitsuba
+/// (docs/scene-format.md). candela read textures there upside down (v = b2 against Mitsuba's
+/// top-down v) until the random-scene audit found it (bench/RESULTS.md, seed 441).
+#[test]
+fn meshes_without_uvs_match_mitsuba() {
+    let dir = scratch("mitsuba_no_uvs");
+    let path = dir.join("no_uvs.json");
+    let root = candela_tests::repo_root();
+    for (from, to) in [
+        ("tests/import/mitsuba/mask.png", "mask.png"),
+        ("scenes/assets/checker.png", "checker.png"),
+    ] {
+        std::fs::copy(root.join(from), dir.join(to)).unwrap();
+    }
+    let scene = r#"{"version": 1, "camera": {"position": [0, 1.6, 2.6], "look_at": [0, 0.3, 0], "fov_y": 45},
+        "film": {"width": 32, "height": 32},
+        "materials": {
+          "floor": {"type": "diffuse", "reflectance": {"texture": "checker.png", "scale": [1, 1.5]}},
+          "cut": {"type": "diffuse", "reflectance": [0.8, 0.35, 0.2], "two_sided": false,
+                  "alpha_mask": {"texture": "mask.png", "scale": [1.7, 1.3], "channel": "r"}},
+          "lamp": {"type": "diffuse", "reflectance": 0, "emission": [10, 10, 9]}},
+        "objects": [
+          {"type": "triangles", "positions": [[-1.5, 0, 1.2], [1.5, 0, 1.2], [1.5, 0, -1.5], [-1.5, 0, -1.5]],
+           "indices": [0, 1, 2, 0, 2, 3], "material": "floor"},
+          {"type": "triangles", "positions": [[-0.9, 0.05, 0.2], [0.9, 0.05, 0.2], [-0.9, 1.1, 0.2], [0.9, 1.1, 0.2]],
+           "indices": [0, 1, 2, 3, 2, 1], "material": "cut"},
+          {"type": "quad", "origin": [-0.5, 2.2, -0.5], "edge_u": [1, 0, 0], "edge_v": [0, 0, 1],
+           "material": "lamp"}],
+        "render": {"max_depth": 3}}"#;
+    std::fs::write(&path, scene).unwrap();
+    compare_at("no_uvs", &path, &dir, [32, 32], [1024, 2048]);
+}

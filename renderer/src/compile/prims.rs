@@ -160,10 +160,11 @@ fn grow<T: Clone + Send + Sync>(v: &mut Vec<T>, n: usize, fill: T) {
 }
 
 /// A triangle's vertex normals and uvs (w of `uv_v`: 1 when the normals are the mesh's own). A
-/// mesh without uvs gets each triangle's own barycentric corners (0, 0), (1, 0), (0, 1), so that
-/// uv = (b1, b2) as for triangles without a record (common/surface.glsl) and in Mitsuba.
+/// mesh without uvs gets each triangle's own barycentric corners (0, 1), (1, 1), (0, 0), so that
+/// uv = (b1, 1 − b2) as for triangles without a record (common/intersect.glsl's
+/// `barycentric_uv`): Mitsuba's (b1, b2) in candela's v direction.
 fn shading_record(mesh: &TriangleMesh, idx: &[u32; 3]) -> GpuTriShading {
-    const CORNERS: [glam::Vec2; 3] = [glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::Y];
+    const CORNERS: [glam::Vec2; 3] = [glam::Vec2::Y, glam::Vec2::ONE, glam::Vec2::ZERO];
     let n = |k: usize| {
         mesh.normals
             .as_ref()
