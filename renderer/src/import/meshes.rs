@@ -82,11 +82,16 @@ pub fn to_ply(mesh: &RawMesh) -> Vec<u8> {
     out
 }
 
-/// Reverses every triangle's winding and negates the normals (the other side becomes the front).
-pub fn flip_orientation(mesh: &mut RawMesh) {
+/// Reverses every triangle's winding (its second and third vertices swapped), normals untouched.
+pub fn reverse_winding(mesh: &mut RawMesh) {
     for t in &mut mesh.indices {
         t.swap(1, 2);
     }
+}
+
+/// Reverses every triangle's winding and negates the normals (the other side becomes the front).
+pub fn flip_orientation(mesh: &mut RawMesh) {
+    reverse_winding(mesh);
     if let Some(n) = &mut mesh.normals {
         for v in n {
             *v = -*v;

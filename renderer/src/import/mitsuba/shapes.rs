@@ -16,7 +16,7 @@ use super::scene::rgb_value;
 use super::{serialized, Ctx, Mat};
 use crate::import::diag::Loc;
 use crate::import::groups::Group;
-use crate::import::meshes::{file_error, flip_orientation, flip_v, read_file};
+use crate::import::meshes::{file_error, flip_orientation, flip_v, read_file, reverse_winding};
 use crate::import::xform::transform_value;
 use crate::scene::desc::BoxDesc;
 use crate::scene::mesh::{FileError, RawMesh};
@@ -77,7 +77,8 @@ fn objects(ctx: &mut Ctx, node: usize, outer: &DMat4) -> Result<Vec<(Value, Loc)
     let textured = mat.textured();
     let material = material_name(ctx, &mat, emission, &loc)?;
     // Step 2: geometry.
-    let to_world = *outer * p.transform("to_world")?;
+    let own = p.transform("to_world")?;
+    let to_world = *outer * own;
     if !(to_world.determinant().abs() > 0.0 && to_world.is_finite()) {
         return Err(p
             .loc_of("to_world")
@@ -124,7 +125,7 @@ fn objects(ctx: &mut Ctx, node: usize, outer: &DMat4) -> Result<Vec<(Value, Loc)
             let o = ctx.doc.mesh_object("disk", &mesh);
             placed(o, &to_world)
         }
-        _ => mesh(ctx, &p, &to_world, flip, textured)?,
+        _ => mesh(ctx, &p, &to_world, own.determinant() < 0.0, flip, textured)?,
     };
     o["material"] = json!(material);
     p.finish(&mut ctx.report)?;
@@ -255,11 +256,13 @@ fn sphere(
     Ok(o)
 }
 
-/// obj / ply / serialized.
+/// obj / ply / serialized; `mirrored`: the shape's own `to_world` mirrors (not the scene's mirror
+/// for a mirrored sensor, which turns Mitsuba's fronts as candela's loader does).
 fn mesh(
     ctx: &mut Ctx,
     p: &Plugin,
     to_world: &DMat4,
+    mirrored: bool,
     flip: bool,
     textured: bool,
 ) -> Result<Value, SceneError> {
@@ -276,8 +279,9 @@ fn mesh(
             .error("shape_index applies to serialized files only"));
     }
     let rewrite = flip || flip_tex || p.ty == "serialized" || (p.ty == "ply" && textured);
-    let mut o = if !rewrite {
-        json!({"type": "mesh", "file": rel})
+    let file = json!({"type": "mesh", "file": rel});
+    let o = if !rewrite && !mirrored {
+        file
     } else {
         let floc = p.loc_of("filename");
         let bytes = read_file(&ctx.tree.scene_dir, &rel, &name).map_err(|m| floc.error(m))?;
@@ -297,14 +301,30 @@ fn mesh(
         if flip {
             flip_orientation(&mut raw);
         }
+        // Mitsuba keeps a mirrored mesh's vertex order, so where no vertex normals set its front
+        // (none, or `face_normals`) that front is the other side than the one candela's loader
+        // keeps by reversing the winding (pbrt's rule, docs/scene-format.md's transform):
+        // reversed here too, the loader gives Mitsuba's order back. With vertex normals
+        // Mitsuba's front follows them, as candela's does.
+        let reverse = mirrored && (!smooth || raw.normals.is_none());
+        if reverse {
+            reverse_winding(&mut raw);
+        } else if !rewrite {
+            return Ok(placed(with_smooth(file, smooth), to_world));
+        }
         let stem = std::path::Path::new(&rel)
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "mesh".into());
         ctx.doc.mesh_object(&stem, &raw)
     };
+    Ok(placed(with_smooth(o, smooth), to_world))
+}
+
+/// `o` with `smooth` set.
+fn with_smooth(mut o: Value, smooth: bool) -> Value {
     o["smooth"] = json!(smooth);
-    Ok(placed(o, to_world))
+    o
 }
 
 /// A regular polygon in the unit disk's place (z = 0, facing +z) with the disk's area, uv polar
