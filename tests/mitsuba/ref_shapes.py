@@ -70,6 +70,33 @@ def write_ply(fname, pos, idx, normals, uvs):
             f.write(struct.pack("<B3i", 3, *t))
 
 
+def mirrors(xf):
+    """Whether transform `xf` mirrors (its linear part's determinant is negative)."""
+    m = matrix_rows(xf)
+    return (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])) < 0
+
+
+def file_has_normals(fname):
+    """Whether a PLY's vertices or an OBJ's faces carry normals (as candela's loaders read them)."""
+    with open(fname, "rb") as f:
+        if fname.lower().endswith(".ply"):
+            for line in f:
+                w = line.split()
+                if w == [b"end_header"]:
+                    return False
+                if len(w) == 3 and w[0] == b"property" and w[2] == b"nx":
+                    return True
+            return False
+        for line in f:
+            w = line.split()
+            if w and w[0] == b"f" and any(len(t.split(b"/")) == 3 and t.split(b"/")[2]
+                                          for t in w[1:]):
+                return True
+    return False
+
+
 def obj_usemtl(fname):
     """(names used by `usemtl`, whether a face comes before the first usemtl)."""
     names, face_first = [], False
@@ -115,9 +142,9 @@ class Shapes:
         xf = object_transform(o.get("transform"), f"{path}.transform")
         mat = o.get("material")
         if kind == "mesh":
-            d, mat = self.mesh(o, path, mat)
+            d, mat = self.mesh(o, path, mat, mirrors(xf))
         elif kind == "triangles":
-            d = self.triangles(o, path, i)
+            d = self.triangles(o, path, i, mirrors(xf))
         elif kind == "sphere":
             d = self.sphere(o, path, xf)
         elif kind == "quad":
@@ -139,7 +166,7 @@ class Shapes:
             d["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": em}}
         return mi.load_dict(d)
 
-    def mesh(self, o, path, mat):
+    def mesh(self, o, path, mat, mirrored):
         full = resolve(self.dir, o.get("file"), f"{path}.file")
         smooth = o.get("smooth", True)
         if not isinstance(smooth, bool):
@@ -156,7 +183,26 @@ class Shapes:
             mat = names.pop()
         if ext == ".ply" and "texture" in json.dumps((self.scene.get("materials") or {}).get(mat)):
             full = self.ply_flipped_v(full)
+        if mirrored and (not smooth or not file_has_normals(full)):
+            full, ext = self.reversed(full), ".ply"
         return {"type": ext[1:], "filename": full, "face_normals": not smooth}, mat
+
+    def reversed(self, full):
+        """Under a mirroring to_world Mitsuba keeps a mesh's vertex order, so where no vertex
+        normals set its front (none, or face_normals) that front is the other side than candela's
+        (pbrt's rule, docs/scene-format.md's transform): such a mesh is handed over as a copy with
+        its winding reversed."""
+        mesh = mi.load_dict({"type": os.path.splitext(full)[1][1:], "filename": full,
+                             "face_normals": True})
+        params = mi.traverse(mesh)
+        f = params["faces"]
+        k = dr.arange(dr.scalar.ArrayXu, len(f))
+        swapped = dr.gather(type(f), f, dr.select(k % 3 == 1, k + 1, dr.select(k % 3 == 2, k - 1, k)))
+        params["faces"] = swapped
+        params.update()
+        out = os.path.join(self.tmp, f"reversed_{len(os.listdir(self.tmp))}.ply")
+        mesh.write_ply(out)
+        return out
 
     def ply_flipped_v(self, full):
         """Mitsuba's PLY loader puts v = 0 on a texture's top row, candela's on the bottom row:
@@ -173,7 +219,7 @@ class Shapes:
         mesh.write_ply(out)
         return out
 
-    def triangles(self, o, path, i):
+    def triangles(self, o, path, i, mirrored):
         pos = flat(o.get("positions"), 3, f"{path}.positions")
         idx = [tuple(int(x) for x in t) for t in flat(o.get("indices"), 3, f"{path}.indices")]
         if any(not 0 <= x < len(pos) for t in idx for x in t):
@@ -183,6 +229,8 @@ class Shapes:
         for name, arr in (("normals", nrm), ("uvs", uvs)):
             if arr is not None and len(arr) != len(pos):
                 raise SceneError(f"{path}.{name}: one per position expected")
+        if mirrored and nrm is None:  # reversed, as a mesh's (Shapes.reversed)
+            idx = [(a, c, b) for a, b, c in idx]
         fname = os.path.join(self.tmp, f"triangles_{i}.ply")
         write_ply(fname, pos, idx, nrm, uvs)
         # Without normals: flat shading (geometric normals), not Mitsuba's computed vertex normals.

@@ -142,3 +142,90 @@ fn mirrored_meshes_xml_render_like_mitsuba() {
     let (c, m, what) = render_both("mirrored");
     assert_matches_mitsuba("mirrored.xml", [&c[0], &c[1]], [&m[0], &m[1]], &what);
 }
+
+/// The converse: a candela scene with mirroring transforms written as Mitsuba XML (`candela
+/// convert`) and translated by tests/mitsuba/ref_scene.py renders as candela renders it. A lamp
+/// (OBJ with normals, flat) that candela turns down onto the floor and three one-sided panels
+/// that candela turns to the camera: triangles without normals or uvs (checker on barycentric
+/// uvs), an OBJ with normals (smooth: its normals set both fronts, nothing reversed) and a PLY
+/// with uvs but no normals (smooth, normals computed). Unreversed, Mitsuba lights the ceiling
+/// and shows the panels' backs.
+#[test]
+fn mirrored_meshes_export_facing_as_candela() {
+    assert!(mitsuba_available(), "Mitsuba 3 is not installed");
+    let dir = scratch("export_mirrored");
+    let root = repo_root();
+    for (from, to) in [
+        ("tests/import/mitsuba/tile.obj", "tile.obj"),
+        ("tests/import/mitsuba/quad_uv.ply", "quad_uv.ply"),
+        ("scenes/assets/checker.png", "checker.png"),
+    ] {
+        std::fs::copy(root.join(from), dir.join(to)).unwrap();
+    }
+    // A panel: the unit square mirrored in x, scaled by 0.3, at (x, 0.4, -0.3).
+    let panel = |x: f64| {
+        format!(r#"{{"matrix": [-0.3, 0, 0, {x}, 0, 0.3, 0, 0.4, 0, 0, 1, -0.3, 0, 0, 0, 1]}}"#)
+    };
+    let scene = format!(
+        r#"{{"version": 1, "camera": {{"position": [0, 1, 4], "look_at": [0, 0.5, 0], "fov_y": 45}},
+        "film": {{"width": {SIZE}, "height": {SIZE}}},
+        "materials": {{
+          "grey": {{"type": "diffuse", "reflectance": 0.6}},
+          "orange": {{"type": "diffuse", "reflectance": [0.8, 0.4, 0.1], "two_sided": false}},
+          "checker": {{"type": "diffuse", "reflectance": {{"texture": "checker.png", "scale": [2, 3]}},
+                       "two_sided": false}},
+          "lamp": {{"type": "diffuse", "reflectance": 0, "emission": [6, 6, 5]}}}},
+        "objects": [
+          {{"type": "quad", "origin": [-3, 0, 3], "edge_u": [6, 0, 0], "edge_v": [0, 0, -6],
+            "material": "grey"}},
+          {{"type": "mesh", "file": "tile.obj", "smooth": false, "material": "lamp",
+            "transform": {{"matrix": [-0.5, 0, 0, 0, 0, 0, -1, 1.5, 0, 0.5, 0, 0, 0, 0, 0, 1]}}}},
+          {{"type": "triangles", "positions": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
+            "indices": [0, 1, 2, 0, 2, 3], "material": "checker", "transform": {a}}},
+          {{"type": "mesh", "file": "tile.obj", "material": "orange", "transform": {b}}},
+          {{"type": "mesh", "file": "quad_uv.ply", "material": "checker", "transform": {c}}}],
+        "render": {{"max_depth": 3}}}}"#,
+        a = panel(0.75),
+        b = panel(-0.75),
+        c = panel(0.0),
+    );
+    let json = dir.join("mirrored.json");
+    std::fs::write(&json, scene).unwrap();
+    let (c1, stats) = candela_tests::render_scene(&json, "nee", SPP_CANDELA, SIZE, SIZE, 11, None);
+    let (c2, _) = candela_tests::render_scene(&json, "nee", SPP_CANDELA, SIZE, SIZE, 12, None);
+    renderer::film::write_exr(&dir.join("candela.exr"), &c1).unwrap();
+    let imp = renderer::import::import_file(&json, &ImportOptions::default()).unwrap();
+    let xml = dir.join("mirrored.xml");
+    renderer::import::mitsuba::export::write_xml(&imp, &xml).unwrap();
+    let exported = |seed: u64| {
+        render_mitsuba_xml(
+            &xml,
+            &dir.join(format!("xml{seed}.exr")),
+            SPP_MITSUBA,
+            seed,
+            &[],
+        )
+        .expect("mitsuba render of the exported XML")
+    };
+    let translated = |seed: u64| {
+        let out = dir.join(format!("ref{seed}.exr"));
+        candela_tests::render_mitsuba(&json, &out, SPP_MITSUBA, SIZE, SIZE, seed, None)
+            .expect("mitsuba render through ref_scene.py")
+    };
+    let what = |how: &str| {
+        format!(
+            "candela nee {SPP_CANDELA} spp ({:.2} Msamples/s on {}) vs Mitsuba {SPP_MITSUBA} spp {how}",
+            stats.msamples_per_s, stats.device.name
+        )
+    };
+    let (x1, x2) = (exported(1), exported(2));
+    assert_matches_mitsuba(
+        "mirrored export",
+        [&c1, &c2],
+        [&x1, &x2],
+        &what("of the exported XML"),
+    );
+    let (r1, r2) = (translated(3), translated(4));
+    let how = "of tests/mitsuba/ref_scene.py's translation";
+    assert_matches_mitsuba("mirrored translation", [&c1, &c2], [&r1, &r2], &what(how));
+}

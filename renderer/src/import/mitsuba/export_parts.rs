@@ -10,7 +10,7 @@ use serde_json::Value;
 
 use super::export::{num, untranslatable, El, Export};
 use crate::film::Image;
-use crate::import::meshes::{flip_v, to_ply};
+use crate::import::meshes::{flip_v, reverse_winding, to_ply};
 use crate::scene::desc::{Channel, TextureRefDesc, TransformDesc, TrianglesDesc};
 use crate::scene::paths::AssetRoot;
 use crate::scene::texture::decode_file;
@@ -85,7 +85,7 @@ impl Parts {
                 let bytes = std::fs::read(ex.base.join(file))
                     .map_err(|e| SceneError::io(&format!("{path}.file"), file, &e))?;
                 let parse_err = |msg: String| SceneError::invalid(format!("{path}.file"), msg);
-                let mut el = El::plugin("shape", &ext);
+                let mut parsed = None;
                 if ext == "obj" && material.is_none() {
                     // Mitsuba ignores usemtl: one name only.
                     let m = obj::parse(&bytes, usize::MAX).map_err(|e| parse_err(e.msg))?;
@@ -99,21 +99,44 @@ impl Parts {
                             ))
                         }
                     }
+                    parsed = Some(m.raw);
                 }
                 let textured = material
                     .as_ref()
                     .is_some_and(|m| ex.doc["materials"][m].to_string().contains("\"texture\""));
-                if ext == "ply" && textured {
-                    // Mitsuba reads a PLY's v = 0 on the top texel row, candela on the bottom.
-                    let mut raw = ply::parse(&bytes, usize::MAX).map_err(|e| parse_err(e.msg))?;
-                    flip_v(&mut raw);
-                    let name = format!("mesh_{stem}.ply");
-                    let rel = ex.file(&name, to_ply(&raw));
-                    el = el.string("filename", &rel);
-                } else {
-                    el = el.string("filename", file);
+                // Mitsuba reads a PLY's v = 0 on the top texel row, candela on the bottom.
+                let flip_ply = ext == "ply" && textured;
+                // Under a mirroring to_world Mitsuba keeps a mesh's vertex order, so where no
+                // vertex normals set its front (none, or face_normals) that front is the other
+                // side than candela's (pbrt's rule, docs/scene-format.md's transform): such a
+                // mesh is written with its winding reversed (the converse of the importer's).
+                let mirrored = xf.determinant() < 0.0 && matches!(ext.as_str(), "obj" | "ply");
+                let mut rewritten = None;
+                if flip_ply || mirrored {
+                    let mut raw = match parsed {
+                        Some(raw) => raw,
+                        None if ext == "obj" => {
+                            obj::parse(&bytes, usize::MAX)
+                                .map_err(|e| parse_err(e.msg))?
+                                .raw
+                        }
+                        None => ply::parse(&bytes, usize::MAX).map_err(|e| parse_err(e.msg))?,
+                    };
+                    let reverse = mirrored && (!smooth || raw.normals.is_none());
+                    if reverse {
+                        reverse_winding(&mut raw);
+                    }
+                    if reverse || flip_ply {
+                        flip_v(&mut raw);
+                        let name = format!("mesh_{stem}{}.ply", reversed_suffix(reverse));
+                        rewritten = Some(ex.file(&name, to_ply(&raw)));
+                    }
                 }
-                el.boolean("face_normals", !smooth)
+                match rewritten {
+                    Some(rel) => El::plugin("shape", "ply").string("filename", &rel),
+                    None => El::plugin("shape", &ext).string("filename", file),
+                }
+                .boolean("face_normals", !smooth)
             }
             "triangles" => {
                 let t: TrianglesDesc =
@@ -122,7 +145,13 @@ impl Parts {
                 let mut raw = shapes::triangles(&t, &path, usize::MAX)?;
                 flip_v(&mut raw);
                 let has_normals = raw.normals.is_some();
-                let rel = ex.file(&format!("triangles_{stem}.ply"), to_ply(&raw));
+                // Mirrored without normals: reversed, as a mesh's above.
+                let reverse = xf.determinant() < 0.0 && !has_normals;
+                if reverse {
+                    reverse_winding(&mut raw);
+                }
+                let name = format!("triangles_{stem}{}.ply", reversed_suffix(reverse));
+                let rel = ex.file(&name, to_ply(&raw));
                 // Without normals: flat shading, not Mitsuba's computed vertex normals.
                 El::plugin("shape", "ply")
                     .string("filename", &rel)
@@ -501,6 +530,16 @@ impl Parts {
 }
 
 /// `{"texture": ...}` read as the loader reads it.
+/// What a mesh file written with its winding reversed adds to its name (the same definition can
+/// be written both ways, by emitting instances placed in place).
+fn reversed_suffix(reversed: bool) -> &'static str {
+    if reversed {
+        "_reversed"
+    } else {
+        ""
+    }
+}
+
 fn texture_ref(v: &Value, path: &str, name: &str) -> Result<TextureRefDesc, SceneError> {
     serde_json::from_value(v.clone())
         .map_err(|e| SceneError::invalid(format!("{path}.{name}"), e.to_string()))
