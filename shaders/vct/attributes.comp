@@ -34,6 +34,7 @@ void main() {
         float l = length(dc);
         n = l > 0.0 ? dc / l : vec3(0.0, 0.0, 1.0);
         q = pr.a.xyz + pr.b.x * n;
+        uv = sphere_uv(pr.b.x * n, pr.b.x);
         if ((bits & PRIM_FLIP_NORMALS) != 0u) n = -n;
     } else {
         vec3 b = closest_on_triangle(centre, pr.a.xyz, pr.b.xyz, pr.c.xyz);

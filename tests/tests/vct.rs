@@ -232,21 +232,13 @@ fn sky_sphere(sky: f32, look_at: [f32; 3]) -> Scene {
     ))
 }
 
-/// Injection units: a convex white sphere under a constant sky L receives E = πL everywhere, so
-/// its voxels must hold albedo/π · E = 0.5 L (read back at the voxel centres of level 0).
-#[test]
-fn injected_radiance_is_in_path_tracer_units() {
-    let _guard = serial();
-    let ctx = gpu();
-    let compiled = compile(&sky_sphere(2.0, [0.0; 3]), 16, 16).expect("compile");
-    let o: VctOptions = serde_json::from_str(r#"{"resolution":64,"inject_samples":64}"#).unwrap();
-    let v = DebugVolume::new(&ctx, &compiled, &o).expect("volume");
-    let (r, _) = v.resolution();
+/// A probe at every level-0 voxel centre of a grid of `r`³, looking at the voxel from outside: towards
+/// the grid's centre (a sphere's centre in the sphere scenes).
+fn towards_the_centre(r: u32) -> Vec<([f32; 4], [f32; 4])> {
     let mut probes = Vec::new();
     for z in 0..r {
         for y in 0..r {
             for x in 0..r {
-                // Looking at the voxel from outside: towards the sphere's centre (the grid's).
                 let p = [x as f32 + 0.5, y as f32 + 0.5, z as f32 + 0.5];
                 let c = r as f32 / 2.0;
                 let d = [c - p[0], c - p[1], c - p[2]];
@@ -258,6 +250,20 @@ fn injected_radiance_is_in_path_tracer_units() {
             }
         }
     }
+    probes
+}
+
+/// Injection units: a convex white sphere under a constant sky L receives E = πL everywhere, so
+/// its voxels must hold albedo/π · E = 0.5 L (read back at the voxel centres of level 0).
+#[test]
+fn injected_radiance_is_in_path_tracer_units() {
+    let _guard = serial();
+    let ctx = gpu();
+    let compiled = compile(&sky_sphere(2.0, [0.0; 3]), 16, 16).expect("compile");
+    let o: VctOptions = serde_json::from_str(r#"{"resolution":64,"inject_samples":64}"#).unwrap();
+    let v = DebugVolume::new(&ctx, &compiled, &o).expect("volume");
+    let (r, _) = v.resolution();
+    let probes = towards_the_centre(r);
     let vals = v.probe(&probes).expect("probe");
     let occupied: Vec<&[f32; 4]> = vals.iter().filter(|p| p[3] > 0.0).collect();
     assert_eq!(occupied.len() as u32, v.counts().0, "occupied voxels");
@@ -290,6 +296,67 @@ fn injected_radiance_is_in_path_tracer_units() {
         occupied.len()
     );
     assert!((m - 1.0).abs() < 0.02, "mean injected radiance {m}");
+}
+
+/// A sphere's texture is voxelised where the sphere shows it (its own uv, Mitsuba's longitude and
+/// colatitude): under a constant sky, with a texture whose top half is red and bottom half blue,
+/// the voxels of the upper hemisphere (+z) are red and those of the lower one blue (they were
+/// once all read at uv (0, 0), a blend of the two).
+#[test]
+fn a_textured_sphere_is_voxelised_with_its_texture() {
+    let _guard = serial();
+    let ctx = gpu();
+    let dir = candela_tests::scratch("vct_textured_sphere");
+    let (red, blue) = ([0.8f32, 0.1, 0.1], [0.1f32, 0.1, 0.8]);
+    let texture = Image {
+        width: 1,
+        height: 4,
+        pixels: vec![red, red, blue, blue],
+    };
+    renderer::film::write_exr(&dir.join("halves.exr"), &texture).unwrap();
+    let json = r#"{
+  "version": 1,
+  "camera": {"position": [0, 4, 0], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov_y": 30},
+  "film": {"width": 16, "height": 16},
+  "materials": {"halves": {"type": "diffuse", "reflectance": {"texture": "halves.exr"}}},
+  "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "halves"}],
+  "environment": {"type": "constant", "radiance": [1, 1, 1]}
+}"#;
+    let scene = renderer::scene::load_str(json, Some(&dir)).unwrap_or_else(|e| panic!("{e}"));
+    let compiled = compile(&scene, 16, 16).expect("compile");
+    let o: VctOptions = serde_json::from_str(r#"{"resolution":64,"inject_samples":64}"#).unwrap();
+    let v = DebugVolume::new(&ctx, &compiled, &o).expect("volume");
+    let (r, _) = v.resolution();
+    let probes = towards_the_centre(r);
+    let vals = v.probe(&probes).expect("probe");
+    // Step 1: mean red and blue of the occupied voxels well above and well below the equator.
+    let c = r as f32 / 2.0;
+    let mut sums = [[0f64; 3]; 2];
+    for (val, (p, _)) in vals.iter().zip(&probes) {
+        let z = p[2] - c;
+        if val[3] <= 0.0 || z.abs() < r as f32 / 8.0 {
+            continue;
+        }
+        let s = &mut sums[usize::from(z < 0.0)];
+        s[0] += (val[0] / val[3]) as f64;
+        s[1] += (val[2] / val[3]) as f64;
+        s[2] += 1.0;
+    }
+    // Step 2: each hemisphere's colour dominates (a uniform blend gives ratios near 1).
+    let [upper, lower] = sums.map(|[r, b, n]| [r / n, b / n]);
+    println!(
+        "upper hemisphere red/blue {upper:.3?}, lower {lower:.3?} ({} / {} voxels)",
+        sums[0][2], sums[1][2]
+    );
+    assert!(sums[0][2] > 100.0 && sums[1][2] > 100.0, "voxels {sums:?}");
+    assert!(
+        upper[0] > 3.0 * upper[1],
+        "upper hemisphere not red: {upper:?}"
+    );
+    assert!(
+        lower[1] > 3.0 * lower[0],
+        "lower hemisphere not blue: {lower:?}"
+    );
 }
 
 /// The sky-lit sphere rendered: direct light is exact, so vct's error against nee is the cones'
