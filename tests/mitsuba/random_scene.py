@@ -15,7 +15,8 @@ line of facts the generator knows independently of candela's loader:
   the audits skip those comparisons.
 
 A scene: an optional room or floor, one to four objects (spheres, boxes, quads, inline triangle
-meshes with or without normals and uvs, the uv sphere OBJ and, without --mitsuba, instances of it),
+meshes with or without normals and uvs, the uv sphere OBJ and, without --mitsuba, instances of it;
+a quarter of their transforms mirror),
 materials drawn from every model with random parameters (colour and roughness textures, textured
 principled and dielectric scalars, texture channels and explicit srgb, alpha masks and faint
 emission on any model included), and lights drawn from area quads and spheres, point, spot and
@@ -45,6 +46,8 @@ class Gen:
         # on any model, wide Gaussian filters) draw from their own stream, so a seed's base scene
         # stays what it was before they were added.
         self.x = random.Random(seed * 7919 + 1)
+        # Mirrors (a transform's scale negated along one axis) draw from a third stream likewise.
+        self.m = random.Random(seed * 7919 + 2)
         self.mitsuba = mitsuba
         self.features = set()
         self.materials = {}
@@ -172,6 +175,10 @@ class Gen:
             axis = [self.u(-1, 1), self.u(0.1, 1), self.u(-1, 1)]
             t["rotate"] = {"axis": axis, "angle": self.u(0, 360)}
         t["scale"] = self.u(0.3, 0.8) if self.chance(0.7) else [self.u(0.3, 0.8) for _ in range(3)]
+        if self.m.random() < 0.25:
+            s = t["scale"] if isinstance(t["scale"], list) else [t["scale"]] * 3
+            k = self.m.randrange(3)
+            t["scale"] = [-x if i == k else x for i, x in enumerate(s)]
         return t
 
     def tetrahedron(self, material):
@@ -188,6 +195,12 @@ class Gen:
             o["uvs"] = [[0.5, 1], [0, 0], [1, 0], [0.5, 0.5]]
         if "normals" in o or "uvs" in o:
             self.features.add("tri_shading")
+        if "normals" in o and "uvs" not in o and self.mitsuba:
+            # Mirrored with vertex normals, Mitsuba keeps the vertex order and candela reverses
+            # it, so their barycentric uvs run along different edges (docs/scene-format.md's
+            # transform): not a difference the audit should report.
+            o["transform"]["scale"] = [abs(x) for x in o["transform"]["scale"]] \
+                if isinstance(o["transform"]["scale"], list) else o["transform"]["scale"]
         return o
 
     def obj(self, objects, definitions):
