@@ -197,8 +197,9 @@ class Shapes:
         params = mi.traverse(mesh)
         f = params["faces"]
         k = dr.arange(dr.scalar.ArrayXu, len(f))
-        swapped = dr.gather(type(f), f, dr.select(k % 3 == 1, k + 1, dr.select(k % 3 == 2, k - 1, k)))
-        params["faces"] = swapped
+        # Each triangle's second and third indices swapped.
+        params["faces"] = dr.gather(type(f), f, dr.select(k % 3 == 1, k + 1,
+                                                          dr.select(k % 3 == 2, k - 1, k)))
         params.update()
         out = os.path.join(self.tmp, f"reversed_{len(os.listdir(self.tmp))}.ply")
         mesh.write_ply(out)

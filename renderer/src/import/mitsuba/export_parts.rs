@@ -529,7 +529,6 @@ impl Parts {
     }
 }
 
-/// `{"texture": ...}` read as the loader reads it.
 /// What a mesh file written with its winding reversed adds to its name (the same definition can
 /// be written both ways, by emitting instances placed in place).
 fn reversed_suffix(reversed: bool) -> &'static str {
@@ -540,6 +539,7 @@ fn reversed_suffix(reversed: bool) -> &'static str {
     }
 }
 
+/// `{"texture": ...}` read as the loader reads it.
 fn texture_ref(v: &Value, path: &str, name: &str) -> Result<TextureRefDesc, SceneError> {
     serde_json::from_value(v.clone())
         .map_err(|e| SceneError::invalid(format!("{path}.{name}"), e.to_string()))
