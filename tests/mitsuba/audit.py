@@ -17,6 +17,12 @@ pair's seed-to-seed differences over 4×4 blocks; the Rust check keeps a strict 
 the renderers do not share are skipped: pt with delta lights (pt cannot reach them), bdpt with
 delta lights and smooth specular surfaces (caustics only bdpt can reach). One JSON line per
 comparison on stdout (and DIR/audit.jsonl), then a summary; exit status 1 when any failed.
+
+`export` in --integrators audits candela's Mitsuba exporter instead of a candela integrator: the
+scene written by `candela convert scene.json scene.xml`, rendered by Mitsuba (tests/mitsuba/
+render_xml.py, seeds 3 and 4), is compared as above with the reference translator's renders (two
+independent translations, one renderer). A scene the exporter refuses as inexpressible is
+recorded as skipped, with its reason.
 """
 import argparse
 import json
@@ -122,6 +128,35 @@ def run(cmd):
     return r.stdout
 
 
+def rendered(a, scene, d, integ):
+    """candela's two renders (EXR path, image) of `scene` with integrator `integ`."""
+    out = []
+    for s in (11, 12):
+        p = os.path.join(d, f"{integ}{s}.exr")
+        run([a.candela, "render", scene, "-o", p, "--integrator", integ, "--spp", str(a.spp),
+             "--seed", str(s)])
+        out.append((p, read_exr(p)))
+    return out
+
+
+def exported(a, scene, d):
+    """Mitsuba's two renders (EXR path, image) of `candela convert`'s XML of `scene`, or why the
+    exporter refused it (exit 1 naming what Mitsuba cannot express)."""
+    xml = os.path.join(d, "exported.xml")
+    r = subprocess.run([a.candela, "convert", scene, xml], capture_output=True, text=True)
+    if r.returncode != 0:
+        if "cannot express this exactly" in r.stderr:
+            return r.stderr.strip()[-300:]
+        raise RuntimeError(f"candela convert: exit {r.returncode}: {r.stderr.strip()[-800:]}")
+    out = []
+    for s in (3, 4):
+        p = os.path.join(d, f"export{s}.exr")
+        run([sys.executable, os.path.join(HERE, "render_xml.py"), xml, p, "--spp",
+             str(a.mitsuba_spp), "--seed", str(s), "--variant", a.variant])
+        out.append((p, read_exr(p)))
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--candela", required=True)
@@ -161,23 +196,22 @@ def main():
                 integ == "bdpt" and facts["delta_lights"] and facts["delta_surfaces"])
             if skip:
                 continue
-            total += 1
             rec = {"seed": seed, "integrator": integ, "features": facts["features"]}
             try:
-                cs = []
-                for s in (11, 12):
-                    p = os.path.join(d, f"{integ}{s}.exr")
-                    run([a.candela, "render", scene, "-o", p, "--integrator", integ, "--spp",
-                         str(a.spp), "--seed", str(s)])
-                    cs.append((p, read_exr(p)))
-                rec.update(compare(a.candela, [c[1] for c in cs], [m[1] for m in mi],
-                                   ([c[0] for c in cs], [m[0] for m in mi])))
+                cs = exported(a, scene, d) if integ == "export" else rendered(a, scene, d, integ)
+                if isinstance(cs, str):
+                    rec["skipped"] = cs
+                else:
+                    rec.update(compare(a.candela, [c[1] for c in cs], [m[1] for m in mi],
+                                       ([c[0] for c in cs], [m[0] for m in mi])))
             except RuntimeError as e:
                 rec["fails"] = [str(e)]
             print(json.dumps(rec), flush=True)
             log.write(json.dumps(rec) + "\n")
             log.flush()
-            if rec["fails"]:
+            if "skipped" not in rec:
+                total += 1
+            if rec.get("fails"):
                 failed.append(rec)
     print(f"{total - len(failed)} of {total} comparisons agree; failed: "
           + ", ".join(f"{r['seed']}/{r.get('integrator', 'mitsuba')}" for r in failed))

@@ -20,7 +20,7 @@ def main(argv=None):
     p.add_argument("--spp", type=int, help="samples per pixel (default: the scene's sampler)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE")
-    p.add_argument("--variant", default="scalar_rgb", choices=["scalar_rgb", "llvm_ad_rgb"])
+    p.add_argument("--variant", default="scalar_rgb", choices=["scalar_rgb", "llvm_ad_rgb", "cuda_ad_rgb"])
     args = p.parse_args(argv)
     import mitsuba as mi
     mi.set_variant(args.variant)
