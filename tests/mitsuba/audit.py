@@ -148,11 +148,16 @@ def exported(a, scene, d):
         if "cannot express this exactly" in r.stderr:
             return r.stderr.strip()[-300:]
         raise RuntimeError(f"candela convert: exit {r.returncode}: {r.stderr.strip()[-800:]}")
+    return mitsuba_pair(a, "render_xml.py", xml, d, "export", (3, 4))
+
+
+def mitsuba_pair(a, script, scene, d, name, seeds):
+    """Mitsuba's renders (EXR path, image) of `scene` by tests/mitsuba/`script`, one per seed."""
     out = []
-    for s in (3, 4):
-        p = os.path.join(d, f"export{s}.exr")
-        run([sys.executable, os.path.join(HERE, "render_xml.py"), xml, p, "--spp",
-             str(a.mitsuba_spp), "--seed", str(s), "--variant", a.variant])
+    for s in seeds:
+        p = os.path.join(d, f"{name}{s}.exr")
+        run([sys.executable, os.path.join(HERE, script), scene, p, "--spp", str(a.mitsuba_spp),
+             "--seed", str(s), "--variant", a.variant])
         out.append((p, read_exr(p)))
     return out
 
@@ -178,12 +183,7 @@ def main():
                                 d, "--size", str(a.size), "--mitsuba"]))
         scene = os.path.join(d, "scene.json")
         try:
-            mi = []
-            for s in (1, 2):
-                p = os.path.join(d, f"mitsuba{s}.exr")
-                run([sys.executable, os.path.join(HERE, "render_reference.py"), scene, p, "--spp",
-                     str(a.mitsuba_spp), "--seed", str(s), "--variant", a.variant])
-                mi.append((p, read_exr(p)))
+            mi = mitsuba_pair(a, "render_reference.py", scene, d, "mitsuba", (1, 2))
         except RuntimeError as e:
             total += 1
             rec = {"seed": seed, "error": f"mitsuba: {e}"}
