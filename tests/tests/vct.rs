@@ -1,7 +1,7 @@
 //! Voxel cone tracing (`vct`), measured on lavapipe at resolution 2^6 (the tests' minimum;
 //! users get 2^7..2^10): units (a closed white box whose walls emit, where every max_depth has a
 //! closed-form value, and a white sphere under a constant sky, whose injected voxel radiance is
-//! its albedo), an empty scene, a closed room lit only from outside (no light leaks in), the
+//! its albedo), a textured sphere's voxel albedo (its texture at its own uv), an empty scene, a closed room lit only from outside (no light leaks in), the
 //! octree against the dense storage (the same filtered values at many points, levels and
 //! directions), the cache (another camera reuses the volume, other lights re-inject only), bad
 //! options, and the error against `nee` on the Cornell box, printed and bounded.
@@ -232,8 +232,8 @@ fn sky_sphere(sky: f32, look_at: [f32; 3]) -> Scene {
     ))
 }
 
-/// A probe at every level-0 voxel centre of a grid of `r`³, looking at the voxel from outside: towards
-/// the grid's centre (a sphere's centre in the sphere scenes).
+/// A probe at every level-0 voxel centre of a grid of `r`³, looking at the voxel from outside:
+/// towards the grid's centre (a sphere's centre in the sphere scenes).
 fn towards_the_centre(r: u32) -> Vec<([f32; 4], [f32; 4])> {
     let mut probes = Vec::new();
     for z in 0..r {
