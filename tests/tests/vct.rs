@@ -1,10 +1,11 @@
 //! Voxel cone tracing (`vct`), measured on lavapipe at resolution 2^6 (the tests' minimum;
 //! users get 2^7..2^10): units (a closed white box whose walls emit, where every max_depth has a
 //! closed-form value, and a white sphere under a constant sky, whose injected voxel radiance is
-//! its albedo), a textured sphere's voxel albedo (its texture at its own uv), an empty scene, a closed room lit only from outside (no light leaks in), the
-//! octree against the dense storage (the same filtered values at many points, levels and
-//! directions), the cache (another camera reuses the volume, other lights re-inject only), bad
-//! options, and the error against `nee` on the Cornell box, printed and bounded.
+//! its albedo), a textured sphere's voxel albedo (its texture at its own uv), an empty scene, a
+//! closed room lit only from outside (no light leaks in), the octree against the dense storage
+//! (the same filtered values at many points, levels and directions), the cache (another camera
+//! reuses the volume, other lights re-inject only), bad options, and the error against `nee` on
+//! the Cornell box, printed and bounded.
 
 use candela_tests::{gpu, scene_path};
 use renderer::compile::compile;
