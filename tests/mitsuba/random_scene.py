@@ -199,8 +199,10 @@ class Gen:
             # Mirrored with vertex normals, Mitsuba keeps the vertex order and candela reverses
             # it, so their barycentric uvs run along different edges (docs/scene-format.md's
             # transform): not a difference the audit should report.
-            o["transform"]["scale"] = [abs(x) for x in o["transform"]["scale"]] \
-                if isinstance(o["transform"]["scale"], list) else o["transform"]["scale"]
+            # (A mirror always makes the scale a list.)
+            scale = o["transform"]["scale"]
+            if isinstance(scale, list):
+                o["transform"]["scale"] = [abs(x) for x in scale]
         return o
 
     def obj(self, objects, definitions):

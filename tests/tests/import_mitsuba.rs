@@ -148,8 +148,8 @@ fn mirrored_meshes_xml_render_like_mitsuba() {
 /// (OBJ with normals, flat) that candela turns down onto the floor and three one-sided panels
 /// that candela turns to the camera: triangles without normals or uvs (checker on barycentric
 /// uvs), an OBJ with normals (smooth: its normals set both fronts, nothing reversed) and a PLY
-/// with uvs but no normals (smooth, normals computed). Unreversed, Mitsuba lights the ceiling
-/// and shows the panels' backs.
+/// with uvs but no normals (smooth, normals computed). Unreversed, Mitsuba's lamp shines upwards
+/// into the empty sky (its image was black) and the panels show their backs.
 #[test]
 fn mirrored_meshes_export_facing_as_candela() {
     assert!(mitsuba_available(), "Mitsuba 3 is not installed");
