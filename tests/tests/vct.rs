@@ -1,7 +1,8 @@
 //! Voxel cone tracing (`vct`), measured on lavapipe at resolution 2^6 (the tests' minimum;
 //! users get 2^7..2^10): units (a closed white box whose walls emit, where every max_depth has a
 //! closed-form value, and a white sphere under a constant sky, whose injected voxel radiance is
-//! its albedo), a textured sphere's voxel albedo (its texture at its own uv), an empty scene, a
+//! its albedo), a textured sphere's voxel albedo (its texture at its own uv), an alpha-masked
+//! square's voxels (only where the mask keeps it), an empty scene, a
 //! closed room lit only from outside (no light leaks in), the octree against the dense storage
 //! (the same filtered values at many points, levels and directions), the cache (another camera
 //! reuses the volume, other lights re-inject only), bad options, and the error against `nee` on
@@ -357,6 +358,87 @@ fn a_textured_sphere_is_voxelised_with_its_texture() {
     assert!(
         lower[1] > 3.0 * lower[0],
         "lower hemisphere not blue: {lower:?}"
+    );
+}
+
+/// An alpha mask cuts the voxels as it cuts rays: a square whose mask keeps its middle band
+/// (|x| < 0.5) is voxelised over that band only (once it was voxelised whole, so cones met its
+/// holes closed). The mask (8 texels along u: 0, 0, 1, 1, 1, 1, 0, 0) keeps 0.25 < u < 0.75
+/// with either texture filter, away from the edges where a wrapping filter blends; the voxels
+/// are probed at level 0 along the square's normal.
+#[test]
+fn an_alpha_mask_cuts_the_voxels() {
+    let _guard = serial();
+    let ctx = gpu();
+    let dir = candela_tests::scratch("vct_alpha_mask");
+    let (keep, cut) = ([1f32; 3], [0f32; 3]);
+    let texture = Image {
+        width: 8,
+        height: 1,
+        pixels: vec![cut, cut, keep, keep, keep, keep, cut, cut],
+    };
+    renderer::film::write_exr(&dir.join("half.exr"), &texture).unwrap();
+    let square = |mask: &str| {
+        let json = format!(
+            r#"{{
+  "version": 1,
+  "camera": {{"position": [0, 0, 4], "look_at": [0, 0, 0], "fov_y": 40}},
+  "film": {{"width": 16, "height": 16}},
+  "materials": {{"white": {{"type": "diffuse", "reflectance": 0.5{mask}}}}},
+  "objects": [{{"type": "quad", "origin": [-1, -1, 0], "edge_u": [2, 0, 0], "edge_v": [0, 2, 0],
+               "material": "white"}}],
+  "environment": {{"type": "constant", "radiance": [1, 1, 1]}}
+}}"#
+        );
+        let scene = renderer::scene::load_str(&json, Some(&dir)).unwrap_or_else(|e| panic!("{e}"));
+        let compiled = compile(&scene, 16, 16).expect("compile");
+        let o: VctOptions = serde_json::from_str(r#"{"resolution":64}"#).unwrap();
+        let v = DebugVolume::new(&ctx, &compiled, &o).expect("volume");
+        let (r, _) = v.resolution();
+        // Step 1: every level-0 voxel centre, looked at along the square's normal.
+        let mut probes = Vec::new();
+        for z in 0..r {
+            for y in 0..r {
+                for x in 0..r {
+                    let p = [x as f32 + 0.5, y as f32 + 0.5, z as f32 + 0.5, -1.0];
+                    probes.push((p, [0.0, 0.0, -1.0, 0.0]));
+                }
+            }
+        }
+        let vals = v.probe(&probes).expect("probe");
+        let xs: Vec<f32> = (vals.iter().zip(&probes))
+            .filter(|(val, _)| val[3] > 0.0)
+            .map(|(_, (p, _))| p[0])
+            .collect();
+        assert_eq!(xs.len() as u32, v.counts().0, "occupied voxels");
+        xs
+    };
+    let whole = square("");
+    let masked = square(r#", "alpha_mask": {"texture": "half.exr"}"#);
+    // Step 2: half the voxels, all within the kept band (to a voxel).
+    let range = |xs: &[f32]| {
+        xs.iter()
+            .fold((f32::MAX, f32::MIN), |(a, b), &x| (a.min(x), b.max(x)))
+    };
+    let (lo, hi) = range(&whole);
+    let (mlo, mhi) = range(&masked);
+    let quarter = (hi - lo) / 4.0;
+    println!(
+        "whole square: {} voxels, x {lo}..{hi}; masked: {} voxels, x {mlo}..{mhi}",
+        whole.len(),
+        masked.len()
+    );
+    let share = masked.len() as f64 / whole.len() as f64;
+    assert!(whole.len() > 100, "the square has {} voxels", whole.len());
+    assert!(
+        (0.4..0.65).contains(&share),
+        "the masked square keeps {share:.3} of its voxels"
+    );
+    assert!(
+        mlo >= lo + quarter - 1.0 && mhi <= hi - quarter + 1.0,
+        "masked voxels x {mlo}..{mhi}, the band {}..{}",
+        lo + quarter,
+        hi - quarter
     );
 }
 
