@@ -2,11 +2,11 @@
 //! users get 2^7..2^10): units (a closed white box whose walls emit, where every max_depth has a
 //! closed-form value, and a white sphere under a constant sky, whose injected voxel radiance is
 //! its albedo), a textured sphere's voxel albedo (its texture at its own uv), an alpha-masked
-//! square's voxels (only where the mask keeps it), an empty scene, a
-//! closed room lit only from outside (no light leaks in), the octree against the dense storage
-//! (the same filtered values at many points, levels and directions), the cache (another camera
-//! reuses the volume, other lights re-inject only), bad options, and the error against `nee` on
-//! the Cornell box, printed and bounded.
+//! square's voxels (only where its mask keeps it), an empty scene, a closed room lit only from
+//! outside (no light leaks in), the octree against the dense storage (the same filtered values
+//! at many points, levels and directions), the cache (another camera reuses the volume, other
+//! lights re-inject only), bad options, and the error against `nee` on the Cornell box, printed
+//! and bounded.
 
 use candela_tests::{gpu, scene_path};
 use renderer::compile::compile;
@@ -377,7 +377,7 @@ fn an_alpha_mask_cuts_the_voxels() {
         height: 1,
         pixels: vec![cut, cut, keep, keep, keep, keep, cut, cut],
     };
-    renderer::film::write_exr(&dir.join("half.exr"), &texture).unwrap();
+    renderer::film::write_exr(&dir.join("band.exr"), &texture).unwrap();
     let square = |mask: &str| {
         let json = format!(
             r#"{{
@@ -414,7 +414,7 @@ fn an_alpha_mask_cuts_the_voxels() {
         xs
     };
     let whole = square("");
-    let masked = square(r#", "alpha_mask": {"texture": "half.exr"}"#);
+    let masked = square(r#", "alpha_mask": {"texture": "band.exr"}"#);
     // Step 2: half the voxels, all within the kept band (to a voxel).
     let range = |xs: &[f32]| {
         xs.iter()
