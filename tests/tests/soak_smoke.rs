@@ -12,7 +12,7 @@ use serde_json::Value;
 fn soak_smoke_run_keeps_every_invariant() {
     let dir = scratch("soak_smoke");
     let out = dir.join("soak.json");
-    let bin = candela(); // built first: the 40 s are the soak's
+    let bin = candela(); // built first: the hang guard below times the soak alone
     let started = std::time::Instant::now();
     let o = Command::new("python3")
         .arg(repo_root().join("bench/soak.py"))
@@ -57,5 +57,7 @@ fn soak_smoke_run_keeps_every_invariant() {
     assert!(stdout.contains("RESULT: PASS"), "{stdout}");
     // Too short to judge memory: the slope is reported, not judged.
     assert!(r["invariants"]["rss_flat"].is_null(), "{stdout}");
-    assert!(started.elapsed().as_secs() < 40, "{:?}", started.elapsed());
+    // A hang guard, not a speed check (those live in benchmarks): the run takes about 22 s on
+    // an idle 2-core machine and 46 s once on a loaded one (CI of 2026-11-30, second session).
+    assert!(started.elapsed().as_secs() < 150, "{:?}", started.elapsed());
 }
